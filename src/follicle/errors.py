@@ -1,0 +1,19 @@
+"""Errors follicle raises for bad input: each names the file or field and the fix."""
+
+from __future__ import annotations
+
+
+class FollicleError(Exception):
+    """Base of every error caused by what the user gave us (the CLI exits 2 on it)."""
+
+
+class InputError(FollicleError, ValueError):
+    """An argument, array or value is out of range, of the wrong shape, or not finite."""
+
+
+class FormatError(FollicleError):
+    """A file cannot be read: missing, unknown extension, truncated or malformed."""
+
+
+class ConfigError(FollicleError):
+    """A scene file (TOML) has a syntax error, an unknown key or a bad value."""

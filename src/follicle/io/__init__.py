@@ -1,0 +1,1 @@
+"""Readers and writers of hair and mesh files, one module per format."""
