@@ -1,7 +1,51 @@
-"""follicle: grow, simulate and render hair and fur."""
+"""follicle: grow, simulate and render hair and fur.
+
+The public API, re-exported lazily so ``import follicle`` stays quick::
+
+    mesh = follicle.load_mesh("builtin:head")
+    guides = follicle.load_guides("builtin:long", mesh)
+    curves = follicle.Groom(mesh, guides).grow(count=20000)
+    follicle.render(curves, mesh=mesh, out="hair.png")
+    follicle.save(curves, "hair.npz")
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 from .curves import HairCurves
 from .errors import ConfigError, FollicleError, FormatError, InputError
 
 __version__ = "0.1.0"
-__all__ = ["HairCurves", "FollicleError", "InputError", "FormatError", "ConfigError"]
+
+_LAZY = {
+    "SkinMesh": "follicle.mesh.skin",
+    "Texture": "follicle.mesh.texture",
+    "load_mesh": "follicle.mesh.load",
+    "Guides": "follicle.groom.guides",
+    "load_guides": "follicle.groom.guides",
+    "Groom": "follicle.groom.generator",
+    "Scene": "follicle.scene",
+    "load_scene": "follicle.scene",
+    "grow": "follicle.pipeline",
+    "render": "follicle.render",
+    "Camera": "follicle.render",
+    "Light": "follicle.render",
+    "save": "follicle.io.dispatch",
+    "load_curves": "follicle.io.dispatch",
+}
+
+__all__ = ["HairCurves", "FollicleError", "InputError", "FormatError", "ConfigError", *_LAZY]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'follicle' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -1,0 +1,198 @@
+"""The ``follicle`` command: demo, grow, render, info.
+
+Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
+traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import click
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from .errors import FollicleError
+
+log = logging.getLogger("follicle")
+_err = Console(stderr=True, highlight=False)
+
+
+class _Group(click.Group):
+    """Turns FollicleError into one clear line and exit code 2."""
+
+    def invoke(self, ctx: click.Context) -> object:
+        try:
+            return super().invoke(ctx)
+        except FollicleError as exc:
+            for line in str(exc).splitlines():
+                _err.print(f"[bold red]error:[/] {line}", markup=True, soft_wrap=True)
+            ctx.exit(2)
+
+
+@contextlib.contextmanager
+def _progress(label: str) -> Iterator[Callable[[int, int], None]]:
+    """A progress callback (done, total): a rich bar on a terminal, silence when piped."""
+    if not _err.is_terminal:
+        yield lambda done, total: None
+        return
+    columns = (TextColumn(label), BarColumn(), TextColumn("{task.completed:,}/{task.total:,}"),
+               TimeElapsedColumn())
+    with Progress(*columns, console=_err, transient=True) as bar:
+        task = bar.add_task(label, total=None)
+        yield lambda done, total: bar.update(task, completed=done, total=total)
+
+
+@contextlib.contextmanager
+def _step(what: str) -> Iterator[None]:
+    start = time.perf_counter()
+    yield
+    log.info("%s in %.2f s", what, time.perf_counter() - start)
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("-v", "--verbose", count=True, help="Log what happens (-vv for debug).")
+@click.version_option(package_name="follicle")
+def main(verbose: int) -> None:
+    """follicle: grow, simulate and render hair and fur."""
+    level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
+    logging.basicConfig(level=level, format="%(name)s: %(message)s", stream=sys.stderr)
+    logging.getLogger("follicle").setLevel(level)
+
+
+@main.command()
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="follicle-demo",
+              show_default=True, help="Folder for demo.png and demo.npz.")
+@click.option("--count", type=int, default=None, help="Number of hairs (default 20,000).")
+@click.option("--guides", default="builtin:long", show_default=True,
+              help="Guide set: builtin:long, builtin:short or builtin:curly.")
+@click.option("--size", type=(int, int), default=(960, 960), show_default=True,
+              help="Image width and height.")
+def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) -> None:
+    """Grow hair on the built-in head and render it: DIR/demo.png and DIR/demo.npz."""
+    from .io.dispatch import save
+    from .pipeline import grow, render_scene
+    from .scene import parse_scene
+
+    groom = {} if count is None else {"count": count}
+    scene = parse_scene({"guides": {"path": guides}, "groom": groom,
+                         "render": {"size": list(size)}}, "demo")
+    out = Path(out_dir)
+    with _step("grow"), _progress("growing hair") as progress:
+        mesh, curves = grow(scene, progress)
+    with _step("save"):
+        save(curves, out / "demo.npz")
+    with _step("render"):
+        render_scene(curves, mesh, scene.render, out=str(out / "demo.png"))
+    click.echo(f"{curves.curve_count:,} hairs → {out / 'demo.png'}, {out / 'demo.npz'}")
+
+
+@main.command()
+@click.argument("scene_path", metavar="SCENE", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", type=click.Path(dir_okay=False), default=None,
+              help="Output curves file (.npz); default [output].curves of the scene.")
+@click.option("--count", type=int, default=None, help="Override [groom].count.")
+@click.option("--seed", type=int, default=None, help="Override [groom].seed.")
+def grow(scene_path: str, out: str | None, count: int | None, seed: int | None) -> None:
+    """Grow the hair of a scene file and save the curves."""
+    from .io.dispatch import save
+    from .pipeline import grow as grow_scene
+    from .scene import load_scene
+
+    scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
+    target = out or scene.resolve(scene.output.curves)
+    _check_writable_suffix(target, (".npz",))
+    with _step("grow"), _progress("growing hair") as progress:
+        _, curves = grow_scene(scene, progress)
+    save(curves, target)
+    click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {target}")
+
+
+@main.command()
+@click.argument("source", metavar="SCENE|CURVES", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", type=click.Path(dir_okay=False), default=None,
+              help="Output PNG; default [output].image of the scene, or CURVES with .png.")
+@click.option("--mesh", "mesh_path", default=None,
+              help="Mesh to draw under a curves file (e.g. builtin:head).")
+@click.option("--size", type=(int, int), default=None, help="Image width and height.")
+@click.option("--shading", type=click.Choice(["kajiya-kay"]), default=None, help="Hair shading.")
+@click.option("--msaa", type=click.Choice(["0", "1", "2", "4", "8", "16"]), default=None,
+              help="Multisample anti-aliasing samples.")
+def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int, int] | None,
+           shading: str | None, msaa: str | None) -> None:
+    """Render a scene (grown on the fly) or a saved curves file to PNG."""
+    from .io.dispatch import load_curves
+    from .mesh.load import load_mesh
+    from .pipeline import grow as grow_scene
+    from .pipeline import render_scene
+    from .scene import Scene, load_scene
+
+    overrides = {k: v for k, v in {"size": size, "shading": shading,
+                                   "msaa": None if msaa is None else int(msaa)}.items()
+                 if v is not None}
+    if Path(source).suffix.lower() == ".toml":
+        scene = load_scene(source)
+        target = out or scene.resolve(scene.output.image)
+        _check_writable_suffix(target, (".png",))
+        with _step("grow"), _progress("growing hair") as progress:
+            mesh, curves = grow_scene(scene, progress)
+        if mesh_path is not None:
+            mesh = load_mesh(mesh_path)
+    else:
+        scene = Scene()
+        target = out or str(Path(source).with_suffix(".png"))
+        _check_writable_suffix(target, (".png",))
+        curves = load_curves(source)
+        mesh = load_mesh(mesh_path) if mesh_path else None
+    params = _validated(scene.render, overrides)
+    with _step("render"):
+        render_scene(curves, mesh, params, out=target)
+    click.echo(f"→ {target}")
+
+
+@main.command()
+@click.argument("source", metavar="SCENE|CURVES", type=click.Path(dir_okay=False),
+                required=False)
+def info(source: str | None) -> None:
+    """Print a scene with every default filled in, or describe a curves file."""
+    from .io.dispatch import load_curves
+    from .scene import load_scene, scene_to_toml
+
+    if source is not None and Path(source).suffix.lower() != ".toml":
+        curves = load_curves(source)
+        click.echo(repr(curves))
+        return
+    click.echo(scene_to_toml(load_scene(source)), nl=False)
+
+
+def _validated(model, changes: dict):  # type: ignore[no-untyped-def]
+    """A copy of a pydantic section with ``changes`` applied and validated."""
+    from .scene import parse_scene
+
+    data = model.model_dump()
+    data.update(changes)
+    section = {"RenderParams": "render", "GroomParams": "groom"}[type(model).__name__]
+    return getattr(parse_scene({section: data}, "command line"), section)
+
+
+def _with_overrides(scene, **groom):  # type: ignore[no-untyped-def]
+    changes = {k: v for k, v in groom.items() if v is not None}
+    if changes:
+        scene.groom = _validated(scene.groom, changes)
+    return scene
+
+
+def _check_writable_suffix(path: str, allowed: tuple[str, ...]) -> None:
+    from .errors import FormatError
+
+    if Path(path).suffix.lower() not in allowed:
+        raise FormatError(f"{path}: output must end in {' or '.join(allowed)}")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

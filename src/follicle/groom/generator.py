@@ -1,0 +1,110 @@
+"""Groom: grows every final hair from the guides, in the pipeline order of 000 §2.2.2.
+
+roots (on the rest mesh) ► interpolate (root-local IDW) ► place on the current pose
+► appearance (width, opacity, colour) ► HairCurves. Work is done in chunks of hair
+ids; each hair depends only on (seed, id), so chunking never changes a byte.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import InputError
+from ..mesh.skin import SkinMesh
+from ..mesh.texture import Texture
+from ..scene import GroomParams
+from .appearance import root_to_tip
+from .guides import Guides
+from .interpolate import blend_guides, idw_weights
+from .roots import sample_roots, triangle_weights
+
+__all__ = ["Groom", "resolve_density"]
+
+CHUNK = 65536
+
+
+def resolve_density(
+    mesh: SkinMesh, spec: str | float | Texture | None, resolve_path: Callable[[str], str] = str
+) -> Texture | float | None:
+    """A density setting made concrete: a mesh texture name, an image path, a number or None.
+
+    None picks the mesh's ``scalp`` texture when it has one, else uniform density.
+    """
+    if spec is None:
+        return mesh.textures.get("scalp")
+    if isinstance(spec, str):
+        if spec in mesh.textures:
+            return mesh.textures[spec]
+        return Texture.load(resolve_path(spec))
+    return spec
+
+
+class Groom:
+    """Grows hair on ``mesh`` from ``guides`` with ``params`` (defaults when None)."""
+
+    def __init__(
+        self,
+        mesh: SkinMesh,
+        guides: Guides | HairCurves,
+        params: GroomParams | None = None,
+        density: Texture | float | str | None = None,
+    ) -> None:
+        self.mesh = mesh
+        self.params = params if params is not None else GroomParams()
+        if isinstance(guides, HairCurves):
+            guides = Guides(guides, mesh, self.params.vertices)
+        elif guides.vertex_count != self.params.vertices:
+            guides = Guides(guides.curves, mesh, self.params.vertices)
+        self.guides = guides
+        self.weights = triangle_weights(mesh, resolve_density(mesh, density))
+
+    def grow(
+        self,
+        count: int | None = None,
+        seed: int | None = None,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> HairCurves:
+        """Grow ``count`` hairs (default params.count) on the mesh's current pose."""
+        p = self.params
+        count = p.count if count is None else count
+        seed = p.seed if seed is None else seed
+        if count < 0:
+            raise InputError(f"count: must be ≥ 0, got {count}")
+        n = self.guides.vertex_count
+        points = np.empty((count, n, 3), dtype=np.float32)
+        triangles = np.empty(count, dtype=np.int32)
+        bary = np.empty((count, 2), dtype=np.float32)
+        for start in range(0, count, CHUNK):
+            stop = min(start + CHUNK, count)
+            tri, uv = sample_roots(self.weights, stop - start, seed, start)
+            points[start:stop] = self._shapes(tri, uv)
+            triangles[start:stop], bary[start:stop] = tri, uv
+            if progress is not None:
+                progress(stop, count)
+        root_uv = self.mesh.evaluate(triangles, bary, pose="rest").uv.astype(np.float32)
+        attrs = root_to_tip(
+            count, n, p.root_width, p.tip_width, p.root_color, p.tip_color,
+            p.root_opacity, p.tip_opacity,
+        )
+        return HairCurves.from_array(
+            points,
+            point_data=attrs,
+            curve_data={
+                "hair_id": np.arange(count, dtype=np.int64),
+                "root_uv": root_uv,
+                "root_triangle": triangles.astype(np.int64),
+                "root_bary": bary,
+            },
+        )
+
+    def _shapes(self, triangles: np.ndarray, bary: np.ndarray) -> np.ndarray:
+        rest = self.mesh.evaluate(triangles, bary, pose="rest")
+        idx, w = idw_weights(self.guides.root_positions, rest.position, self.params.guide_samples)
+        cur = self.mesh.evaluate(triangles, bary, pose="current")
+        return blend_guides(
+            self.guides.local, idx, w, cur.position, cur.tangent, cur.binormal, cur.normal,
+            self.params.scale,
+        )

@@ -1,0 +1,53 @@
+"""Scene-level stages: what `follicle grow` and `follicle render` run, callable from Python."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from .curves import HairCurves
+from .groom.generator import Groom, resolve_density
+from .groom.guides import load_guides
+from .mesh.load import load_mesh
+from .mesh.skin import SkinMesh
+from .render import Camera, render
+from .scene import RenderParams, Scene
+
+__all__ = ["groom_scene", "grow", "render_scene"]
+
+
+def groom_scene(scene: Scene) -> Groom:
+    """The mesh, guides and groom parameters of ``scene``, ready to grow."""
+    mesh = load_mesh(scene.resolve(scene.mesh.path))
+    guides = load_guides(scene.resolve(scene.guides.path), mesh, scene.groom.vertices)
+    density = resolve_density(mesh, scene.mesh.density, scene.resolve)
+    return Groom(mesh, guides, scene.groom, density=density)
+
+
+def grow(
+    scene: Scene | None = None, progress: Callable[[int, int], None] | None = None
+) -> tuple[SkinMesh, HairCurves]:
+    """Grow the hair of ``scene`` (the default scene when None): (mesh, curves)."""
+    groom = groom_scene(scene if scene is not None else Scene())
+    return groom.mesh, groom.grow(progress=progress)
+
+
+def render_scene(
+    curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None
+) -> np.ndarray:
+    """Render hair and mesh with a scene's [render] settings; writes PNG when ``out``."""
+    camera = None
+    if params.eye is not None and params.target is not None:
+        camera = Camera(eye=params.eye, target=params.target, fov_y=params.fov)
+    return render(
+        curves,
+        mesh=mesh,
+        camera=camera,
+        size=params.size,
+        shading=params.shading,
+        out=out,
+        msaa=params.msaa,
+        subdivisions=params.subdivisions,
+        background=(params.background_top, params.background_bottom),
+    )

@@ -1,0 +1,227 @@
+"""Scene files: TOML with [mesh] [guides] [groom] [sim] [render] [output] sections.
+
+Every section is a pydantic model that forbids unknown keys, so a typo is an error
+naming the key instead of a silently ignored setting. Relative paths are resolved
+against the scene file's folder. ``scene_to_toml`` writes a scene back out, with every
+default filled in (``follicle info``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from .errors import ConfigError, FormatError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python 3.10 only
+    import tomli as tomllib
+
+__all__ = [
+    "Scene",
+    "MeshParams",
+    "GuidesParams",
+    "GroomParams",
+    "SimParams",
+    "RenderParams",
+    "OutputParams",
+    "load_scene",
+    "parse_scene",
+    "scene_to_toml",
+]
+
+Unit = Annotated[float, Field(ge=0.0, le=1.0)]
+RGB = tuple[Unit, Unit, Unit]
+Vec3 = tuple[float, float, float]
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
+
+
+class MeshParams(_Section):
+    """The skin the hair grows on."""
+
+    path: str = Field("builtin:head", description="mesh file (OBJ/PLY/GLB/STL) or builtin:head")
+    density: str | Annotated[float, Field(gt=0)] | None = Field(
+        None,
+        description="root density: a texture name on the mesh, an image path, a number,"
+        " or unset for the mesh's 'scalp' texture when it has one, else uniform",
+    )
+
+
+class GuidesParams(_Section):
+    """The artist-made guide curves every hair is interpolated from."""
+
+    path: str = Field("builtin:long", description="builtin:long|short|curly or a curves file")
+
+
+class GroomParams(_Section):
+    """How many hairs grow and how they look (000 §2.2)."""
+
+    count: int = Field(20000, ge=0, le=50_000_000, description="number of hairs")
+    seed: int = Field(0, ge=0, lt=2**63, description="random seed")
+    interpolation: Literal["idw"] = Field("idw", description="guide interpolation method")
+    guide_samples: int = Field(
+        4, ge=1, le=32, description="guides per hair (n; the (n+1)-th sets the radius)"
+    )
+    vertices: int = Field(16, ge=2, le=256, description="vertices per hair")
+    scale: float = Field(1.0, gt=0, le=100, description="length scale of every hair")
+    root_width: float = Field(80e-6, gt=0, le=0.1, description="hair diameter at the root, m")
+    tip_width: float = Field(30e-6, gt=0, le=0.1, description="hair diameter at the tip, m")
+    root_color: RGB = Field((0.09, 0.05, 0.025), description="linear RGB at the root")
+    tip_color: RGB = Field((0.24, 0.15, 0.08), description="linear RGB at the tip")
+    root_opacity: Unit = Field(1.0, description="opacity at the root")
+    tip_opacity: Unit = Field(1.0, description="opacity at the tip")
+
+
+class SimParams(_Section):
+    """Guide-strand dynamics (used by the simulator)."""
+
+    solver: Literal["pbd", "dftl"] = Field("pbd", description="inextensibility solver")
+    substep: float = Field(1 / 120, gt=0, le=0.1, description="internal fixed time step, s")
+    iterations: int = Field(8, ge=1, le=200, description="constraint iterations per substep")
+    gravity: Vec3 = Field((0.0, -9.81, 0.0), description="gravity, m/s²")
+    damping: float = Field(0.5, ge=0, le=100, description="velocity damping per second")
+    stretch_stiffness: Unit = Field(1.0, description="distance constraint stiffness")
+    bend_stiffness: Unit = Field(0.2, description="bending constraint stiffness")
+
+
+class RenderParams(_Section):
+    """The offline OpenGL render."""
+
+    size: tuple[Annotated[int, Field(ge=1, le=8192)], Annotated[int, Field(ge=1, le=8192)]] = (
+        Field((960, 960), description="image width and height, pixels")
+    )
+    shading: Literal["kajiya-kay"] = Field("kajiya-kay", description="hair shading model")
+    msaa: Literal[0, 1, 2, 4, 8, 16] = Field(4, description="multisample anti-aliasing samples")
+    subdivisions: int = Field(4, ge=1, le=16, description="Catmull-Rom steps per segment")
+    eye: Vec3 | None = Field(None, description="camera position; unset = framed automatically")
+    target: Vec3 | None = Field(None, description="camera target; unset = framed automatically")
+    fov: float = Field(30.0, gt=1, lt=170, description="vertical field of view, degrees")
+    background_top: RGB = Field((0.33, 0.36, 0.41), description="background gradient top")
+    background_bottom: RGB = Field((0.08, 0.085, 0.1), description="background gradient bottom")
+
+
+class OutputParams(_Section):
+    """Where `follicle grow` / `follicle render` write when no -o is given."""
+
+    curves: str = Field("hair.npz", description="grown curves file")
+    image: str = Field("hair.png", description="rendered image")
+
+
+class Scene(_Section):
+    """A whole scene; every section optional."""
+
+    mesh: MeshParams = Field(default_factory=MeshParams)
+    guides: GuidesParams = Field(default_factory=GuidesParams)
+    groom: GroomParams = Field(default_factory=GroomParams)
+    sim: SimParams = Field(default_factory=SimParams)
+    render: RenderParams = Field(default_factory=RenderParams)
+    output: OutputParams = Field(default_factory=OutputParams)
+    base_dir: Path = Field(Path("."), exclude=True, description="folder relative paths start in")
+
+    def resolve(self, path: str) -> str:
+        """A scene path made absolute against the scene's folder (builtins untouched)."""
+        if path.startswith("builtin:") or os.path.isabs(path):
+            return path
+        return str(self.base_dir / path)
+
+
+def _format_errors(source: str, err: ValidationError) -> str:
+    by_place: dict[str, str] = {}
+    for e in err.errors():
+        loc = [str(p) for p in e["loc"] if not str(p).startswith(("function-", "tuple["))]
+        # unions report a branch name ('str', 'float') as a location step: drop them
+        loc = [p for p in loc if p not in {"str", "float", "int", "none", "constrained-float"}]
+        section = f"[{loc[0]}]" if loc else "scene"
+        key = ".".join(loc[1:]) if len(loc) > 1 else ""
+        where = f"{section}{'.' + key if key else ''}"
+        if e["type"] == "extra_forbidden":
+            allowed = _allowed_keys(loc)
+            by_place[where] = f"{source}: {where}: unknown key; allowed keys: {allowed}"
+        elif where not in by_place or not e["type"].endswith("_type"):
+            # a union reports each branch; a range message beats a type mismatch
+            got = e.get("input")
+            shown = "" if isinstance(got, dict) else f" (got {got!r})"
+            by_place[where] = f"{source}: {where}: {e['msg']}{shown}"
+    return "\n".join(by_place.values())
+
+
+def _allowed_keys(loc: list[str]) -> str:
+    model: type[BaseModel] = Scene
+    for step in loc[:-1]:
+        field = model.model_fields.get(step)
+        if field is None or not isinstance(field.annotation, type):
+            break
+        if issubclass(field.annotation, BaseModel):
+            model = field.annotation
+    return ", ".join(k for k, f in model.model_fields.items() if not f.exclude)
+
+
+def parse_scene(data: dict[str, Any], source: str = "scene", base_dir: Path | None = None) -> Scene:
+    """Validate a scene dictionary (as read from TOML)."""
+    try:
+        scene = Scene.model_validate(data)
+    except ValidationError as err:
+        raise ConfigError(_format_errors(source, err)) from None
+    if base_dir is not None:
+        scene.base_dir = base_dir
+    return scene
+
+
+def load_scene(path: str | os.PathLike[str] | None) -> Scene:
+    """Read and validate a scene TOML file (None gives the default scene)."""
+    if path is None:
+        return Scene()
+    p = Path(path)
+    if not p.is_file():
+        raise FormatError(f"{p}: no such scene file")
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: TOML syntax error: {exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{p}: not a UTF-8 text file") from None
+    return parse_scene(data, str(p), p.resolve().parent)
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isinf(value) or math.isnan(value):
+            raise ConfigError(f"cannot write {value} to TOML")
+        return repr(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise ConfigError(f"cannot write a {type(value).__name__} to TOML")
+
+
+def scene_to_toml(scene: Scene, comments: bool = True) -> str:
+    """The scene as TOML text with every default filled in (unset values commented out)."""
+    out: list[str] = []
+    for section, field in Scene.model_fields.items():
+        if field.exclude:
+            continue
+        model: BaseModel = getattr(scene, section)
+        out.append(f"[{section}]")
+        for key, sub in type(model).model_fields.items():
+            value = getattr(model, key)
+            note = f"  # {sub.description}" if comments and sub.description else ""
+            if value is None:
+                out.append(f"# {key} = (unset){note}")
+            else:
+                out.append(f"{key} = {_toml_value(value)}{note}")
+        out.append("")
+    return "\n".join(out)

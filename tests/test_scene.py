@@ -1,0 +1,62 @@
+import pytest
+
+from follicle import ConfigError, FormatError
+from follicle.scene import Scene, load_scene, parse_scene, scene_to_toml
+
+
+def test_defaults_and_partial_sections(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text('[groom]\ncount = 500\nroot_color = [0.5, 0.4, 0.3]\n[render]\nsize = [64, 32]\n')
+    scene = load_scene(path)
+    assert scene.groom.count == 500
+    assert scene.groom.root_color == (0.5, 0.4, 0.3)
+    assert scene.groom.seed == 0 and scene.guides.path == "builtin:long"
+    assert scene.render.size == (64, 32)
+    assert scene.base_dir == tmp_path
+
+
+def test_relative_paths_resolve_against_the_scene_folder(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text('[mesh]\npath = "meshes/head.obj"\n')
+    scene = load_scene(path)
+    assert scene.resolve(scene.mesh.path) == str(tmp_path / "meshes/head.obj")
+    assert scene.resolve("builtin:head") == "builtin:head"
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"groom": {"count": -1}}, r"\[groom\]\.count: Input should be greater than or equal to 0"),
+        ({"groom": {"cuont": 5}}, r"\[groom\]\.cuont: unknown key; allowed keys: count, seed"),
+        ({"gromm": {}}, r"\[gromm\]: unknown key; allowed keys: mesh, guides, groom, sim"),
+        ({"render": {"size": [0, 5]}}, r"\[render\]\.size\.0: Input should be greater than or"),
+        ({"render": {"shading": "phong"}}, r"\[render\]\.shading: Input should be 'kajiya-kay'"),
+        ({"sim": {"solver": "magic"}}, r"\[sim\]\.solver: Input should be 'pbd' or 'dftl'"),
+        ({"mesh": {"density": -2}}, r"\[mesh\]\.density: Input should be greater than 0"),
+        ({"groom": {"tip_color": [1, 2, 0]}}, r"\[groom\]\.tip_color\.1: .*less than or equal to 1"),
+    ],
+)
+def test_bad_values_name_the_key_and_the_allowed_range(data, message):
+    with pytest.raises(ConfigError, match=message):
+        parse_scene(data, "scene.toml")
+
+
+def test_syntax_error_and_missing_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[groom\ncount = 3\n")
+    with pytest.raises(ConfigError, match=r"bad\.toml: TOML syntax error"):
+        load_scene(bad)
+    with pytest.raises(FormatError, match="no such scene file"):
+        load_scene(tmp_path / "missing.toml")
+
+
+def test_scene_to_toml_roundtrips_every_value(tmp_path):
+    scene = parse_scene({"groom": {"count": 7, "scale": 1.5}, "render": {"eye": [0, 1, 2]}})
+    text = scene_to_toml(scene)
+    assert "count = 7  # number of hairs" in text
+    assert "# target = (unset)" in text
+    path = tmp_path / "back.toml"
+    path.write_text(text)
+    back = load_scene(path)
+    assert back.model_dump() == scene.model_dump()
+    assert Scene().model_dump() == load_scene(None).model_dump()
