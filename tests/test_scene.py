@@ -6,7 +6,9 @@ from follicle.scene import Scene, load_scene, parse_scene, scene_to_toml
 
 def test_defaults_and_partial_sections(tmp_path):
     path = tmp_path / "s.toml"
-    path.write_text('[groom]\ncount = 500\nroot_color = [0.5, 0.4, 0.3]\n[render]\nsize = [64, 32]\n')
+    path.write_text(
+        '[groom]\ncount = 500\nroot_color = [0.5, 0.4, 0.3]\n[render]\nsize = [64, 32]\n'
+    )
     scene = load_scene(path)
     assert scene.groom.count == 500
     assert scene.groom.root_color == (0.5, 0.4, 0.3)
@@ -33,7 +35,7 @@ def test_relative_paths_resolve_against_the_scene_folder(tmp_path):
         ({"render": {"shading": "phong"}}, r"\[render\]\.shading: Input should be 'kajiya-kay'"),
         ({"sim": {"solver": "magic"}}, r"\[sim\]\.solver: Input should be 'pbd' or 'dftl'"),
         ({"mesh": {"density": -2}}, r"\[mesh\]\.density: Input should be greater than 0"),
-        ({"groom": {"tip_color": [1, 2, 0]}}, r"\[groom\]\.tip_color\.1: .*less than or equal to 1"),
+        ({"groom": {"tip_color": [1, 2, 0]}}, r"\[groom\]\.tip_color\.1: .*less than or equal"),
     ],
 )
 def test_bad_values_name_the_key_and_the_allowed_range(data, message):

@@ -17,6 +17,10 @@ from typing import Any
 from .curves import HairCurves
 from .errors import ConfigError, FollicleError, FormatError, InputError
 
+# Imported eagerly (it is light): the name ``render`` must stay the function even
+# after a submodule such as ``follicle.render.camera`` is imported.
+from .render import Camera, Light, render
+
 __version__ = "0.1.0"
 
 _LAZY = {
@@ -29,14 +33,14 @@ _LAZY = {
     "Scene": "follicle.scene",
     "load_scene": "follicle.scene",
     "grow": "follicle.pipeline",
-    "render": "follicle.render",
-    "Camera": "follicle.render",
-    "Light": "follicle.render",
     "save": "follicle.io.dispatch",
     "load_curves": "follicle.io.dispatch",
 }
 
-__all__ = ["HairCurves", "FollicleError", "InputError", "FormatError", "ConfigError", *_LAZY]
+__all__ = [
+    "HairCurves", "FollicleError", "InputError", "FormatError", "ConfigError",
+    "Camera", "Light", "render", *_LAZY,
+]
 
 
 def __getattr__(name: str) -> Any:

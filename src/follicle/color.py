@@ -168,10 +168,16 @@ def hue_distance(h1: object, h2: object) -> np.ndarray | float:
 
 
 def lerp_hsv(hsv1: object, hsv2: object, t: object) -> np.ndarray:
-    """Interpolate HSV colours at t (broadcast): shortest hue route, s and v linear."""
+    """Interpolate HSV colours at t: shortest hue route, s and v linear; (..., 3) float64.
+
+    t broadcasts against the colours' leading axes (t (n,) with colours (3,) gives
+    (n, 3)); numpy style with a trailing length-1 axis (t[:, None]) means the same.
+    """
     a = _as_colors(hsv1, "hsv1")
     b = _as_colors(hsv2, "hsv2")
-    tt = _as_finite(t, "t")[..., None]
+    tt = _as_finite(t, "t")
+    if tt.ndim == 0 or tt.shape[-1] != 1:
+        tt = tt[..., None]
     try:
         shape = np.broadcast_shapes(a.shape, b.shape, tt.shape)
     except ValueError as exc:

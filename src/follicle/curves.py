@@ -45,7 +45,9 @@ class HairCurves:
         self.points = _as_points(points)
         offs = np.asarray(offsets)
         if offs.ndim != 1 or offs.size < 1:
-            raise InputError(f"offsets: expected a 1-D array of C + 1 entries, got shape {offs.shape}")
+            raise InputError(
+                f"offsets: expected a 1-D array of C + 1 entries, got shape {offs.shape}"
+            )
         if offs.size and not np.issubdtype(offs.dtype, np.integer):
             if not np.all(np.equal(np.mod(offs, 1), 0)):
                 raise InputError("offsets: entries must be whole numbers")
@@ -99,7 +101,7 @@ class HairCurves:
                 )
         shifts = np.cumsum([0] + [len(p.points) for p in parts[:-1]])
         offsets = np.concatenate(
-            [parts[0].offsets[:1]] + [p.offsets[1:] + s for p, s in zip(parts, shifts)]
+            [parts[0].offsets[:1]] + [p.offsets[1:] + s for p, s in zip(parts, shifts, strict=True)]
         )
         return cls(
             np.concatenate([p.points for p in parts]),
@@ -183,7 +185,8 @@ class HairCurves:
         """
         if not self.point_count:
             raise InputError("bounds: the curves are empty")
-        return self.points.min(axis=0).astype(np.float64), self.points.max(axis=0).astype(np.float64)
+        pts = self.points.astype(np.float64)
+        return pts.min(axis=0), pts.max(axis=0)
 
     def __getitem__(self, key: int | slice | Sequence[int] | np.ndarray) -> HairCurves:
         """Select curves by index, slice, index array or boolean mask."""

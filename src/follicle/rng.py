@@ -133,9 +133,7 @@ def _as_uint64(value: object, name: str) -> np.uint64:
     return np.uint64(int(value) & 0xFFFFFFFFFFFFFFFF)
 
 
-def uniforms(
-    seed: int, ids: object, purpose: int | str, count: int, start: int = 0
-) -> np.ndarray:
+def uniforms(seed: int, ids: object, purpose: int | str, count: int, start: int = 0) -> np.ndarray:
     """(len(ids), count) float64 in [0, 1): numbers start..start+count-1 of each id's stream.
 
     ``purpose`` is an int or a name (hashed with :func:`purpose_id`). Generating in

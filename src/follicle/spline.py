@@ -69,8 +69,10 @@ def _check_vertices(vertices: object) -> np.ndarray:
     return np.ascontiguousarray(v)
 
 
-def _check_params(t: object, name: str, low_open: bool = False) -> np.ndarray:
+def _check_params(t: object, name: str, low_open: bool = False, scalar: bool = False) -> np.ndarray:
     arr = np.asarray(t, dtype=np.float64)
+    if scalar and arr.ndim != 0:
+        raise InputError(f"{name}: expected one number, got an array of shape {arr.shape}")
     lo_ok = arr > 0.0 if low_open else arr >= 0.0
     if not np.all(np.isfinite(arr) & lo_ok & (arr <= 1.0)):
         span = "(0, 1]" if low_open else "[0, 1]"
@@ -271,7 +273,7 @@ def cut_vertex_count(n: int, t_cut: float) -> int:
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
         raise InputError(f"n: expected an integer vertex count >= 2, got {n!r}")
-    t = float(_check_params(t_cut, "t_cut", low_open=True))
+    t = float(_check_params(t_cut, "t_cut", low_open=True, scalar=True))
     s, u = _cut_locate(t, int(n) - 1)
     return s + 1 if u == 0.0 else min(s + 3, int(n))
 
@@ -288,7 +290,7 @@ def cut(
     first :func:`cut_vertex_count` vertices of an n_total-vertex curve.
     """
     v = _check_vertices(vertices)
-    t = float(_check_params(t_cut, "t_cut", low_open=True))
+    t = float(_check_params(t_cut, "t_cut", low_open=True, scalar=True))
     n = len(v) if n_total is None else n_total
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < len(v):
         raise InputError(f"n_total: expected an integer >= len(vertices) = {len(v)}, got {n!r}")

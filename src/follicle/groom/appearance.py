@@ -32,7 +32,8 @@ def root_to_tip(
     t = vertex_parameter(vertices)
     width = (1.0 - t) * root_width + t * tip_width
     opacity = (1.0 - t) * root_opacity + t * tip_opacity
-    hsv = lerp_hsv(rgb_to_hsv(np.asarray(root_color)), rgb_to_hsv(np.asarray(tip_color)), t[:, None])
+    root_hsv, tip_hsv = rgb_to_hsv(np.asarray(root_color)), rgb_to_hsv(np.asarray(tip_color))
+    hsv = lerp_hsv(root_hsv, tip_hsv, t)
     color = hsv_to_rgb(hsv)
     return {
         "width": np.tile(width.astype(np.float32), hairs),

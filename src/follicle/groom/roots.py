@@ -29,7 +29,9 @@ def triangle_weights(mesh: SkinMesh, density: Texture | float | None = None) -> 
         weights = areas.copy()
     else:
         if mesh.uvs is None:
-            raise InputError(f"mesh '{mesh.name}' has no UVs, so a density texture cannot be mapped")
+            raise InputError(
+                f"mesh '{mesh.name}' has no UVs, so a density texture cannot be mapped"
+            )
         corners = mesh.uvs[mesh.faces]  # (F, 3, 2)
         probes = np.concatenate([corners, corners.mean(axis=1, keepdims=True)], axis=1)
         values = density.sample(probes.reshape(-1, 2))

@@ -20,7 +20,8 @@ def _suffix(path: str | os.PathLike[str], table: dict, verb: str) -> str:
     suffix = Path(path).suffix.lower()
     if suffix not in table:
         allowed = ", ".join(sorted(table))
-        raise FormatError(f"{path}: cannot {verb} '{suffix or 'no extension'}' files; use {allowed}")
+        shown = suffix or "no extension"
+        raise FormatError(f"{path}: cannot {verb} '{shown}' files; use {allowed}")
     return suffix
 
 

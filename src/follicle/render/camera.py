@@ -96,7 +96,9 @@ class Camera:
         m[:3, 3] = -(m[:3, :3] @ self.eye)
         return m
 
-    def clip_range(self, near: float | None = None, far: float | None = None) -> tuple[float, float]:
+    def clip_range(
+        self, near: float | None = None, far: float | None = None
+    ) -> tuple[float, float]:
         """The (near, far) used: explicit arguments, then the camera's, then defaults."""
         near = near if near is not None else self.near
         far = far if far is not None else self.far
@@ -251,8 +253,8 @@ def default_lights() -> list[Light]:
     from behind and above, and ambient.
     """
     return [
-        Light((0.55, 0.65, 0.75), (1.0, 0.96, 0.9), 1.0, space="camera"),  # key
-        Light((-0.9, 0.15, 0.45), (0.85, 0.9, 1.0), 0.3, space="camera"),  # fill
-        Light((0.2, 0.55, -1.0), (1.0, 1.0, 1.0), 0.45, space="camera"),  # rim / back
+        Light((0.75, 0.7, 0.6), (1.0, 0.96, 0.9), 1.0, space="camera"),  # key
+        Light((-0.9, 0.15, 0.45), (0.85, 0.9, 1.0), 0.25, space="camera"),  # fill
+        Light((0.2, 0.55, -1.0), (1.0, 1.0, 1.0), 0.3, space="camera"),  # rim / back
         Light.ambient((0.9, 0.95, 1.0), 0.06),
     ]

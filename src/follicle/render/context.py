@@ -54,7 +54,9 @@ def _create():
     try:
         ctx = moderngl.create_standalone_context(backend="egl", require=GL_REQUIRED)
     except Exception as exc:
-        raise FollicleError(f"cannot create a headless OpenGL context ({exc}). {INSTALL_HINT}") from exc
+        raise FollicleError(
+            f"cannot create a headless OpenGL context ({exc}). {INSTALL_HINT}"
+        ) from exc
     if ctx.version_code < GL_REQUIRED:
         version = ctx.version_code
         ctx.release()

@@ -1,0 +1,250 @@
+"""Built-in guide sets ("long", "short", "curly") grown on the built-in head by code.
+
+Roots come from a small deterministic sampler (Halton (2, 3) points mapped to
+triangles by an area × scalp-density CDF). Each strand is marched from its root
+along the surface normal, bent by a comb field (a centre parting, hair going back
+and down) and by gravity, and after every step pushed out of the head to a small
+clearance, keeping every segment the same length. Curly guides wind a helix around
+such a path (001 §3.1.2). curve_data: ``root_triangle`` int64, ``root_bary``
+float32 (seed convention, 000 §2.2.3), ``root_uv`` float32, ``guide_id`` int64.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import InputError
+from ..mesh.head import SCALP_TEXTURE, builtin_head, head_signed_distance_and_normal
+from ..mesh.skin import SkinMesh
+
+__all__ = ["builtin_guides", "BUILTIN_GUIDES"]
+
+
+class _Style(NamedTuple):
+    vertices: int
+    length: float  # length of the path (for curly: of the helix axis)
+    gravity: float  # weight of -Y in the wanted direction
+    comb: float  # weight of the comb field in the wanted direction
+    bend: float  # how far each step turns towards the wanted direction (0..1)
+    lift: float  # weight of the surface normal in the first direction
+    hug_all: bool  # lie on the whole head (short), else only where the head faces up
+    curl_radius: float = 0.0
+    curl_turns: float = 0.0
+
+
+BUILTIN_GUIDES = {
+    "long": _Style(24, 0.30, 1.0, 0.7, 0.45, 0.5, False),
+    "short": _Style(16, 0.05, 0.5, 1.0, 0.5, 0.25, True),
+    "curly": _Style(32, 0.22, 1.0, 0.7, 0.45, 0.6, False, curl_radius=0.02, curl_turns=3.5),
+}
+_COUNT = 300
+_CLEARANCE = 0.003  # m kept between hair and head
+_MIN_DENSITY = 0.5
+
+SDF = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+def _halton(index: np.ndarray, base: int) -> np.ndarray:
+    """Radical inverse of the integers ``index`` in ``base``."""
+    out = np.zeros(len(index))
+    i = index.astype(np.int64).copy()
+    f = 1.0 / base
+    while np.any(i > 0):
+        out += f * (i % base)
+        i //= base
+        f /= base
+    return out
+
+
+def sample_roots(mesh: SkinMesh, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` deterministic roots where the scalp density exceeds 0.5: (triangles, bary).
+
+    Halton (2, 3) points: the first coordinate picks a triangle through the CDF of
+    area × density and, rescaled inside its interval, with the second one places
+    the point uniformly inside the triangle.
+    """
+    tex = mesh.textures.get(SCALP_TEXTURE)
+    areas = mesh.face_areas("rest")
+
+    def density_of(t: np.ndarray, b: np.ndarray) -> np.ndarray:
+        if tex is None or mesh.uvs is None:
+            return np.ones(len(t))
+        return tex.sample(mesh.evaluate(t, b).uv).reshape(len(t), -1)[:, 0]
+
+    third = np.full((len(areas), 2), 1.0 / 3.0)
+    centre_density = density_of(np.arange(len(areas)), third)
+    weight = areas * np.where(centre_density > _MIN_DENSITY, centre_density, 0.0)
+    if weight.sum() <= 0:
+        raise InputError(f"mesh '{mesh.name}': no area with scalp density > {_MIN_DENSITY}")
+    cdf = np.cumsum(weight)
+    cdf /= cdf[-1]
+    tris, barys, start = [], [], 1
+    while sum(len(t) for t in tris) < count:
+        idx = np.arange(start, start + 2 * count)
+        start += 2 * count
+        h1, h2 = _halton(idx, 2), _halton(idx, 3)
+        tri = np.minimum(np.searchsorted(cdf, h1, side="right"), len(cdf) - 1)
+        lo = np.where(tri > 0, cdf[tri - 1], 0.0)
+        r = np.clip((h1 - lo) / np.maximum(cdf[tri] - lo, 1e-300), 0.0, 1.0)
+        s = np.sqrt(r)
+        bary = np.stack([1.0 - s, s * (1.0 - h2)], axis=1).astype(np.float32)
+        keep = density_of(tri, bary.astype(np.float64)) > _MIN_DENSITY
+        tris.append(tri[keep])
+        barys.append(bary[keep])
+    return np.concatenate(tris)[:count], np.concatenate(barys)[:count]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def _mesh_sdf(mesh: SkinMesh) -> SDF:
+    """Signed distance and outward direction from exact closest points on the rest mesh."""
+
+    def sdf(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        tri, bary, dist = mesh.closest_points(p)
+        surf = mesh.evaluate(tri, np.clip(bary, 0.0, 1.0))
+        away = p - surf.position
+        sign = np.where(np.sum(away * surf.normal, axis=1) < 0, -1.0, 1.0)
+        direction = np.where(dist[:, None] > 1e-9, _unit(away) * sign[:, None], surf.normal)
+        return sign * dist, direction
+
+    return sdf
+
+
+def _push_out(p: np.ndarray, prev: np.ndarray, seg: np.ndarray, sdf: SDF, clear: float):
+    """Move points closer than ``clear`` to the head out, keeping |p - prev| = seg (C, 1)."""
+    for _ in range(4):
+        dist, normal = sdf(p)
+        inside = dist < clear
+        if not inside.any():
+            break
+        p = p + np.where(inside, clear - dist, 0.0)[:, None] * normal
+        p = prev + seg * _unit(p - prev)  # re-normalise the segment
+    return p
+
+
+def _comb_field(p: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Style direction: away from a centre parting and towards the back."""
+    side = np.tanh((p[:, 0] - centre[0]) / 0.015)
+    return np.stack([0.6 * side, np.zeros(len(p)), -0.5 * np.ones(len(p))], axis=1)
+
+
+def _march(
+    roots: np.ndarray, normals: np.ndarray, style: _Style, sdf: SDF, centre: np.ndarray,
+    clear: float, length: np.ndarray,
+) -> np.ndarray:
+    """Grow (C, n, 3) paths of the given lengths (C,) with equal segments.
+
+    Every step turns the direction towards gravity plus the comb field; near the
+    head that wanted direction loses its outward part (hair lies on the skull where
+    the skull faces up, everywhere for short hair); then the new vertex is pushed
+    out of the head and the segment re-normalised.
+    """
+    count = style.vertices
+    seg = (length / (count - 1))[:, None]
+    down = np.array([0.0, -1.0, 0.0])
+    out = np.empty((len(roots), count, 3))
+    out[:, 0] = roots
+    d = _unit(style.lift * normals + _comb_field(roots, centre) + 0.5 * down)
+    for i in range(1, count):
+        prev = out[:, i - 1]
+        dist, n_s = sdf(prev)
+        want = style.gravity * down + style.comb * _comb_field(prev, centre)
+        hug = np.ones(len(prev)) if style.hug_all else np.clip(3.0 * n_s[:, 1], 0.0, 1.0)
+        hug = hug * (dist < clear + 0.02)
+        outward = np.maximum(np.sum(want * n_s, axis=1), 0.0)
+        want = _unit(want - (hug * outward)[:, None] * n_s)
+        d = _unit((1.0 - style.bend) * d + style.bend * want)
+        nxt = _push_out(prev + seg * d, prev, seg, sdf, clear)
+        d = _unit(nxt - prev)
+        out[:, i] = nxt
+    return out
+
+
+def _transport_frames(path: np.ndarray, normal0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Frames (N, B) along (C, n, 3) paths by projecting the previous N (parallel transport)."""
+    tangent = np.gradient(path, axis=1)
+    tangent = _unit(tangent)
+    nvec = np.empty_like(path)
+    cur = normal0
+    for i in range(path.shape[1]):
+        t = tangent[:, i]
+        cur = cur - np.sum(cur * t, axis=1, keepdims=True) * t
+        bad = np.linalg.norm(cur, axis=1) < 1e-6
+        cur[bad] = np.cross(t[bad], [0.0, 0.0, 1.0]) + 1e-3 * np.cross(t[bad], [1.0, 0, 0])
+        cur = _unit(cur)
+        nvec[:, i] = cur
+    return nvec, np.cross(tangent, nvec)
+
+
+def _curl(path: np.ndarray, normal0: np.ndarray, style: _Style, phase: np.ndarray) -> np.ndarray:
+    """Helix of ``curl_radius`` around the path (001 §3.1.2), growing in over the first 3 cm."""
+    arc = np.concatenate(
+        [np.zeros((len(path), 1)), np.cumsum(np.linalg.norm(np.diff(path, axis=1), axis=2), 1)],
+        axis=1,
+    )
+    radius = style.curl_radius * np.clip(arc / 0.03, 0.0, 1.0) ** 2
+    angle = 2 * np.pi * style.curl_turns * arc / arc[:, -1:] + phase[:, None]
+    nv, bv = _transport_frames(path, normal0)
+    offset = np.cos(angle)[:, :, None] * nv + np.sin(angle)[:, :, None] * bv
+    return path + radius[:, :, None] * offset
+
+
+def _follow(targets: np.ndarray, sdf: SDF, clear: float) -> np.ndarray:
+    """Equal-segment strands following target polylines, kept out of the head."""
+    seg = np.linalg.norm(np.diff(targets, axis=1), axis=2).sum(axis=1) / (targets.shape[1] - 1)
+    seg = seg[:, None]
+    out = np.empty_like(targets)
+    out[:, 0] = targets[:, 0]
+    for i in range(1, targets.shape[1]):
+        prev = out[:, i - 1]
+        nxt = prev + seg * _unit(targets[:, i] - prev)
+        out[:, i] = _push_out(nxt, prev, seg, sdf, clear)
+    return out
+
+
+def builtin_guides(name: str, mesh: SkinMesh | None = None) -> HairCurves:
+    """Built-in guides 'long', 'short' or 'curly' (300 each) on ``mesh`` (default: the head).
+
+    On the built-in head collisions use its analytic signed distance; on another
+    mesh they use exact closest points (its ``textures['scalp']`` is the density if
+    present, else the whole surface grows hair).
+    """
+    if name not in BUILTIN_GUIDES:
+        raise InputError(f"unknown built-in guides {name!r}; choose one of {list(BUILTIN_GUIDES)}")
+    style = BUILTIN_GUIDES[name]
+    if mesh is None:
+        mesh = builtin_head()
+    default = builtin_head()
+    is_head = mesh.rest_vertices.shape == default.rest_vertices.shape and np.array_equal(
+        mesh.rest_vertices, default.rest_vertices
+    )
+    sdf: SDF = head_signed_distance_and_normal if is_head else _mesh_sdf(mesh)
+    lo, hi = mesh.bounds("rest")
+    centre = np.zeros(3) if is_head else 0.5 * (lo + hi)
+
+    tri, bary = sample_roots(mesh, _COUNT)
+    surf = mesh.evaluate(tri, bary.astype(np.float64))
+    rng = np.random.default_rng(20240601)  # fixed: the built-in sets never change
+    length = style.length * (1.0 + 0.1 * rng.uniform(-1.0, 1.0, size=len(tri)))
+    if style.curl_radius > 0:
+        axis_clear = style.curl_radius + _CLEARANCE
+        path = _march(surf.position, surf.normal, style, sdf, centre, axis_clear, length)
+        phase = rng.uniform(0.0, 2 * np.pi, size=len(tri))
+        strands = _follow(_curl(path, surf.tangent, style, phase), sdf, _CLEARANCE)
+    else:
+        path = _march(surf.position, surf.normal, style, sdf, centre, _CLEARANCE, length)
+        strands = _follow(path, sdf, _CLEARANCE)
+    curve_data = {
+        "root_triangle": tri.astype(np.int64),
+        "root_bary": bary.astype(np.float32),
+        "root_uv": surf.uv.astype(np.float32),
+        "guide_id": np.arange(len(tri), dtype=np.int64),
+    }
+    return HairCurves.from_array(strands, curve_data=curve_data)

@@ -1,0 +1,90 @@
+"""load_mesh: a SkinMesh from a mesh file (through trimesh) or a built-in name."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FollicleError, FormatError, InputError
+from .head import builtin_head
+from .skin import SkinMesh
+
+__all__ = ["load_mesh", "MESH_EXTENSIONS", "BUILTIN_MESHES"]
+
+MESH_EXTENSIONS = (".obj", ".ply", ".glb", ".gltf", ".stl", ".off")
+BUILTIN_MESHES: dict[str, Callable[[], SkinMesh]] = {"head": builtin_head}
+_BUILTIN_PREFIX = "builtin:"
+
+
+def load_mesh(path: str | os.PathLike[str]) -> SkinMesh:
+    """Load ``path`` (OBJ/PLY/GLB/GLTF/STL/OFF) or ``"builtin:head"`` as a SkinMesh.
+
+    The file is read with ``process=False`` (vertex order kept), triangulated, and
+    its per-vertex UVs kept when present. Unreadable files raise FormatError; bad
+    geometry (NaN vertices, no faces) raises InputError naming the file.
+    """
+    text = os.fspath(path)
+    if isinstance(text, str) and text.startswith(_BUILTIN_PREFIX):
+        key = text[len(_BUILTIN_PREFIX) :]
+        if key not in BUILTIN_MESHES:
+            names = ", ".join(_BUILTIN_PREFIX + k for k in BUILTIN_MESHES)
+            raise FormatError(f"unknown built-in mesh '{text}'; built-in meshes are: {names}")
+        return BUILTIN_MESHES[key]()
+    p = Path(text)
+    ext = p.suffix.lower()
+    if ext not in MESH_EXTENSIONS:
+        raise FormatError(
+            f"mesh file '{p}' has extension '{p.suffix}'; supported: {', '.join(MESH_EXTENSIONS)}"
+            f" (or {', '.join(_BUILTIN_PREFIX + k for k in BUILTIN_MESHES)})"
+        )
+    if not p.is_file():
+        raise FormatError(f"mesh file '{p}' does not exist; check the path")
+
+    import trimesh
+
+    try:
+        loaded = trimesh.load(str(p), force="mesh", process=False)
+    except FollicleError:
+        raise
+    except Exception as exc:  # trimesh raises many kinds on garbled input
+        raise FormatError(f"mesh file '{p}' cannot be read ({type(exc).__name__}: {exc})") from exc
+    if isinstance(loaded, trimesh.Scene) or not hasattr(loaded, "faces"):
+        raise FormatError(f"mesh file '{p}' holds no triangle mesh")
+    vertices = np.asarray(loaded.vertices, dtype=np.float64)
+    if len(vertices) == 0:
+        if _is_point_cloud(p):
+            raise InputError(f"{p}: mesh '{p.stem}' has no faces (only points); give triangles")
+        raise FormatError(f"mesh file '{p}' holds no mesh (no triangles); is it empty or garbled?")
+    faces = np.asarray(loaded.faces)
+    if faces.ndim == 2 and faces.shape[1] > 3:  # polygons: fan-triangulate
+        faces = np.concatenate([faces[:, [0, k, k + 1]] for k in range(1, faces.shape[1] - 1)])
+    uvs = _uvs(loaded, len(vertices))
+    try:
+        return SkinMesh(vertices, faces.reshape(-1, 3) if faces.size else faces, uvs, name=p.stem)
+    except InputError as exc:
+        raise InputError(f"{p}: {exc}") from exc
+
+
+def _is_point_cloud(p: Path) -> bool:
+    """True when the file holds vertices but no faces (trimesh then drops the vertices)."""
+    import trimesh
+
+    try:
+        loaded = trimesh.load(str(p), process=False)
+    except Exception:
+        return False
+    return isinstance(loaded, trimesh.PointCloud) and len(loaded.vertices) > 0
+
+
+def _uvs(mesh: object, count: int) -> np.ndarray | None:
+    """Per-vertex UVs from trimesh's TextureVisuals, or None."""
+    uv = getattr(getattr(mesh, "visual", None), "uv", None)
+    if uv is None:
+        return None
+    uv = np.asarray(uv, dtype=np.float64)
+    if uv.ndim != 2 or uv.shape[0] != count or uv.shape[1] < 2:
+        return None
+    return uv[:, :2]

@@ -1,0 +1,468 @@
+"""SkinMesh: the triangle mesh hair grows on, in a rest pose and a current pose.
+
+Roots are bound to (triangle, barycentric) samples on the rest mesh and evaluated on
+either pose (000 §2.2.3). Barycentrics follow the seed: ``root = u·v0 + v·v1 +
+(1 − u − v)·v2`` with ``bary[:, 0] = u`` and ``bary[:, 1] = v``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+from scipy.spatial import cKDTree
+
+from ..errors import InputError
+from ..frames import root_frames
+from .texture import Texture
+
+__all__ = ["SkinMesh", "SurfacePoints"]
+
+_POSES = ("rest", "current")
+
+
+class SurfacePoints(NamedTuple):
+    """Points on the skin with their orthonormal frame; all float64."""
+
+    position: np.ndarray  # (n, 3)
+    normal: np.ndarray  # (n, 3)
+    tangent: np.ndarray  # (n, 3)
+    binormal: np.ndarray  # (n, 3), tangent × normal
+    uv: np.ndarray  # (n, 2), zeros when the mesh has no UVs
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def _finite_rows(arr: np.ndarray, what: str) -> None:
+    ok = np.isfinite(arr).all(axis=1)
+    if not ok.all():
+        bad = int(np.argmax(~ok))
+        raise InputError(f"{what} {bad} is not finite (NaN or inf); fix or remove it")
+
+
+class SkinMesh:
+    """A validated triangle mesh with UVs, textures and cached per-pose derived data.
+
+    ``rest_vertices`` never change; ``vertices`` is the current pose (``set_pose``).
+    Zero-area triangles are allowed, flagged in ``degenerate_faces`` and given zero
+    area, but a mesh made only of them is rejected.
+    """
+
+    def __init__(
+        self,
+        vertices: object,
+        faces: object,
+        uvs: object | None = None,
+        name: str = "mesh",
+        textures: dict[str, Texture] | None = None,
+    ) -> None:
+        self.name = str(name)
+        what = f"mesh '{self.name}'"
+        verts = np.asarray(vertices, dtype=np.float64)
+        if verts.ndim != 2 or verts.shape[1] != 3 or len(verts) == 0:
+            raise InputError(f"{what}: vertices must have shape (V, 3) with V > 0, got {verts.shape}")
+        _finite_rows(verts, f"{what}: vertex")
+        f = np.asarray(faces)
+        if f.size == 0:
+            raise InputError(f"{what} has no faces; give at least one triangle")
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise InputError(f"{what}: faces must have shape (F, 3) (triangles), got {f.shape}")
+        if not np.issubdtype(f.dtype, np.integer):
+            if not (np.issubdtype(f.dtype, np.floating) and np.all(np.mod(f, 1) == 0)):
+                raise InputError(f"{what}: faces must hold whole vertex indices, got {f.dtype}")
+        f = f.astype(np.int64)
+        if f.min() < 0 or f.max() >= len(verts):
+            bad = int(np.argmax((f < 0).any(axis=1) | (f >= len(verts)).any(axis=1)))
+            raise InputError(
+                f"{what}: face {bad} = {f[bad].tolist()} indexes outside the {len(verts)}"
+                f" vertices (valid 0 … {len(verts) - 1})"
+            )
+        self.faces = _frozen(f)
+        self.rest_vertices = _frozen(verts)
+        self.vertices = self.rest_vertices
+        self.uvs: np.ndarray | None = None
+        if uvs is not None:
+            uv = np.asarray(uvs, dtype=np.float64)
+            if uv.shape != (len(verts), 2):
+                raise InputError(
+                    f"{what}: uvs must have shape ({len(verts)}, 2), one per vertex, got {uv.shape}"
+                )
+            _finite_rows(uv, f"{what}: uv")
+            self.uvs = _frozen(uv)
+        self.textures: dict[str, Texture] = dict(textures or {})
+        for key, tex in self.textures.items():
+            if not isinstance(tex, Texture):
+                raise InputError(f"{what}: textures['{key}'] is {type(tex).__name__}, not a Texture")
+        self._cache: dict[tuple[str, str], object] = {}
+        p0, p1, p2 = (verts[f[:, k]] for k in range(3))
+        areas = 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
+        scale = float(np.ptp(verts, axis=0).max())
+        self.degenerate_faces = _frozen(areas <= 1e-14 * max(scale, 1e-150) ** 2)
+        if self.degenerate_faces.all():
+            raise InputError(f"{what}: all {len(f)} faces have zero area; the mesh is degenerate")
+
+    # ------------------------------------------------------------------ pose
+    def set_pose(self, vertices: object | None = None, transform: object | None = None) -> None:
+        """Set the current pose: new vertex positions (V, 3), or a 4x4 affine of the rest."""
+        what = f"mesh '{self.name}'"
+        if (vertices is None) == (transform is None):
+            raise InputError(f"{what}: set_pose needs exactly one of vertices= or transform=")
+        if transform is not None:
+            m = np.asarray(transform, dtype=np.float64)
+            if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+                raise InputError(f"{what}: transform must be a finite 4x4 matrix, got {m.shape}")
+            if not np.allclose(m[3], [0.0, 0.0, 0.0, 1.0]):
+                raise InputError(f"{what}: transform must be affine (last row 0, 0, 0, 1)")
+            verts = self.rest_vertices @ m[:3, :3].T + m[:3, 3]
+        else:
+            verts = np.asarray(vertices, dtype=np.float64)
+            if verts.shape != self.rest_vertices.shape:
+                raise InputError(
+                    f"{what}: pose vertices must have shape {self.rest_vertices.shape}"
+                    f" (same as the rest pose), got {verts.shape}"
+                )
+            _finite_rows(verts, f"{what}: pose vertex")
+        self.vertices = _frozen(verts.copy())
+        self._drop_current()
+
+    def reset_pose(self) -> None:
+        """Make the current pose the rest pose again."""
+        self.vertices = self.rest_vertices
+        self._drop_current()
+
+    def _drop_current(self) -> None:
+        for key in [k for k in self._cache if k[1] == "current"]:
+            del self._cache[key]
+
+    def _verts(self, pose: str) -> np.ndarray:
+        if pose == "rest":
+            return self.rest_vertices
+        if pose == "current":
+            return self.vertices
+        raise InputError(f"pose={pose!r}; use one of {list(_POSES)}")
+
+    def _cached(self, what: str, pose: str, make) -> np.ndarray:
+        self._verts(pose)  # validates pose
+        key = (what, pose)
+        if key not in self._cache:
+            self._cache[key] = make(self._verts(pose))
+        return self._cache[key]
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def vertex_count(self) -> int:
+        return len(self.rest_vertices)
+
+    @property
+    def face_count(self) -> int:
+        return len(self.faces)
+
+    def bounds(self, pose: str = "rest") -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned bounds ((3,), (3,)) of the vertices used by faces."""
+        used = self._verts(pose)[np.unique(self.faces)]
+        return used.min(axis=0), used.max(axis=0)
+
+    def __repr__(self) -> str:
+        lo, hi = self.bounds("rest")
+        extras = (", uvs" if self.uvs is not None else "") + (
+            f", textures={sorted(self.textures)}" if self.textures else ""
+        )
+        return (
+            f"SkinMesh('{self.name}', {self.vertex_count} vertices, {self.face_count} faces"
+            f"{extras}, bounds=[{lo.round(3).tolist()} … {hi.round(3).tolist()}])"
+        )
+
+    # ------------------------------------------------------------------ derived data
+    def _face_cross(self, pose: str) -> np.ndarray:
+        def make(v: np.ndarray) -> np.ndarray:
+            p0, p1, p2 = (v[self.faces[:, k]] for k in range(3))
+            return _frozen(np.cross(p1 - p0, p2 - p0))
+
+        return self._cached("face_cross", pose, make)
+
+    def face_areas(self, pose: str = "rest") -> np.ndarray:
+        """Triangle areas (F,) float64; zero for degenerate triangles."""
+
+        def make(_v: np.ndarray) -> np.ndarray:
+            areas = 0.5 * np.linalg.norm(self._face_cross(pose), axis=1)
+            areas[self.degenerate_faces] = 0.0
+            return _frozen(areas)
+
+        return self._cached("face_areas", pose, make)
+
+    def face_normals(self, pose: str = "rest") -> np.ndarray:
+        """Unit face normals (F, 3) by the right-hand rule on (v0, v1, v2); zero if degenerate."""
+
+        def make(_v: np.ndarray) -> np.ndarray:
+            n = _unit(self._face_cross(pose).copy())
+            n[self.degenerate_faces] = 0.0
+            return _frozen(n)
+
+        return self._cached("face_normals", pose, make)
+
+    def vertex_normals(self, pose: str = "rest") -> np.ndarray:
+        """Area-weighted unit vertex normals (V, 3), welded across UV seams.
+
+        Vertices at the same rest position (split for UVs) share one normal, so
+        seams do not show; a vertex with no area around it gets +Y.
+        """
+
+        def make(_v: np.ndarray) -> np.ndarray:
+            weighted = self.face_normals(pose) * self.face_areas(pose)[:, None]
+            acc = np.zeros_like(self.rest_vertices)
+            for k in range(3):
+                np.add.at(acc, self.faces[:, k], weighted)
+            group = self._weld_groups()
+            welded = np.zeros_like(acc)
+            np.add.at(welded, group, acc)
+            n = welded[group]
+            length = np.linalg.norm(n, axis=1)
+            n = n / np.where(length > 0, length, 1.0)[:, None]
+            n[length <= 0] = (0.0, 1.0, 0.0)
+            return _frozen(n)
+
+        return self._cached("vertex_normals", pose, make)
+
+    def _weld_groups(self) -> np.ndarray:
+        if ("weld", "rest") not in self._cache:
+            _, inverse = np.unique(self.rest_vertices, axis=0, return_inverse=True)
+            self._cache[("weld", "rest")] = _frozen(inverse.reshape(-1).astype(np.int64))
+        return self._cache[("weld", "rest")]
+
+    def face_uv_derivatives(self, pose: str = "rest") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per-face (dP/du, dP/dv, ok) from the UVs; ok is False where they are undefined.
+
+        000 §2.2.3: [dP/du; dP/dv] = [[u1-u3, v1-v3], [u2-u3, v2-v3]]⁻¹ · [p1-p3; p2-p3].
+        """
+
+        def make(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            nf = len(self.faces)
+            dpdu, dpdv = np.zeros((nf, 3)), np.zeros((nf, 3))
+            if self.uvs is None:
+                return dpdu, dpdv, np.zeros(nf, dtype=bool)
+            p1, p2, p3 = (v[self.faces[:, k]] for k in range(3))
+            t1, t2, t3 = (self.uvs[self.faces[:, k]] for k in range(3))
+            du1, dv1 = (t1 - t3).T
+            du2, dv2 = (t2 - t3).T
+            det = du1 * dv2 - dv1 * du2
+            uv_scale = np.maximum(np.abs(t1 - t3).max(axis=1), np.abs(t2 - t3).max(axis=1))
+            ok = (np.abs(det) > 1e-12 * np.maximum(uv_scale, 1e-300) ** 2) & (det != 0)
+            ok &= ~self.degenerate_faces
+            inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
+            e1, e2 = p1 - p3, p2 - p3
+            dpdu = (dv2[:, None] * e1 - dv1[:, None] * e2) * inv
+            dpdv = (-du2[:, None] * e1 + du1[:, None] * e2) * inv
+            return dpdu, dpdv, ok
+
+        return self._cached("face_uv_derivatives", pose, make)
+
+    def face_tangents(self, pose: str = "rest") -> np.ndarray:
+        """Unit face tangents (F, 3): dP/du, else the edge v0→v1 projected off the normal."""
+
+        def make(v: np.ndarray) -> np.ndarray:
+            dpdu, _, ok = self.face_uv_derivatives(pose)
+            n = self.face_normals(pose)
+            edge = v[self.faces[:, 1]] - v[self.faces[:, 0]]
+            edge = edge - np.sum(edge * n, axis=1, keepdims=True) * n
+            t = np.where(ok[:, None], dpdu, edge)
+            t = t - np.sum(t * n, axis=1, keepdims=True) * n
+            return _frozen(_unit(t))
+
+        return self._cached("face_tangents", pose, make)
+
+    def vertex_tangents(self, pose: str = "rest") -> np.ndarray:
+        """Area-weighted unit vertex tangents (V, 3), made orthogonal to the vertex normals."""
+
+        def make(_v: np.ndarray) -> np.ndarray:
+            weighted = self.face_tangents(pose) * self.face_areas(pose)[:, None]
+            acc = np.zeros_like(self.rest_vertices)
+            for k in range(3):
+                np.add.at(acc, self.faces[:, k], weighted)
+            n = self.vertex_normals(pose)
+            acc = acc - np.sum(acc * n, axis=1, keepdims=True) * n
+            return _frozen(_unit(acc))
+
+        return self._cached("vertex_tangents", pose, make)
+
+    # ------------------------------------------------------------------ evaluation
+    def _check_samples(self, triangles: object, bary: object) -> tuple[np.ndarray, np.ndarray]:
+        tri = np.asarray(triangles)
+        if tri.ndim != 1 or (tri.size and not np.issubdtype(tri.dtype, np.integer)):
+            raise InputError(f"triangles must be a 1-D integer array, got {tri.dtype} {tri.shape}")
+        tri = tri.astype(np.int64)
+        if tri.size and (tri.min() < 0 or tri.max() >= len(self.faces)):
+            raise InputError(
+                f"triangles: index out of range for mesh '{self.name}' with {len(self.faces)}"
+                " faces"
+            )
+        b = np.asarray(bary, dtype=np.float64)
+        if b.shape != (len(tri), 2):
+            raise InputError(f"bary must have shape ({len(tri)}, 2), got {b.shape}")
+        if not np.all(np.isfinite(b)):
+            raise InputError("bary contains NaN or inf")
+        w = 1.0 - b[:, 0] - b[:, 1]
+        if b.size and (b.min() < -1e-4 or w.min() < -1e-4):
+            raise InputError("bary: coordinates must satisfy u >= 0, v >= 0, u + v <= 1")
+        return tri, b
+
+    def evaluate(self, triangles: object, bary: object, pose: str = "rest") -> SurfacePoints:
+        """Positions, root frames and UVs at (triangle, barycentric) samples (000 §2.2.3)."""
+        verts = self._verts(pose)
+        tri, b = self._check_samples(triangles, bary)
+        f = self.faces[tri]
+        w = np.stack([b[:, 0], b[:, 1], 1.0 - b[:, 0] - b[:, 1]], axis=1)[:, :, None]
+
+        def interp(values: np.ndarray) -> np.ndarray:
+            return np.sum(values[f] * w, axis=1)
+
+        position = interp(verts)
+        normal, tangent, binormal = root_frames(
+            interp(self.vertex_normals(pose)), interp(self.vertex_tangents(pose))
+        )
+        uv = interp(self.uvs) if self.uvs is not None else np.zeros((len(tri), 2))
+        return SurfacePoints(position, normal, tangent, binormal, uv)
+
+    def closest_points(
+        self, points: object, pose: str = "rest"
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Exact closest surface points: (triangles int64, bary (n, 2), distance (n,)).
+
+        Candidates are the triangles whose bounding sphere comes within the distance
+        to the nearest vertex; each is tested exactly, so the result is exact.
+        """
+        q = np.asarray(points, dtype=np.float64)
+        if q.ndim != 2 or q.shape[1] != 3:
+            raise InputError(f"points must have shape (n, 3), got {q.shape}")
+        _finite_rows(q, "points")
+        vtree, ctree, centres, radii, used = self._trees(pose)
+        verts = self._verts(pose)
+        tri_out = np.zeros(len(q), dtype=np.int64)
+        bary_out = np.zeros((len(q), 2))
+        dist_out = np.zeros(len(q))
+        chunk = 4096
+        for s in range(0, len(q), chunk):
+            qc = q[s : s + chunk]
+            dv, _ = vtree.query(qc)
+            reach = dv + radii[used].max() + 1e-12
+            lists = ctree.query_ball_point(qc, reach, return_sorted=True)
+            counts = np.array([len(c) for c in lists], dtype=np.int64)
+            cand = used[np.concatenate(lists).astype(np.int64)]
+            qi = np.repeat(np.arange(len(qc)), counts)
+            gap = np.linalg.norm(qc[qi] - centres[cand], axis=1) - radii[cand]
+            keep = gap <= dv[qi] * (1 + 1e-9) + 1e-12
+            t, bu, bv, d2 = _closest_kernel(qc, verts, self.faces, qi[keep], cand[keep])
+            tri_out[s : s + chunk] = t
+            bary_out[s : s + chunk, 0], bary_out[s : s + chunk, 1] = bu, bv
+            dist_out[s : s + chunk] = np.sqrt(d2)
+        return tri_out, bary_out, dist_out
+
+    def _trees(self, pose: str) -> tuple:
+        """KD-trees over used vertices and triangle centres, plus bounding-sphere radii."""
+
+        def make(v: np.ndarray) -> tuple:
+            used = np.flatnonzero(~self.degenerate_faces)
+            tri = v[self.faces]
+            centres = tri.mean(axis=1)
+            radii = np.linalg.norm(tri - centres[:, None], axis=2).max(axis=1)
+            vtree = cKDTree(v[np.unique(self.faces[used])])
+            return vtree, cKDTree(centres[used]), centres, radii, used
+
+        return self._cached("trees", pose, make)
+
+    # ------------------------------------------------------------------ export
+    def to_trimesh(self, pose: str = "rest"):
+        """A trimesh.Trimesh of the given pose (vertices not merged), with UVs if any."""
+        import trimesh
+
+        visual = None
+        if self.uvs is not None:
+            visual = trimesh.visual.TextureVisuals(uv=np.array(self.uvs))
+        return trimesh.Trimesh(
+            vertices=np.array(self._verts(pose)),
+            faces=np.array(self.faces),
+            visual=visual,
+            process=False,
+        )
+
+
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    arr = np.ascontiguousarray(arr)
+    arr.setflags(write=False)
+    return arr
+
+
+@njit(cache=True)
+def _dot(a0, a1, a2, b0, b1, b2):
+    return a0 * b0 + a1 * b1 + a2 * b2
+
+
+@njit(cache=True)
+def _closest_on_triangle(p, a, b, c):
+    """Closest point weights (wa, wb, wc) on triangle abc to p (Ericson, RTCD §5.1.5)."""
+    ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    ac0, ac1, ac2 = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    ap0, ap1, ap2 = p[0] - a[0], p[1] - a[1], p[2] - a[2]
+    d1 = _dot(ab0, ab1, ab2, ap0, ap1, ap2)
+    d2 = _dot(ac0, ac1, ac2, ap0, ap1, ap2)
+    if d1 <= 0.0 and d2 <= 0.0:
+        return 1.0, 0.0, 0.0
+    bp0, bp1, bp2 = p[0] - b[0], p[1] - b[1], p[2] - b[2]
+    d3 = _dot(ab0, ab1, ab2, bp0, bp1, bp2)
+    d4 = _dot(ac0, ac1, ac2, bp0, bp1, bp2)
+    if d3 >= 0.0 and d4 <= d3:
+        return 0.0, 1.0, 0.0
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        return 1.0 - v, v, 0.0
+    cp0, cp1, cp2 = p[0] - c[0], p[1] - c[1], p[2] - c[2]
+    d5 = _dot(ab0, ab1, ab2, cp0, cp1, cp2)
+    d6 = _dot(ac0, ac1, ac2, cp0, cp1, cp2)
+    if d6 >= 0.0 and d5 <= d6:
+        return 0.0, 0.0, 1.0
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        return 1.0 - w, 0.0, w
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        return 0.0, 1.0 - w, w
+    denom = 1.0 / (va + vb + vc)
+    v = vb * denom
+    w = vc * denom
+    return 1.0 - v - w, v, w
+
+
+@njit(cache=True)
+def _closest_kernel(q, verts, faces, qi, ti):
+    """Best (triangle, u, v, squared distance) per query over candidate pairs (qi, ti).
+
+    Ties keep the first candidate, so the answer does not depend on chunking.
+    """
+    n = q.shape[0]
+    best_t = np.full(n, -1, dtype=np.int64)
+    best_u = np.zeros(n)
+    best_v = np.zeros(n)
+    best_d = np.full(n, np.inf)
+    for k in range(qi.shape[0]):
+        i = qi[k]
+        t = ti[k]
+        a = verts[faces[t, 0]]
+        b = verts[faces[t, 1]]
+        c = verts[faces[t, 2]]
+        wa, wb, wc = _closest_on_triangle(q[i], a, b, c)
+        d = 0.0
+        for j in range(3):
+            diff = q[i, j] - (wa * a[j] + wb * b[j] + wc * c[j])
+            d += diff * diff
+        if d < best_d[i]:
+            best_d[i] = d
+            best_t[i] = t
+            best_u[i] = wa
+            best_v[i] = wb
+    return best_t, best_u, best_v, best_d

@@ -1,0 +1,134 @@
+import numpy as np
+import pytest
+
+from follicle import HairCurves, InputError
+from follicle.groom.generator import Groom
+from follicle.groom.guides import Guides, resample_arclength
+from follicle.groom.interpolate import blend_guides, idw_weights
+from follicle.groom.roots import sample_roots, triangle_weights
+from follicle.mesh.skin import SkinMesh
+from follicle.mesh.texture import Texture
+from follicle.scene import GroomParams
+
+
+def _plane(size=1.0):
+    """A square in the XZ plane facing +Y, UV-mapped, two triangles."""
+    v = np.array([[0, 0, 0], [size, 0, 0], [size, 0, size], [0, 0, size]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    return SkinMesh(v, f, uvs=uv, name="plane")
+
+
+def _upright_guides(mesh, xs, length=0.2, n=5):
+    lines = [np.array([[x, 0, z], [x, length, z]]) for x, z in xs]
+    return Guides(HairCurves.from_polylines(lines), mesh, n)
+
+
+def test_roots_follow_triangle_weights_and_skip_zero_density():
+    w = np.array([0.0, 1.0, 0.0, 3.0])
+    tri, bary = sample_roots(w, 40000, seed=1)
+    assert set(np.unique(tri)) == {1, 3}
+    assert abs(np.mean(tri == 3) - 0.75) < 0.01
+    assert bary.dtype == np.float32 and tri.dtype == np.int32
+    assert np.all(bary >= 0) and np.all(bary.sum(axis=1) <= 1 + 1e-6)
+    # uniform inside a triangle: every barycentric weight averages 1/3
+    full = np.column_stack([bary, 1 - bary.sum(axis=1)])
+    np.testing.assert_allclose(full.mean(axis=0), 1 / 3, atol=0.01)
+
+
+def test_roots_are_a_pure_function_of_seed_and_index():
+    w = np.array([1.0, 2.0, 0.5])
+    whole = sample_roots(w, 1000, seed=7)
+    part = sample_roots(w, 300, seed=7, start=500)
+    np.testing.assert_array_equal(whole[0][500:800], part[0])
+    np.testing.assert_array_equal(whole[1][500:800], part[1])
+    other = sample_roots(w, 1000, seed=8)
+    assert not np.array_equal(whole[1], other[1])
+
+
+def test_triangle_weights_use_area_and_density_texture():
+    mesh = _plane()
+    np.testing.assert_allclose(triangle_weights(mesh), [0.5, 0.5])
+    # density 0 on the left half of the UV square, 1 on the right half
+    tex = Texture(np.array([[0.0, 1.0]]), wrap="clamp")
+    w = triangle_weights(mesh, tex)
+    assert w[0] > w[1]  # triangle 0 lies mostly at u > v (the dense side)
+    with pytest.raises(InputError, match="zero everywhere"):
+        triangle_weights(mesh, Texture(np.zeros((2, 2))))
+
+
+def test_idw_weights_match_hand_computed_values():
+    guides = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]], float)
+    idx, w = idw_weights(guides, np.array([[0.5, 0, 0]]), samples=2)
+    # distances 0.5, 0.5, 1.5 → r = 1.5; w = ((r-d)/(r d))² = (1/0.75)², (1/0.75)², 0
+    assert sorted(idx[0, :2].tolist()) == [0, 1] and idx[0, 2] == 2
+    np.testing.assert_allclose(w[0], [0.5, 0.5, 0.0], atol=1e-7)
+    idx, w = idw_weights(guides, np.array([[0.25, 0, 0]]), samples=2)
+    # d = 0.25, 0.75, 1.75: w ∝ (1.5/0.4375)², (1/1.3125)², 0
+    a, b = (1.5 / 0.4375) ** 2, (1.0 / 1.3125) ** 2
+    np.testing.assert_allclose(w[0], [a / (a + b), b / (a + b), 0], rtol=1e-6)
+    idx, w = idw_weights(guides, np.array([[2, 0, 0]]), samples=3)
+    assert idx[0, 0] == 2 and w[0, 0] == 1.0 and w[0, 1:].sum() == 0
+
+
+def test_blend_places_local_shapes_on_the_hair_frame():
+    local = np.array([[[0, 0, 0], [0, 0, 1]], [[0, 0, 0], [1, 0, 1]]], np.float32)
+    idx = np.array([[0, 1]])
+    w = np.array([[0.5, 0.5]], np.float32)
+    out = blend_guides(local, idx, w, np.array([[1.0, 2, 3]]), np.array([[1.0, 0, 0]]),
+                       np.array([[0.0, 0, 1]]), np.array([[0.0, 1, 0]]), scale=2.0)
+    # local (0.5, 0, 1) × 2 → x along tangent (1,0,0), z along normal (0,1,0)
+    np.testing.assert_allclose(out[0], [[1, 2, 3], [2, 4, 3]], atol=1e-6)
+
+
+def test_resample_arclength_spaces_vertices_evenly():
+    c = HairCurves.from_polylines([np.array([[0, 0, 0], [0, 1, 0], [0, 3, 0]])])
+    out = resample_arclength(c, 4)
+    np.testing.assert_allclose(out[0, :, 1], [0, 1, 2, 3])
+
+
+def test_hairs_on_a_plane_copy_upright_guides_and_follow_the_pose():
+    mesh = _plane()
+    guides = _upright_guides(mesh, [(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9), (0.5, 0.5)])
+    groom = Groom(mesh, guides, GroomParams(count=500, vertices=5, guide_samples=3))
+    hair = groom.grow()
+    arr = hair.as_array()
+    assert hair.curve_count == 500 and arr.shape == (500, 5, 3)
+    np.testing.assert_allclose(arr[:, 0, 1], 0, atol=1e-6)  # roots on the plane
+    np.testing.assert_allclose(arr[:, -1, 1], 0.2, atol=1e-5)  # every hair 0.2 tall
+    np.testing.assert_allclose(arr[:, -1, [0, 2]], arr[:, 0, [0, 2]], atol=1e-5)
+    assert hair.curve_data["hair_id"].tolist() == list(range(500))
+    np.testing.assert_allclose(hair.curve_data["root_uv"], arr[:, 0, [0, 2]], atol=1e-6)
+    # widths taper root → tip, colours go root → tip
+    w = hair.point_data["width"].reshape(500, 5)
+    assert np.all(np.diff(w, axis=1) < 0)
+    np.testing.assert_allclose(hair.point_data["color"][0], groom.params.root_color, atol=1e-6)
+    # rotate the mesh 90° about Z: the same roots, hair now grows along -X
+    rot = np.eye(4)
+    rot[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
+    mesh.set_pose(transform=rot)
+    moved = groom.grow().as_array()
+    np.testing.assert_allclose(moved[:, -1] - moved[:, 0], [[-0.2, 0, 0]] * 500, atol=1e-5)
+
+
+def test_growth_is_deterministic_and_chunk_independent(monkeypatch):
+    import follicle.groom.generator as gen
+
+    mesh = _plane()
+    guides = _upright_guides(mesh, [(0.2, 0.2), (0.8, 0.3), (0.5, 0.8)])
+    a = Groom(mesh, guides, GroomParams(count=300, vertices=5)).grow()
+    monkeypatch.setattr(gen, "CHUNK", 64)
+    b = Groom(mesh, guides, GroomParams(count=300, vertices=5)).grow()
+    assert a == b
+    c = Groom(mesh, guides, GroomParams(count=300, vertices=5, seed=1)).grow()
+    assert not np.array_equal(a.points, c.points)
+
+
+def test_bad_groom_input():
+    mesh = _plane()
+    guides = _upright_guides(mesh, [(0.2, 0.2)])
+    with pytest.raises(InputError, match="count"):
+        Groom(mesh, guides).grow(count=-1)
+    with pytest.raises(InputError, match="zero length"):
+        Guides(HairCurves.from_polylines([np.zeros((3, 3))]), mesh)
+    assert Groom(mesh, guides).grow(count=0).curve_count == 0

@@ -1,0 +1,351 @@
+"""OpenGL renderer on headless EGL (Mesa llvmpipe in CI): real pixels, no timing."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+import trimesh
+
+from follicle.curves import HairCurves
+from follicle.errors import FollicleError, InputError
+from follicle.render import Camera, Light, Renderer, render, save_png
+from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
+from follicle.render.opengl import segment_indices
+
+
+def _gl_available() -> bool:
+    try:
+        from follicle.render.context import get_context
+
+        get_context()
+    except FollicleError:
+        return False
+    return True
+
+
+gl = pytest.mark.skipif(not _gl_available(), reason="no EGL / OpenGL 3.3 (install Mesa EGL)")
+
+
+class StandInMesh:
+    """The slice of SkinMesh the renderer uses."""
+
+    def __init__(self, tm: trimesh.Trimesh) -> None:
+        self.vertices = np.asarray(tm.vertices, dtype=np.float64)
+        self.faces = np.asarray(tm.faces, dtype=np.int64)
+        self._normals = np.asarray(tm.vertex_normals, dtype=np.float64)
+
+    def vertex_normals(self, which: str = "current") -> np.ndarray:
+        return self._normals
+
+    def bounds(self, which: str = "current"):
+        return self.vertices.min(axis=0), self.vertices.max(axis=0)
+
+
+def sphere(radius: float = 0.1, center=(0.0, 0.0, 0.0)) -> StandInMesh:
+    tm = trimesh.creation.icosphere(subdivisions=3, radius=radius)
+    tm.apply_translation(center)
+    return StandInMesh(tm)
+
+
+FRONT = Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0), fov_y=35.0)
+BLACK = (0.0, 0.0, 0.0)
+FLAT = {"specular": 0.0, "specular2": 0.0, "root_occlusion": 0.0, "roundness": 0.0}
+
+
+def px(point, size, camera=FRONT) -> tuple[float, float]:
+    """Pixel (x, y) of a world point, origin at the top-left image corner."""
+    xy, _ = camera.project([point], size)
+    return float(xy[0, 0]), float(xy[0, 1])
+
+
+def strand(a, b, n: int = 8, width: float | None = None) -> HairCurves:
+    pts = np.linspace(a, b, n)
+    pd = {} if width is None else {"width": np.full(n, width)}
+    return HairCurves.from_array(pts[None], point_data=pd)
+
+
+# ---------------------------------------------------------------------------- no GL
+def test_segment_indices_clamp_end_points():
+    idx = segment_indices(np.array([0, 2, 5]))
+    np.testing.assert_array_equal(idx, [[0, 0, 1, 1], [2, 2, 3, 4], [2, 3, 4, 4]])
+    assert idx.dtype == np.uint32
+
+
+def test_segment_indices_large_is_vectorised():
+    offsets = np.arange(20001, dtype=np.int64) * 16
+    t = time.perf_counter()
+    idx = segment_indices(offsets)
+    elapsed = time.perf_counter() - t
+    assert idx.shape == (20000 * 15, 4)
+    np.testing.assert_array_equal(idx[15], [16, 16, 17, 18])
+    assert elapsed < 5.0  # generous: milliseconds in practice; catches a Python loop only
+
+
+def test_srgb_round_trip_and_encoding():
+    x = np.linspace(0, 1, 101)
+    np.testing.assert_allclose(srgb_to_linear(linear_to_srgb(x)), x, atol=1e-12)
+    assert linear_to_srgb(0.5) == pytest.approx(0.7354, abs=1e-4)
+    rgba = np.array([[0.0, 0.5, 1.0, 0.5]])
+    np.testing.assert_array_equal(encode_srgb8(rgba), [[0, 188, 255, 128]])
+    np.testing.assert_array_equal(encode_srgb8(rgba.astype(np.float16)), [[0, 188, 255, 128]])
+
+
+# ---------------------------------------------------------------------------- GL
+@gl
+def test_strand_covers_expected_row_band():
+    size, width = (200, 200), 0.02
+    y0 = 0.05
+    curves = strand((-0.15, y0, 0.0), (0.15, y0, 0.0), width=width)
+    img = render(
+        curves,
+        camera=FRONT,
+        size=size,
+        background=BLACK,
+        hair_color=(1, 1, 1),
+        msaa=0,
+        lights=[Light.ambient(intensity=1.0)],
+        shading_params=FLAT,
+    )
+    x0, py = px((-0.15, y0, 0.0), size)
+    x1, _ = px((0.15, y0, 0.0), size)
+    half_px = width / FRONT.pixel_scale(size[1]) / 2  # ≈ 3.2 px
+    hair = img[..., :3].max(axis=2) > 0
+    rows, cols = np.nonzero(hair)
+    assert rows.size > 0
+    # pixel (i, j) has its centre at (j + 0.5, i + 0.5)
+    assert np.all(np.abs(rows + 0.5 - py) <= half_px + 1.0)
+    assert np.all((cols + 0.5 >= x0 - 1.0) & (cols + 0.5 <= x1 + 1.0))
+    # the band is filled at the middle column, and solid white at its centre row
+    mid = size[0] // 2
+    band = np.nonzero(hair[:, mid])[0]
+    assert band.size >= int(2 * half_px) - 1
+    assert img[int(py), mid, 0] == 255
+
+
+@gl
+def test_thin_hair_is_faded_not_aliased():
+    size = (200, 200)
+    thin = strand((-0.15, 0.0, 0.0), (0.15, 0.0, 0.0), width=1e-5)  # ~0.003 px wide
+    kwargs = dict(
+        camera=FRONT,
+        size=size,
+        background=BLACK,
+        hair_color=(1, 1, 1),
+        lights=[Light.ambient(intensity=1.0)],
+        shading_params=FLAT,
+    )
+    img = render(thin, **kwargs)
+    column = img[:, 100, 0]
+    assert 0 < column.max() < 128  # visible, but with its low coverage
+
+
+@gl
+def test_kajiya_kay_diffuse_follows_tangent_light_angle():
+    size = (200, 200)
+    light = [Light((0.0, 1.0, 0.0))]
+    perpendicular = strand((-0.15, 0.05, 0.0), (-0.02, 0.05, 0.0), width=0.01)  # along x
+    parallel = strand((0.08, -0.08, 0.0), (0.08, 0.1, 0.0), width=0.01)  # along y, the light
+    curves = HairCurves.concatenate([perpendicular, parallel])
+    img = render(
+        curves,
+        camera=FRONT,
+        size=size,
+        background=BLACK,
+        hair_color=(0.5, 0.5, 0.5),
+        lights=light,
+        shading_params=FLAT,
+    ).astype(int)
+    xa, ya = px((-0.085, 0.05, 0.0), size)
+    xb, yb = px((0.08, 0.01, 0.0), size)
+    a = img[int(ya), int(xa), 0]
+    b = img[int(yb), int(xb), 0]
+    assert a > b + 80, (a, b)
+    # tilted 45°: sin = 0.71, in between
+    tilted = strand((-0.1, -0.1, 0.0), (0.1, 0.1, 0.0), width=0.01)
+    img45 = render(
+        tilted,
+        camera=FRONT,
+        size=size,
+        background=BLACK,
+        hair_color=(0.5, 0.5, 0.5),
+        lights=light,
+        shading_params=FLAT,
+    )
+    c = int(img45[100, 100, 0])
+    assert b + 20 < c < a - 10, (a, b, c)
+
+
+@gl
+def test_mesh_sphere_disc_and_skin_colour():
+    size = (160, 160)
+    bg = (0.0, 0.0, 0.3)
+    img = render(None, sphere(0.1), camera=FRONT, size=size, background=bg)
+    bg8 = encode_srgb8(np.array([*bg, 1.0]))[:3]
+    yy, xx = np.mgrid[0:160, 0:160] + 0.5
+    # apparent radius of a sphere seen from distance 1
+    r_px = np.tan(np.arcsin(0.1)) / np.tan(np.radians(17.5)) * 80
+    dist = np.hypot(xx - 80, yy - 80)
+    is_bg = np.all(img[..., :3] == bg8, axis=2)
+    assert not is_bg[dist < r_px - 1.5].any()
+    assert is_bg[dist > r_px + 1.5].all()
+    r, g, b = img[80, 80, :3].astype(int)
+    assert r > g > b and r > 100  # skin, not background
+    assert np.all(img[..., 3] == 255)
+
+
+@gl
+def test_empty_curves_with_mesh_renders_mesh_only():
+    mesh = sphere(0.1)
+    empty = HairCurves(np.zeros((0, 3)), [0])
+    a = render(empty, mesh, size=(64, 64))
+    b = render(None, mesh, size=(64, 64))
+    np.testing.assert_array_equal(a, b)
+
+
+@gl
+def test_hair_in_front_of_mesh_is_visible():
+    size = (160, 160)
+    mesh = sphere(0.1)
+    curves = strand((-0.05, 0.0, 0.15), (0.05, 0.0, 0.15), width=0.004)
+    with_hair = render(
+        curves, mesh, camera=FRONT, size=size, hair_color=(0, 1, 0), shading_params=FLAT
+    )
+    without = render(None, mesh, camera=FRONT, size=size)
+    diff = np.any(with_hair != without, axis=2)
+    rows = np.nonzero(diff)[0]
+    assert rows.size and abs(rows.mean() + 0.5 - 80) < 2
+    assert with_hair[80, 80, 1] > with_hair[80, 80, 0]  # green hair over the skin
+
+
+@gl
+def test_background_gradient_top_and_bottom():
+    top, bottom = (0.8, 0.1, 0.1), (0.05, 0.1, 0.6)
+    curves = strand((-0.01, 0.0, 0.0), (0.01, 0.0, 0.0))
+    img = render(curves, camera=FRONT, size=(64, 64), background=(top, bottom)).astype(int)
+    top8 = encode_srgb8(np.array([*top, 1.0]))[:3].astype(int)
+    bottom8 = encode_srgb8(np.array([*bottom, 1.0]))[:3].astype(int)
+    assert np.abs(img[0, 5, :3] - top8).max() <= 6
+    assert np.abs(img[-1, 5, :3] - bottom8).max() <= 6
+    assert img[0, 5, 0] > img[-1, 5, 0] and img[0, 5, 2] < img[-1, 5, 2]
+    flat = render(curves, camera=FRONT, size=(64, 64), background=top)
+    assert np.all(flat[0, :, :3] == flat[-1, :, :3])
+
+
+@gl
+def test_msaa_produces_intermediate_edge_values():
+    mesh = sphere(0.1)
+    kwargs = dict(
+        camera=FRONT,
+        size=(96, 96),
+        background=BLACK,
+        skin_color=(1, 1, 1),
+        lights=[Light.ambient(intensity=1.0)],
+    )
+    aliased = render(None, mesh, msaa=0, **kwargs)[..., 0]
+    smooth = render(None, mesh, msaa=4, **kwargs)[..., 0]
+    assert set(np.unique(aliased)) <= {0, 255}
+    intermediate = (smooth > 10) & (smooth < 245)
+    assert intermediate.sum() > 50
+
+
+@gl
+def test_png_matches_returned_array(tmp_path):
+    from PIL import Image
+
+    out = tmp_path / "sub" / "hair.png"
+    curves = strand((-0.1, 0.0, 0.0), (0.1, 0.05, 0.0), width=0.003)
+    img = render(curves, sphere(0.05, (0, 0, -0.1)), size=(80, 60), out=out)
+    assert img.shape == (60, 80, 4) and img.dtype == np.uint8
+    with Image.open(out) as png:
+        assert png.mode == "RGBA"
+        np.testing.assert_array_equal(np.asarray(png), img)
+    assert [p.name for p in out.parent.iterdir()] == ["hair.png"]  # no temporary left
+    save_png(img[..., :3], tmp_path / "rgb.png")
+    with Image.open(tmp_path / "rgb.png") as png:
+        np.testing.assert_array_equal(np.asarray(png), img[..., :3])
+
+
+@gl
+def test_render_is_deterministic():
+    rng = np.random.default_rng(7)
+    roots = rng.uniform(-0.1, 0.1, size=(300, 3))
+    pts = roots[:, None, :] + np.linspace(0, 1, 6)[None, :, None] * rng.normal(
+        scale=0.05, size=(300, 1, 3)
+    )
+    curves = HairCurves.from_array(pts, point_data={"width": np.full(1800, 2e-4)})
+    mesh = sphere(0.08)
+    a = render(curves, mesh, size=(128, 128))
+    b = render(curves, mesh, size=(128, 128))
+    assert a.tobytes() == b.tobytes()
+
+
+@gl
+def test_renderer_reuse_and_per_vertex_attributes():
+    curves = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0), n=4)
+    red = HairCurves(
+        curves.points,
+        curves.offsets,
+        {
+            "width": np.full(4, 0.05),
+            "color": np.tile([1.0, 0.0, 0.0], (4, 1)),
+            "opacity": np.ones(4),
+        },
+    )
+    with Renderer(size=(64, 64), msaa=4, background=BLACK) as r:
+        a = r.draw(red, camera=FRONT, lights=[Light.ambient(intensity=1.0)], shading_params=FLAT)
+        b = r.draw(
+            red,
+            camera=FRONT,
+            lights=[Light.ambient(intensity=1.0)],
+            shading_params=FLAT,
+            subdivisions=16,
+        )
+    assert a[32, 32, 0] == 255 and a[32, 32, 1] == 0
+    np.testing.assert_array_equal(a, b)  # a straight strand does not change with smoothing
+
+
+@gl
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"size": (0, 10)},
+        {"size": (10.5, 10)},
+        {"size": (9000, 10)},
+        {"size": (10,)},
+        {"shading": "phong"},
+        {"msaa": -1},
+        {"subdivisions": 0},
+        {"subdivisions": 17},
+        {"background": (1, 2)},
+        {"shading_params": {"glossiness": 3}},
+        {"hair_width": -1.0},
+        {"lights": ["sun"]},
+    ],
+)
+def test_bad_arguments_raise_input_error(kwargs):
+    curves = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0))
+    with pytest.raises(InputError):
+        render(curves, **{"size": (32, 32), **kwargs})
+
+
+@gl
+def test_nothing_to_draw_raises():
+    with pytest.raises(InputError, match="nothing to draw"):
+        render(None)
+    with pytest.raises(InputError, match="nothing to draw"):
+        render(HairCurves(np.zeros((0, 3)), [0]))
+    with pytest.raises(InputError, match="allowed: kajiya-kay"):
+        render(None, sphere(), shading="marschner")
+    with pytest.raises(InputError):
+        render(np.zeros((4, 3)))  # not HairCurves
+
+
+@gl
+def test_follicle_render_is_callable_after_submodule_import():
+    import follicle
+    import follicle.render.camera  # noqa: F401  binds the package to follicle.render
+
+    img = follicle.render(strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0)), size=(16, 16))
+    assert img.shape == (16, 16, 4)
