@@ -38,14 +38,14 @@ def main() -> None:
     args = parser.parse_args()
 
     mesh = follicle.load_mesh("builtin:head")
-    guides = follicle.load_guides("builtin:long", mesh, 16)
+    guides = follicle.load_guides("builtin:long", mesh)
     groom = follicle.Groom(mesh, guides)
     groom.grow(count=100)  # JIT warm-up (cached after the first run)
     base = yardstick()
 
     rows = []
     t_grow = best_of(lambda: groom.grow(count=args.count))
-    rows.append((f"grow {args.count:,} hairs × 16 vertices", t_grow))
+    rows.append((f"grow {args.count:,} hairs × 24 vertices", t_grow))
     curves = groom.grow(count=args.count)
     scene = Scene()
     scene.render.size = (args.size, args.size)

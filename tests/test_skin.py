@@ -89,7 +89,9 @@ def test_set_pose_transform_moves_points_uv_stays():
     np.testing.assert_allclose(lo, [0.0, 2.0, 3.0])
     np.testing.assert_allclose(hi, [1.0, 3.0, 3.0])
     mesh.reset_pose()
-    np.testing.assert_allclose(mesh.evaluate([0], [[0.2, 0.3]], "current").position, [[0.3, 0.5, 0]])
+    np.testing.assert_allclose(
+        mesh.evaluate([0], [[0.2, 0.3]], "current").position, [[0.3, 0.5, 0]]
+    )
 
 
 def test_set_pose_vertices_and_cache_refresh():
@@ -202,7 +204,9 @@ def _grid(n: int = 4) -> trimesh.Trimesh:
     verts = np.stack([x.ravel(), y.ravel(), 0.1 * x.ravel() * y.ravel()], axis=1)
     idx = np.arange(n * n).reshape(n, n)
     a, b, c, d = idx[:-1, :-1], idx[:-1, 1:], idx[1:, :-1], idx[1:, 1:]
-    faces = np.concatenate([np.stack([a, b, d], -1).reshape(-1, 3), np.stack([a, d, c], -1).reshape(-1, 3)])
+    faces = np.concatenate(
+        [np.stack([a, b, d], -1).reshape(-1, 3), np.stack([a, d, c], -1).reshape(-1, 3)]
+    )
     uv = verts[:, :2].copy()
     return trimesh.Trimesh(verts, faces, visual=trimesh.visual.TextureVisuals(uv=uv), process=False)
 

@@ -71,12 +71,14 @@ class GroomParams(_Section):
     guide_samples: int = Field(
         4, ge=1, le=32, description="guides per hair (n; the (n+1)-th sets the radius)"
     )
-    vertices: int = Field(16, ge=2, le=256, description="vertices per hair")
+    vertices: int | None = Field(
+        None, ge=2, le=256, description="vertices per hair; unset = as many as the guides have"
+    )
     scale: float = Field(1.0, gt=0, le=100, description="length scale of every hair")
     root_width: float = Field(80e-6, gt=0, le=0.1, description="hair diameter at the root, m")
     tip_width: float = Field(30e-6, gt=0, le=0.1, description="hair diameter at the tip, m")
-    root_color: RGB = Field((0.09, 0.05, 0.025), description="linear RGB at the root")
-    tip_color: RGB = Field((0.24, 0.15, 0.08), description="linear RGB at the tip")
+    root_color: RGB = Field((0.03, 0.017, 0.009), description="linear RGB at the root")
+    tip_color: RGB = Field((0.085, 0.05, 0.025), description="linear RGB at the tip")
     root_opacity: Unit = Field(1.0, description="opacity at the root")
     tip_opacity: Unit = Field(1.0, description="opacity at the tip")
 

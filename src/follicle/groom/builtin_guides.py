@@ -136,8 +136,13 @@ def _comb_field(p: np.ndarray, centre: np.ndarray) -> np.ndarray:
 
 
 def _march(
-    roots: np.ndarray, normals: np.ndarray, style: _Style, sdf: SDF, centre: np.ndarray,
-    clear: float, length: np.ndarray,
+    roots: np.ndarray,
+    normals: np.ndarray,
+    style: _Style,
+    sdf: SDF,
+    centre: np.ndarray,
+    clear: float,
+    length: np.ndarray,
 ) -> np.ndarray:
     """Grow (C, n, 3) paths of the given lengths (C,) with equal segments.
 

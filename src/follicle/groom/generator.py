@@ -54,10 +54,11 @@ class Groom:
     ) -> None:
         self.mesh = mesh
         self.params = params if params is not None else GroomParams()
+        wanted = self.params.vertices
         if isinstance(guides, HairCurves):
-            guides = Guides(guides, mesh, self.params.vertices)
-        elif guides.vertex_count != self.params.vertices:
-            guides = Guides(guides.curves, mesh, self.params.vertices)
+            guides = Guides(guides, mesh, wanted)
+        elif wanted is not None and guides.vertex_count != wanted:
+            guides = Guides(guides.curves, mesh, wanted)
         self.guides = guides
         self.weights = triangle_weights(mesh, resolve_density(mesh, density))
 

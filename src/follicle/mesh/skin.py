@@ -64,7 +64,9 @@ class SkinMesh:
         what = f"mesh '{self.name}'"
         verts = np.asarray(vertices, dtype=np.float64)
         if verts.ndim != 2 or verts.shape[1] != 3 or len(verts) == 0:
-            raise InputError(f"{what}: vertices must have shape (V, 3) with V > 0, got {verts.shape}")
+            raise InputError(
+                f"{what}: vertices must have shape (V, 3) with V > 0, got {verts.shape}"
+            )
         _finite_rows(verts, f"{what}: vertex")
         f = np.asarray(faces)
         if f.size == 0:
@@ -96,7 +98,9 @@ class SkinMesh:
         self.textures: dict[str, Texture] = dict(textures or {})
         for key, tex in self.textures.items():
             if not isinstance(tex, Texture):
-                raise InputError(f"{what}: textures['{key}'] is {type(tex).__name__}, not a Texture")
+                raise InputError(
+                    f"{what}: textures['{key}'] is {type(tex).__name__}, not a Texture"
+                )
         self._cache: dict[tuple[str, str], object] = {}
         p0, p1, p2 = (verts[f[:, k]] for k in range(3))
         areas = 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
@@ -212,10 +216,7 @@ class SkinMesh:
         """
 
         def make(_v: np.ndarray) -> np.ndarray:
-            weighted = self.face_normals(pose) * self.face_areas(pose)[:, None]
-            acc = np.zeros_like(self.rest_vertices)
-            for k in range(3):
-                np.add.at(acc, self.faces[:, k], weighted)
+            acc = self._area_weighted_sum(self.face_normals(pose), pose)
             group = self._weld_groups()
             welded = np.zeros_like(acc)
             np.add.at(welded, group, acc)
@@ -226,6 +227,13 @@ class SkinMesh:
             return _frozen(n)
 
         return self._cached("vertex_normals", pose, make)
+
+    def _area_weighted_sum(self, per_face: np.ndarray, pose: str) -> np.ndarray:
+        """Sum of area × per-face vectors over the faces around each vertex, (V, 3)."""
+        weighted = np.repeat(per_face * self.face_areas(pose)[:, None], 3, axis=0)
+        acc = np.zeros_like(self.rest_vertices)
+        np.add.at(acc, self.faces.ravel(), weighted)
+        return acc
 
     def _weld_groups(self) -> np.ndarray:
         if ("weld", "rest") not in self._cache:
@@ -278,10 +286,7 @@ class SkinMesh:
         """Area-weighted unit vertex tangents (V, 3), made orthogonal to the vertex normals."""
 
         def make(_v: np.ndarray) -> np.ndarray:
-            weighted = self.face_tangents(pose) * self.face_areas(pose)[:, None]
-            acc = np.zeros_like(self.rest_vertices)
-            for k in range(3):
-                np.add.at(acc, self.faces[:, k], weighted)
+            acc = self._area_weighted_sum(self.face_tangents(pose), pose)
             n = self.vertex_normals(pose)
             acc = acc - np.sum(acc * n, axis=1, keepdims=True) * n
             return _frozen(_unit(acc))
@@ -296,8 +301,7 @@ class SkinMesh:
         tri = tri.astype(np.int64)
         if tri.size and (tri.min() < 0 or tri.max() >= len(self.faces)):
             raise InputError(
-                f"triangles: index out of range for mesh '{self.name}' with {len(self.faces)}"
-                " faces"
+                f"triangles: index out of range for mesh '{self.name}' with {len(self.faces)} faces"
             )
         b = np.asarray(bary, dtype=np.float64)
         if b.shape != (len(tri), 2):
@@ -396,23 +400,18 @@ def _frozen(arr: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def _dot(a0, a1, a2, b0, b1, b2):
-    return a0 * b0 + a1 * b1 + a2 * b2
-
-
-@njit(cache=True)
 def _closest_on_triangle(p, a, b, c):
     """Closest point weights (wa, wb, wc) on triangle abc to p (Ericson, RTCD §5.1.5)."""
     ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
     ac0, ac1, ac2 = c[0] - a[0], c[1] - a[1], c[2] - a[2]
     ap0, ap1, ap2 = p[0] - a[0], p[1] - a[1], p[2] - a[2]
-    d1 = _dot(ab0, ab1, ab2, ap0, ap1, ap2)
-    d2 = _dot(ac0, ac1, ac2, ap0, ap1, ap2)
+    d1 = ab0 * ap0 + ab1 * ap1 + ab2 * ap2
+    d2 = ac0 * ap0 + ac1 * ap1 + ac2 * ap2
     if d1 <= 0.0 and d2 <= 0.0:
         return 1.0, 0.0, 0.0
     bp0, bp1, bp2 = p[0] - b[0], p[1] - b[1], p[2] - b[2]
-    d3 = _dot(ab0, ab1, ab2, bp0, bp1, bp2)
-    d4 = _dot(ac0, ac1, ac2, bp0, bp1, bp2)
+    d3 = ab0 * bp0 + ab1 * bp1 + ab2 * bp2
+    d4 = ac0 * bp0 + ac1 * bp1 + ac2 * bp2
     if d3 >= 0.0 and d4 <= d3:
         return 0.0, 1.0, 0.0
     vc = d1 * d4 - d3 * d2
@@ -420,8 +419,8 @@ def _closest_on_triangle(p, a, b, c):
         v = d1 / (d1 - d3)
         return 1.0 - v, v, 0.0
     cp0, cp1, cp2 = p[0] - c[0], p[1] - c[1], p[2] - c[2]
-    d5 = _dot(ab0, ab1, ab2, cp0, cp1, cp2)
-    d6 = _dot(ac0, ac1, ac2, cp0, cp1, cp2)
+    d5 = ab0 * cp0 + ab1 * cp1 + ab2 * cp2
+    d6 = ac0 * cp0 + ac1 * cp1 + ac2 * cp2
     if d6 >= 0.0 and d5 <= d6:
         return 0.0, 0.0, 1.0
     vb = d5 * d2 - d1 * d6

@@ -110,6 +110,17 @@ def segment_indices(offsets: np.ndarray) -> np.ndarray:
     return idx.astype(np.uint32)
 
 
+def back_to_front(segments: np.ndarray, points: np.ndarray, camera: Camera) -> np.ndarray:
+    """Segments ordered farthest first by the view depth of their middle.
+
+    Hair is blended without writing depth, so every thin, partly covering strand
+    adds to the coverage; drawing back to front keeps the nearer strands on top.
+    """
+    middle = 0.5 * (points[segments[:, 1]] + points[segments[:, 2]])
+    depth = middle.astype(np.float64) @ (camera.basis()[2])
+    return segments[np.argsort(-depth, kind="stable")]
+
+
 def _curve_param(offsets: np.ndarray, n_points: int) -> np.ndarray:
     """Per vertex, its index along the curve / (n - 1): 0 at the root, 1 at the tip."""
     counts = np.diff(offsets)
@@ -387,6 +398,7 @@ class Renderer:
                     ctx.ONE,
                     ctx.ONE_MINUS_SRC_ALPHA,
                 )
+                self._fbo.depth_mask = False  # strands accumulate coverage, back to front
                 released += self._draw_hair(
                     curves,
                     camera,
@@ -407,6 +419,7 @@ class Renderer:
             for obj in released:
                 obj.release()
             ctx.disable(ctx.BLEND | ctx.DEPTH_TEST)
+            self._fbo.depth_mask = True
         linear = np.frombuffer(raw, dtype=np.float16).reshape(h, w, 4)[::-1]
         image = encode_srgb8(linear)
         image[..., 3] = 255  # the background is opaque
@@ -459,7 +472,8 @@ class Renderer:
         data[:, 7] = _point_attr(pd, "opacity", (n,), hair_opacity)
         data[:, 8] = _curve_param(curves.offsets, n)
         vbo = ctx.buffer(data.tobytes())
-        ibo = ctx.buffer(segment_indices(curves.offsets).tobytes())
+        segments = back_to_front(segment_indices(curves.offsets), curves.points, camera)
+        ibo = ctx.buffer(segments.tobytes())
         prog = self._programs["hair"]
         vao = ctx.vertex_array(
             prog,
