@@ -10,7 +10,7 @@ from follicle.curves import HairCurves
 from follicle.errors import FollicleError, InputError
 from follicle.render import Camera, Light, Renderer, render, save_png
 from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
-from follicle.render.opengl import back_to_front, segment_indices
+from follicle.render.strands import back_to_front, segment_indices
 
 
 def _gl_available() -> bool:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import click
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from .errors import FollicleError
@@ -31,7 +32,7 @@ class _Group(click.Group):
             return super().invoke(ctx)
         except FollicleError as exc:
             for line in str(exc).splitlines():
-                _err.print(f"[bold red]error:[/] {line}", markup=True, soft_wrap=True)
+                _err.print(f"[bold red]error:[/] {escape(line)}", soft_wrap=True)
             ctx.exit(2)
 
 

@@ -4,9 +4,10 @@ shader, Kajiya-Kay shading, a Lambert-shaded skin mesh and a gradient background
 
 Lighting and blending happen in linear RGB in a half-float multisampled framebuffer;
 after the MSAA resolve the image is read back and encoded to 8-bit sRGB once
-(:func:`follicle.render.image.encode_srgb8`). Hair is drawn after the mesh with
-standard alpha blending, depth test and depth writes on (no order-independent
-transparency yet).
+(:func:`follicle.render.image.encode_srgb8`). Hair is drawn after the mesh, depth
+tested against it but without depth writes, segments sorted back to front, so every
+thin strand adds its coverage (an order-independent method comes with the full
+renderer).
 """
 
 from __future__ import annotations
@@ -22,43 +23,23 @@ from ..errors import InputError
 from .camera import Camera, Light, default_lights, frame_camera
 from .context import get_context
 from .image import encode_srgb8, save_png
+from .options import (
+    DEFAULT_HAIR_COLOR,
+    DEFAULT_HAIR_WIDTH,
+    DEFAULT_SKIN_COLOR,
+    MAX_LIGHTS,
+    MAX_SUBDIVISIONS,
+    SHADINGS,
+    check_mesh,
+    color3,
+    parse_background,
+    parse_shading,
+    parse_size,
+    point_attr,
+)
+from .strands import back_to_front, curve_param, segment_indices
 
-__all__ = [
-    "Renderer",
-    "render",
-    "SHADINGS",
-    "DEFAULT_SHADING_PARAMS",
-    "DEFAULT_HAIR_COLOR",
-    "DEFAULT_HAIR_WIDTH",
-    "DEFAULT_SKIN_COLOR",
-    "DEFAULT_BACKGROUND",
-    "segment_indices",
-]
-
-SHADINGS = ("kajiya-kay",)
-MAX_SUBDIVISIONS = 16
-MAX_LIGHTS = 8
-MAX_SIZE = 8192
-
-DEFAULT_HAIR_COLOR = (0.16, 0.09, 0.045)  # linear RGB, a mid brown
-DEFAULT_HAIR_WIDTH = 80e-6  # diameter, metres
-DEFAULT_SKIN_COLOR = (0.42, 0.25, 0.18)  # linear RGB
-DEFAULT_BACKGROUND = ((0.09, 0.095, 0.11), (0.012, 0.012, 0.016))  # (top, bottom), linear
-
-DEFAULT_SHADING_PARAMS: dict[str, object] = {
-    "diffuse": 0.6,  # K_d, eq. 3.8
-    "specular": 0.22,  # K_s, eq. 3.9, primary (white) highlight
-    "shininess": 80.0,  # p, eq. 3.9
-    "specular_color": (1.0, 0.97, 0.92),
-    "specular2": 0.35,  # secondary highlight, tinted by the hair colour
-    "shininess2": 20.0,
-    "shift": -0.08,  # tangent shifts along the fibre normal (Scheuermann)
-    "shift2": 0.12,
-    "root_occlusion": 0.65,  # darkening towards the root, 0 .. 1
-    "roundness": 0.35,  # darkening towards the ribbon edges, 0 .. 1
-    "min_width_px": 1.0,  # thinner hair is widened to this many pixels and faded
-    "skin_wrap": 0.1,  # wrap-around term of the skin's Lambert shading
-}
+__all__ = ["Renderer", "render"]
 
 _SHADER_FILES = {
     "hair": ("hair_vs.glsl", "hair_gs.glsl", "hair_kajiya_kay_fs.glsl"),
@@ -85,139 +66,6 @@ def _program(ctx, name: str):
         )
         _programs[key] = prog
     return prog
-
-
-def segment_indices(offsets: np.ndarray) -> np.ndarray:
-    """Lines-adjacency indices (S, 4) uint32 for every segment of every curve.
-
-    Segment i of a curve with vertices P_0 … P_{n-1} gets (P_{i-1}, P_i, P_{i+1},
-    P_{i+2}) with the indices clamped to the curve, i.e. its end points duplicated
-    as phantom neighbours (000 §2.2.1, Fig. 2.8). Vectorised: no loop over curves.
-    """
-    offsets = np.asarray(offsets, dtype=np.int64)
-    counts = np.diff(offsets)
-    nseg = counts - 1
-    total = int(nseg.sum())
-    if total == 0:
-        return np.zeros((0, 4), dtype=np.uint32)
-    seg_starts = np.zeros(len(nseg), dtype=np.int64)
-    np.cumsum(nseg[:-1], out=seg_starts[1:])
-    first = np.repeat(offsets[:-1], nseg)  # first vertex of each segment's curve
-    last = np.repeat(offsets[1:] - 1, nseg)  # last vertex of each segment's curve
-    local = np.arange(total, dtype=np.int64) - np.repeat(seg_starts, nseg)
-    idx = (first + local)[:, None] + np.arange(-1, 3, dtype=np.int64)[None, :]
-    np.clip(idx, first[:, None], last[:, None], out=idx)
-    return idx.astype(np.uint32)
-
-
-def back_to_front(segments: np.ndarray, points: np.ndarray, camera: Camera) -> np.ndarray:
-    """Segments ordered farthest first by the view depth of their middle.
-
-    Hair is blended without writing depth, so every thin, partly covering strand
-    adds to the coverage; drawing back to front keeps the nearer strands on top.
-    """
-    middle = 0.5 * (points[segments[:, 1]] + points[segments[:, 2]])
-    depth = middle.astype(np.float64) @ (camera.basis()[2])
-    return segments[np.argsort(-depth, kind="stable")]
-
-
-def _curve_param(offsets: np.ndarray, n_points: int) -> np.ndarray:
-    """Per vertex, its index along the curve / (n - 1): 0 at the root, 1 at the tip."""
-    counts = np.diff(offsets)
-    starts = np.repeat(offsets[:-1], counts)
-    denom = np.repeat(np.maximum(counts - 1, 1), counts)
-    return ((np.arange(n_points, dtype=np.int64) - starts) / denom).astype(np.float32)
-
-
-def _color3(value: object, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise InputError(f"{name}: expected 3 non-negative linear RGB numbers, got {value!r}")
-    return arr
-
-
-def _parse_background(background: object) -> tuple[np.ndarray, np.ndarray]:
-    if background is None:
-        background = DEFAULT_BACKGROUND
-    arr = np.asarray(background, dtype=np.float64)
-    if arr.shape == (3,):
-        top = bottom = _color3(arr, "background")
-    elif arr.shape == (2, 3):
-        top, bottom = _color3(arr[0], "background top"), _color3(arr[1], "background bottom")
-    else:
-        raise InputError(
-            "background: expected one linear RGB colour (r, g, b) or a vertical gradient"
-            f" ((r, g, b) top, (r, g, b) bottom), got shape {arr.shape}"
-        )
-    return top, bottom
-
-
-def _parse_size(size: object) -> tuple[int, int]:
-    try:
-        w, h = size  # type: ignore[misc]
-    except (TypeError, ValueError):
-        raise InputError(f"size: expected (width, height), got {size!r}") from None
-    out = []
-    for v in (w, h):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 < v <= MAX_SIZE:
-            raise InputError(
-                f"size: width and height must be integers in 1..{MAX_SIZE}, got {size!r}"
-            )
-        out.append(int(v))
-    return out[0], out[1]
-
-
-def _parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str, object]:
-    if shading not in SHADINGS:
-        raise InputError(f"shading: unknown model {shading!r}; allowed: {', '.join(SHADINGS)}")
-    merged = dict(DEFAULT_SHADING_PARAMS)
-    for key, value in (params or {}).items():
-        if key not in DEFAULT_SHADING_PARAMS:
-            raise InputError(
-                f"shading_params: unknown key {key!r}; allowed: {', '.join(DEFAULT_SHADING_PARAMS)}"
-            )
-        if key == "specular_color":
-            merged[key] = tuple(_color3(value, "shading_params['specular_color']"))
-        else:
-            try:
-                merged[key] = float(value)  # type: ignore[arg-type]
-            except (TypeError, ValueError):
-                raise InputError(
-                    f"shading_params[{key!r}]: expected a number, got {value!r}"
-                ) from None
-            if not np.isfinite(merged[key]):
-                raise InputError(f"shading_params[{key!r}]: must be finite, got {value!r}")
-    if merged["shininess"] <= 0 or merged["shininess2"] <= 0:
-        raise InputError("shading_params: shininess and shininess2 must be positive")
-    if merged["min_width_px"] <= 0:
-        raise InputError("shading_params['min_width_px']: must be positive")
-    return merged
-
-
-def _check_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    try:
-        vertices = np.asarray(mesh.vertices, dtype=np.float64)  # type: ignore[attr-defined]
-        faces = np.asarray(mesh.faces)  # type: ignore[attr-defined]
-        normals = np.asarray(mesh.vertex_normals("current"), dtype=np.float64)  # type: ignore[attr-defined]
-    except AttributeError as exc:
-        raise InputError(
-            "mesh: expected a SkinMesh (vertices, faces, vertex_normals),"
-            f" got {type(mesh).__name__}"
-        ) from exc
-    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
-        raise InputError(
-            "mesh: expected vertices (V, 3) and faces (F, 3),"
-            f" got {vertices.shape} and {faces.shape}"
-        )
-    if normals.shape != vertices.shape:
-        raise InputError(
-            f"mesh: vertex normals have shape {normals.shape}, expected {vertices.shape}"
-        )
-    if not (np.all(np.isfinite(vertices)) and np.all(np.isfinite(normals))):
-        raise InputError("mesh: vertices or normals contain NaN or inf")
-    if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
-        raise InputError("mesh: face indices out of range of the vertices")
-    return vertices, faces, normals
 
 
 def _scene_bounds(curves: HairCurves | None, mesh: object | None) -> tuple[np.ndarray, np.ndarray]:
@@ -267,10 +115,10 @@ class Renderer:
         msaa: int = 4,
         background: object = None,
     ) -> None:
-        self.size = _parse_size(size)
+        self.size = parse_size(size)
         if isinstance(msaa, bool) or not isinstance(msaa, (int, np.integer)) or not 0 <= msaa <= 64:
             raise InputError(f"msaa: expected samples per pixel 0..64 (0 or 1: off), got {msaa!r}")
-        self.background = _parse_background(background)
+        self.background = parse_background(background)
         self.ctx = ctx = get_context()
         samples = 0 if msaa <= 1 else min(int(msaa), int(ctx.max_samples))
         self.msaa = samples
@@ -333,7 +181,7 @@ class Renderer:
         """
         if self._fbo is None:
             raise InputError("Renderer: already released")
-        params = _parse_shading(shading, shading_params)
+        params = parse_shading(shading, shading_params)
         if curves is not None and not isinstance(curves, HairCurves):
             raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
         if (
@@ -345,13 +193,13 @@ class Renderer:
                 f"subdivisions: expected an integer in 1..{MAX_SUBDIVISIONS}, got {subdivisions!r}"
             )
         has_hair = curves is not None and curves.curve_count > 0
-        mesh_arrays = _check_mesh(mesh) if mesh is not None else None
+        mesh_arrays = check_mesh(mesh) if mesh is not None else None
         if not has_hair and (mesh_arrays is None or len(mesh_arrays[1]) == 0):
             raise InputError(
                 "render: nothing to draw; give non-empty curves and/or a mesh with faces"
             )
-        hair_color = _color3(hair_color, "hair_color")
-        skin_color = _color3(skin_color, "skin_color")
+        hair_color = color3(hair_color, "hair_color")
+        skin_color = color3(skin_color, "skin_color")
         if not (np.isfinite(hair_width) and hair_width > 0):
             raise InputError(
                 f"hair_width: must be a positive diameter in metres, got {hair_width!r}"
@@ -467,10 +315,10 @@ class Renderer:
         # one interleaved upload per frame: position, width, colour, opacity, t
         data = np.empty((n, 9), dtype="f4")
         data[:, 0:3] = curves.points
-        data[:, 3] = _point_attr(pd, "width", (n,), hair_width)
-        data[:, 4:7] = _point_attr(pd, "color", (n, 3), hair_color)
-        data[:, 7] = _point_attr(pd, "opacity", (n,), hair_opacity)
-        data[:, 8] = _curve_param(curves.offsets, n)
+        data[:, 3] = point_attr(pd, "width", (n,), hair_width)
+        data[:, 4:7] = point_attr(pd, "color", (n, 3), hair_color)
+        data[:, 7] = point_attr(pd, "opacity", (n,), hair_opacity)
+        data[:, 8] = curve_param(curves.offsets, n)
         vbo = ctx.buffer(data.tobytes())
         segments = back_to_front(segment_indices(curves.offsets), curves.points, camera)
         ibo = ctx.buffer(segments.tobytes())
@@ -501,17 +349,6 @@ class Renderer:
         _set_lights(prog, light_uniforms)
         vao.render(mode=ctx.LINES_ADJACENCY)
         return [vao, vbo, ibo]
-
-
-def _point_attr(
-    pd: Mapping[str, np.ndarray], key: str, shape: tuple[int, ...], default
-) -> np.ndarray:
-    if key in pd:
-        arr = np.asarray(pd[key], dtype=np.float32)
-        if arr.shape != shape:
-            raise InputError(f"point_data[{key!r}]: expected shape {shape}, got {arr.shape}")
-        return arr
-    return np.broadcast_to(np.asarray(default, dtype=np.float32), shape)
 
 
 def _light_uniforms(

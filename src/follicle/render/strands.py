@@ -1,0 +1,51 @@
+"""Strand geometry for the GPU: lines-adjacency segment indices, draw order, curve parameter."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .camera import Camera
+
+__all__ = ["segment_indices", "back_to_front", "curve_param"]
+
+
+def segment_indices(offsets: np.ndarray) -> np.ndarray:
+    """Lines-adjacency indices (S, 4) uint32 for every segment of every curve.
+
+    Segment i of a curve with vertices P_0 … P_{n-1} gets (P_{i-1}, P_i, P_{i+1},
+    P_{i+2}) with the indices clamped to the curve, i.e. its end points duplicated
+    as phantom neighbours (000 §2.2.1, Fig. 2.8). Vectorised: no loop over curves.
+    """
+    offsets = np.asarray(offsets, dtype=np.int64)
+    counts = np.diff(offsets)
+    nseg = counts - 1
+    total = int(nseg.sum())
+    if total == 0:
+        return np.zeros((0, 4), dtype=np.uint32)
+    seg_starts = np.zeros(len(nseg), dtype=np.int64)
+    np.cumsum(nseg[:-1], out=seg_starts[1:])
+    first = np.repeat(offsets[:-1], nseg)  # first vertex of each segment's curve
+    last = np.repeat(offsets[1:] - 1, nseg)  # last vertex of each segment's curve
+    local = np.arange(total, dtype=np.int64) - np.repeat(seg_starts, nseg)
+    idx = (first + local)[:, None] + np.arange(-1, 3, dtype=np.int64)[None, :]
+    np.clip(idx, first[:, None], last[:, None], out=idx)
+    return idx.astype(np.uint32)
+
+
+def back_to_front(segments: np.ndarray, points: np.ndarray, camera: Camera) -> np.ndarray:
+    """Segments ordered farthest first by the view depth of their middle.
+
+    Hair is blended without writing depth, so every thin, partly covering strand
+    adds to the coverage; drawing back to front keeps the nearer strands on top.
+    """
+    middle = 0.5 * (points[segments[:, 1]] + points[segments[:, 2]])
+    depth = middle.astype(np.float64) @ (camera.basis()[2])
+    return segments[np.argsort(-depth, kind="stable")]
+
+
+def curve_param(offsets: np.ndarray, n_points: int) -> np.ndarray:
+    """Per vertex, its index along the curve / (n - 1): 0 at the root, 1 at the tip."""
+    counts = np.diff(offsets)
+    starts = np.repeat(offsets[:-1], counts)
+    denom = np.repeat(np.maximum(counts - 1, 1), counts)
+    return ((np.arange(n_points, dtype=np.int64) - starts) / denom).astype(np.float32)

@@ -1,0 +1,147 @@
+"""The follicle command as a user runs it: outputs, exit codes, error lines."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+import follicle
+from follicle.cli import main
+
+
+def run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def hair_pixel_fraction(path):
+    """Pixels that are neither background gradient nor skin: dark, brownish hair."""
+    img = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    r, b = img[..., 0], img[..., 2]
+    return float(np.mean((r > b + 8) & (r < 150)))
+
+
+@pytest.fixture(scope="module")
+def demo_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    result = run("demo", "--out", out, "--size", 320, 320)
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_demo_writes_20000_hairs_and_a_picture_of_hair(demo_dir):
+    curves = follicle.load_curves(demo_dir / "demo.npz")
+    assert curves.curve_count == 20000
+    assert set(curves.point_data) == {"width", "color", "opacity"}
+    img = Image.open(demo_dir / "demo.png")
+    assert img.size == (320, 320) and img.mode == "RGBA"
+    assert hair_pixel_fraction(demo_dir / "demo.png") > 0.05
+    assert sorted(p.name for p in demo_dir.iterdir()) == ["demo.npz", "demo.png"]
+
+
+def test_grow_render_info_from_a_scene(tmp_path):
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[groom]\ncount = 1500\nseed = 3\n[guides]\npath = "builtin:short"\n'
+                     "[render]\nsize = [160, 120]\n")
+    result = run("grow", scene, "-o", tmp_path / "a.npz")
+    assert result.exit_code == 0 and "1,500 hairs" in result.output
+    a = follicle.load_curves(tmp_path / "a.npz")
+    assert a.curve_count == 1500 and a.counts[0] == 16
+    # same scene, same bytes
+    run("grow", scene, "-o", tmp_path / "b.npz")
+    assert (tmp_path / "a.npz").read_bytes() == (tmp_path / "b.npz").read_bytes()
+    # --count / --seed override the scene
+    run("grow", scene, "-o", tmp_path / "c.npz", "--count", 10, "--seed", 4)
+    assert follicle.load_curves(tmp_path / "c.npz").curve_count == 10
+
+    result = run("render", tmp_path / "a.npz", "--mesh", "builtin:head", "-o", tmp_path / "a.png")
+    assert result.exit_code == 0
+    assert Image.open(tmp_path / "a.png").size == (960, 960)
+    result = run("render", scene, "-o", tmp_path / "s.png", "--msaa", "0")
+    assert result.exit_code == 0
+    assert Image.open(tmp_path / "s.png").size == (160, 120)
+
+    result = run("info", scene)
+    assert "count = 1500" in result.output and 'path = "builtin:short"' in result.output
+    assert "[sim]" in result.output
+    result = run("info", tmp_path / "a.npz")
+    assert "1500 curves" in result.output
+
+
+def test_default_output_paths_come_from_the_scene(tmp_path):
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[groom]\ncount = 50\n[output]\ncurves = "out/h.npz"\n')
+    assert run("grow", scene).exit_code == 0
+    assert (tmp_path / "out" / "h.npz").is_file()
+
+
+@pytest.mark.parametrize(
+    ("scene_text", "message"),
+    [
+        ('[mesh]\npath = "nowhere.obj"\n', "nowhere.obj"),
+        ('[mesh]\npath = "head.xyz"\n', "xyz"),
+        ("[groom\ncount = 3\n", "TOML syntax error"),
+        ("[groom]\ncuont = 3\n", "[groom].cuont: unknown key"),
+        ("[groom]\ncount = -4\n", "[groom].count: Input should be greater than or equal to 0"),
+        ('[mesh]\npath = "empty.obj"\n', "no faces"),
+        ('[mesh]\npath = "nan.obj"\n', "not finite"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2_and_no_output(tmp_path, scene_text, message):
+    (tmp_path / "head.xyz").write_text("nothing")
+    (tmp_path / "empty.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
+    (tmp_path / "nan.obj").write_text("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(scene_text)
+    proc = subprocess.run(
+        [sys.executable, "-m", "follicle.cli", "grow", str(scene), "-o", str(tmp_path / "o.npz")],
+        capture_output=True, text=True,
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert message in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert proc.stderr.startswith("error:")
+    assert not (tmp_path / "o.npz").exists()
+    assert not any(p.name.startswith(".o.npz") for p in tmp_path.iterdir())
+
+
+def test_negative_count_on_the_command_line(tmp_path):
+    result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path / "d"), "--count", "-5"])
+    assert result.exit_code == 2
+    assert "count" in result.output and "greater than or equal to 0" in result.output
+    assert not (tmp_path / "d").exists()
+
+
+def test_unknown_output_extension_and_missing_curves(tmp_path):
+    result = CliRunner().invoke(main, ["grow", "nope.toml"])
+    assert result.exit_code == 2 and "no such scene file" in result.output
+    scene = tmp_path / "s.toml"
+    scene.write_text("[groom]\ncount = 5\n")
+    result = CliRunner().invoke(main, ["grow", str(scene), "-o", str(tmp_path / "x.abc")])
+    assert result.exit_code == 2 and "must end in .npz" in result.output
+    result = CliRunner().invoke(main, ["render", str(tmp_path / "missing.npz")])
+    assert result.exit_code == 2 and "no such file" in result.output
+
+
+@pytest.mark.parametrize("command", [[], ["demo"], ["grow"], ["render"], ["info"]])
+def test_help_everywhere(command):
+    result = run(*command, "--help")
+    assert result.exit_code == 0 and "Usage:" in result.output
+
+
+def test_piped_output_has_no_progress_bar(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text("[groom]\ncount = 100\n")
+    proc = subprocess.run(
+        [sys.executable, "-m", "follicle.cli", "grow", str(scene), "-o", str(tmp_path / "h.npz")],
+        capture_output=True, text=True,
+    )
+    assert proc.returncode == 0 and proc.stderr == ""
+    assert proc.stdout.strip().endswith("h.npz")
+    verbose = subprocess.run(
+        [sys.executable, "-m", "follicle.cli", "-v", "grow", str(scene), "-o",
+         str(tmp_path / "h.npz")], capture_output=True, text=True,
+    )
+    assert "grow in" in verbose.stderr
