@@ -183,15 +183,9 @@ def test_kajiya_kay_diffuse_follows_tangent_light_angle():
     perpendicular = strand((-0.15, 0.05, 0.0), (-0.02, 0.05, 0.0), width=0.01)  # along x
     parallel = strand((0.08, -0.08, 0.0), (0.08, 0.1, 0.0), width=0.01)  # along y, the light
     curves = HairCurves.concatenate([perpendicular, parallel])
-    img = render(
-        curves,
-        camera=FRONT,
-        size=size,
-        background=BLACK,
-        hair_color=(0.5, 0.5, 0.5),
-        lights=light,
-        shading_params=FLAT,
-    ).astype(int)
+    kw = dict(camera=FRONT, size=size, background=BLACK, hair_color=(0.5, 0.5, 0.5),
+              lights=light, shading_params=FLAT)
+    img = render(curves, **kw).astype(int)
     xa, ya = px((-0.085, 0.05, 0.0), size)
     xb, yb = px((0.08, 0.01, 0.0), size)
     a = img[int(ya), int(xa), 0]
@@ -199,15 +193,7 @@ def test_kajiya_kay_diffuse_follows_tangent_light_angle():
     assert a > b + 80, (a, b)
     # tilted 45°: sin = 0.71, in between
     tilted = strand((-0.1, -0.1, 0.0), (0.1, 0.1, 0.0), width=0.01)
-    img45 = render(
-        tilted,
-        camera=FRONT,
-        size=size,
-        background=BLACK,
-        hair_color=(0.5, 0.5, 0.5),
-        lights=light,
-        shading_params=FLAT,
-    )
+    img45 = render(tilted, **kw)
     c = int(img45[100, 100, 0])
     assert b + 20 < c < a - 10, (a, b, c)
 

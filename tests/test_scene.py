@@ -53,12 +53,21 @@ def test_syntax_error_and_missing_file(tmp_path):
 
 
 def test_scene_to_toml_roundtrips_every_value(tmp_path):
-    scene = parse_scene({"groom": {"count": 7, "scale": 1.5}, "render": {"eye": [0, 1, 2]}})
+    scene = parse_scene(
+        {"groom": {"count": 7, "scale": 1.5}, "render": {"eye": [0, 1, 2], "target": [0, 0, 0]}}
+    )
     text = scene_to_toml(scene)
     assert "count = 7  # number of hairs" in text
-    assert "# target = (unset)" in text
+    assert "eye = [0.0, 1.0, 2.0]" in text
     path = tmp_path / "back.toml"
     path.write_text(text)
     back = load_scene(path)
     assert back.model_dump() == scene.model_dump()
     assert Scene().model_dump() == load_scene(None).model_dump()
+
+
+def test_eye_and_target_go_together():
+    with pytest.raises(ConfigError, match=r"\[render\]: .*set both eye and target"):
+        parse_scene({"render": {"eye": [0, 0, 1]}}, "s.toml")
+    scene = parse_scene({"render": {"eye": [0, 0, 1], "target": [0, 0, 0]}})
+    assert scene.render.target == (0.0, 0.0, 0.0)

@@ -12,6 +12,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
 
 import click
 from rich.console import Console
@@ -19,6 +20,13 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from .errors import FollicleError
+
+if TYPE_CHECKING:
+    from pydantic import BaseModel
+
+    from .scene import Scene
+
+    M = TypeVar("M", bound=BaseModel)
 
 log = logging.getLogger("follicle")
 _err = Console(stderr=True, highlight=False)
@@ -150,7 +158,7 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
         _check_writable_suffix(target, (".png",))
         curves = load_curves(source)
         mesh = load_mesh(mesh_path) if mesh_path else None
-    params = _validated(scene.render, overrides)
+    params = _validated(scene.render, "render", overrides)
     with _step("render"):
         render_scene(curves, mesh, params, out=target)
     click.echo(f"→ {target}")
@@ -171,20 +179,19 @@ def info(source: str | None) -> None:
     click.echo(scene_to_toml(load_scene(source)), nl=False)
 
 
-def _validated(model, changes: dict):  # type: ignore[no-untyped-def]
-    """A copy of a pydantic section with ``changes`` applied and validated."""
+def _validated(model: M, section: str, changes: dict[str, object]) -> M:
+    """A copy of scene section ``section`` with ``changes`` applied and validated."""
     from .scene import parse_scene
 
-    data = model.model_dump()
-    data.update(changes)
-    section = {"RenderParams": "render", "GroomParams": "groom"}[type(model).__name__]
+    data = {**model.model_dump(), **changes}
     return getattr(parse_scene({section: data}, "command line"), section)
 
 
-def _with_overrides(scene, **groom):  # type: ignore[no-untyped-def]
+def _with_overrides(scene: Scene, **groom: object) -> Scene:
+    """``scene`` with the non-None [groom] values from the command line applied."""
     changes = {k: v for k, v in groom.items() if v is not None}
     if changes:
-        scene.groom = _validated(scene.groom, changes)
+        scene.groom = _validated(scene.groom, "groom", changes)
     return scene
 
 

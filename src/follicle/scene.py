@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from .errors import ConfigError, FormatError
 
@@ -109,6 +109,12 @@ class RenderParams(_Section):
     fov: float = Field(30.0, gt=1, lt=170, description="vertical field of view, degrees")
     background_top: RGB = Field((0.33, 0.36, 0.41), description="background gradient top")
     background_bottom: RGB = Field((0.08, 0.085, 0.1), description="background gradient bottom")
+
+    @model_validator(mode="after")
+    def _eye_and_target_together(self) -> RenderParams:
+        if (self.eye is None) != (self.target is None):
+            raise ValueError("set both eye and target, or neither (automatic framing)")
+        return self
 
 
 class OutputParams(_Section):
