@@ -8,10 +8,11 @@ from numba import njit
 from .errors import InputError
 from .spline import _check_curves, _tangents_kernel
 
-__all__ = ["root_frames", "rotation_minimizing_frames"]
+__all__ = ["normalize", "root_frames", "rotation_minimizing_frames"]
 
 
-def _normalize(v: np.ndarray) -> np.ndarray:
+def normalize(v: np.ndarray) -> np.ndarray:
+    """Unit vectors along the last axis; zero vectors stay zero."""
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.where(n > 0, n, 1.0)
 
@@ -26,7 +27,7 @@ def root_frames(
     parallel to the normal (or zero) is replaced by a fixed perpendicular, so the
     frame is always defined. Inputs (n, 3); outputs three float64 (n, 3) arrays.
     """
-    n = _normalize(np.asarray(normals, dtype=np.float64))
+    n = normalize(np.asarray(normals, dtype=np.float64))
     t = np.asarray(tangents, dtype=np.float64)
     t = t - np.sum(t * n, axis=-1, keepdims=True) * n
     length = np.linalg.norm(t, axis=-1)
@@ -37,7 +38,7 @@ def root_frames(
         axis = np.zeros_like(nb)
         axis[np.arange(len(nb)), np.argmin(np.abs(nb), axis=-1)] = 1.0
         t[bad] = axis - np.sum(axis * nb, axis=-1, keepdims=True) * nb
-    t = _normalize(t)
+    t = normalize(t)
     b = np.cross(t, n)
     return n, t, b
 

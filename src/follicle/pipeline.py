@@ -7,15 +7,14 @@ from collections.abc import Callable
 import numpy as np
 
 from .curves import HairCurves
-from .errors import InputError
 from .groom.generator import Groom, resolve_density
 from .groom.guides import load_guides
 from .mesh.load import load_mesh
 from .mesh.skin import SkinMesh
-from .render import Camera, frame_camera, render
+from .render import Camera, render
 from .scene import RenderParams, Scene
 
-__all__ = ["groom_scene", "grow", "scene_camera", "render_scene"]
+__all__ = ["groom_scene", "grow", "render_scene"]
 
 
 def groom_scene(scene: Scene) -> Groom:
@@ -34,27 +33,13 @@ def grow(
     return groom.mesh, groom.grow(progress=progress)
 
 
-def scene_camera(curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams) -> Camera:
-    """The [render] camera: eye/target when set, else framed on hair and mesh at ``fov``."""
-    if params.eye is not None and params.target is not None:
-        return Camera(eye=params.eye, target=params.target, fov_y=params.fov)
-    boxes = []
-    if curves is not None and curves.point_count:
-        boxes.append(curves.bounds())
-    if mesh is not None:
-        boxes.append(mesh.bounds("current"))
-    if not boxes:
-        raise InputError("render: nothing to draw (no hair and no mesh)")
-    lo = np.min([b[0] for b in boxes], axis=0)
-    hi = np.max([b[1] for b in boxes], axis=0)
-    return frame_camera(lo, hi, fov_y=params.fov, aspect=params.size[0] / params.size[1])
-
-
 def render_scene(
     curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None
 ) -> np.ndarray:
     """Render hair and mesh with a scene's [render] settings; writes PNG when ``out``."""
-    camera = scene_camera(curves, mesh, params)
+    camera = None  # framed automatically on hair and mesh at params.fov
+    if params.eye is not None and params.target is not None:
+        camera = Camera(eye=params.eye, target=params.target, fov_y=params.fov)
     return render(
         curves,
         mesh=mesh,
@@ -65,4 +50,5 @@ def render_scene(
         msaa=params.msaa,
         subdivisions=params.subdivisions,
         background=(params.background_top, params.background_bottom),
+        fov=params.fov,
     )

@@ -18,8 +18,11 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
+from ..frames import normalize
 from ..mesh.head import SCALP_TEXTURE, builtin_head, head_signed_distance_and_normal
 from ..mesh.skin import SkinMesh
+from ..rng import halton2d
+from .roots import place_on_triangles
 
 __all__ = ["builtin_guides", "BUILTIN_GUIDES"]
 
@@ -48,18 +51,6 @@ _MIN_DENSITY = 0.5
 SDF = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
-def _halton(index: np.ndarray, base: int) -> np.ndarray:
-    """Radical inverse of the integers ``index`` in ``base``."""
-    out = np.zeros(len(index))
-    i = index.astype(np.int64).copy()
-    f = 1.0 / base
-    while np.any(i > 0):
-        out += f * (i % base)
-        i //= base
-        f /= base
-    return out
-
-
 def sample_roots(mesh: SkinMesh, count: int) -> tuple[np.ndarray, np.ndarray]:
     """``count`` deterministic roots where the scalp density exceeds 0.5: (triangles, bary).
 
@@ -80,27 +71,14 @@ def sample_roots(mesh: SkinMesh, count: int) -> tuple[np.ndarray, np.ndarray]:
     weight = areas * np.where(centre_density > _MIN_DENSITY, centre_density, 0.0)
     if weight.sum() <= 0:
         raise InputError(f"mesh '{mesh.name}': no area with scalp density > {_MIN_DENSITY}")
-    cdf = np.cumsum(weight)
-    cdf /= cdf[-1]
     tris, barys, start = [], [], 1
     while sum(len(t) for t in tris) < count:
-        idx = np.arange(start, start + 2 * count)
+        tri, bary = place_on_triangles(weight, halton2d(2 * count, start=start))
         start += 2 * count
-        h1, h2 = _halton(idx, 2), _halton(idx, 3)
-        tri = np.minimum(np.searchsorted(cdf, h1, side="right"), len(cdf) - 1)
-        lo = np.where(tri > 0, cdf[tri - 1], 0.0)
-        r = np.clip((h1 - lo) / np.maximum(cdf[tri] - lo, 1e-300), 0.0, 1.0)
-        s = np.sqrt(r)
-        bary = np.stack([1.0 - s, s * (1.0 - h2)], axis=1).astype(np.float32)
         keep = density_of(tri, bary.astype(np.float64)) > _MIN_DENSITY
         tris.append(tri[keep])
         barys.append(bary[keep])
     return np.concatenate(tris)[:count], np.concatenate(barys)[:count]
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
 
 
 def _mesh_sdf(mesh: SkinMesh) -> SDF:
@@ -111,7 +89,7 @@ def _mesh_sdf(mesh: SkinMesh) -> SDF:
         surf = mesh.evaluate(tri, np.clip(bary, 0.0, 1.0))
         away = p - surf.position
         sign = np.where(np.sum(away * surf.normal, axis=1) < 0, -1.0, 1.0)
-        direction = np.where(dist[:, None] > 1e-9, _unit(away) * sign[:, None], surf.normal)
+        direction = np.where(dist[:, None] > 1e-9, normalize(away) * sign[:, None], surf.normal)
         return sign * dist, direction
 
     return sdf
@@ -125,7 +103,7 @@ def _push_out(p: np.ndarray, prev: np.ndarray, seg: np.ndarray, sdf: SDF, clear:
         if not inside.any():
             break
         p = p + np.where(inside, clear - dist, 0.0)[:, None] * normal
-        p = prev + seg * _unit(p - prev)  # re-normalise the segment
+        p = prev + seg * normalize(p - prev)  # re-normalise the segment
     return p
 
 
@@ -156,7 +134,7 @@ def _march(
     down = np.array([0.0, -1.0, 0.0])
     out = np.empty((len(roots), count, 3))
     out[:, 0] = roots
-    d = _unit(style.lift * normals + _comb_field(roots, centre) + 0.5 * down)
+    d = normalize(style.lift * normals + _comb_field(roots, centre) + 0.5 * down)
     for i in range(1, count):
         prev = out[:, i - 1]
         dist, n_s = sdf(prev)
@@ -164,10 +142,10 @@ def _march(
         hug = np.ones(len(prev)) if style.hug_all else np.clip(3.0 * n_s[:, 1], 0.0, 1.0)
         hug = hug * (dist < clear + 0.02)
         outward = np.maximum(np.sum(want * n_s, axis=1), 0.0)
-        want = _unit(want - (hug * outward)[:, None] * n_s)
-        d = _unit((1.0 - style.bend) * d + style.bend * want)
+        want = normalize(want - (hug * outward)[:, None] * n_s)
+        d = normalize((1.0 - style.bend) * d + style.bend * want)
         nxt = _push_out(prev + seg * d, prev, seg, sdf, clear)
-        d = _unit(nxt - prev)
+        d = normalize(nxt - prev)
         out[:, i] = nxt
     return out
 
@@ -175,7 +153,7 @@ def _march(
 def _transport_frames(path: np.ndarray, normal0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Frames (N, B) along (C, n, 3) paths by projecting the previous N (parallel transport)."""
     tangent = np.gradient(path, axis=1)
-    tangent = _unit(tangent)
+    tangent = normalize(tangent)
     nvec = np.empty_like(path)
     cur = normal0
     for i in range(path.shape[1]):
@@ -183,7 +161,7 @@ def _transport_frames(path: np.ndarray, normal0: np.ndarray) -> tuple[np.ndarray
         cur = cur - np.sum(cur * t, axis=1, keepdims=True) * t
         bad = np.linalg.norm(cur, axis=1) < 1e-6
         cur[bad] = np.cross(t[bad], [0.0, 0.0, 1.0]) + 1e-3 * np.cross(t[bad], [1.0, 0, 0])
-        cur = _unit(cur)
+        cur = normalize(cur)
         nvec[:, i] = cur
     return nvec, np.cross(tangent, nvec)
 
@@ -209,7 +187,7 @@ def _follow(targets: np.ndarray, sdf: SDF, clear: float) -> np.ndarray:
     out[:, 0] = targets[:, 0]
     for i in range(1, targets.shape[1]):
         prev = out[:, i - 1]
-        nxt = prev + seg * _unit(targets[:, i] - prev)
+        nxt = prev + seg * normalize(targets[:, i] - prev)
         out[:, i] = _push_out(nxt, prev, seg, sdf, clear)
     return out
 

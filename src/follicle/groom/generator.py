@@ -78,14 +78,14 @@ class Groom:
         points = np.empty((count, n, 3), dtype=np.float32)
         triangles = np.empty(count, dtype=np.int32)
         bary = np.empty((count, 2), dtype=np.float32)
+        root_uv = np.empty((count, 2), dtype=np.float32)
         for start in range(0, count, CHUNK):
             stop = min(start + CHUNK, count)
-            tri, uv = sample_roots(self.weights, stop - start, seed, start)
-            points[start:stop] = self._shapes(tri, uv)
-            triangles[start:stop], bary[start:stop] = tri, uv
+            tri, b = sample_roots(self.weights, stop - start, seed, start)
+            points[start:stop], root_uv[start:stop] = self._shapes(tri, b)
+            triangles[start:stop], bary[start:stop] = tri, b
             if progress is not None:
                 progress(stop, count)
-        root_uv = self.mesh.evaluate(triangles, bary, pose="rest").uv.astype(np.float32)
         attrs = root_to_tip(
             count, n, p.root_width, p.tip_width, p.root_color, p.tip_color,
             p.root_opacity, p.tip_opacity,
@@ -101,11 +101,13 @@ class Groom:
             },
         )
 
-    def _shapes(self, triangles: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    def _shapes(self, triangles: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Hair vertices (n, N, 3) on the current pose and root UVs (n, 2) of these roots."""
         rest = self.mesh.evaluate(triangles, bary, pose="rest")
         idx, w = idw_weights(self.guides.root_positions, rest.position, self.params.guide_samples)
         cur = self.mesh.evaluate(triangles, bary, pose="current")
-        return blend_guides(
+        shapes = blend_guides(
             self.guides.local, idx, w, cur.position, cur.tangent, cur.binormal, cur.normal,
             self.params.scale,
         )
+        return shapes, rest.uv

@@ -15,7 +15,7 @@ from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
 from ..rng import purpose_id, uniforms
 
-__all__ = ["triangle_weights", "sample_roots"]
+__all__ = ["triangle_weights", "sample_roots", "place_on_triangles"]
 
 _ROOT_STREAM = purpose_id("root")
 
@@ -56,12 +56,21 @@ def sample_roots(
     """
     if count < 0:
         raise InputError(f"count: must be ≥ 0, got {count}")
-    cdf = np.cumsum(weights, dtype=np.float64)
-    total = cdf[-1]
     xi = uniforms(seed, np.arange(start, start + count, dtype=np.int64), _ROOT_STREAM, 2)
-    target = xi[:, 0] * total
+    return place_on_triangles(weights, xi)
+
+
+def place_on_triangles(weights: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Map pairs of numbers in [0, 1) to points on triangles chosen ∝ ``weights``.
+
+    The first number picks the triangle through the CDF and, rescaled inside its
+    interval, is reused with the second to place the point uniformly in the triangle
+    (000 §2.1.5: exactly two numbers per sample). Returns (triangle int32 (n,),
+    bary float32 (n, 2)) in the 000 §2.2.3 convention u·v0 + v·v1 + (1-u-v)·v2.
+    """
+    cdf = np.cumsum(weights, dtype=np.float64)
+    target = xi[:, 0] * cdf[-1]
     tri = np.minimum(np.searchsorted(cdf, target, side="right"), len(cdf) - 1)
-    # reuse the first number inside the chosen triangle (000 §2.1.5)
     low = np.where(tri > 0, cdf[tri - 1], 0.0)
     inner = np.clip((target - low) / np.maximum(weights[tri], 1e-300), 0.0, 1.0)
     root = np.sqrt(inner)

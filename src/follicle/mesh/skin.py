@@ -14,7 +14,7 @@ from numba import njit
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
-from ..frames import root_frames
+from ..frames import normalize, root_frames
 from .texture import Texture
 
 __all__ = ["SkinMesh", "SurfacePoints"]
@@ -30,11 +30,6 @@ class SurfacePoints(NamedTuple):
     tangent: np.ndarray  # (n, 3)
     binormal: np.ndarray  # (n, 3), tangent × normal
     uv: np.ndarray  # (n, 2), zeros when the mesh has no UVs
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
 
 
 def _finite_rows(arr: np.ndarray, what: str) -> None:
@@ -102,8 +97,7 @@ class SkinMesh:
                     f"{what}: textures['{key}'] is {type(tex).__name__}, not a Texture"
                 )
         self._cache: dict[tuple[str, str], object] = {}
-        p0, p1, p2 = (verts[f[:, k]] for k in range(3))
-        areas = 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
+        areas = 0.5 * np.linalg.norm(self._face_cross("rest"), axis=1)
         scale = float(np.ptp(verts, axis=0).max())
         self.degenerate_faces = _frozen(areas <= 1e-14 * max(scale, 1e-150) ** 2)
         if self.degenerate_faces.all():
@@ -151,6 +145,8 @@ class SkinMesh:
 
     def _cached(self, what: str, pose: str, make) -> np.ndarray:
         self._verts(pose)  # validates pose
+        if self.vertices is self.rest_vertices:
+            pose = "rest"  # not posed: the current pose shares the rest pose's data
         key = (what, pose)
         if key not in self._cache:
             self._cache[key] = make(self._verts(pose))
@@ -202,7 +198,7 @@ class SkinMesh:
         """Unit face normals (F, 3) by the right-hand rule on (v0, v1, v2); zero if degenerate."""
 
         def make(_v: np.ndarray) -> np.ndarray:
-            n = _unit(self._face_cross(pose).copy())
+            n = normalize(self._face_cross(pose).copy())
             n[self.degenerate_faces] = 0.0
             return _frozen(n)
 
@@ -275,10 +271,9 @@ class SkinMesh:
             dpdu, _, ok = self.face_uv_derivatives(pose)
             n = self.face_normals(pose)
             edge = v[self.faces[:, 1]] - v[self.faces[:, 0]]
-            edge = edge - np.sum(edge * n, axis=1, keepdims=True) * n
             t = np.where(ok[:, None], dpdu, edge)
             t = t - np.sum(t * n, axis=1, keepdims=True) * n
-            return _frozen(_unit(t))
+            return _frozen(normalize(t))
 
         return self._cached("face_tangents", pose, make)
 
@@ -289,7 +284,7 @@ class SkinMesh:
             acc = self._area_weighted_sum(self.face_tangents(pose), pose)
             n = self.vertex_normals(pose)
             acc = acc - np.sum(acc * n, axis=1, keepdims=True) * n
-            return _frozen(_unit(acc))
+            return _frozen(normalize(acc))
 
         return self._cached("vertex_tangents", pose, make)
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..frames import normalize
 
 __all__ = ["Camera", "Light", "default_lights", "frame_camera"]
 
@@ -29,13 +30,9 @@ def _vec3(value: object, name: str) -> np.ndarray:
     return arr
 
 
-def _normalize(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
-
-
 def _perpendicular_up(forward: np.ndarray, up: np.ndarray) -> np.ndarray:
     """``up`` unless it is (nearly) parallel to ``forward``; then the most perpendicular axis."""
-    if np.linalg.norm(np.cross(forward, _normalize(up))) > 1e-6:
+    if np.linalg.norm(np.cross(forward, normalize(up))) > 1e-6:
         return up
     axes = np.eye(3)
     return axes[int(np.argmin(np.abs(axes @ forward)))]
@@ -84,8 +81,8 @@ class Camera:
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Unit (right, up, forward) vectors of the camera in world space."""
-        forward = _normalize(self.target - self.eye)
-        right = _normalize(np.cross(forward, _perpendicular_up(forward, self.up)))
+        forward = normalize(self.target - self.eye)
+        right = normalize(np.cross(forward, _perpendicular_up(forward, self.up)))
         return right, np.cross(right, forward), forward
 
     def view_matrix(self) -> np.ndarray:
@@ -177,9 +174,9 @@ def frame_camera(
     # a point (or flat) box still needs some extent to frame
     pad = 1e-3 * max(1.0, float(np.abs(centre).max()))
     half = np.maximum(0.5 * (hi - lo), pad)
-    back = _normalize(d)  # centre -> eye
+    back = normalize(d)  # centre -> eye
     forward = -back
-    right = _normalize(np.cross(forward, _perpendicular_up(forward, _vec3(up, "frame_camera up"))))
+    right = normalize(np.cross(forward, _perpendicular_up(forward, _vec3(up, "frame_camera up"))))
     cam_up = np.cross(right, forward)
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     corners = signs * half
@@ -217,7 +214,7 @@ class Light:
             d = _vec3(self.direction, "light direction")
             if np.linalg.norm(d) <= 0:
                 raise InputError("light direction: must not be the zero vector")
-            self.direction = _normalize(d)
+            self.direction = normalize(d)
         c = _vec3(self.color, "light color")
         if np.any(c < 0) or not (math.isfinite(self.intensity) and self.intensity >= 0):
             raise InputError("light: color and intensity must be non-negative")
@@ -243,7 +240,7 @@ class Light:
             return np.asarray(self.direction)
         right, up, forward = camera.basis()
         x, y, z = self.direction
-        return _normalize(x * right + y * up - z * forward)
+        return normalize(x * right + y * up - z * forward)
 
 
 def default_lights() -> list[Light]:

@@ -170,13 +170,15 @@ class Renderer:
         hair_width: float = DEFAULT_HAIR_WIDTH,
         hair_opacity: float = 1.0,
         skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
+        fov: float = 35.0,
     ) -> np.ndarray:
         """Render one frame; returns (H, W, 4) uint8, top row first, sRGB, alpha 255.
 
         ``curves`` may be None or empty when a ``mesh`` is given. Per-vertex
         ``width``/``color``/``opacity`` of the curves win over ``hair_width`` (diameter,
         metres), ``hair_color`` (linear RGB) and ``hair_opacity``. ``camera`` None frames
-        the scene with :func:`frame_camera`; ``lights`` None uses :func:`default_lights`.
+        hair and mesh with :func:`frame_camera` at ``fov`` degrees (vertical); ``lights``
+        None uses :func:`default_lights`.
         ``subdivisions`` (1..16) is the Catmull-Rom samples per segment.
         """
         if self._fbo is None:
@@ -210,7 +212,7 @@ class Renderer:
         w, h = self.size
         lo, hi = _scene_bounds(curves if has_hair else None, mesh)
         if camera is None:
-            camera = frame_camera(lo, hi, aspect=w / h)
+            camera = frame_camera(lo, hi, fov_y=fov, aspect=w / h)
         elif not isinstance(camera, Camera):
             raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
         near, far = _clip_range(camera, lo, hi)
@@ -398,10 +400,12 @@ def render(
     hair_width: float = DEFAULT_HAIR_WIDTH,
     hair_opacity: float = 1.0,
     skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
+    fov: float = 35.0,
 ) -> np.ndarray:
     """Render hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
 
-    ``camera`` None frames the union of hair and mesh bounds. When ``out`` is given
+    ``camera`` None frames the union of hair and mesh bounds at ``fov`` degrees
+    (vertical). When ``out`` is given
     the image is also written there as PNG (atomically). See :class:`Renderer`.
     """
     if shading not in SHADINGS:
@@ -419,6 +423,7 @@ def render(
             hair_width=hair_width,
             hair_opacity=hair_opacity,
             skin_color=skin_color,
+            fov=fov,
         )
     if out is not None:
         save_png(image, out)
