@@ -11,6 +11,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from ..errors import FormatError, InputError
 
@@ -111,25 +112,42 @@ class Texture:
             raise InputError(f"texture '{self.name}': uv must have shape (n, 2), got {uv.shape}")
         if not np.all(np.isfinite(uv)):
             raise InputError(f"texture '{self.name}': uv contains NaN or inf")
-        h, w = self.height, self.width
-        x = uv[:, 0] * w - 0.5  # continuous column, texel centres at integers
-        y = (1.0 - uv[:, 1]) * h - 0.5  # continuous row from the top
-        x0 = np.floor(x)
-        y0 = np.floor(y)
-        fx = (x - x0)[:, None]
-        fy = (y - y0)[:, None]
-        x0 = x0.astype(np.int64)
-        y0 = y0.astype(np.int64)
-        xs = self._index(np.stack([x0, x0 + 1]), w)
-        ys = self._index(np.stack([y0, y0 + 1]), h)
-        d = self.data
-        top = d[ys[0], xs[0]] * (1.0 - fx) + d[ys[0], xs[1]] * fx
-        bottom = d[ys[1], xs[0]] * (1.0 - fx) + d[ys[1], xs[1]] * fx
-        out = (top * (1.0 - fy) + bottom * fy).astype(np.float64)
+        out = _sample_kernel(self.data, self.wrap == "repeat", np.ascontiguousarray(uv))
         return out[:, 0] if self.channels == 1 else out
 
-    def _index(self, i: np.ndarray, n: int) -> np.ndarray:
-        return np.mod(i, n) if self.wrap == "repeat" else np.clip(i, 0, n - 1)
+
+@njit(cache=True, inline="always")
+def _wrap(i, n, repeat):
+    if repeat:
+        return i % n  # Python semantics in numba: never negative
+    return min(max(i, 0), n - 1)
+
+
+@njit(cache=True)
+def bilinear(data, repeat, u, v, c):
+    """Channel ``c`` of (H, W, C) ``data`` at (u, v), bilinear; for use inside kernels."""
+    h, w = data.shape[0], data.shape[1]
+    x = u * w - 0.5  # continuous column, texel centres at integers
+    y = (1.0 - v) * h - 0.5  # continuous row from the top
+    x0 = np.floor(x)
+    y0 = np.floor(y)
+    fx = x - x0
+    fy = y - y0
+    i0, j0 = int(y0), int(x0)
+    r0, r1 = _wrap(i0, h, repeat), _wrap(i0 + 1, h, repeat)
+    c0, c1 = _wrap(j0, w, repeat), _wrap(j0 + 1, w, repeat)
+    top = data[r0, c0, c] * (1.0 - fx) + data[r0, c1, c] * fx
+    bottom = data[r1, c0, c] * (1.0 - fx) + data[r1, c1, c] * fx
+    return top * (1.0 - fy) + bottom * fy
+
+
+@njit(cache=True)
+def _sample_kernel(data, repeat, uv):
+    out = np.empty((uv.shape[0], data.shape[2]), dtype=np.float64)
+    for n in range(uv.shape[0]):
+        for c in range(data.shape[2]):
+            out[n, c] = bilinear(data, repeat, uv[n, 0], uv[n, 1], c)
+    return out
 
 
 def _image_array(img: object) -> np.ndarray:
