@@ -8,6 +8,7 @@ import pytest
 import trimesh
 
 from follicle.errors import FormatError, InputError
+from follicle.mesh.head import builtin_head
 from follicle.mesh.load import load_mesh
 from follicle.mesh.skin import SkinMesh, SurfacePoints
 
@@ -92,6 +93,32 @@ def test_set_pose_transform_moves_points_uv_stays():
     np.testing.assert_allclose(
         mesh.evaluate([0], [[0.2, 0.3]], "current").position, [[0.3, 0.5, 0]]
     )
+
+
+def test_head_frames_orthonormal_and_rigid_pose_moves_them():
+    mesh = builtin_head()
+    rng = np.random.default_rng(4)
+    tri = rng.integers(0, mesh.face_count, size=400)
+    bary = rng.uniform(0.0, 1.0, size=(400, 2))
+    bary = np.where(bary.sum(axis=1, keepdims=True) > 1.0, 1.0 - bary, bary)
+    rest = mesh.evaluate(tri, bary, pose="rest")
+    for vec in (rest.normal, rest.tangent, rest.binormal):
+        np.testing.assert_allclose(np.linalg.norm(vec, axis=1), 1.0, atol=1e-9)
+    for a, b in ((rest.normal, rest.tangent), (rest.normal, rest.binormal)):
+        assert np.abs(np.sum(a * b, axis=1)).max() < 1e-9
+    np.testing.assert_allclose(rest.binormal, np.cross(rest.tangent, rest.normal), atol=1e-12)
+    # rotation by 2 rad about a tilted axis, then a translation
+    axis = np.array([1.0, 2.0, -2.0]) / 3.0
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    rot = np.eye(3) + np.sin(2.0) * k + (1 - np.cos(2.0)) * k @ k
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = rot, (-0.5, 0.25, 3.0)
+    mesh.set_pose(transform=m)
+    cur = mesh.evaluate(tri, bary, pose="current")
+    np.testing.assert_allclose(cur.position, rest.position @ rot.T + m[:3, 3], atol=1e-5)
+    for moved, still in zip(cur[1:4], rest[1:4], strict=True):
+        np.testing.assert_allclose(moved, still @ rot.T, atol=1e-5)
+    np.testing.assert_array_equal(cur.uv, rest.uv)
 
 
 def test_set_pose_vertices_and_cache_refresh():

@@ -19,6 +19,7 @@ from .errors import InputError
 __all__ = [
     "halton",
     "halton2d",
+    "halton_point",
     "mix64",
     "stream_key",
     "uniform",
@@ -60,18 +61,22 @@ def halton(index: object, base: int) -> np.ndarray:
 
 
 @njit(cache=True)
+def _radical_inverse1(i, base):
+    inv = 1.0 / base
+    f = inv
+    r = 0.0
+    while i > 0:
+        r += (i % base) * f
+        i //= base
+        f *= inv
+    return r
+
+
+@njit(cache=True)
 def _radical_inverse(idx, base):
     out = np.empty(idx.shape[0], dtype=np.float64)
-    inv = 1.0 / base
     for n in range(idx.shape[0]):
-        i = idx[n]
-        f = inv
-        r = 0.0
-        while i > 0:
-            r += (i % base) * f
-            i //= base
-            f *= inv
-        out[n] = r
+        out[n] = _radical_inverse1(idx[n], base)
     return out
 
 
@@ -83,6 +88,17 @@ def halton2d(n: int, start: int = 0) -> np.ndarray:
         raise InputError(f"start: expected a non-negative integer, got {start!r}")
     idx = np.arange(start, start + n, dtype=np.int64)
     return np.stack([halton(idx, 2), halton(idx, 3)], axis=-1)
+
+
+@njit(cache=True)
+def halton_point(k, shift0, shift1):
+    """Halton point k in bases (2, 3), toroidally shifted (Cranley–Patterson) by a seed.
+
+    The shift keeps the low discrepancy while letting a seed pick another point set.
+    """
+    x = _radical_inverse1(np.int64(k), 2) + shift0
+    y = _radical_inverse1(np.int64(k), 3) + shift1
+    return x - np.floor(x), y - np.floor(y)
 
 
 # ------------------------------------------------------------ counter-based streams

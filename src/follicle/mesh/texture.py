@@ -19,6 +19,18 @@ __all__ = ["Texture", "WRAP_MODES"]
 
 WRAP_MODES = ("repeat", "clamp")
 
+_FORMATS = ("PNG", "JPEG", "TIFF")
+# pillow modes that keep TIFF samples wider than 8 bits: unsigned 16-bit grey, 32-bit float
+_WIDE_TIFF_MODES = ("I;16", "I;16B", "I;16L", "I;16N", "F")
+_SUPPORTED = (
+    "supported are PNG, JPEG and TIFF with 8-bit grey, grey + alpha, RGB, RGBA or palette"
+    " pixels, 16-bit greyscale (PNG, TIFF) and 32-bit float greyscale (TIFF)"
+)
+_CONVERT = (
+    "save it as 8-bit (grey, RGB, RGBA), 16-bit greyscale PNG/TIFF, or 32-bit float"
+    " single-channel TIFF (one file per channel)"
+)
+
 
 def _to_float(data: np.ndarray, name: str) -> np.ndarray:
     """Integer images scale to [0, 1] (uint8 / 255, uint16 / 65535); floats stay as is."""
@@ -65,20 +77,33 @@ class Texture:
     # ------------------------------------------------------------------ loading
     @classmethod
     def load(cls, path: str | os.PathLike[str], wrap: str = "repeat") -> Texture:
-        """Read a PNG/JPEG/TIFF (8 or 16 bit, greyscale or colour) through pillow."""
+        """Read a PNG, JPEG or TIFF through pillow at its full bit depth.
+
+        8-bit images (grey, grey + alpha, RGB, RGBA, palette) and 16-bit greyscale
+        (PNG, TIFF) scale to [0, 1]; 32-bit float greyscale TIFF keeps its values (HDR,
+        negative). Layouts pillow would narrow or misread (16-bit colour, signed or
+        32-bit integers, multi-channel float) raise FormatError instead of loading.
+        """
         from PIL import Image, UnidentifiedImageError
 
         p = Path(path)
         if not p.is_file():
-            raise FormatError(f"texture file '{p}' does not exist; check the path")
+            raise FormatError(f"texture file '{p}' does not exist or is not a file; check the path")
         try:
-            with Image.open(p) as img:
+            with Image.open(p, formats=_FORMATS) as img:
+                _check_layout(img, p)
                 img.load()
-                arr = _image_array(img)
+                arr = _image_array(img, p)
+        except Image.DecompressionBombError as exc:
+            raise FormatError(
+                f"texture file '{p}' is larger than pillow's safety limit ({exc}); downscale it"
+            ) from exc
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
             raise FormatError(
-                f"texture file '{p}' cannot be read as an image ({exc}); use PNG, JPEG or TIFF"
+                f"texture file '{p}' cannot be read as an image (got: {exc}); {_SUPPORTED}"
             ) from exc
+        if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+            raise FormatError(f"texture file '{p}' has NaN or inf pixels; replace them by numbers")
         return cls(arr, wrap=wrap, name=p.stem)
 
     # ------------------------------------------------------------------ views
@@ -150,16 +175,49 @@ def _sample_kernel(data, repeat, uv):
     return out
 
 
-def _image_array(img: object) -> np.ndarray:
-    """Pixels of a pillow image as uint8/uint16/float32, keeping the bit depth."""
+def _check_layout(img: object, path: Path) -> None:
+    """Refuse PNG/TIFF sample layouts that pillow opens but narrows to 8 bits or misreads."""
+    if img.format == "PNG":
+        with open(path, "rb") as f:
+            header = f.read(26)  # signature, then IHDR: ..., bit depth, colour type
+        depth, colour = header[24], header[25]
+        if depth == 16 and colour != 0:
+            kind = {2: "RGB", 4: "grey + alpha", 6: "RGBA"}.get(colour, f"colour type {colour}")
+            raise FormatError(
+                f"texture file '{path}': 16-bit {kind} PNG is read by pillow as 8 bits (got"
+                f" bit depth 16, colour type {colour}); {_CONVERT}"
+            )
+    elif img.format == "TIFF":
+        tags = img.tag_v2
+        bits = tuple(tags.get(258, (1,)))
+        sample_format = tuple(tags.get(339, (1,)))
+        if 2 in sample_format:
+            problem = "signed integer samples"
+        elif max(bits) > 8 and img.mode not in _WIDE_TIFF_MODES:
+            problem = f"{max(bits)}-bit samples in {len(bits)} channel(s)"
+        elif max(bits) > 8 and tags.get(262) == 0:
+            problem = f"{max(bits)}-bit samples with photometric MinIsWhite"
+        else:
+            return
+        raise FormatError(
+            f"texture file '{path}': pillow cannot read TIFF {problem} faithfully (got"
+            f" bits {bits}, sample format {sample_format}, pillow mode {img.mode});"
+            f" {_CONVERT}"
+        )
+
+
+def _image_array(img: object, path: Path) -> np.ndarray:
+    """Pixels of a checked pillow image as uint8/uint16/float32, keeping the bit depth."""
     mode = img.mode
-    if mode in ("I;16", "I;16B", "I;16L"):
+    if mode in ("I;16", "I;16B", "I;16L", "I;16N"):
         return np.asarray(img, dtype=np.uint16)
-    if mode == "I":
+    if mode == "I":  # 16-bit greyscale PNG in some pillow versions (TIFF "I" is refused)
         arr = np.asarray(img)
-        # 16-bit PNGs arrive as 32-bit ints; anything larger is an unsupported depth
         if arr.size and (arr.min() < 0 or arr.max() > 65535):
-            raise ValueError("32-bit integer pixels are not supported")
+            raise FormatError(
+                f"texture file '{path}': integer pixels outside 0..65535 (got"
+                f" {arr.min()}..{arr.max()}); {_CONVERT}"
+            )
         return arr.astype(np.uint16)
     if mode == "F":
         return np.asarray(img, dtype=np.float32)
