@@ -74,8 +74,10 @@ def displace(
 
     dpdu, dpdv, ok = mesh.face_uv_derivatives(pose)
     dndu, dndv = _normal_uv_derivatives(mesh, tri, b, n, pose)
-    dpdu_d = dpdu[tri] + dd_du[:, None] * n + d0[:, None] * dndu
-    dpdv_d = dpdv[tri] + dd_dv[:, None] * n + d0[:, None] * dndv
+    # the undisplaced slopes follow the smooth normal, not the flat face, so D = 0
+    # gives back N and roots do not jump at triangle edges
+    dpdu_d = _tangential(dpdu[tri], n) + dd_du[:, None] * n + d0[:, None] * dndu
+    dpdv_d = _tangential(dpdv[tri], n) + dd_dv[:, None] * n + d0[:, None] * dndv
     cross = np.cross(dpdu_d, dpdv_d)
     length = np.linalg.norm(cross, axis=1)
     limit = _PARALLEL * np.linalg.norm(dpdu_d, axis=1) * np.linalg.norm(dpdv_d, axis=1)
@@ -87,32 +89,24 @@ def displace(
     return SurfacePoints(base.position + d0[:, None] * n, normal, tangent, binormal, uv)
 
 
+def _tangential(vectors: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """The part of each vector orthogonal to its unit normal."""
+    return vectors - np.sum(vectors * normal, axis=1, keepdims=True) * normal
+
+
 def _normal_uv_derivatives(
     mesh: SkinMesh, tri: np.ndarray, bary: np.ndarray, normal: np.ndarray, pose: str
 ) -> tuple[np.ndarray, np.ndarray]:
     """∂N/∂u, ∂N/∂v (n, 3) of the unit interpolated normal at the samples.
 
-    The interpolated vertex normal Ñ gets the seed's 2x2 inverse formula per face (as
-    ∂P/∂u in ``SkinMesh.face_uv_derivatives``); N = Ñ/|Ñ| then gives
-    ∂N = (∂Ñ − N(N·∂Ñ)) / |Ñ|. Zero where the face's UVs are degenerate.
+    The blended vertex normal Ñ is linear on each face (``SkinMesh.face_uv_gradient``);
+    N = Ñ/|Ñ| then gives ∂N = (∂Ñ − N(N·∂Ñ)) / |Ñ|. Zero where the face's UVs are
+    degenerate.
     """
-    f = mesh.faces[tri]
     vn = mesh.vertex_normals(pose)
-    n1, n2, n3 = vn[f[:, 0]], vn[f[:, 1]], vn[f[:, 2]]
-    t1, t2, t3 = mesh.uvs[f[:, 0]], mesh.uvs[f[:, 1]], mesh.uvs[f[:, 2]]
-    du1, dv1 = (t1 - t3).T
-    du2, dv2 = (t2 - t3).T
-    ok = mesh.face_uv_derivatives(pose)[2][tri]
-    det = du1 * dv2 - dv1 * du2
-    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
-    e1, e2 = n1 - n3, n2 - n3
-    raw_du = (dv2[:, None] * e1 - dv1[:, None] * e2) * inv
-    raw_dv = (-du2[:, None] * e1 + du1[:, None] * e2) * inv
-    raw = bary[:, 0:1] * n1 + bary[:, 1:2] * n2 + (1.0 - bary.sum(axis=1, keepdims=True)) * n3
-    size = np.linalg.norm(raw, axis=1, keepdims=True)
+    raw_du, raw_dv, _ = mesh.face_uv_gradient(vn)
+    f = mesh.faces[tri]
+    w = np.stack([bary[:, 0], bary[:, 1], 1.0 - bary[:, 0] - bary[:, 1]], axis=1)
+    size = np.linalg.norm(np.sum(vn[f] * w[:, :, None], axis=1), axis=1, keepdims=True)
     inv_size = np.where(size > 0, 1.0 / np.where(size > 0, size, 1.0), 0.0)
-    dndu, dndv = (
-        (g - normal * np.sum(normal * g, axis=1, keepdims=True)) * inv_size
-        for g in (raw_du, raw_dv)
-    )
-    return dndu, dndv
+    return tuple(_tangential(g[tri], normal) * inv_size for g in (raw_du, raw_dv))

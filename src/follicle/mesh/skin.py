@@ -237,32 +237,33 @@ class SkinMesh:
             self._cache[("weld", "rest")] = _frozen(inverse.reshape(-1).astype(np.int64))
         return self._cache[("weld", "rest")]
 
-    def face_uv_derivatives(self, pose: str = "rest") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per-face (dP/du, dP/dv, ok) from the UVs; ok is False where they are undefined.
+    def face_uv_gradient(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per-face (∂X/∂u, ∂X/∂v, ok) of per-vertex ``values`` (V, k) linear on each face.
 
-        000 §2.2.3: [dP/du; dP/dv] = [[u1-u3, v1-v3], [u2-u3, v2-v3]]⁻¹ · [p1-p3; p2-p3].
+        000 §2.2.3: [∂X/∂u; ∂X/∂v] = [[u1-u3, v1-v3], [u2-u3, v2-v3]]⁻¹ · [X1-X3; X2-X3];
+        ok is False (and the gradients zero) where the UVs are missing or degenerate.
         """
+        nf = len(self.faces)
+        k = values.shape[1]
+        if self.uvs is None:
+            return np.zeros((nf, k)), np.zeros((nf, k)), np.zeros(nf, dtype=bool)
+        x1, x2, x3 = (values[self.faces[:, c]] for c in range(3))
+        t1, t2, t3 = (self.uvs[self.faces[:, c]] for c in range(3))
+        du1, dv1 = (t1 - t3).T
+        du2, dv2 = (t2 - t3).T
+        det = du1 * dv2 - dv1 * du2
+        uv_scale = np.maximum(np.abs(t1 - t3).max(axis=1), np.abs(t2 - t3).max(axis=1))
+        ok = (np.abs(det) > 1e-12 * np.maximum(uv_scale, 1e-300) ** 2) & (det != 0)
+        ok &= ~self.degenerate_faces
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
+        e1, e2 = x1 - x3, x2 - x3
+        d_du = (dv2[:, None] * e1 - dv1[:, None] * e2) * inv
+        d_dv = (-du2[:, None] * e1 + du1[:, None] * e2) * inv
+        return d_du, d_dv, ok
 
-        def make(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-            nf = len(self.faces)
-            dpdu, dpdv = np.zeros((nf, 3)), np.zeros((nf, 3))
-            if self.uvs is None:
-                return dpdu, dpdv, np.zeros(nf, dtype=bool)
-            p1, p2, p3 = (v[self.faces[:, k]] for k in range(3))
-            t1, t2, t3 = (self.uvs[self.faces[:, k]] for k in range(3))
-            du1, dv1 = (t1 - t3).T
-            du2, dv2 = (t2 - t3).T
-            det = du1 * dv2 - dv1 * du2
-            uv_scale = np.maximum(np.abs(t1 - t3).max(axis=1), np.abs(t2 - t3).max(axis=1))
-            ok = (np.abs(det) > 1e-12 * np.maximum(uv_scale, 1e-300) ** 2) & (det != 0)
-            ok &= ~self.degenerate_faces
-            inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
-            e1, e2 = p1 - p3, p2 - p3
-            dpdu = (dv2[:, None] * e1 - dv1[:, None] * e2) * inv
-            dpdv = (-du2[:, None] * e1 + du1[:, None] * e2) * inv
-            return dpdu, dpdv, ok
-
-        return self._cached("face_uv_derivatives", pose, make)
+    def face_uv_derivatives(self, pose: str = "rest") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per-face (dP/du, dP/dv, ok) of the positions; ok is False where undefined."""
+        return self._cached("face_uv_derivatives", pose, self.face_uv_gradient)
 
     def face_tangents(self, pose: str = "rest") -> np.ndarray:
         """Unit face tangents (F, 3): dP/du, else the edge v0→v1 projected off the normal."""
