@@ -8,27 +8,11 @@ machine. Run: ``.venv/bin/python benchmarks/bench_foundation.py [--count N]``.
 from __future__ import annotations
 
 import argparse
-import time
-
-import numpy as np
 
 import follicle
+from common import best_of, yardstick
 from follicle.pipeline import render_scene
 from follicle.scene import Scene
-
-
-def best_of(fn, repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
-
-
-def yardstick() -> float:
-    data = np.random.default_rng(0).random(4_000_000)
-    return best_of(lambda: np.sort(data), repeat=5)
 
 
 def main() -> None:

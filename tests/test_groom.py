@@ -5,9 +5,7 @@ from follicle import HairCurves, InputError
 from follicle.groom.generator import Groom
 from follicle.groom.guides import Guides, resample_arclength
 from follicle.groom.interpolate import blend_guides, idw_weights
-from follicle.groom.roots import sample_roots, triangle_weights
 from follicle.mesh.skin import SkinMesh
-from follicle.mesh.texture import Texture
 from follicle.scene import GroomParams
 
 
@@ -22,39 +20,6 @@ def _plane(size=1.0):
 def _upright_guides(mesh, xs, length=0.2, n=5):
     lines = [np.array([[x, 0, z], [x, length, z]]) for x, z in xs]
     return Guides(HairCurves.from_polylines(lines), mesh, n)
-
-
-def test_roots_follow_triangle_weights_and_skip_zero_density():
-    w = np.array([0.0, 1.0, 0.0, 3.0])
-    tri, bary = sample_roots(w, 40000, seed=1)
-    assert set(np.unique(tri)) == {1, 3}
-    assert abs(np.mean(tri == 3) - 0.75) < 0.01
-    assert bary.dtype == np.float32 and tri.dtype == np.int32
-    assert np.all(bary >= 0) and np.all(bary.sum(axis=1) <= 1 + 1e-6)
-    # uniform inside a triangle: every barycentric weight averages 1/3
-    full = np.column_stack([bary, 1 - bary.sum(axis=1)])
-    np.testing.assert_allclose(full.mean(axis=0), 1 / 3, atol=0.01)
-
-
-def test_roots_are_a_pure_function_of_seed_and_index():
-    w = np.array([1.0, 2.0, 0.5])
-    whole = sample_roots(w, 1000, seed=7)
-    part = sample_roots(w, 300, seed=7, start=500)
-    np.testing.assert_array_equal(whole[0][500:800], part[0])
-    np.testing.assert_array_equal(whole[1][500:800], part[1])
-    other = sample_roots(w, 1000, seed=8)
-    assert not np.array_equal(whole[1], other[1])
-
-
-def test_triangle_weights_use_area_and_density_texture():
-    mesh = _plane()
-    np.testing.assert_allclose(triangle_weights(mesh), [0.5, 0.5])
-    # density 0 on the left half of the UV square, 1 on the right half
-    tex = Texture(np.array([[0.0, 1.0]]), wrap="clamp")
-    w = triangle_weights(mesh, tex)
-    assert w[0] > w[1]  # triangle 0 lies mostly at u > v (the dense side)
-    with pytest.raises(InputError, match="zero everywhere"):
-        triangle_weights(mesh, Texture(np.zeros((2, 2))))
 
 
 def test_idw_weights_match_hand_computed_values():

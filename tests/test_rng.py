@@ -12,7 +12,6 @@ from numba import njit
 from follicle.errors import InputError
 from follicle.rng import (
     halton,
-    halton2d,
     mix64,
     purpose_id,
     stream_key,
@@ -38,14 +37,6 @@ def test_halton_known_values():
     # base 5: 7 = 12 -> 0.21 = 2/5 + 1/25, 25 = 100 -> 0.001 = 1/125
     np.testing.assert_allclose(halton(np.array([[7, 25]]), 5), [[2 / 5 + 1 / 25, 1 / 125]])
     assert halton(np.arange(4), 2).dtype == np.float64
-
-
-def test_halton2d():
-    h = halton2d(4, start=1)
-    np.testing.assert_allclose(h, [[0.5, 1 / 3], [0.25, 2 / 3], [0.75, 1 / 9], [0.125, 4 / 9]])
-    whole = halton2d(100)
-    np.testing.assert_array_equal(np.vstack([halton2d(40), halton2d(60, start=40)]), whole)
-    assert np.all((whole >= 0) & (whole < 1))
 
 
 def test_mix64_matches_reference():
@@ -122,7 +113,6 @@ def test_usable_in_kernels():
         (lambda: halton(np.arange(3), 1), "base"),
         (lambda: halton(np.array([-1]), 2), "index"),
         (lambda: halton(np.array([0.5]), 2), "index"),
-        (lambda: halton2d(-1), "n:"),
         (lambda: uniforms(1, np.zeros((2, 2), int), "a", 2), "ids"),
         (lambda: uniforms(1, [0.5], "a", 2), "ids"),
         (lambda: uniforms(1, [0], "a", -1), "count"),

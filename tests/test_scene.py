@@ -34,7 +34,9 @@ def test_relative_paths_resolve_against_the_scene_folder(tmp_path):
         ({"render": {"size": [0, 5]}}, r"\[render\]\.size\.0: Input should be greater than or"),
         ({"render": {"shading": "phong"}}, r"\[render\]\.shading: Input should be 'kajiya-kay'"),
         ({"sim": {"solver": "magic"}}, r"\[sim\]\.solver: Input should be 'pbd' or 'dftl'"),
-        ({"mesh": {"density": -2}}, r"\[mesh\]\.density: Input should be greater than 0"),
+        ({"groom": {"density": -2}}, r"\[groom\]\.density: Input should be greater than 0"),
+        ({"groom": {"density_refine": 5}}, r"\[groom\]\.density_refine: .*less than or equal"),
+        ({"mesh": {"density": 1}}, r"\[mesh\]\.density: unknown key"),
         ({"groom": {"tip_color": [1, 2, 0]}}, r"\[groom\]\.tip_color\.1: .*less than or equal"),
     ],
 )

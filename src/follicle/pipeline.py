@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .curves import HairCurves
-from .groom.generator import Groom, resolve_density
+from .groom.generator import Groom, load_texture, resolve_density
 from .groom.guides import load_guides
 from .mesh.load import load_mesh
 from .mesh.skin import SkinMesh
@@ -21,8 +21,13 @@ def groom_scene(scene: Scene) -> Groom:
     """The mesh, guides and groom parameters of ``scene``, ready to grow."""
     mesh = load_mesh(scene.resolve(scene.mesh.path))
     guides = load_guides(scene.resolve(scene.guides.path), mesh, scene.groom.vertices)
-    density = resolve_density(mesh, scene.mesh.density, scene.resolve)
-    return Groom(mesh, guides, scene.groom, density=density)
+    density = resolve_density(mesh, scene.groom.density, scene.resolve)
+    displacement = scene.mesh.displacement
+    return Groom(
+        mesh, guides, scene.groom, density=density,
+        displacement=load_texture(displacement, scene.resolve) if displacement else None,
+        displacement_scale=scene.mesh.displacement_scale,
+    )
 
 
 def grow(

@@ -18,7 +18,6 @@ from .errors import InputError
 
 __all__ = [
     "halton",
-    "halton2d",
     "halton_point",
     "mix64",
     "stream_key",
@@ -78,16 +77,6 @@ def _radical_inverse(idx, base):
     for n in range(idx.shape[0]):
         out[n] = _radical_inverse1(idx[n], base)
     return out
-
-
-def halton2d(n: int, start: int = 0) -> np.ndarray:
-    """(n, 2) Halton points in [0, 1)^2 (bases 2 and 3) for indices start..start+n-1."""
-    if not isinstance(n, (int, np.integer)) or n < 0:
-        raise InputError(f"n: expected a non-negative integer, got {n!r}")
-    if not isinstance(start, (int, np.integer)) or start < 0:
-        raise InputError(f"start: expected a non-negative integer, got {start!r}")
-    idx = np.arange(start, start + n, dtype=np.int64)
-    return np.stack([halton(idx, 2), halton(idx, 3)], axis=-1)
 
 
 @njit(cache=True)

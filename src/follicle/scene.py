@@ -49,10 +49,11 @@ class MeshParams(_Section):
     """The skin the hair grows on."""
 
     path: str = Field("builtin:head", description="mesh file (OBJ/PLY/GLB/STL) or builtin:head")
-    density: str | Annotated[float, Field(gt=0)] | None = Field(
-        None,
-        description="root density: a texture name on the mesh, an image path, a number,"
-        " or unset for the mesh's 'scalp' texture when it has one, else uniform",
+    displacement: str | None = Field(
+        None, description="displacement map (image path): roots sit on P + scale·D(uv)·N"
+    )
+    displacement_scale: float = Field(
+        1.0, ge=-10, le=10, description="displacement in scene units per texture unit"
     )
 
 
@@ -67,6 +68,15 @@ class GroomParams(_Section):
 
     count: int = Field(20000, ge=0, le=50_000_000, description="number of hairs")
     seed: int = Field(0, ge=0, lt=2**63, description="random seed")
+    density: str | Annotated[float, Field(gt=0)] | None = Field(
+        None,
+        description="root density: a number (uniform), an image path (PNG/JPEG/TIFF; 16-bit"
+        " and float TIFF for HDR) or builtin:scalp; unset = builtin:scalp on the built-in"
+        " head, uniform elsewhere",
+    )
+    density_refine: int = Field(
+        0, ge=0, le=4, description="extra subdivision levels below the density texel size"
+    )
     interpolation: Literal["idw"] = Field("idw", description="guide interpolation method")
     guide_samples: int = Field(
         4, ge=1, le=32, description="guides per hair (n; the (n+1)-th sets the radius)"

@@ -20,9 +20,9 @@ from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
 from ..mesh.head import SCALP_TEXTURE, builtin_head, head_signed_distance_and_normal
+from ..mesh.sampling import DensitySampler
 from ..mesh.skin import SkinMesh
-from ..rng import halton2d
-from .roots import place_on_triangles
+from ..mesh.texture import Texture
 
 __all__ = ["builtin_guides", "BUILTIN_GUIDES"]
 
@@ -54,28 +54,23 @@ SDF = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 def sample_roots(mesh: SkinMesh, count: int) -> tuple[np.ndarray, np.ndarray]:
     """``count`` deterministic roots where the scalp density exceeds 0.5: (triangles, bary).
 
-    Halton (2, 3) points: the first coordinate picks a triangle through the CDF of
-    area × density and, rescaled inside its interval, with the second one places
-    the point uniformly inside the triangle.
+    Halton (2, 3) samples of the density sampler on the scalp map cut below 0.5; the
+    bilinear map still ramps up across the cut, so the few roots that land where it
+    is ≤ 0.5 are skipped.
     """
     tex = mesh.textures.get(SCALP_TEXTURE)
-    areas = mesh.face_areas("rest")
-
-    def density_of(t: np.ndarray, b: np.ndarray) -> np.ndarray:
-        if tex is None or mesh.uvs is None:
-            return np.ones(len(t))
-        return tex.sample(mesh.evaluate(t, b).uv).reshape(len(t), -1)[:, 0]
-
-    third = np.full((len(areas), 2), 1.0 / 3.0)
-    centre_density = density_of(np.arange(len(areas)), third)
-    weight = areas * np.where(centre_density > _MIN_DENSITY, centre_density, 0.0)
-    if weight.sum() <= 0:
+    if tex is None or mesh.uvs is None:
+        return DensitySampler(mesh).sample(count, sequence="halton", start=1)
+    values = tex.data[:, :, 0]
+    if not values.max() > _MIN_DENSITY:
         raise InputError(f"mesh '{mesh.name}': no area with scalp density > {_MIN_DENSITY}")
+    cut = Texture(np.where(values > _MIN_DENSITY, values, 0.0), wrap=tex.wrap, name=tex.name)
+    sampler = DensitySampler(mesh, cut)
     tris, barys, start = [], [], 1
     while sum(len(t) for t in tris) < count:
-        tri, bary = place_on_triangles(weight, halton2d(2 * count, start=start))
+        tri, bary = sampler.sample(2 * count, sequence="halton", start=start)
         start += 2 * count
-        keep = density_of(tri, bary.astype(np.float64)) > _MIN_DENSITY
+        keep = tex.sample(mesh.evaluate(tri, bary).uv) > _MIN_DENSITY
         tris.append(tri[keep])
         barys.append(bary[keep])
     return np.concatenate(tris)[:count], np.concatenate(barys)[:count]

@@ -1,6 +1,6 @@
 """Groom: grows every final hair from the guides, in the pipeline order of 000 §2.2.2.
 
-roots (on the rest mesh) ► interpolate (root-local IDW) ► place on the current pose
+roots (DensitySampler on the rest mesh) ► interpolate (root-local IDW) ► place on the current pose
 ► appearance (width, opacity, colour) ► HairCurves. Work is done in chunks of hair
 ids; each hair depends only on (seed, id), so chunking never changes a byte.
 """
@@ -13,37 +13,57 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
+from ..mesh.displacement import displace
+from ..mesh.head import SCALP_TEXTURE, scalp_texture
+from ..mesh.sampling import DensitySampler
 from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
 from ..scene import GroomParams
 from .appearance import root_to_tip
 from .guides import Guides
 from .interpolate import blend_guides, idw_weights
-from .roots import sample_roots, triangle_weights
 
 __all__ = ["Groom", "resolve_density"]
 
 CHUNK = 65536
 
 
+BUILTIN_TEXTURES = {"builtin:scalp": scalp_texture}
+
+
 def resolve_density(
     mesh: SkinMesh, spec: str | float | Texture | None, resolve_path: Callable[[str], str] = str
 ) -> Texture | float | None:
-    """A density setting made concrete: a mesh texture name, an image path, a number or None.
+    """A density setting made concrete: ``builtin:scalp``, an image path, a number or None.
 
-    None picks the mesh's ``scalp`` texture when it has one, else uniform density.
+    None picks the mesh's own scalp map when it has one (the built-in head), else
+    uniform density.
     """
     if spec is None:
-        return mesh.textures.get("scalp")
+        return mesh.textures.get(SCALP_TEXTURE)
     if isinstance(spec, str):
-        if spec in mesh.textures:
-            return mesh.textures[spec]
-        return Texture.load(resolve_path(spec))
+        return load_texture(spec, resolve_path)
     return spec
 
 
+def load_texture(spec: str, resolve_path: Callable[[str], str] = str) -> Texture:
+    """A texture from ``builtin:NAME`` or an image path (resolved against the scene)."""
+    if spec.startswith("builtin:"):
+        if spec not in BUILTIN_TEXTURES:
+            raise InputError(
+                f"unknown built-in texture {spec!r}; choose one of {sorted(BUILTIN_TEXTURES)}"
+            )
+        return BUILTIN_TEXTURES[spec]()
+    return Texture.load(resolve_path(spec))
+
+
 class Groom:
-    """Grows hair on ``mesh`` from ``guides`` with ``params`` (defaults when None)."""
+    """Grows hair on ``mesh`` from ``guides`` with ``params`` (defaults when None).
+
+    ``density`` overrides ``params.density`` (a Texture, number, path or None). With a
+    ``displacement`` texture, roots on the current pose sit on the displaced skin
+    (000 §2.2.3); interpolation still uses the undisplaced rest pose.
+    """
 
     def __init__(
         self,
@@ -51,6 +71,8 @@ class Groom:
         guides: Guides | HairCurves,
         params: GroomParams | None = None,
         density: Texture | float | str | None = None,
+        displacement: Texture | None = None,
+        displacement_scale: float = 1.0,
     ) -> None:
         self.mesh = mesh
         self.params = params if params is not None else GroomParams()
@@ -60,7 +82,12 @@ class Groom:
         elif wanted is not None and guides.vertex_count != wanted:
             guides = Guides(guides.curves, mesh, wanted)
         self.guides = guides
-        self.weights = triangle_weights(mesh, resolve_density(mesh, density))
+        spec = density if density is not None else self.params.density
+        self.sampler = DensitySampler(
+            mesh, resolve_density(mesh, spec), refine=self.params.density_refine
+        )
+        self.displacement = displacement
+        self.displacement_scale = displacement_scale
 
     def grow(
         self,
@@ -81,7 +108,7 @@ class Groom:
         root_uv = np.empty((count, 2), dtype=np.float32)
         for start in range(0, count, CHUNK):
             stop = min(start + CHUNK, count)
-            tri, b = sample_roots(self.weights, stop - start, seed, start)
+            tri, b = self.sampler.sample(stop - start, seed, "random", start)
             points[start:stop], root_uv[start:stop] = self._shapes(tri, b)
             triangles[start:stop], bary[start:stop] = tri, b
             if progress is not None:
@@ -105,7 +132,10 @@ class Groom:
         """Hair vertices (n, N, 3) on the current pose and root UVs (n, 2) of these roots."""
         rest = self.mesh.evaluate(triangles, bary, pose="rest")
         idx, w = idw_weights(self.guides.root_positions, rest.position, self.params.guide_samples)
-        cur = self.mesh.evaluate(triangles, bary, pose="current")
+        if self.displacement is None:
+            cur = self.mesh.evaluate(triangles, bary, pose="current")
+        else:
+            cur = displace(self.mesh, triangles, bary, self.displacement, self.displacement_scale)
         shapes = blend_guides(
             self.guides.local, idx, w, cur.position, cur.tangent, cur.binormal, cur.normal,
             self.params.scale,

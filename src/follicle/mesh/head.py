@@ -19,7 +19,14 @@ from ..errors import InputError
 from .skin import SkinMesh
 from .texture import Texture
 
-__all__ = ["builtin_head", "head_inside", "head_signed_distance", "SCALP_TEXTURE", "HEAD_CENTER"]
+__all__ = [
+    "builtin_head",
+    "head_inside",
+    "head_signed_distance",
+    "scalp_texture",
+    "SCALP_TEXTURE",
+    "HEAD_CENTER",
+]
 
 SCALP_TEXTURE = "scalp"
 HEAD_CENTER = np.zeros(3)  # the star centre of the radial function
@@ -241,8 +248,13 @@ def _scalp_density() -> np.ndarray:
     return _scalp_density_at(p).reshape(n, n).astype(np.float32)
 
 
+def scalp_texture() -> Texture:
+    """The built-in head's hair density map (``builtin:scalp``), 256², 1 on the scalp."""
+    return Texture(_head_arrays()[3], wrap="clamp", name=SCALP_TEXTURE)
+
+
 def builtin_head() -> SkinMesh:
     """A new SkinMesh 'head' (about 7k triangles, UVs, ``textures['scalp']``)."""
-    verts, faces, uvs, scalp = _head_arrays()
-    texture = Texture(scalp, wrap="clamp", name=SCALP_TEXTURE)
-    return SkinMesh(verts, faces, uvs=uvs, name="head", textures={SCALP_TEXTURE: texture})
+    verts, faces, uvs, _ = _head_arrays()
+    textures = {SCALP_TEXTURE: scalp_texture()}
+    return SkinMesh(verts, faces, uvs=uvs, name="head", textures=textures)
