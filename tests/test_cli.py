@@ -87,12 +87,20 @@ def test_default_output_paths_come_from_the_scene(tmp_path):
         ("[groom]\ncount = -4\n", "[groom].count: Input should be greater than or equal to 0"),
         ('[mesh]\npath = "empty.obj"\n', "no faces"),
         ('[mesh]\npath = "nan.obj"\n', "not finite"),
+        ('[groom]\ndensity = "missing.png"\n', "missing.png' does not exist"),
+        ('[groom]\ndensity = "head.xyz"\n', "cannot be read as an image"),
+        ('[groom]\ndensity = "builtin:fur"\n', "unknown built-in texture 'builtin:fur'"),
+        ('[groom]\ndensity = "black.png"\n', "'black' is zero everywhere"),
+        ('[mesh]\npath = "nouv.obj"\n[groom]\ndensity = "black.png"\n', "no UVs"),
+        ('[mesh]\ndensity = 2\n', "[mesh].density: unknown key"),
     ],
 )
 def test_bad_input_is_one_line_exit_2_and_no_output(tmp_path, scene_text, message):
     (tmp_path / "head.xyz").write_text("nothing")
     (tmp_path / "empty.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
     (tmp_path / "nan.obj").write_text("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "nouv.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    Image.fromarray(np.zeros((4, 4), np.uint8)).save(tmp_path / "black.png")
     scene = tmp_path / "scene.toml"
     scene.write_text(scene_text)
     proc = subprocess.run(

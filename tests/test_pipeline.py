@@ -49,3 +49,50 @@ def test_render_scene_draws_hair_on_the_background():
     img = render_scene(HAIR, None, RenderParams(size=(64, 64), **BLACK))
     assert img.shape == (64, 64, 4)
     assert 0.05 < np.mean(img[..., :3].max(axis=-1) > 20) < 0.9
+
+
+def _grow_with(tmp_path, **sections) -> tuple:
+    from follicle.pipeline import groom_scene
+    from follicle.scene import parse_scene
+
+    scene = parse_scene(sections, "scene.toml", base_dir=tmp_path)
+    groom = groom_scene(scene)
+    return groom, groom.grow(count=3000)
+
+
+def test_groom_density_from_an_image_path_builtin_and_number(tmp_path):
+    from PIL import Image
+
+    from follicle.mesh.head import scalp_texture
+
+    # density only in the right half of UV space (u > 0.5), as an 8-bit image
+    data = np.zeros((8, 8), np.uint8)
+    data[:, 4:] = 255
+    Image.fromarray(data).save(tmp_path / "right.png")
+    groom, curves = _grow_with(tmp_path, groom={"density": "right.png", "count": 10})
+    assert groom.sampler.density.name == "right"
+    u = curves.curve_data["root_uv"][:, 0]
+    # none in the bare half (the texture repeats, so u < 1/16 blends with the dense u > 15/16)
+    assert not np.any((u > 1 / 8) & (u < 3 / 8))
+    assert np.mean(u > 0.5) > 0.9
+    _, scalp = _grow_with(tmp_path, groom={"density": "builtin:scalp"})
+    assert scalp_texture().sample(scalp.curve_data["root_uv"]).min() > 0.0
+    _, default = _grow_with(tmp_path)  # unset on the built-in head: the scalp map
+    np.testing.assert_array_equal(default.points, scalp.points)
+    _, uniform = _grow_with(tmp_path, groom={"density": 2.0})
+    assert scalp_texture().sample(uniform.curve_data["root_uv"]).min() == 0.0  # face, neck
+
+
+def test_displacement_moves_roots_along_the_normal(tmp_path):
+    from PIL import Image
+
+    Image.fromarray(np.full((4, 4), 255, np.uint8)).save(tmp_path / "bump.png")
+    mesh = {"displacement": "bump.png", "displacement_scale": 0.004}
+    groom, lifted = _grow_with(tmp_path, mesh=mesh)
+    _, flat = _grow_with(tmp_path)
+    roots = flat.curve_data["root_triangle"], flat.curve_data["root_bary"]
+    normal = groom.mesh.evaluate(*roots).normal
+    np.testing.assert_allclose(
+        lifted.points[lifted.offsets[:-1]], flat.points[flat.offsets[:-1]] + 0.004 * normal,
+        atol=1e-5,
+    )
