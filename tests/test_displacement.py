@@ -10,6 +10,7 @@ import pytest
 from follicle.errors import InputError
 from follicle.mesh.displacement import displace
 from follicle.mesh.head import SCALP_TEXTURE, builtin_head
+from follicle.mesh.sampling import DensitySampler
 from follicle.mesh.skin import SkinMesh
 from follicle.mesh.texture import Texture
 
@@ -197,10 +198,7 @@ def test_curved_normal_matches_finite_differences_of_displaced_positions(
 
 def test_frames_orthonormal_on_head_with_scalp_displacement():
     mesh = builtin_head()
-    rng = np.random.default_rng(11)
-    tri = rng.integers(0, mesh.face_count, size=500)
-    b = rng.uniform(0.0, 1.0, size=(500, 2))
-    b = np.where(b.sum(axis=1, keepdims=True) > 1.0, 1.0 - b, b)
+    tri, b = DensitySampler(mesh).sample(500, seed=11)
     sp = displace(mesh, tri, b, mesh.textures[SCALP_TEXTURE], scale=0.01)
     _check_frames(sp)
     assert np.all(np.sum(sp.normal * mesh.evaluate(tri, b).normal, axis=1) > 0.0)

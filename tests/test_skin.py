@@ -10,6 +10,7 @@ import trimesh
 from follicle.errors import FormatError, InputError
 from follicle.mesh.head import builtin_head
 from follicle.mesh.load import load_mesh
+from follicle.mesh.sampling import DensitySampler
 from follicle.mesh.skin import SkinMesh, SurfacePoints
 
 TRI = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -97,10 +98,7 @@ def test_set_pose_transform_moves_points_uv_stays():
 
 def test_head_frames_orthonormal_and_rigid_pose_moves_them():
     mesh = builtin_head()
-    rng = np.random.default_rng(4)
-    tri = rng.integers(0, mesh.face_count, size=400)
-    bary = rng.uniform(0.0, 1.0, size=(400, 2))
-    bary = np.where(bary.sum(axis=1, keepdims=True) > 1.0, 1.0 - bary, bary)
+    tri, bary = DensitySampler(mesh).sample(400, seed=4)
     rest = mesh.evaluate(tri, bary, pose="rest")
     for vec in (rest.normal, rest.tangent, rest.binormal):
         np.testing.assert_allclose(np.linalg.norm(vec, axis=1), 1.0, atol=1e-9)

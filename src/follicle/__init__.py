@@ -26,6 +26,9 @@ __version__ = "0.1.0"
 _LAZY = {
     "SkinMesh": "follicle.mesh.skin",
     "Texture": "follicle.mesh.texture",
+    "DensitySampler": "follicle.mesh.sampling",
+    "PropertyMap": "follicle.mesh.property",
+    "displace": "follicle.mesh.displacement",
     "load_mesh": "follicle.mesh.load",
     "Guides": "follicle.groom.guides",
     "load_guides": "follicle.groom.guides",

@@ -14,7 +14,7 @@ from numbers import Real
 import numpy as np
 
 from ..errors import FormatError, InputError
-from .texture import WRAP_MODES, Texture
+from .texture import WRAP_MODES, Texture, checked_uv
 
 __all__ = ["PropertyMap", "PROPERTY_KINDS"]
 
@@ -94,11 +94,7 @@ class PropertyMap:
 
     def evaluate(self, uv: object) -> np.ndarray:
         """float64 (n,) for a scalar or (n, 3) for a colour at the (n, 2) ``uv``."""
-        uv = np.asarray(uv, dtype=np.float64)
-        if uv.ndim != 2 or uv.shape[1] != 2:
-            raise InputError(f"{self.name}: uv must have shape (n, 2), got {uv.shape}")
-        if not np.all(np.isfinite(uv)):
-            raise InputError(f"{self.name}: uv contains NaN or inf")
+        uv = checked_uv(uv, self.name)
         value = np.asarray(self.value, dtype=np.float64)
         n = uv.shape[0]
         if self.texture is None:

@@ -132,13 +132,19 @@ class Texture:
     # ------------------------------------------------------------------ sampling
     def sample(self, uv: object) -> np.ndarray:
         """Bilinear values at ``uv`` (n, 2): float64 (n,) for one channel, else (n, C)."""
-        uv = np.asarray(uv, dtype=np.float64)
-        if uv.ndim != 2 or uv.shape[1] != 2:
-            raise InputError(f"texture '{self.name}': uv must have shape (n, 2), got {uv.shape}")
-        if not np.all(np.isfinite(uv)):
-            raise InputError(f"texture '{self.name}': uv contains NaN or inf")
-        out = _sample_kernel(self.data, self.wrap == "repeat", np.ascontiguousarray(uv))
+        uv = checked_uv(uv, f"texture '{self.name}'")
+        out = _sample_kernel(self.data, self.wrap == "repeat", uv)
         return out[:, 0] if self.channels == 1 else out
+
+
+def checked_uv(uv: object, what: str) -> np.ndarray:
+    """``uv`` as a finite float64 (n, 2) array, or an InputError naming ``what``."""
+    uv = np.ascontiguousarray(uv, dtype=np.float64)
+    if uv.ndim != 2 or uv.shape[1] != 2:
+        raise InputError(f"{what}: uv must have shape (n, 2), got {uv.shape}")
+    if not np.all(np.isfinite(uv)):
+        raise InputError(f"{what}: uv contains NaN or inf")
+    return uv
 
 
 @njit(cache=True, inline="always")
