@@ -8,6 +8,7 @@ import numpy as np
 
 from .curves import HairCurves
 from .groom.generator import Groom, load_texture, resolve_density
+from .groom.groups import InterpolationGroups
 from .groom.guides import load_guides
 from .mesh.load import load_mesh
 from .mesh.skin import SkinMesh
@@ -20,7 +21,11 @@ __all__ = ["groom_scene", "grow", "render_scene"]
 def groom_scene(scene: Scene) -> Groom:
     """The mesh, guides and groom parameters of ``scene``, ready to grow."""
     mesh = load_mesh(scene.resolve(scene.mesh.path))
-    guides = load_guides(scene.resolve(scene.guides.path), mesh, scene.groom.vertices)
+    spec = scene.groom.groups
+    groups = InterpolationGroups(
+        load_texture(spec, scene.resolve) if spec else None, scene.groom.group_vertices
+    )
+    guides = load_guides(scene.resolve(scene.guides.path), mesh, groups=groups)
     density = resolve_density(mesh, scene.groom.density, scene.resolve)
     displacement = scene.mesh.displacement
     return Groom(

@@ -77,6 +77,15 @@ class GroomParams(_Section):
     density_refine: int = Field(
         0, ge=0, le=4, description="extra subdivision levels below the density texel size"
     )
+    groups: str | None = Field(
+        None,
+        description="interpolation groups: an image (one group per colour) or builtin:parting;"
+        " a hair takes guides of its own group only",
+    )
+    group_vertices: dict[str, Annotated[int, Field(ge=2, le=256)]] = Field(
+        default_factory=dict,
+        description="vertices per hair of a group, by colour: {\"#ff0000\" = 12}",
+    )
     interpolation: Literal["idw"] = Field("idw", description="guide interpolation method")
     guide_samples: int = Field(
         4, ge=1, le=32, description="guides per hair (n; the (n+1)-th sets the radius)"
@@ -89,6 +98,11 @@ class GroomParams(_Section):
     tip_width: float = Field(30e-6, gt=0, le=0.1, description="hair diameter at the tip, m")
     root_color: RGB = Field((0.03, 0.017, 0.009), description="linear RGB at the root")
     tip_color: RGB = Field((0.085, 0.05, 0.025), description="linear RGB at the tip")
+    hue_variation: float = Field(0.0, ge=0, le=180, description="per-hair hue shift, ± degrees")
+    saturation_variation: Unit = Field(0.0, description="per-hair saturation shift, ±")
+    value_variation: Unit = Field(0.0, description="per-hair value (brightness) shift, ±")
+    mutant_fraction: Unit = Field(0.0, description="share of hairs drawn in mutant_color")
+    mutant_color: RGB = Field((0.8, 0.8, 0.8), description="linear RGB of mutant hairs")
     root_opacity: Unit = Field(1.0, description="opacity at the root")
     tip_opacity: Unit = Field(1.0, description="opacity at the tip")
 
@@ -223,6 +237,9 @@ def _toml_value(value: Any) -> str:
         return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(value, (tuple, list)):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        pairs = (f"{_toml_value(k)} = {_toml_value(v)}" for k, v in value.items())
+        return "{" + ", ".join(pairs) + "}"
     raise ConfigError(f"cannot write a {type(value).__name__} to TOML")
 
 

@@ -1,12 +1,25 @@
-"""Per-vertex width, opacity and colour: root and tip values interpolated (000 §2.2.6, §2.2.9)."""
+"""Per-vertex width, opacity and colour: root and tip values interpolated (000 §2.2.6, §2.2.9).
+
+Each hair gets a colour at its root and tip (or one mutant colour), shifted in hue,
+saturation and value by per-hair random amounts, and interpolated to its vertices in
+HSV along the shortest hue route; width and opacity are linear in the curve parameter.
+Every random choice is a pure function of (seed, hair id, purpose), so any split of the
+hair ids into chunks gives the same bytes.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit, prange
 
-from ..color import hsv_to_rgb, lerp_hsv, rgb_to_hsv
+from ..color import hsv_to_rgb1, hue_distance1, rgb_to_hsv1
+from ..errors import InputError
+from ..rng import purpose_id, stream_key, uniform
 
-__all__ = ["vertex_parameter", "root_to_tip"]
+__all__ = ["vertex_parameter", "hair_appearance"]
+
+_MUTANT = purpose_id("mutant hair")  # one number per hair: mutant when ξ < fraction
+_VARIATION = purpose_id("color variation")  # numbers 0, 1, 2: hue, saturation, value
 
 
 def vertex_parameter(vertices: int) -> np.ndarray:
@@ -14,29 +27,207 @@ def vertex_parameter(vertices: int) -> np.ndarray:
     return np.linspace(0.0, 1.0, vertices)
 
 
-def root_to_tip(
-    hairs: int,
-    vertices: int,
-    root_width: float,
-    tip_width: float,
-    root_color: tuple[float, float, float],
-    tip_color: tuple[float, float, float],
-    root_opacity: float,
-    tip_opacity: float,
-) -> dict[str, np.ndarray]:
-    """``width``, ``opacity`` (P,) and ``color`` (P, 3) for ``hairs`` hairs of equal length.
+# --------------------------------------------------------------------------- kernel
+@njit(cache=True)
+def _row(a, i):
+    """Row of per-hair array ``a`` for hair i: a (1, k) array is shared by every hair."""
+    return np.int64(i) if a.shape[0] != 1 else np.int64(0)  # one int type for prange's i
 
-    Width and opacity are linear in t; colour is interpolated in HSV along the
-    shortest hue route, then converted to linear RGB (000 §2.2.6).
+
+@njit(cache=True)
+def _clamp01(x):
+    return min(max(x, 0.0), 1.0)
+
+
+@njit(cache=True)
+def _shifted_hsv(r, g, b, dh, ds, dv):
+    """000 §2.2.6: RGB to HSV minus the shifts; s, v clamped to [0, 1] (hue wraps later)."""
+    h, s, v = rgb_to_hsv1(r, g, b)
+    return h - dh, _clamp01(s - ds), _clamp01(v - dv)
+
+
+@njit(cache=True, parallel=True)
+def _appearance_kernel(ids, seed, t, root_rgb, tip_rgb, hue_var, sat_var, val_var,
+                       mutant_fraction, mutant_rgb, root_w, tip_w, root_op, tip_op,
+                       color, width, opacity):
+    """Fill ``color`` (n·N, 3), ``width`` and ``opacity`` (n·N,) for hairs ``ids``.
+
+    Per-hair inputs are 2-D with 1 row (shared) or n rows; ``t`` is (1, N) or (n, N).
     """
-    t = vertex_parameter(vertices)
-    width = (1.0 - t) * root_width + t * tip_width
-    opacity = (1.0 - t) * root_opacity + t * tip_opacity
-    root_hsv, tip_hsv = rgb_to_hsv(np.asarray(root_color)), rgb_to_hsv(np.asarray(tip_color))
-    hsv = lerp_hsv(root_hsv, tip_hsv, t)
-    color = hsv_to_rgb(hsv)
-    return {
-        "width": np.tile(width.astype(np.float32), hairs),
-        "opacity": np.tile(opacity.astype(np.float32), hairs),
-        "color": np.tile(color.astype(np.float32), (hairs, 1)),
-    }
+    n = ids.shape[0]
+    nv = t.shape[1]
+    for i in prange(n):
+        hair = ids[i]
+        fraction = mutant_fraction[_row(mutant_fraction, i), 0]
+        mutant = uniform(stream_key(seed, hair, _MUTANT), 0) < fraction
+        key = stream_key(seed, hair, _VARIATION)
+        dh = hue_var[_row(hue_var, i), 0] * 2.0 * (uniform(key, 0) - 0.5)
+        ds = sat_var[_row(sat_var, i), 0] * 2.0 * (uniform(key, 1) - 0.5)
+        dv = val_var[_row(val_var, i), 0] * 2.0 * (uniform(key, 2) - 0.5)
+        if mutant:  # one colour for the whole hair
+            m = _row(mutant_rgb, i)
+            h1, s1, v1 = _shifted_hsv(mutant_rgb[m, 0], mutant_rgb[m, 1], mutant_rgb[m, 2],
+                                      dh, ds, dv)
+            h2, s2, v2 = h1, s1, v1
+        else:
+            ra = _row(root_rgb, i)
+            ta = _row(tip_rgb, i)
+            h1, s1, v1 = _shifted_hsv(root_rgb[ra, 0], root_rgb[ra, 1], root_rgb[ra, 2],
+                                      dh, ds, dv)
+            h2, s2, v2 = _shifted_hsv(tip_rgb[ta, 0], tip_rgb[ta, 1], tip_rgb[ta, 2],
+                                      dh, ds, dv)
+        hue_dist = hue_distance1(h1, h2)  # shortest signed route, from wrapped hues
+        w1 = root_w[_row(root_w, i), 0]
+        w2 = tip_w[_row(tip_w, i), 0]
+        o1 = root_op[_row(root_op, i), 0]
+        o2 = tip_op[_row(tip_op, i), 0]
+        tr = _row(t, i)
+        for j in range(nv):
+            tj = t[tr, j]
+            u = 1.0 - tj
+            k = i * nv + j
+            # 000 §2.2.9: value = t·tip + (1 − t)·root; hue = hue1 + t·hue_dist, wrapped
+            r, g, b = hsv_to_rgb1(h1 + tj * hue_dist, u * s1 + tj * s2, u * v1 + tj * v2)
+            color[k, 0] = r
+            color[k, 1] = g
+            color[k, 2] = b
+            width[k] = u * w1 + tj * w2
+            opacity[k] = u * o1 + tj * o2
+
+
+# --------------------------------------------------------------------- validation
+_NO_LIMIT = float(np.finfo(np.float64).max)  # an upper bound that still refuses inf
+
+
+def _require(
+    arr: np.ndarray, name: str, lo: float, hi: float = _NO_LIMIT, lo_open: bool = False
+) -> None:
+    """InputError naming ``name`` unless every value is finite and in the interval."""
+    ok = (arr > lo if lo_open else arr >= lo) & (arr <= hi)  # NaN fails both
+    if ok.all():
+        return
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{name}: values must be finite (no NaN or inf)")
+    if hi == _NO_LIMIT:
+        want = f"{'>' if lo_open else '≥'} {lo:g}"
+    else:
+        want = f"in {'(' if lo_open else '['}{lo:g}, {hi:g}]"
+    raise InputError(f"{name}: values must be {want}, got {float(arr[~ok].flat[0])!r}")
+
+
+def _per_hair(
+    x: object, n: int, name: str, lo: float, hi: float = _NO_LIMIT, lo_open: bool = False,
+    channels: int = 1,
+) -> np.ndarray:
+    """``x`` checked as a float64 C-contiguous (1 or n, channels) array, or InputError."""
+    shared = (3,) if channels == 3 else ()
+    want = "a colour (3,) or an (n, 3) array" if channels == 3 else "a number or an (n,) array"
+    try:
+        arr = None if isinstance(x, bool) else np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or (arr.shape != shared and arr.shape != (n,) + shared):
+        got = f"shape {arr.shape}" if arr is not None else repr(x)
+        raise InputError(f"{name}: expected {want} with n = {n}, got {got}")
+    _require(arr, name, lo, hi, lo_open)
+    return np.ascontiguousarray(arr).reshape(-1, channels)
+
+
+def _hair_ids(hair_ids: object) -> np.ndarray:
+    arr = np.asarray(hair_ids)
+    if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
+        raise InputError(
+            f"hair_ids: expected a 1-D array of integers, got shape {arr.shape} {arr.dtype}"
+        )
+    if np.any(arr < 0):
+        raise InputError("hair_ids: ids must be non-negative")
+    return np.ascontiguousarray(arr, dtype=np.int64)
+
+
+def _curve_parameter(t: object, n: int, vertices: int) -> np.ndarray:
+    if t is None:
+        return vertex_parameter(vertices).reshape(1, vertices)
+    arr = np.asarray(t, dtype=np.float64)
+    if arr.shape != (vertices,) and arr.shape != (n, vertices):
+        raise InputError(
+            f"t: expected shape ({vertices},) or ({n}, {vertices}), got shape {arr.shape}"
+        )
+    _require(arr, "t", 0.0, 1.0)
+    return np.ascontiguousarray(arr).reshape(-1, vertices)
+
+
+# ------------------------------------------------------------------------- public
+def hair_appearance(
+    hair_ids: object,
+    seed: int,
+    vertices: int,
+    root_color: object,
+    tip_color: object,
+    hue_var: float | np.ndarray,
+    sat_var: float | np.ndarray,
+    val_var: float | np.ndarray,
+    mutant_fraction: float | np.ndarray,
+    mutant_color: object,
+    root_width: float | np.ndarray,
+    tip_width: float | np.ndarray,
+    root_opacity: float | np.ndarray,
+    tip_opacity: float | np.ndarray,
+    t: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """Point data ``color`` (n·N, 3), ``width``, ``opacity`` (n·N,) float32, in hair order.
+
+    000 §2.2.6 colour, opacity and width of a hair, interpolated to its N vertices
+    (§2.2.9). Per-hair inputs are the property values already evaluated at each root
+    (a scalar or (3,) colour is shared by all n hairs):
+
+    - ``root_color``, ``tip_color``, ``mutant_color``: linear RGB ≥ 0, (n, 3) or (3,),
+      global value and texture already mixed by the caller. 000 mixes them by
+      component-wise addition (``Root_Color_G + Root_Color_T(u, v)``, likewise tip and
+      mutant); follicle's PropertyMap multiplies (``value × texture(uv)``); either result
+      is valid input. An HSV value above 1 is clamped to 1 (hue and saturation kept),
+      as 000 keeps s and v in [0, 1].
+    - ``hue_var`` degrees in [0, 180], ``sat_var`` and ``val_var`` in [0, 1]: G × T(u, v).
+      Each hair draws shifts uniform in ±var (streams of (seed, id, "color variation"))
+      and subtracts the same shifts from its root and tip colours (mutants too); hue
+      wraps around 360°, s and v are clamped to [0, 1].
+    - ``mutant_fraction`` in [0, 1]: Percent_Mutant_Hair_G · _T(u, v) / 100. A hair is a
+      mutant when ξ < fraction, ξ from (seed, id, "mutant hair"); a mutant is
+      ``mutant_color`` (shifted) from root to tip.
+    - ``root_width``, ``tip_width``: diameters in metres, > 0; ``root_opacity``,
+      ``tip_opacity`` in [0, 1]. Linear in t.
+
+    The colour is interpolated in HSV, hue along the shortest route. ``t`` is the curve
+    parameter of each vertex, (N,) for all hairs or (n, N) per hair (a cut hair keeps the
+    parameters of its uncut curve, 000 §2.2.8); None means i / (N − 1).
+    """
+    ids = _hair_ids(hair_ids)
+    n = ids.shape[0]
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise InputError(f"seed: expected an integer, got {seed!r}")
+    if not 0 <= int(seed) < 2**64:
+        raise InputError(f"seed: expected an integer in [0, 2**64), got {seed}")
+    if isinstance(vertices, bool) or not isinstance(vertices, (int, np.integer)):
+        raise InputError(f"vertices: expected an integer, got {vertices!r}")
+    if vertices < 2:
+        raise InputError(f"vertices: a hair needs at least 2 vertices, got {vertices}")
+    tt = _curve_parameter(t, n, int(vertices))
+
+    per_hair = (
+        _per_hair(root_color, n, "root_color", 0.0, channels=3),
+        _per_hair(tip_color, n, "tip_color", 0.0, channels=3),
+        _per_hair(hue_var, n, "hue_var", 0.0, 180.0),
+        _per_hair(sat_var, n, "sat_var", 0.0, 1.0),
+        _per_hair(val_var, n, "val_var", 0.0, 1.0),
+        _per_hair(mutant_fraction, n, "mutant_fraction", 0.0, 1.0),
+        _per_hair(mutant_color, n, "mutant_color", 0.0, channels=3),
+        _per_hair(root_width, n, "root_width", 0.0, lo_open=True),
+        _per_hair(tip_width, n, "tip_width", 0.0, lo_open=True),
+        _per_hair(root_opacity, n, "root_opacity", 0.0, 1.0),
+        _per_hair(tip_opacity, n, "tip_opacity", 0.0, 1.0),
+    )
+    total = n * int(vertices)
+    color = np.empty((total, 3), dtype=np.float32)
+    width = np.empty(total, dtype=np.float32)
+    opacity = np.empty(total, dtype=np.float32)
+    _appearance_kernel(ids, np.uint64(seed), tt, *per_hair, color, width, opacity)
+    return {"color": color, "width": width, "opacity": opacity}

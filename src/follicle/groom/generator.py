@@ -7,28 +7,32 @@ ids; each hair depends only on (seed, id), so chunking never changes a byte.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..curves import HairCurves
 from ..errors import InputError
 from ..mesh.displacement import displace
-from ..mesh.head import SCALP_TEXTURE, scalp_texture
+from ..mesh.head import SCALP_TEXTURE, parting_texture, scalp_texture
 from ..mesh.sampling import DensitySampler
 from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
 from ..scene import GroomParams
-from .appearance import root_to_tip
+from .appearance import hair_appearance
 from .guides import Guides
 from .interpolate import blend_guides, idw_weights
 
 __all__ = ["Groom", "resolve_density"]
 
+log = logging.getLogger("follicle")
+
 CHUNK = 65536
 
 
-BUILTIN_TEXTURES = {"builtin:scalp": scalp_texture}
+BUILTIN_TEXTURES = {"builtin:scalp": scalp_texture, "builtin:parting": parting_texture}
 
 
 def resolve_density(
@@ -60,6 +64,9 @@ def load_texture(spec: str, resolve_path: Callable[[str], str] = str) -> Texture
 class Groom:
     """Grows hair on ``mesh`` from ``guides`` with ``params`` (defaults when None).
 
+    Hairs follow the guides' interpolation groups; each has ``params.vertices``
+    vertices (default: the guides' count) unless its group sets its own.
+
     ``density`` overrides ``params.density`` (a Texture, number, path or None). With a
     ``displacement`` texture, roots on the current pose sit on the displaced skin
     (000 §2.2.3); interpolation still uses the undisplaced rest pose.
@@ -76,11 +83,8 @@ class Groom:
     ) -> None:
         self.mesh = mesh
         self.params = params if params is not None else GroomParams()
-        wanted = self.params.vertices
         if isinstance(guides, HairCurves):
-            guides = Guides(guides, mesh, wanted)
-        elif wanted is not None and guides.vertex_count != wanted:
-            guides = Guides(guides.curves, mesh, wanted)
+            guides = Guides(guides, mesh)
         self.guides = guides
         spec = density if density is not None else self.params.density
         self.sampler = DensitySampler(
@@ -88,6 +92,12 @@ class Groom:
         )
         self.displacement = displacement
         self.displacement_scale = displacement_scale
+        groups = self.guides.groups
+        default = self.params.vertices or self.guides.vertex_count
+        self._vertices = np.array(
+            [groups.vertex_count(g, default) for g in range(groups.count)], dtype=np.int64
+        )
+        self._trees: dict[int, tuple[cKDTree, np.ndarray]] = {}
 
     def grow(
         self,
@@ -101,43 +111,91 @@ class Groom:
         seed = p.seed if seed is None else seed
         if count < 0:
             raise InputError(f"count: must be ≥ 0, got {count}")
-        n = self.guides.vertex_count
-        points = np.empty((count, n, 3), dtype=np.float32)
-        triangles = np.empty(count, dtype=np.int32)
-        bary = np.empty((count, 2), dtype=np.float32)
-        root_uv = np.empty((count, 2), dtype=np.float32)
+        parts: list[tuple[np.ndarray, ...]] = []
         for start in range(0, count, CHUNK):
             stop = min(start + CHUNK, count)
             tri, b = self.sampler.sample(stop - start, seed, "random", start)
-            points[start:stop], root_uv[start:stop] = self._shapes(tri, b)
-            triangles[start:stop], bary[start:stop] = tri, b
+            parts.append((tri, b, *self._chunk(tri, b, np.arange(start, stop), seed)))
             if progress is not None:
                 progress(stop, count)
-        attrs = root_to_tip(
-            count, n, p.root_width, p.tip_width, p.root_color, p.tip_color,
-            p.root_opacity, p.tip_opacity,
+        tri, bary, root_uv, counts, points, *attrs = (
+            np.concatenate([part[k] for part in parts]) if parts else _EMPTY[k]
+            for k in range(8)
         )
-        return HairCurves.from_array(
+        return HairCurves(
             points,
-            point_data=attrs,
+            np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+            point_data=dict(zip(("width", "opacity", "color"), attrs, strict=True)),
             curve_data={
                 "hair_id": np.arange(count, dtype=np.int64),
                 "root_uv": root_uv,
-                "root_triangle": triangles.astype(np.int64),
+                "root_triangle": tri.astype(np.int64),
                 "root_bary": bary,
             },
         )
 
-    def _shapes(self, triangles: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Hair vertices (n, N, 3) on the current pose and root UVs (n, 2) of these roots."""
+    def _chunk(
+        self, triangles: np.ndarray, bary: np.ndarray, ids: np.ndarray, seed: int
+    ) -> tuple[np.ndarray, ...]:
+        """Root UVs, vertex counts, points and per-vertex width, opacity, colour of hairs.
+
+        Each hair takes guides of its own interpolation group only (000 §2.2.4) and
+        that group's vertex count; the pieces are laid out in hair order.
+        """
+        p = self.params
         rest = self.mesh.evaluate(triangles, bary, pose="rest")
-        idx, w = idw_weights(self.guides.root_positions, rest.position, self.params.guide_samples)
+        group = self.guides.groups.group_of(rest.uv)
         if self.displacement is None:
             cur = self.mesh.evaluate(triangles, bary, pose="current")
         else:
             cur = displace(self.mesh, triangles, bary, self.displacement, self.displacement_scale)
-        shapes = blend_guides(
-            self.guides.local, idx, w, cur.position, cur.tangent, cur.binormal, cur.normal,
-            self.params.scale,
-        )
-        return shapes, rest.uv
+        counts = self._vertices[group]
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        total = int(counts.sum())
+        points = np.empty((total, 3), dtype=np.float32)
+        width, opacity = np.empty(total, np.float32), np.empty(total, np.float32)
+        color = np.empty((total, 3), np.float32)
+        for g in np.unique(group):
+            tree, members = self._group_guides(int(g))
+            sel = np.flatnonzero(group == g)
+            n = int(self._vertices[g])
+            idx, w = idw_weights(tree, rest.position[sel], p.guide_samples)
+            shapes = blend_guides(
+                self.guides.local_shapes(n)[members], idx, w, cur.position[sel],
+                cur.tangent[sel], cur.binormal[sel], cur.normal[sel], p.scale,
+            )
+            rows = (starts[sel][:, None] + np.arange(n)).ravel()
+            points[rows] = shapes.reshape(-1, 3)
+            look = hair_appearance(
+                ids[sel], seed, n, p.root_color, p.tip_color, p.hue_variation,
+                p.saturation_variation, p.value_variation, p.mutant_fraction, p.mutant_color,
+                p.root_width, p.tip_width, p.root_opacity, p.tip_opacity,
+            )
+            width[rows], opacity[rows], color[rows] = look["width"], look["opacity"], look["color"]
+        return rest.uv.astype(np.float32), counts, points, width, opacity, color
+
+    def _group_guides(self, group: int) -> tuple[cKDTree, np.ndarray]:
+        """A KD-tree over the rest roots of ``group``'s guides, and their indices."""
+        if group not in self._trees:
+            label = self.guides.groups.label(group)
+            members = np.flatnonzero(self.guides.group == group)
+            if len(members) == 0:
+                raise InputError(
+                    f"interpolation group {label} has hairs but no guides; add guides in"
+                    " that colour's area or repaint the group texture"
+                )
+            if len(members) < self.params.guide_samples:
+                log.warning(
+                    "interpolation group %s has %d guide(s), fewer than guide_samples = %d:"
+                    " its hairs blend all of them", label, len(members),
+                    self.params.guide_samples,
+                )
+            self._trees[group] = (cKDTree(self.guides.root_positions[members]), members)
+        return self._trees[group]
+
+
+_EMPTY = (
+    np.empty(0, np.int32), np.empty((0, 2), np.float32), np.empty((0, 2), np.float32),
+    np.empty(0, np.int64), np.empty((0, 3), np.float32), np.empty(0, np.float32),
+    np.empty(0, np.float32), np.empty((0, 3), np.float32),
+)

@@ -9,6 +9,7 @@ bleeding through. Guides are resampled by arc length to a common vertex count.
 
 from __future__ import annotations
 
+import logging
 import os
 
 import numpy as np
@@ -16,6 +17,10 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..mesh.skin import SkinMesh
+from .groups import InterpolationGroups
+
+log = logging.getLogger("follicle")
+_FAR = 0.01  # warn when a root is farther from the mesh than this share of its size
 
 __all__ = ["Guides", "load_guides", "resample_arclength"]
 
@@ -39,13 +44,22 @@ def resample_arclength(curves: HairCurves, vertices: int) -> np.ndarray:
 
 
 class Guides:
-    """Guide curves bound to ``mesh``'s rest pose.
+    """Guide curves bound to ``mesh``'s rest pose, each in an interpolation group.
 
     Roots come from ``curve_data['root_triangle']``/``['root_bary']`` when present,
-    else from the closest point of the rest mesh to each guide's first vertex.
+    else from the closest point of the rest mesh to each guide's first vertex (with
+    a warning when that is far). ``groups`` assigns each guide the group at its root
+    UV (one group when None). ``local`` holds the shapes at ``vertices`` (default:
+    the longest guide's count); :meth:`local_shapes` gives any other count.
     """
 
-    def __init__(self, curves: HairCurves, mesh: SkinMesh, vertices: int | None = None) -> None:
+    def __init__(
+        self,
+        curves: HairCurves,
+        mesh: SkinMesh,
+        vertices: int | None = None,
+        groups: InterpolationGroups | None = None,
+    ) -> None:
         if curves.curve_count == 0:
             raise InputError("guides: need at least one guide curve")
         self.curves = curves
@@ -61,21 +75,35 @@ class Guides:
                 )
         else:
             roots = curves.points[curves.offsets[:-1]]
-            self.triangles, self.bary, _ = mesh.closest_points(roots, pose="rest")
-        shape = resample_arclength(curves, n)
+            self.triangles, self.bary, dist = mesh.closest_points(roots, pose="rest")
+            lo, hi = mesh.bounds("rest")
+            size = float(np.linalg.norm(hi - lo))
+            if dist.max() > _FAR * size:
+                log.warning(
+                    "guides: %d root(s) lie off mesh '%s' (farthest: guide %d, %.4g away,"
+                    " %.1f%% of the mesh size); they are bound to the closest surface point",
+                    int((dist > _FAR * size).sum()), mesh.name, int(np.argmax(dist)),
+                    float(dist.max()), 100.0 * float(dist.max()) / size,
+                )
         frame = mesh.evaluate(self.triangles, self.bary, pose="rest")
         self.root_positions = frame.position
         self.normals, self.tangents, self.binormals = frame.normal, frame.tangent, frame.binormal
-        rel = shape - shape[:, :1, :]
-        # root-local coordinates: x along the tangent, y the binormal, z the normal
-        self.local = np.stack(
-            [
-                np.einsum("snk,sk->sn", rel, self.tangents),
-                np.einsum("snk,sk->sn", rel, self.binormals),
-                np.einsum("snk,sk->sn", rel, self.normals),
-            ],
-            axis=-1,
-        ).astype(np.float32)
+        self.groups = groups if groups is not None else InterpolationGroups()
+        self.group = self.groups.group_of(frame.uv)
+        self._local: dict[int, np.ndarray] = {}
+        self.local = self.local_shapes(n)
+
+    def local_shapes(self, vertices: int) -> np.ndarray:
+        """Guide shapes resampled by arc length to ``vertices``, in root frames (S, V, 3).
+
+        x along the root tangent, y the binormal, z the normal (000 §2.2.4).
+        """
+        if vertices not in self._local:
+            rel = resample_arclength(self.curves, vertices)
+            rel -= rel[:, :1, :]
+            frames = np.stack([self.tangents, self.binormals, self.normals], axis=1)  # (S, 3, 3)
+            self._local[vertices] = np.einsum("snk,sak->sna", rel, frames).astype(np.float32)
+        return self._local[vertices]
 
     @property
     def count(self) -> int:
@@ -90,7 +118,10 @@ class Guides:
 
 
 def load_guides(
-    source: str | os.PathLike[str] | HairCurves, mesh: SkinMesh, vertices: int | None = None
+    source: str | os.PathLike[str] | HairCurves,
+    mesh: SkinMesh,
+    vertices: int | None = None,
+    groups: InterpolationGroups | None = None,
 ) -> Guides:
     """Guides from ``builtin:long|short|curly``, a curves file, or HairCurves, bound to ``mesh``."""
     from ..io.dispatch import load_curves
@@ -102,4 +133,4 @@ def load_guides(
         curves = builtin_guides(str(source).split(":", 1)[1], mesh)
     else:
         curves = load_curves(source)
-    return Guides(curves, mesh, vertices)
+    return Guides(curves, mesh, vertices, groups)

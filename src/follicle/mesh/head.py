@@ -23,6 +23,7 @@ __all__ = [
     "builtin_head",
     "head_inside",
     "head_signed_distance",
+    "parting_texture",
     "scalp_texture",
     "SCALP_TEXTURE",
     "HEAD_CENTER",
@@ -236,16 +237,32 @@ def _scalp_density_at(p: np.ndarray) -> np.ndarray:
     return _smoothstep(-0.005, 0.005, h)
 
 
-def _scalp_density() -> np.ndarray:
-    n = _SCALP_SIZE
+def _texel_points(n: int) -> np.ndarray:
+    """Head-surface points under the centres of an n×n texture in the head's UV layout."""
     centres = (np.arange(n) + 0.5) / n
     v = 1.0 - centres[:, None]  # row i from the top ⇒ v = 1 − (i + 0.5) / H
     u = centres[None, :]
     th = np.pi * (1.0 - np.broadcast_to(v, (n, n)))
     ph = 2 * np.pi * np.broadcast_to(u, (n, n))
     d = _direction(th.ravel(), ph.ravel())
-    p = d * _radius(d)[:, None]
-    return _scalp_density_at(p).reshape(n, n).astype(np.float32)
+    return d * _radius(d)[:, None]
+
+
+def _scalp_density() -> np.ndarray:
+    n = _SCALP_SIZE
+    return _scalp_density_at(_texel_points(n)).reshape(n, n).astype(np.float32)
+
+
+def parting_texture() -> Texture:
+    """``builtin:parting``: two interpolation groups split at the head's mid-plane x = 0.
+
+    Red on the head's right (x < 0), blue on its left: the built-in guides part in
+    the middle, and with these groups no hair blends guides from both sides.
+    """
+    n = _SCALP_SIZE
+    right = (_texel_points(n)[:, 0] < 0.0).reshape(n, n)
+    rgb = np.where(right[:, :, None], [255, 0, 0], [0, 0, 255]).astype(np.uint8)
+    return Texture(rgb, wrap="clamp", name="parting")
 
 
 def scalp_texture() -> Texture:

@@ -3,11 +3,12 @@
 Preprocessing subdivides every triangle until its sub-triangles are smaller than a
 texel of the density texture (depth from the texel count, eq. 2.3), gives each the
 mean of the bilinear texture over it (the paper takes one sample at the barycentre;
-see ``_leaf_value``) and merges four equal siblings back into their parent (Fig. 2.3). A sub-triangle is stored as (parent triangle,
-sub-triangle index) with ``index(child) = 4·index(parent) + j``, j = 1…4, plus one
-shared table of sub-triangle positions (Fig. 2.4, 2.5), and a 32-bit CDF value:
-12 bytes. The CDF is fixed point (steps of 2⁻³²) rather than float32, so even a
-10⁴:1 texture on millions of sub-triangles keeps every probability to 2.3·10⁻¹⁰.
+see ``_leaf_value``) and merges four equal siblings back into their parent (Fig. 2.3).
+A sub-triangle is stored as (parent triangle, sub-triangle index) with
+``index(child) = 4·index(parent) + j``, j = 1…4, plus one shared table of
+sub-triangle positions (Fig. 2.4, 2.5), and a 32-bit CDF value: 12 bytes. The
+CDF is fixed point (steps of 2⁻³²) rather than float32, so even a 10⁴:1 texture
+on millions of sub-triangles keeps every probability to 2.3·10⁻¹⁰.
 
 Sampling takes exactly two numbers per sample (§2.1.5): the first picks the
 sub-triangle through a uniform grid over the CDF's codomain and a bisection inside
