@@ -88,7 +88,9 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
     from .pipeline import grow, render_scene
     from .scene import parse_scene
 
-    groom = {} if count is None else {"count": count}
+    groom: dict[str, object] = {"groups": "builtin:parting"}  # the guides part in the middle
+    if count is not None:
+        groom["count"] = count
     scene = parse_scene({"guides": {"path": guides}, "groom": groom,
                          "render": {"size": list(size)}}, "demo")
     out = Path(out_dir)
