@@ -54,18 +54,17 @@ def _lerp(t, a, b):
     return a + t * (b - a)
 
 
+# improved noise: the 12 edge directions of a cube (4 repeated to fill 16 hash values),
+# as coefficient tables so the gradient needs no data-dependent branch
+_GX = np.array([1, -1, 1, -1, 1, -1, 1, -1, 0, 0, 0, 0, 1, 0, -1, 0], dtype=np.float64)
+_GY = np.array([1, 1, -1, -1, 0, 0, 0, 0, 1, -1, 1, -1, 1, -1, 1, -1], dtype=np.float64)
+_GZ = np.array([0, 0, 0, 0, 1, 1, -1, -1, 1, 1, -1, -1, 0, 1, 0, -1], dtype=np.float64)
+
+
 @njit(cache=True, inline="always")
 def _grad(h, x, y, z):
-    # improved noise: 12 edge directions of a cube (4 repeated to fill 16 hash values)
     h = h & 15
-    u = x if h < 8 else y
-    if h < 4:
-        v = y
-    elif h == 12 or h == 14:
-        v = x
-    else:
-        v = z
-    return (u if (h & 1) == 0 else -u) + (v if (h & 2) == 0 else -v)
+    return _GX[h] * x + _GY[h] * y + _GZ[h] * z
 
 
 @njit(cache=True)

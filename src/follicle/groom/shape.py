@@ -1,0 +1,351 @@
+"""Shape deformers on hairs in root-local frames: Frizz, Kink (000 §2.2.5) and Curl (001 §3.1.2).
+
+Every function works IN PLACE on a chunk ``local`` of n hairs, a C-contiguous, writable
+float64 array (n, N, 3): x along the root tangent T, y along the binormal B, z along the
+surface normal N; vertex 0 is the root at the origin and is never moved. Call them after
+interpolation and scaling, before the transform to world space (000 §2.2.2), in the order
+``curl`` (a shape), ``frizz``, ``kink`` (Kink samples the vertices as they are then).
+
+Per-hair properties (already global × texture(uv)) are numbers or float64 arrays (n,).
+The curve parameter of vertex i is the ORIGINAL parametrisation t = i / (N - 1) (000
+§2.2.8: cutting a hair keeps it); pass ``t`` ((N,) or (n, N), values in [0, 1]) to use
+another one, e.g. i / (N_uncut - 1) for cut hairs. Noise is a pure function of rest-pose
+positions, so hairs keep their shape on an animated mesh and any chunking gives the
+same bytes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ..errors import InputError
+from ..frames import rotation_minimizing_frames
+from ..noise import noise3
+from ..rng import uniforms
+
+__all__ = ["frizz", "kink", "curl", "curl_phase"]
+
+_TWO_PI = 2.0 * np.pi
+
+
+# ------------------------------------------------------------------------------- kernels
+@njit(cache=True, parallel=True)
+def _frizz_kernel(local, roots, amp_root, amp_tip, freq, offset, blend, t):
+    n_verts = local.shape[1]
+    shared_t = t.shape[0] == 1
+    for h in prange(local.shape[0]):
+        fr = amp_root[h]
+        ft = amp_tip[h]
+        if fr == 0.0 and ft == 0.0:
+            continue
+        a = blend[h]
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        if a != 1.0:  # static F = noise3D(frequency ⊙ rest root)
+            sx, sy, sz = noise3(freq[h, 0] * roots[h, 0], freq[h, 1] * roots[h, 1],
+                                freq[h, 2] * roots[h, 2])
+            fx = (1.0 - a) * sx
+            fy = (1.0 - a) * sy
+            fz = (1.0 - a) * sz
+        if a != 0.0:  # F_dynamic = noise3D(frequency ⊙ (rest root + offset))
+            dx, dy, dz = noise3(freq[h, 0] * (roots[h, 0] + offset[h, 0]),
+                                freq[h, 1] * (roots[h, 1] + offset[h, 1]),
+                                freq[h, 2] * (roots[h, 2] + offset[h, 2]))
+            fx += a * dx
+            fy += a * dy
+            fz += a * dz
+        fz = -abs(fz)  # F_combined.z = -|F_combined.z|: bend towards the skin, never away
+        cap = max(fr, ft)
+        th = t[0] if shared_t else t[h]
+        for i in range(1, n_verts):
+            ti = th[i]
+            amp = min(fr * 4.0 * (ti - ti * ti) + ft * ti * ti, cap)
+            local[h, i, 0] += fx * amp
+            local[h, i, 1] += fy * amp
+            z = local[h, i, 2]
+            floor = min(z, 0.0)  # a vertex above the skin plane is not pushed below it
+            local[h, i, 2] = max(z + fz * amp, floor)
+
+
+@njit(cache=True, parallel=True)
+def _kink_kernel(local, roots, tangent, binormal, normal, amp_root, amp_tip, freq, t):
+    n_verts = local.shape[1]
+    shared_t = t.shape[0] == 1
+    shared_frame = tangent.shape[0] == 1
+    for h in prange(local.shape[0]):
+        kr = amp_root[h]
+        kt = amp_tip[h]
+        if kr == 0.0 and kt == 0.0:
+            continue
+        tg = tangent[0] if shared_frame else tangent[h]
+        bn = binormal[0] if shared_frame else binormal[h]
+        nm = normal[0] if shared_frame else normal[h]
+        th = t[0] if shared_t else t[h]
+        for i in range(1, n_verts):
+            x = local[h, i, 0]
+            y = local[h, i, 1]
+            z = local[h, i, 2]
+            # the vertex in world space on the rest pose: root + x T + y B + z N
+            wx = roots[h, 0] + x * tg[0] + y * bn[0] + z * nm[0]
+            wy = roots[h, 1] + x * tg[1] + y * bn[1] + z * nm[1]
+            wz = roots[h, 2] + x * tg[2] + y * bn[2] + z * nm[2]
+            kx, ky, kz = noise3(freq[h, 0] * wx, freq[h, 1] * wy, freq[h, 2] * wz)
+            ti = th[i]
+            amp = (1.0 - ti) * kr + ti * kt
+            local[h, i, 0] = x + kx * amp
+            local[h, i, 1] = y + ky * amp
+            local[h, i, 2] = z + kz * amp
+
+
+@njit(cache=True, parallel=True)
+def _curl_kernel(local, nor, bi, radius, f_root, f_tip, phase, ramp, t):
+    n_verts = local.shape[1]
+    shared_t = t.shape[0] == 1
+    for h in prange(local.shape[0]):
+        a = radius[h]
+        if a == 0.0:
+            continue
+        th = t[0] if shared_t else t[h]
+        theta = phase[h]
+        px = local[h, 0, 0]
+        py = local[h, 0, 1]
+        pz = local[h, 0, 2]
+        for i in range(1, n_verts):
+            cx = local[h, i, 0]
+            cy = local[h, i, 1]
+            cz = local[h, i, 2]
+            # θ(s) = phase + 2π ∫ f ds along the axis (the input polyline), f linear in t:
+            # the midpoint rule is exact on each segment
+            seg = np.sqrt((cx - px) ** 2 + (cy - py) ** 2 + (cz - pz) ** 2)
+            tm = 0.5 * (th[i - 1] + th[i])
+            theta += _TWO_PI * (f_root[h] + (f_tip[h] - f_root[h]) * tm) * seg
+            ti = th[i]
+            if ti >= ramp:
+                r = a
+            else:
+                u = ti / ramp
+                r = a * u * u * (3.0 - 2.0 * u)  # smoothstep: the radius grows in from 0
+            c = r * np.cos(theta)
+            s = r * np.sin(theta)
+            k = h * n_verts + i
+            local[h, i, 0] = cx + c * nor[k, 0] + s * bi[k, 0]
+            local[h, i, 1] = cy + c * nor[k, 1] + s * bi[k, 1]
+            local[h, i, 2] = cz + c * nor[k, 2] + s * bi[k, 2]
+            px = cx
+            py = cy
+            pz = cz
+
+
+# ---------------------------------------------------------------------------- validation
+@njit(cache=True, parallel=True)
+def _all_finite(flat):
+    bad = 0
+    for i in prange(flat.shape[0]):
+        if not math.isfinite(flat[i]):
+            bad += 1
+    return bad == 0
+
+
+def _check_local(local: object) -> np.ndarray:
+    if not isinstance(local, np.ndarray) or local.dtype != np.float64:
+        kind = local.dtype if isinstance(local, np.ndarray) else type(local).__name__
+        raise InputError(f"local: expected a float64 numpy array (changed in place), got {kind}")
+    if local.ndim != 3 or local.shape[1] < 1 or local.shape[2] != 3:
+        raise InputError(f"local: expected shape (n, N >= 1, 3), got {local.shape}")
+    if not (local.flags.c_contiguous and local.flags.writeable):
+        raise InputError("local: must be C-contiguous and writeable (it is changed in place)")
+    if not _all_finite(local.reshape(-1)):
+        raise InputError("local: vertices must be finite (no NaN or inf)")
+    return local
+
+
+def _as_float(value: object, name: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: expected numbers, got {value!r}") from exc
+    if not np.isfinite(arr).all():
+        raise InputError(f"{name}: values must be finite (no NaN or inf)")
+    return arr
+
+
+def _per_hair(
+    value: object, n: int, name: str, lo: float | None = None, hi: float | None = None
+) -> np.ndarray:
+    """A number or an (n,) array as a contiguous float64 (n,) array in [lo, hi]."""
+    arr = _as_float(value, name)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    elif arr.shape != (n,):
+        raise InputError(f"{name}: expected a number or shape ({n},), got shape {arr.shape}")
+    if lo is not None and (arr < lo).any():
+        raise InputError(f"{name}: values must be >= {lo}")
+    if hi is not None and (arr > hi).any():
+        raise InputError(f"{name}: values must be <= {hi}")
+    return np.ascontiguousarray(arr)
+
+
+def _per_hair_vec(value: object, n: int, name: str) -> np.ndarray:
+    """A 3-vector or an (n, 3) array as a contiguous float64 (n, 3) array."""
+    arr = _as_float(value, name)
+    if arr.shape == (3,):
+        arr = np.broadcast_to(arr, (n, 3))
+    elif arr.shape != (n, 3):
+        raise InputError(f"{name}: expected shape (3,) or ({n}, 3), got shape {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def _roots(rest_roots: object, n: int) -> np.ndarray:
+    arr = _as_float(rest_roots, "rest_roots")
+    if arr.shape != (n, 3):
+        raise InputError(f"rest_roots: expected shape ({n}, 3), got shape {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def _params(t: object, n: int, n_verts: int) -> np.ndarray:
+    """Curve parameters as (1, N) (shared) or (n, N); default i / (N - 1)."""
+    if t is None:
+        return np.linspace(0.0, 1.0, n_verts)[None]
+    arr = _as_float(t, "t")
+    if arr.shape == (n_verts,):
+        arr = arr[None]
+    elif arr.shape != (n, n_verts):
+        raise InputError(f"t: expected shape ({n_verts},) or ({n}, {n_verts}), got {arr.shape}")
+    if ((arr < 0.0) | (arr > 1.0)).any():
+        raise InputError("t: curve parameters must lie in [0, 1]")
+    return np.ascontiguousarray(arr)
+
+
+def _frame(rest_frame: object, n: int) -> list[np.ndarray]:
+    """Rest root frames [T, B, N], each (1, 3) (the world axes) or (n, 3)."""
+    if rest_frame is None:
+        return [row[None] for row in np.eye(3)]
+    if not isinstance(rest_frame, (tuple, list)) or len(rest_frame) != 3:
+        raise InputError("rest_frame: expected a tuple (tangent, binormal, normal) of (n, 3)")
+    parts = [_as_float(v, "rest_frame") for v in rest_frame]
+    if any(p.shape != (n, 3) for p in parts):
+        shapes = [p.shape for p in parts]
+        raise InputError(f"rest_frame: expected three arrays of shape ({n}, 3), got {shapes}")
+    return [np.ascontiguousarray(p) for p in parts]
+
+
+# --------------------------------------------------------------------------------- public
+def frizz(
+    local: np.ndarray,
+    rest_roots: np.ndarray,
+    amp_root: float | np.ndarray,
+    amp_tip: float | np.ndarray,
+    frequency: np.ndarray,
+    offset: np.ndarray = (0.0, 0.0, 0.0),
+    blend: float | np.ndarray = 0.0,
+    t: np.ndarray | None = None,
+) -> None:
+    """000 §2.2.5 Frizz, in place: one noise vector per hair bends the whole hair.
+
+    F = noise3D(frequency ⊙ rest_root) with ``rest_roots`` (n, 3) the roots on the rest
+    mesh in world space and ``frequency`` the X/Y/Z frequencies ((3,) or (n, 3)).
+    Animated frizz: F_dynamic = noise3D(frequency ⊙ (rest_root + offset)) with
+    ``offset`` = Frizz_Anim_Direction · speed · time ((3,) or (n, 3), from the caller),
+    and F_combined = (1 - blend) F + blend F_dynamic with ``blend`` the animationFactor
+    in [0, 1]. Choice: the seed writes the dynamic input as frequency · dynamic · root (a
+    product), which gives every hair the same vector at time 0 and stretches the noise
+    away from the world origin; adding the offset instead slides the pattern over the skin
+    along the direction at the given speed (a breeze). Then F_combined.z = -|F_combined.z|
+    and every vertex but the root moves by F_combined · min(amp_root · 4(t - t²) +
+    amp_tip · t², max(amp_root, amp_tip)) (amplitudes >= 0). Choice: a vertex on or above
+    the skin plane z = 0 is not moved below it (its z stops at 0; one below keeps its z),
+    so frizz never pushes hair into the skin. F is not normalised (as in the seed).
+    """
+    local = _check_local(local)
+    n, n_verts = local.shape[:2]
+    _frizz_kernel(
+        local,
+        _roots(rest_roots, n),
+        _per_hair(amp_root, n, "amp_root", lo=0.0),
+        _per_hair(amp_tip, n, "amp_tip", lo=0.0),
+        _per_hair_vec(frequency, n, "frequency"),
+        _per_hair_vec(offset, n, "offset"),
+        _per_hair(blend, n, "blend", lo=0.0, hi=1.0),
+        _params(t, n, n_verts),
+    )
+
+
+def kink(
+    local: np.ndarray,
+    rest_roots: np.ndarray,
+    amp_root: float | np.ndarray,
+    amp_tip: float | np.ndarray,
+    frequency: np.ndarray,
+    rest_frame: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    t: np.ndarray | None = None,
+) -> None:
+    """000 §2.2.5 Kink, in place: a noise vector per vertex crimps the hair.
+
+    Vertex i (all but the root) moves by K_i · ((1 - t) amp_root + t amp_tip), with
+    K_i = noise3D(frequency ⊙ w_i) and w_i the vertex as it is now placed in world space on
+    the rest pose: rest_root + x T + y B + z N with ``rest_frame`` = (T, B, N), each (n, 3)
+    (None: the world axes, i.e. w_i = rest_root + vertex). K_i is added in the local frame,
+    as in the seed. Choice: the root vertex stays fixed (the seed's linear profile would
+    move it by amp_root · K_0, off the skin).
+    """
+    local = _check_local(local)
+    n, n_verts = local.shape[:2]
+    _kink_kernel(
+        local,
+        _roots(rest_roots, n),
+        *_frame(rest_frame, n),
+        _per_hair(amp_root, n, "amp_root", lo=0.0),
+        _per_hair(amp_tip, n, "amp_tip", lo=0.0),
+        _per_hair_vec(frequency, n, "frequency"),
+        _params(t, n, n_verts),
+    )
+
+
+def curl(
+    local: np.ndarray,
+    radius: float | np.ndarray,
+    frequency: float | np.ndarray,
+    frequency_tip: float | np.ndarray | None = None,
+    phase: float | np.ndarray = 0.0,
+    ramp: float = 0.15,
+    t: np.ndarray | None = None,
+) -> None:
+    """001 §3.1.2 Alg. 3 curly hair, in place: winds each hair into a helix about itself.
+
+    Vertex i moves by r(t_i) (cos θ_i n_i + sin θ_i b_i), with (n_i, b_i) the
+    rotation-minimising frame of the hair (000 §2.2.8) whose first normal is the root
+    tangent T = local x, b = tangent × n. θ = phase + 2π ∫ f ds along the hair's arc
+    length s, f = ``frequency`` (turns per unit length; Alg. 3's 1/B) at the root rising
+    linearly in t to ``frequency_tip`` (None: constant) at t = 1, like Alg. 3's growing
+    angle step; a negative frequency winds the other way. The radius r is ``radius``
+    (A, >= 0) except for t < ``ramp`` where it grows in from 0 at the root by smoothstep
+    (ramp 0: full radius from vertex 1); the root vertex never moves. The hair's axis
+    stays, so the hair gets longer: a segment of length h far from the root becomes
+    sqrt(h² + (2A sin(π f h))²) on a straight hair. ``phase`` (radians, per hair) turns
+    the helix start; :func:`curl_phase` draws one per hair.
+    """
+    local = _check_local(local)
+    n, n_verts = local.shape[:2]
+    radius = _per_hair(radius, n, "radius", lo=0.0)
+    f_root = _per_hair(frequency, n, "frequency")
+    f_tip = f_root if frequency_tip is None else _per_hair(frequency_tip, n, "frequency_tip")
+    phase = _per_hair(phase, n, "phase")
+    ramp_arr = _as_float(ramp, "ramp")
+    if ramp_arr.ndim != 0 or not 0.0 <= float(ramp_arr) <= 1.0:
+        raise InputError(f"ramp: expected one number in [0, 1], got {ramp!r}")
+    t = _params(t, n, n_verts)
+    if n == 0 or n_verts < 2:
+        return
+    offsets = np.arange(0, n * n_verts + 1, n_verts)
+    first = np.broadcast_to(np.array([1.0, 0.0, 0.0]), (n, 3))
+    _, nor, bi = rotation_minimizing_frames(local.reshape(-1, 3), offsets, first)
+    _curl_kernel(local, nor, bi, radius, f_root, f_tip, phase, float(ramp_arr), t)
+
+
+def curl_phase(seed: int, hair_ids: np.ndarray) -> np.ndarray:
+    """Per-hair helix phases 2π u, u in [0, 1) from the (seed, id, "curl_phase") stream."""
+    return _TWO_PI * uniforms(seed, hair_ids, "curl_phase", 1)[:, 0]
