@@ -192,20 +192,6 @@ def test_curved_hair_fibres_in_rmf_planes_at_splay_distance():
     np.testing.assert_allclose(v, uv[:, 1:] * prof, atol=1e-7)
 
 
-def test_hair_frame_is_the_library_rmf_bit_for_bit():
-    from follicle.groom.fibres import _hair_frames
-
-    rng = np.random.default_rng(1)
-    for nv in (2, 5, 20):
-        p = np.cumsum(rng.normal(size=(nv, 3)), axis=0)
-        p -= p[0]
-        got = [np.empty((nv, 3)) for _ in range(3)]
-        _hair_frames(p, *got)
-        want = rotation_minimizing_frames(p, [0, nv], [[1.0, 0.0, 0.0]])
-        for g, w in zip(got, want, strict=True):
-            np.testing.assert_array_equal(g, w)
-
-
 def test_degenerate_hair_segments_are_handled():
     local = _straight(1, nv=6)
     local[0, 3] = local[0, 2]  # a repeated vertex

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from follicle.errors import InputError
-from follicle.frames import root_frames, rotation_minimizing_frames
+from follicle.frames import polyline_frames, root_frames, rotation_minimizing_frames
 from follicle.spline import vertex_tangents
 
 
@@ -123,3 +123,19 @@ def test_bad_inputs_raise():
         rotation_minimizing_frames(pts, [0, len(pts)], [[0, 0, np.nan]])
     with pytest.raises(InputError, match="offsets"):
         rotation_minimizing_frames(pts, [0, 1, len(pts)], [[0, 0, 1.0]] * 2)
+
+
+def test_one_polyline_in_a_kernel_equals_the_batched_frames_bit_for_bit():
+    # fibres and curl call polyline_frames per hair; a batch of curves must give the same
+    rng = np.random.default_rng(1)
+    curves = [np.cumsum(rng.normal(size=(nv, 3)), axis=0) for nv in (2, 5, 20)]
+    batch = rotation_minimizing_frames(
+        np.vstack(curves), [0, 2, 7, 27], np.tile([1.0, 0.0, 0.0], (3, 1))
+    )
+    start = 0
+    for p in curves:
+        got = [np.empty((len(p), 3)) for _ in range(3)]
+        polyline_frames(p, np.array([1.0, 0.0, 0.0]), *got)
+        for g, w in zip(got, batch, strict=True):
+            np.testing.assert_array_equal(g, w[start : start + len(p)])
+        start += len(p)

@@ -6,9 +6,9 @@ import numpy as np
 from numba import njit
 
 from .errors import InputError
-from .spline import _check_curves, _tangents_kernel
+from .spline import _check_curves
 
-__all__ = ["normalize", "root_frames", "rotation_minimizing_frames"]
+__all__ = ["normalize", "root_frames", "rotation_minimizing_frames", "polyline_frames"]
 
 
 def normalize(v: np.ndarray) -> np.ndarray:
@@ -45,75 +45,114 @@ def root_frames(
 
 # ------------------------------------------------------------------ rotation minimizing frames
 @njit(cache=True, inline="always")
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@njit(cache=True)
-def _unit_perpendicular(t, r):
-    """r made orthogonal to unit t and normalised; an arbitrary perpendicular if r ∥ t."""
-    d = _dot(r, t)
-    x = r - d * t
-    nx = np.sqrt(_dot(x, x))
+def _perpendicular(tx, ty, tz, rx, ry, rz):
+    """r made orthogonal to unit t and normalised; if r ∥ t, the axis least aligned with t."""
+    d = rx * tx + ry * ty + rz * tz
+    x = rx - d * tx
+    y = ry - d * ty
+    z = rz - d * tz
+    nx = np.sqrt(x * x + y * y + z * z)
     if nx < 1e-9:
-        # the axis least aligned with t, orthogonalised
-        ax = np.zeros(3)
-        ax[np.argmin(np.abs(t))] = 1.0
-        x = ax - _dot(ax, t) * t
-        nx = np.sqrt(_dot(x, x))
-    return x / nx
+        ax, ay, az = abs(tx), abs(ty), abs(tz)
+        if ax <= ay and ax <= az:
+            x, y, z = 1.0 - tx * tx, -tx * ty, -tx * tz
+        elif ay <= az:
+            x, y, z = -ty * tx, 1.0 - ty * ty, -ty * tz
+        else:
+            x, y, z = -tz * tx, -tz * ty, 1.0 - tz * tz
+        nx = np.sqrt(x * x + y * y + z * z)
+    return x / nx, y / nx, z / nx
 
 
 @njit(cache=True)
-def _rmf_kernel(pts, offs, first, eps):
-    raw = _tangents_kernel(pts, offs)
+def polyline_frames(p, first, tan, nor, bi):
+    """Rotation-minimising frame of one polyline ``p`` (N, 3) into ``tan``, ``nor``, ``bi``.
+
+    The one kernel behind every curve frame (000 §2.2.8): Catmull-Rom vertex tangents
+    (P_{i+1} − P_{i−1}) / 2, the first normal ``first`` (3,) made orthogonal to the
+    first tangent, carried by double reflection (Wang et al. 2008); binormal = t × n.
+    A zero tangent carries the previous one, leading zeros take the first valid one, a
+    fully degenerate polyline gets +Z. The zero threshold comes from this polyline
+    alone, so any grouping of curves gives the same frames. Allocates nothing.
+    """
+    nv = p.shape[0]
+    scale = 0.0
+    for i in range(nv):
+        for a in range(3):
+            scale = max(scale, abs(p[i, a]))
+    eps = 1e-12 * max(scale, 1e-30)
+    first_ok = -1
+    for i in range(nv):
+        lo = max(i - 1, 0)
+        hi = min(i + 1, nv - 1)
+        x = 0.5 * (p[hi, 0] - p[lo, 0])
+        y = 0.5 * (p[hi, 1] - p[lo, 1])
+        z = 0.5 * (p[hi, 2] - p[lo, 2])
+        nt = np.sqrt(x * x + y * y + z * z)
+        if nt > eps:
+            tan[i, 0] = x / nt
+            tan[i, 1] = y / nt
+            tan[i, 2] = z / nt
+            if first_ok < 0:
+                first_ok = i
+        elif first_ok >= 0:
+            for a in range(3):
+                tan[i, a] = tan[i - 1, a]
+    if first_ok < 0:
+        for i in range(nv):
+            tan[i, 0] = 0.0
+            tan[i, 1] = 0.0
+            tan[i, 2] = 1.0
+    else:
+        for i in range(first_ok):
+            for a in range(3):
+                tan[i, a] = tan[first_ok, a]
+    nor[0, 0], nor[0, 1], nor[0, 2] = _perpendicular(
+        tan[0, 0], tan[0, 1], tan[0, 2], first[0], first[1], first[2]
+    )
+    for i in range(nv - 1):
+        v1x = p[i + 1, 0] - p[i, 0]
+        v1y = p[i + 1, 1] - p[i, 1]
+        v1z = p[i + 1, 2] - p[i, 2]
+        c1 = v1x * v1x + v1y * v1y + v1z * v1z
+        if c1 <= eps * eps:
+            # zero-length segment: reflect in the plane normal to the tangent instead, so
+            # the two reflections still make the minimal rotation t_i -> t_{i+1}
+            v1x, v1y, v1z = tan[i, 0], tan[i, 1], tan[i, 2]
+            c1 = 1.0
+        kn = (2.0 / c1) * (v1x * nor[i, 0] + v1y * nor[i, 1] + v1z * nor[i, 2])
+        kt = (2.0 / c1) * (v1x * tan[i, 0] + v1y * tan[i, 1] + v1z * tan[i, 2])
+        rlx = nor[i, 0] - kn * v1x
+        rly = nor[i, 1] - kn * v1y
+        rlz = nor[i, 2] - kn * v1z
+        v2x = tan[i + 1, 0] - (tan[i, 0] - kt * v1x)
+        v2y = tan[i + 1, 1] - (tan[i, 1] - kt * v1y)
+        v2z = tan[i + 1, 2] - (tan[i, 2] - kt * v1z)
+        c2 = v2x * v2x + v2y * v2y + v2z * v2z
+        if c2 > eps * eps:
+            k2 = (2.0 / c2) * (v2x * rlx + v2y * rly + v2z * rlz)
+            rlx -= k2 * v2x
+            rly -= k2 * v2y
+            rlz -= k2 * v2z
+        nor[i + 1, 0], nor[i + 1, 1], nor[i + 1, 2] = _perpendicular(  # re-orthonormalise
+            tan[i + 1, 0], tan[i + 1, 1], tan[i + 1, 2], rlx, rly, rlz
+        )
+    for i in range(nv):
+        tx, ty, tz = tan[i, 0], tan[i, 1], tan[i, 2]
+        nx, ny, nz = nor[i, 0], nor[i, 1], nor[i, 2]
+        bi[i, 0] = ty * nz - tz * ny
+        bi[i, 1] = tz * nx - tx * nz
+        bi[i, 2] = tx * ny - ty * nx
+
+
+@njit(cache=True)
+def _rmf_kernel(pts, offs, first):
     tan = np.empty_like(pts)
     nor = np.empty_like(pts)
     bi = np.empty_like(pts)
     for c in range(offs.shape[0] - 1):
         a, b = offs[c], offs[c + 1]
-        # unit tangents; a zero tangent (coincident vertices) carries the previous one,
-        # leading zeros take the first valid one, a fully degenerate curve gets +Z
-        first_ok = -1
-        for i in range(a, b):
-            nt = np.sqrt(_dot(raw[i], raw[i]))
-            if nt > eps:
-                tan[i] = raw[i] / nt
-                if first_ok < 0:
-                    first_ok = i
-            elif first_ok >= 0:
-                tan[i] = tan[i - 1]
-        if first_ok < 0:
-            for i in range(a, b):
-                tan[i, 0] = 0.0
-                tan[i, 1] = 0.0
-                tan[i, 2] = 1.0
-        else:
-            for i in range(a, first_ok):
-                tan[i] = tan[first_ok]
-        nor[a] = _unit_perpendicular(tan[a], first[c])
-        for i in range(a, b - 1):
-            # 000 §2.2.8 Fig. 2.39, double reflection (Wang et al. 2008)
-            v1 = pts[i + 1] - pts[i]
-            c1 = _dot(v1, v1)
-            if c1 <= eps * eps:
-                # zero-length segment: reflect in the plane normal to the tangent instead,
-                # so the two reflections still make the minimal rotation t_i -> t_{i+1}
-                # (one reflection alone would flip the frame's handedness)
-                v1 = tan[i].copy()
-                c1 = 1.0
-            rl = nor[i] - (2.0 / c1) * _dot(v1, nor[i]) * v1
-            tl = tan[i] - (2.0 / c1) * _dot(v1, tan[i]) * v1
-            v2 = tan[i + 1] - tl
-            c2 = _dot(v2, v2)
-            r = rl - (2.0 / c2) * _dot(v2, rl) * v2 if c2 > eps * eps else rl
-            nor[i + 1] = _unit_perpendicular(tan[i + 1], r)  # re-orthonormalise (round-off)
-        for i in range(a, b):
-            t = tan[i]
-            n = nor[i]
-            bi[i, 0] = t[1] * n[2] - t[2] * n[1]
-            bi[i, 1] = t[2] * n[0] - t[0] * n[2]
-            bi[i, 2] = t[0] * n[1] - t[1] * n[0]
+        polyline_frames(pts[a:b], first[c], tan[a:b], nor[a:b], bi[a:b])
     return tan, nor, bi
 
 
@@ -126,6 +165,7 @@ def rotation_minimizing_frames(
     each curve's first normal (``first_normals`` (C, 3), made orthogonal to the first
     tangent) is carried along by the double reflection method, so hair ribbons do not
     spin; binormal = tangent × normal. Zero-length segments carry the previous frame.
+    Each curve is :func:`polyline_frames` (callable from other kernels).
     """
     pts, offs = _check_curves(points, offsets)
     first = np.asarray(first_normals, dtype=np.float64)
@@ -136,6 +176,4 @@ def rotation_minimizing_frames(
         )
     if not np.all(np.isfinite(first)):
         raise InputError("first_normals: values must be finite (no NaN or inf)")
-    scale = float(np.abs(pts).max()) if len(pts) else 1.0
-    eps = 1e-12 * max(scale, 1e-30)
-    return _rmf_kernel(pts, offs, np.ascontiguousarray(first), eps)
+    return _rmf_kernel(pts, offs, np.ascontiguousarray(first))

@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import InputError
+from ..frames import polyline_frames
 from ..rng import purpose_id, stream_key, uniform
 
 __all__ = ["make_fibres", "inherit", "splay_profile"]
@@ -35,104 +36,10 @@ _RANDOM_STREAM = purpose_id("strand randomize")  # one number: ξ of Randomize_S
 _BLOCK = 64  # hairs per parallel work item (the per-hair frame scratch is reused)
 _QUARTER_PI = np.pi / 4.0
 _HALF_PI = np.pi / 2.0
+_ROOT_TANGENT = np.array([1.0, 0.0, 0.0])  # local +x: the first normal of every hair frame
 
 
 # ------------------------------------------------------------------ numba helpers
-@njit(cache=True, inline="always")
-def _perp(tx, ty, tz, rx, ry, rz):
-    """r made orthogonal to unit t and normalised (as ``frames._unit_perpendicular``)."""
-    d = rx * tx + ry * ty + rz * tz
-    x = rx - d * tx
-    y = ry - d * ty
-    z = rz - d * tz
-    nx = np.sqrt(x * x + y * y + z * z)
-    if nx < 1e-9:
-        # the axis least aligned with t (first on ties, like np.argmin), orthogonalised
-        ax, ay, az = abs(tx), abs(ty), abs(tz)
-        if ax <= ay and ax <= az:
-            x, y, z = 1.0 - tx * tx, -tx * ty, -tx * tz
-        elif ay <= az:
-            x, y, z = -ty * tx, 1.0 - ty * ty, -ty * tz
-        else:
-            x, y, z = -tz * tx, -tz * ty, 1.0 - tz * tz
-        nx = np.sqrt(x * x + y * y + z * z)
-    return x / nx, y / nx, z / nx
-
-
-@njit(cache=True)
-def _hair_frames(p, tan, nor, bi):
-    """Rotation-minimising frame of one hair (N, 3) into ``tan``, ``nor``, ``bi``.
-
-    The scalar twin of ``frames._rmf_kernel`` (000 §2.2.8: Catmull-Rom vertex tangents,
-    double reflection) with the first normal the root tangent, local +x, and the
-    degeneracy threshold taken from this hair alone so that chunks do not matter.
-    """
-    nv = p.shape[0]
-    scale = 0.0
-    for i in range(nv):
-        for a in range(3):
-            scale = max(scale, abs(p[i, a]))
-    eps = 1e-12 * max(scale, 1e-30)
-    first_ok = -1
-    for i in range(nv):
-        lo = max(i - 1, 0)
-        hi = min(i + 1, nv - 1)
-        x = 0.5 * (p[hi, 0] - p[lo, 0])
-        y = 0.5 * (p[hi, 1] - p[lo, 1])
-        z = 0.5 * (p[hi, 2] - p[lo, 2])
-        nt = np.sqrt(x * x + y * y + z * z)
-        if nt > eps:
-            tan[i, 0] = x / nt
-            tan[i, 1] = y / nt
-            tan[i, 2] = z / nt
-            if first_ok < 0:
-                first_ok = i
-        elif first_ok >= 0:
-            for a in range(3):
-                tan[i, a] = tan[i - 1, a]
-    if first_ok < 0:  # a fully degenerate hair grows along the surface normal
-        for i in range(nv):
-            tan[i, 0] = 0.0
-            tan[i, 1] = 0.0
-            tan[i, 2] = 1.0
-    else:
-        for i in range(first_ok):
-            for a in range(3):
-                tan[i, a] = tan[first_ok, a]
-    nor[0, 0], nor[0, 1], nor[0, 2] = _perp(tan[0, 0], tan[0, 1], tan[0, 2], 1.0, 0.0, 0.0)
-    for i in range(nv - 1):
-        v1x = p[i + 1, 0] - p[i, 0]
-        v1y = p[i + 1, 1] - p[i, 1]
-        v1z = p[i + 1, 2] - p[i, 2]
-        c1 = v1x * v1x + v1y * v1y + v1z * v1z
-        if c1 <= eps * eps:
-            v1x, v1y, v1z = tan[i, 0], tan[i, 1], tan[i, 2]
-            c1 = 1.0
-        kn = (2.0 / c1) * (v1x * nor[i, 0] + v1y * nor[i, 1] + v1z * nor[i, 2])
-        kt = (2.0 / c1) * (v1x * tan[i, 0] + v1y * tan[i, 1] + v1z * tan[i, 2])
-        rlx = nor[i, 0] - kn * v1x
-        rly = nor[i, 1] - kn * v1y
-        rlz = nor[i, 2] - kn * v1z
-        v2x = tan[i + 1, 0] - (tan[i, 0] - kt * v1x)
-        v2y = tan[i + 1, 1] - (tan[i, 1] - kt * v1y)
-        v2z = tan[i + 1, 2] - (tan[i, 2] - kt * v1z)
-        c2 = v2x * v2x + v2y * v2y + v2z * v2z
-        if c2 > eps * eps:
-            k2 = (2.0 / c2) * (v2x * rlx + v2y * rly + v2z * rlz)
-            rlx -= k2 * v2x
-            rly -= k2 * v2y
-            rlz -= k2 * v2z
-        nor[i + 1, 0], nor[i + 1, 1], nor[i + 1, 2] = _perp(
-            tan[i + 1, 0], tan[i + 1, 1], tan[i + 1, 2], rlx, rly, rlz
-        )
-    for i in range(nv):
-        tx, ty, tz = tan[i, 0], tan[i, 1], tan[i, 2]
-        nx, ny, nz = nor[i, 0], nor[i, 1], nor[i, 2]
-        bi[i, 0] = ty * nz - tz * ny
-        bi[i, 1] = tz * nx - tx * nz
-        bi[i, 2] = tx * ny - ty * nx
-
-
 @njit(cache=True, inline="always")
 def _concentric(u0, u1):
     """Uniform [0,1)² → unit disc, area preserving (Shirley & Chiu; PBRT 13.6.2)."""
@@ -163,7 +70,7 @@ def _fibres_kernel(local, ids, seed, count, s_root, s_centre, s_tip, twist, aspe
         off = np.empty(nv)
         for h in range(blk * _BLOCK, min(n, (blk + 1) * _BLOCK)):
             p = local[h]
-            _hair_frames(p, tan, nor, bi)
+            polyline_frames(p, _ROOT_TANGENT, tan, nor, bi)
             for i in range(nv):
                 t = i * inv
                 w = 4.0 * (t - 0.5) * (t - 0.5)
@@ -291,7 +198,7 @@ def make_fibres(
     Notes
     -----
     Cross-section frame: the rotation-minimising frame of the hair (000 §2.2.8, as
-    :func:`follicle.frames.rotation_minimizing_frames`) with the first normal the root
+    :func:`follicle.frames.polyline_frames`) with the first normal the root
     tangent (local +x, the seed's choice of N_0), binormal B = T × N in local
     coordinates. The degeneracy threshold is per hair (chunk independent).
 

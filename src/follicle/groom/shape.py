@@ -22,13 +22,14 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import InputError
-from ..frames import rotation_minimizing_frames
+from ..frames import polyline_frames
 from ..noise import noise3
 from ..rng import uniforms
 
 __all__ = ["frizz", "kink", "curl", "curl_phase"]
 
 _TWO_PI = 2.0 * np.pi
+_ROOT_TANGENT = np.array([1.0, 0.0, 0.0])  # local +x: the first normal of the curl frame
 
 
 # ------------------------------------------------------------------------------- kernels
@@ -102,13 +103,17 @@ def _kink_kernel(local, roots, tangent, binormal, normal, amp_root, amp_tip, fre
 
 
 @njit(cache=True, parallel=True)
-def _curl_kernel(local, nor, bi, radius, f_root, f_tip, phase, ramp, t):
+def _curl_kernel(local, radius, f_root, f_tip, phase, ramp, t):
     n_verts = local.shape[1]
     shared_t = t.shape[0] == 1
     for h in prange(local.shape[0]):
         a = radius[h]
         if a == 0.0:
             continue
+        tan = np.empty((n_verts, 3))
+        nor = np.empty((n_verts, 3))
+        bi = np.empty((n_verts, 3))
+        polyline_frames(local[h], _ROOT_TANGENT, tan, nor, bi)
         th = t[0] if shared_t else t[h]
         theta = phase[h]
         px = local[h, 0, 0]
@@ -131,10 +136,9 @@ def _curl_kernel(local, nor, bi, radius, f_root, f_tip, phase, ramp, t):
                 r = a * u * u * (3.0 - 2.0 * u)  # smoothstep: the radius grows in from 0
             c = r * np.cos(theta)
             s = r * np.sin(theta)
-            k = h * n_verts + i
-            local[h, i, 0] = cx + c * nor[k, 0] + s * bi[k, 0]
-            local[h, i, 1] = cy + c * nor[k, 1] + s * bi[k, 1]
-            local[h, i, 2] = cz + c * nor[k, 2] + s * bi[k, 2]
+            local[h, i, 0] = cx + c * nor[i, 0] + s * bi[i, 0]
+            local[h, i, 1] = cy + c * nor[i, 1] + s * bi[i, 1]
+            local[h, i, 2] = cz + c * nor[i, 2] + s * bi[i, 2]
             px = cx
             py = cy
             pz = cz
@@ -340,10 +344,7 @@ def curl(
     t = _params(t, n, n_verts)
     if n == 0 or n_verts < 2:
         return
-    offsets = np.arange(0, n * n_verts + 1, n_verts)
-    first = np.broadcast_to(np.array([1.0, 0.0, 0.0]), (n, 3))
-    _, nor, bi = rotation_minimizing_frames(local.reshape(-1, 3), offsets, first)
-    _curl_kernel(local, nor, bi, radius, f_root, f_tip, phase, float(ramp_arr), t)
+    _curl_kernel(local, radius, f_root, f_tip, phase, float(ramp_arr), t)
 
 
 def curl_phase(seed: int, hair_ids: np.ndarray) -> np.ndarray:
