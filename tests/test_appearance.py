@@ -7,7 +7,7 @@ import pytest
 
 from follicle.color import hsv_to_rgb, lerp_hsv, rgb_to_hsv
 from follicle.errors import InputError
-from follicle.groom.appearance import hair_appearance, vertex_parameter
+from follicle.groom.appearance import hair_appearance
 from follicle.rng import uniforms
 
 BROWN = (0.3, 0.2, 0.1)
@@ -92,7 +92,7 @@ def test_shared_and_per_hair_inputs_agree():
         mutant_fraction=np.full(n, 0.3), mutant_color=np.tile(GREY, (n, 1)),
         root_width=np.full(n, 80e-6), tip_width=np.full(n, 30e-6),
         root_opacity=np.ones(n), tip_opacity=np.full(n, 0.5),
-        t=np.tile(vertex_parameter(5), (n, 1)),
+        t=np.tile(np.linspace(0.0, 1.0, 5), (n, 1)),
     )
     for key in ("color", "width", "opacity"):
         np.testing.assert_array_equal(shared[key], per_hair[key])
@@ -128,7 +128,7 @@ def test_variation_is_uniform_per_hair_and_follows_the_stream():
     np.testing.assert_allclose(hsv[:, 0, 1], 0.5 - shift[:, 1], atol=1e-6)
     np.testing.assert_allclose(hsv[:, 0, 2], 0.5 - shift[:, 2], atol=1e-6)
     # inner vertices interpolate the shifted root and tip
-    t = vertex_parameter(nv)
+    t = np.linspace(0.0, 1.0, nv)
     inner = lerp_hsv(hsv[:, :1], hsv[:, -1:], t[None, :])
     np.testing.assert_allclose(_wrapped(hsv[..., 0] - inner[..., 0]), 0.0, atol=1e-3)
     np.testing.assert_allclose(hsv[..., 1:], inner[..., 1:], atol=1e-6)

@@ -15,25 +15,15 @@ from numba import njit, prange
 from ..color import hsv_to_rgb1, hue_distance1, rgb_to_hsv1
 from ..errors import InputError
 from ..rng import purpose_id, stream_key, uniform
+from .params import curve_parameter, per_hair, row
 
-__all__ = ["vertex_parameter", "hair_appearance"]
+__all__ = ["hair_appearance"]
 
 _MUTANT = purpose_id("mutant hair")  # one number per hair: mutant when ξ < fraction
 _VARIATION = purpose_id("color variation")  # numbers 0, 1, 2: hue, saturation, value
 
 
-def vertex_parameter(vertices: int) -> np.ndarray:
-    """Uniform curve parameter t = i / (N - 1) of each vertex (000 §2.2.8), float64 (N,)."""
-    return np.linspace(0.0, 1.0, vertices)
-
-
 # --------------------------------------------------------------------------- kernel
-@njit(cache=True)
-def _row(a, i):
-    """Row of per-hair array ``a`` for hair i: a (1, k) array is shared by every hair."""
-    return np.int64(i) if a.shape[0] != 1 else np.int64(0)  # one int type for prange's i
-
-
 @njit(cache=True)
 def _clamp01(x):
     return min(max(x, 0.0), 1.0)
@@ -52,36 +42,33 @@ def _appearance_kernel(ids, seed, t, root_rgb, tip_rgb, hue_var, sat_var, val_va
                        color, width, opacity):
     """Fill ``color`` (n·N, 3), ``width`` and ``opacity`` (n·N,) for hairs ``ids``.
 
-    Per-hair inputs are 2-D with 1 row (shared) or n rows; ``t`` is (1, N) or (n, N).
+    Per-hair inputs and ``t`` have n rows or one shared row (:func:`.params.row`).
     """
     n = ids.shape[0]
     nv = t.shape[1]
     for i in prange(n):
         hair = ids[i]
-        fraction = mutant_fraction[_row(mutant_fraction, i), 0]
+        fraction = mutant_fraction[row(mutant_fraction, i)]
         mutant = uniform(stream_key(seed, hair, _MUTANT), 0) < fraction
         key = stream_key(seed, hair, _VARIATION)
-        dh = hue_var[_row(hue_var, i), 0] * 2.0 * (uniform(key, 0) - 0.5)
-        ds = sat_var[_row(sat_var, i), 0] * 2.0 * (uniform(key, 1) - 0.5)
-        dv = val_var[_row(val_var, i), 0] * 2.0 * (uniform(key, 2) - 0.5)
+        dh = hue_var[row(hue_var, i)] * 2.0 * (uniform(key, 0) - 0.5)
+        ds = sat_var[row(sat_var, i)] * 2.0 * (uniform(key, 1) - 0.5)
+        dv = val_var[row(val_var, i)] * 2.0 * (uniform(key, 2) - 0.5)
         if mutant:  # one colour for the whole hair
-            m = _row(mutant_rgb, i)
-            h1, s1, v1 = _shifted_hsv(mutant_rgb[m, 0], mutant_rgb[m, 1], mutant_rgb[m, 2],
-                                      dh, ds, dv)
+            m = mutant_rgb[row(mutant_rgb, i)]
+            h1, s1, v1 = _shifted_hsv(m[0], m[1], m[2], dh, ds, dv)
             h2, s2, v2 = h1, s1, v1
         else:
-            ra = _row(root_rgb, i)
-            ta = _row(tip_rgb, i)
-            h1, s1, v1 = _shifted_hsv(root_rgb[ra, 0], root_rgb[ra, 1], root_rgb[ra, 2],
-                                      dh, ds, dv)
-            h2, s2, v2 = _shifted_hsv(tip_rgb[ta, 0], tip_rgb[ta, 1], tip_rgb[ta, 2],
-                                      dh, ds, dv)
+            ra = root_rgb[row(root_rgb, i)]
+            ta = tip_rgb[row(tip_rgb, i)]
+            h1, s1, v1 = _shifted_hsv(ra[0], ra[1], ra[2], dh, ds, dv)
+            h2, s2, v2 = _shifted_hsv(ta[0], ta[1], ta[2], dh, ds, dv)
         hue_dist = hue_distance1(h1, h2)  # shortest signed route, from wrapped hues
-        w1 = root_w[_row(root_w, i), 0]
-        w2 = tip_w[_row(tip_w, i), 0]
-        o1 = root_op[_row(root_op, i), 0]
-        o2 = tip_op[_row(tip_op, i), 0]
-        tr = _row(t, i)
+        w1 = root_w[row(root_w, i)]
+        w2 = tip_w[row(tip_w, i)]
+        o1 = root_op[row(root_op, i)]
+        o2 = tip_op[row(tip_op, i)]
+        tr = row(t, i)
         for j in range(nv):
             tj = t[tr, j]
             u = 1.0 - tj
@@ -96,43 +83,6 @@ def _appearance_kernel(ids, seed, t, root_rgb, tip_rgb, hue_var, sat_var, val_va
 
 
 # --------------------------------------------------------------------- validation
-_NO_LIMIT = float(np.finfo(np.float64).max)  # an upper bound that still refuses inf
-
-
-def _require(
-    arr: np.ndarray, name: str, lo: float, hi: float = _NO_LIMIT, lo_open: bool = False
-) -> None:
-    """InputError naming ``name`` unless every value is finite and in the interval."""
-    ok = (arr > lo if lo_open else arr >= lo) & (arr <= hi)  # NaN fails both
-    if ok.all():
-        return
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{name}: values must be finite (no NaN or inf)")
-    if hi == _NO_LIMIT:
-        want = f"{'>' if lo_open else '≥'} {lo:g}"
-    else:
-        want = f"in {'(' if lo_open else '['}{lo:g}, {hi:g}]"
-    raise InputError(f"{name}: values must be {want}, got {float(arr[~ok].flat[0])!r}")
-
-
-def _per_hair(
-    x: object, n: int, name: str, lo: float, hi: float = _NO_LIMIT, lo_open: bool = False,
-    channels: int = 1,
-) -> np.ndarray:
-    """``x`` checked as a float64 C-contiguous (1 or n, channels) array, or InputError."""
-    shared = (3,) if channels == 3 else ()
-    want = "a colour (3,) or an (n, 3) array" if channels == 3 else "a number or an (n,) array"
-    try:
-        arr = None if isinstance(x, bool) else np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or (arr.shape != shared and arr.shape != (n,) + shared):
-        got = f"shape {arr.shape}" if arr is not None else repr(x)
-        raise InputError(f"{name}: expected {want} with n = {n}, got {got}")
-    _require(arr, name, lo, hi, lo_open)
-    return np.ascontiguousarray(arr).reshape(-1, channels)
-
-
 def _hair_ids(hair_ids: object) -> np.ndarray:
     arr = np.asarray(hair_ids)
     if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
@@ -142,18 +92,6 @@ def _hair_ids(hair_ids: object) -> np.ndarray:
     if np.any(arr < 0):
         raise InputError("hair_ids: ids must be non-negative")
     return np.ascontiguousarray(arr, dtype=np.int64)
-
-
-def _curve_parameter(t: object, n: int, vertices: int) -> np.ndarray:
-    if t is None:
-        return vertex_parameter(vertices).reshape(1, vertices)
-    arr = np.asarray(t, dtype=np.float64)
-    if arr.shape != (vertices,) and arr.shape != (n, vertices):
-        raise InputError(
-            f"t: expected shape ({vertices},) or ({n}, {vertices}), got shape {arr.shape}"
-        )
-    _require(arr, "t", 0.0, 1.0)
-    return np.ascontiguousarray(arr).reshape(-1, vertices)
 
 
 # ------------------------------------------------------------------------- public
@@ -210,24 +148,24 @@ def hair_appearance(
         raise InputError(f"vertices: expected an integer, got {vertices!r}")
     if vertices < 2:
         raise InputError(f"vertices: a hair needs at least 2 vertices, got {vertices}")
-    tt = _curve_parameter(t, n, int(vertices))
+    tt = curve_parameter(t, n, int(vertices))
 
-    per_hair = (
-        _per_hair(root_color, n, "root_color", 0.0, channels=3),
-        _per_hair(tip_color, n, "tip_color", 0.0, channels=3),
-        _per_hair(hue_var, n, "hue_var", 0.0, 180.0),
-        _per_hair(sat_var, n, "sat_var", 0.0, 1.0),
-        _per_hair(val_var, n, "val_var", 0.0, 1.0),
-        _per_hair(mutant_fraction, n, "mutant_fraction", 0.0, 1.0),
-        _per_hair(mutant_color, n, "mutant_color", 0.0, channels=3),
-        _per_hair(root_width, n, "root_width", 0.0, lo_open=True),
-        _per_hair(tip_width, n, "tip_width", 0.0, lo_open=True),
-        _per_hair(root_opacity, n, "root_opacity", 0.0, 1.0),
-        _per_hair(tip_opacity, n, "tip_opacity", 0.0, 1.0),
+    inputs = (
+        per_hair(root_color, n, "root_color", 0.0, vector=True),
+        per_hair(tip_color, n, "tip_color", 0.0, vector=True),
+        per_hair(hue_var, n, "hue_var", 0.0, 180.0),
+        per_hair(sat_var, n, "sat_var", 0.0, 1.0),
+        per_hair(val_var, n, "val_var", 0.0, 1.0),
+        per_hair(mutant_fraction, n, "mutant_fraction", 0.0, 1.0),
+        per_hair(mutant_color, n, "mutant_color", 0.0, vector=True),
+        per_hair(root_width, n, "root_width", 0.0, lo_open=True),
+        per_hair(tip_width, n, "tip_width", 0.0, lo_open=True),
+        per_hair(root_opacity, n, "root_opacity", 0.0, 1.0),
+        per_hair(tip_opacity, n, "tip_opacity", 0.0, 1.0),
     )
     total = n * int(vertices)
     color = np.empty((total, 3), dtype=np.float32)
     width = np.empty(total, dtype=np.float32)
     opacity = np.empty(total, dtype=np.float32)
-    _appearance_kernel(ids, np.uint64(seed), tt, *per_hair, color, width, opacity)
+    _appearance_kernel(ids, np.uint64(seed), tt, *inputs, color, width, opacity)
     return {"color": color, "width": width, "opacity": opacity}

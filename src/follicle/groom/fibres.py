@@ -28,6 +28,7 @@ from numba import njit, prange
 from ..errors import InputError
 from ..frames import polyline_frames
 from ..rng import purpose_id, stream_key, uniform
+from .params import per_hair, row
 
 __all__ = ["make_fibres", "inherit", "splay_profile"]
 
@@ -74,14 +75,14 @@ def _fibres_kernel(local, ids, seed, count, s_root, s_centre, s_tip, twist, aspe
             for i in range(nv):
                 t = i * inv
                 w = 4.0 * (t - 0.5) * (t - 0.5)
-                border = s_tip[h] if t > 0.5 else s_root[h]
-                spl[i] = w * border + (1.0 - w) * s_centre[h]
-                off[i] = offset[h] * (t * t * t)
-            step = twist[h] * inv
+                border = s_tip[row(s_tip, h)] if t > 0.5 else s_root[row(s_root, h)]
+                spl[i] = w * border + (1.0 - w) * s_centre[row(s_centre, h)]
+                off[i] = offset[row(offset, h)] * (t * t * t)
+            step = twist[row(twist, h)] * inv
             ct = np.cos(step)
             st = np.sin(step)
-            asp = aspect[h]
-            rnd = randomize[h]
+            asp = aspect[row(aspect, h)]
+            rnd = randomize[row(randomize, h)]
             base = np.uint64(ids[h]) * ucount
             for j in range(count):
                 f = h * count + j
@@ -119,26 +120,6 @@ def splay_profile(t: object, root: float, centre: float, tip: float) -> np.ndarr
     t = np.asarray(t, dtype=np.float64)
     w = 4.0 * (t - 0.5) ** 2
     return w * np.where(t > 0.5, tip, root) + (1.0 - w) * centre
-
-
-def _per_hair(value: object, n: int, name: str, lo: float | None = None,
-              hi: float | None = None) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name}: expected a number or an array of {n} numbers") from exc
-    if arr.ndim == 0:
-        arr = np.full(n, float(arr))
-    elif arr.shape != (n,):
-        raise InputError(f"{name}: expected a scalar or shape ({n},) (one per hair), "
-                         f"got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{name}: values must be finite (no NaN or inf)")
-    if lo is not None and np.any(arr < lo):
-        raise InputError(f"{name}: values must be >= {lo}, got min {arr.min()!r}")
-    if hi is not None and np.any(arr > hi):
-        raise InputError(f"{name}: values must be <= {hi}, got max {arr.max()!r}")
-    return np.ascontiguousarray(arr)
 
 
 def _is_int(value: object) -> bool:
@@ -248,13 +229,13 @@ def make_fibres(
     if not _is_int(count) or count < 1:
         raise InputError(f"count: expected an integer >= 1, got {count!r}")
     count = int(count)
-    s_root = _per_hair(splay_root, n, "splay_root", lo=0.0)
-    s_centre = _per_hair(splay_centre, n, "splay_centre", lo=0.0)
-    s_tip = _per_hair(splay_tip, n, "splay_tip", lo=0.0)
-    tw = _per_hair(twist, n, "twist")
-    asp = _per_hair(aspect, n, "aspect", lo=0.0)
-    off = _per_hair(offset, n, "offset")
-    rnd = _per_hair(randomize, n, "randomize", lo=0.0, hi=1.0)
+    s_root = per_hair(splay_root, n, "splay_root", lo=0.0)
+    s_centre = per_hair(splay_centre, n, "splay_centre", lo=0.0)
+    s_tip = per_hair(splay_tip, n, "splay_tip", lo=0.0)
+    tw = per_hair(twist, n, "twist")
+    asp = per_hair(aspect, n, "aspect", lo=0.0)
+    off = per_hair(offset, n, "offset")
+    rnd = per_hair(randomize, n, "randomize", lo=0.0, hi=1.0)
 
     fibres = np.empty((n * count, nv, 3), dtype=np.float64)
     uv = np.empty((n * count, 2), dtype=np.float32)

@@ -25,6 +25,7 @@ from ..errors import InputError
 from ..frames import polyline_frames
 from ..noise import noise3
 from ..rng import uniforms
+from .params import curve_parameter, per_hair, row
 
 __all__ = ["frizz", "kink", "curl", "curl_phase"]
 
@@ -36,32 +37,32 @@ _ROOT_TANGENT = np.array([1.0, 0.0, 0.0])  # local +x: the first normal of the c
 @njit(cache=True, parallel=True)
 def _frizz_kernel(local, roots, amp_root, amp_tip, freq, offset, blend, t):
     n_verts = local.shape[1]
-    shared_t = t.shape[0] == 1
     for h in prange(local.shape[0]):
-        fr = amp_root[h]
-        ft = amp_tip[h]
+        fr = amp_root[row(amp_root, h)]
+        ft = amp_tip[row(amp_tip, h)]
         if fr == 0.0 and ft == 0.0:
             continue
-        a = blend[h]
+        a = blend[row(blend, h)]
+        fq = freq[row(freq, h)]
+        rt = roots[row(roots, h)]
+        off = offset[row(offset, h)]
         fx = 0.0
         fy = 0.0
         fz = 0.0
         if a != 1.0:  # static F = noise3D(frequency ⊙ rest root)
-            sx, sy, sz = noise3(freq[h, 0] * roots[h, 0], freq[h, 1] * roots[h, 1],
-                                freq[h, 2] * roots[h, 2])
+            sx, sy, sz = noise3(fq[0] * rt[0], fq[1] * rt[1], fq[2] * rt[2])
             fx = (1.0 - a) * sx
             fy = (1.0 - a) * sy
             fz = (1.0 - a) * sz
         if a != 0.0:  # F_dynamic = noise3D(frequency ⊙ (rest root + offset))
-            dx, dy, dz = noise3(freq[h, 0] * (roots[h, 0] + offset[h, 0]),
-                                freq[h, 1] * (roots[h, 1] + offset[h, 1]),
-                                freq[h, 2] * (roots[h, 2] + offset[h, 2]))
+            dx, dy, dz = noise3(fq[0] * (rt[0] + off[0]), fq[1] * (rt[1] + off[1]),
+                                fq[2] * (rt[2] + off[2]))
             fx += a * dx
             fy += a * dy
             fz += a * dz
         fz = -abs(fz)  # F_combined.z = -|F_combined.z|: bend towards the skin, never away
         cap = max(fr, ft)
-        th = t[0] if shared_t else t[h]
+        th = t[row(t, h)]
         for i in range(1, n_verts):
             ti = th[i]
             amp = min(fr * 4.0 * (ti - ti * ti) + ft * ti * ti, cap)
@@ -75,26 +76,26 @@ def _frizz_kernel(local, roots, amp_root, amp_tip, freq, offset, blend, t):
 @njit(cache=True, parallel=True)
 def _kink_kernel(local, roots, tangent, binormal, normal, amp_root, amp_tip, freq, t):
     n_verts = local.shape[1]
-    shared_t = t.shape[0] == 1
-    shared_frame = tangent.shape[0] == 1
     for h in prange(local.shape[0]):
-        kr = amp_root[h]
-        kt = amp_tip[h]
+        kr = amp_root[row(amp_root, h)]
+        kt = amp_tip[row(amp_tip, h)]
         if kr == 0.0 and kt == 0.0:
             continue
-        tg = tangent[0] if shared_frame else tangent[h]
-        bn = binormal[0] if shared_frame else binormal[h]
-        nm = normal[0] if shared_frame else normal[h]
-        th = t[0] if shared_t else t[h]
+        tg = tangent[row(tangent, h)]
+        bn = binormal[row(binormal, h)]
+        nm = normal[row(normal, h)]
+        th = t[row(t, h)]
+        fq = freq[row(freq, h)]
+        rt = roots[row(roots, h)]
         for i in range(1, n_verts):
             x = local[h, i, 0]
             y = local[h, i, 1]
             z = local[h, i, 2]
             # the vertex in world space on the rest pose: root + x T + y B + z N
-            wx = roots[h, 0] + x * tg[0] + y * bn[0] + z * nm[0]
-            wy = roots[h, 1] + x * tg[1] + y * bn[1] + z * nm[1]
-            wz = roots[h, 2] + x * tg[2] + y * bn[2] + z * nm[2]
-            kx, ky, kz = noise3(freq[h, 0] * wx, freq[h, 1] * wy, freq[h, 2] * wz)
+            wx = rt[0] + x * tg[0] + y * bn[0] + z * nm[0]
+            wy = rt[1] + x * tg[1] + y * bn[1] + z * nm[1]
+            wz = rt[2] + x * tg[2] + y * bn[2] + z * nm[2]
+            kx, ky, kz = noise3(fq[0] * wx, fq[1] * wy, fq[2] * wz)
             ti = th[i]
             amp = (1.0 - ti) * kr + ti * kt
             local[h, i, 0] = x + kx * amp
@@ -105,17 +106,18 @@ def _kink_kernel(local, roots, tangent, binormal, normal, amp_root, amp_tip, fre
 @njit(cache=True, parallel=True)
 def _curl_kernel(local, radius, f_root, f_tip, phase, ramp, t):
     n_verts = local.shape[1]
-    shared_t = t.shape[0] == 1
     for h in prange(local.shape[0]):
-        a = radius[h]
+        a = radius[row(radius, h)]
         if a == 0.0:
             continue
         tan = np.empty((n_verts, 3))
         nor = np.empty((n_verts, 3))
         bi = np.empty((n_verts, 3))
         polyline_frames(local[h], _ROOT_TANGENT, tan, nor, bi)
-        th = t[0] if shared_t else t[h]
-        theta = phase[h]
+        th = t[row(t, h)]
+        theta = phase[row(phase, h)]
+        f0 = f_root[row(f_root, h)]
+        f1 = f_tip[row(f_tip, h)]
         px = local[h, 0, 0]
         py = local[h, 0, 1]
         pz = local[h, 0, 2]
@@ -127,7 +129,7 @@ def _curl_kernel(local, radius, f_root, f_tip, phase, ramp, t):
             # the midpoint rule is exact on each segment
             seg = np.sqrt((cx - px) ** 2 + (cy - py) ** 2 + (cz - pz) ** 2)
             tm = 0.5 * (th[i - 1] + th[i])
-            theta += _TWO_PI * (f_root[h] + (f_tip[h] - f_root[h]) * tm) * seg
+            theta += _TWO_PI * (f0 + (f1 - f0) * tm) * seg
             ti = th[i]
             if ti >= ramp:
                 r = a
@@ -167,74 +169,16 @@ def _check_local(local: object) -> np.ndarray:
     return local
 
 
-def _as_float(value: object, name: str) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name}: expected numbers, got {value!r}") from exc
-    if not np.isfinite(arr).all():
-        raise InputError(f"{name}: values must be finite (no NaN or inf)")
-    return arr
-
-
-def _per_hair(
-    value: object, n: int, name: str, lo: float | None = None, hi: float | None = None
-) -> np.ndarray:
-    """A number or an (n,) array as a contiguous float64 (n,) array in [lo, hi]."""
-    arr = _as_float(value, name)
-    if arr.ndim == 0:
-        arr = np.full(n, float(arr))
-    elif arr.shape != (n,):
-        raise InputError(f"{name}: expected a number or shape ({n},), got shape {arr.shape}")
-    if lo is not None and (arr < lo).any():
-        raise InputError(f"{name}: values must be >= {lo}")
-    if hi is not None and (arr > hi).any():
-        raise InputError(f"{name}: values must be <= {hi}")
-    return np.ascontiguousarray(arr)
-
-
-def _per_hair_vec(value: object, n: int, name: str) -> np.ndarray:
-    """A 3-vector or an (n, 3) array as a contiguous float64 (n, 3) array."""
-    arr = _as_float(value, name)
-    if arr.shape == (3,):
-        arr = np.broadcast_to(arr, (n, 3))
-    elif arr.shape != (n, 3):
-        raise InputError(f"{name}: expected shape (3,) or ({n}, 3), got shape {arr.shape}")
-    return np.ascontiguousarray(arr)
-
-
-def _roots(rest_roots: object, n: int) -> np.ndarray:
-    arr = _as_float(rest_roots, "rest_roots")
-    if arr.shape != (n, 3):
-        raise InputError(f"rest_roots: expected shape ({n}, 3), got shape {arr.shape}")
-    return np.ascontiguousarray(arr)
-
-
-def _params(t: object, n: int, n_verts: int) -> np.ndarray:
-    """Curve parameters as (1, N) (shared) or (n, N); default i / (N - 1)."""
-    if t is None:
-        return np.linspace(0.0, 1.0, n_verts)[None]
-    arr = _as_float(t, "t")
-    if arr.shape == (n_verts,):
-        arr = arr[None]
-    elif arr.shape != (n, n_verts):
-        raise InputError(f"t: expected shape ({n_verts},) or ({n}, {n_verts}), got {arr.shape}")
-    if ((arr < 0.0) | (arr > 1.0)).any():
-        raise InputError("t: curve parameters must lie in [0, 1]")
-    return np.ascontiguousarray(arr)
-
-
 def _frame(rest_frame: object, n: int) -> list[np.ndarray]:
-    """Rest root frames [T, B, N], each (1, 3) (the world axes) or (n, 3)."""
+    """Rest root frames [T, B, N], each (n, 3); None: the world axes."""
     if rest_frame is None:
-        return [row[None] for row in np.eye(3)]
+        return [per_hair(axis, n, "rest_frame", vector=True) for axis in np.eye(3)]
     if not isinstance(rest_frame, (tuple, list)) or len(rest_frame) != 3:
         raise InputError("rest_frame: expected a tuple (tangent, binormal, normal) of (n, 3)")
-    parts = [_as_float(v, "rest_frame") for v in rest_frame]
-    if any(p.shape != (n, 3) for p in parts):
-        shapes = [p.shape for p in parts]
+    shapes = [np.shape(v) for v in rest_frame]
+    if any(shape != (n, 3) for shape in shapes):
         raise InputError(f"rest_frame: expected three arrays of shape ({n}, 3), got {shapes}")
-    return [np.ascontiguousarray(p) for p in parts]
+    return [per_hair(v, n, "rest_frame", vector=True) for v in rest_frame]
 
 
 # --------------------------------------------------------------------------------- public
@@ -268,13 +212,13 @@ def frizz(
     n, n_verts = local.shape[:2]
     _frizz_kernel(
         local,
-        _roots(rest_roots, n),
-        _per_hair(amp_root, n, "amp_root", lo=0.0),
-        _per_hair(amp_tip, n, "amp_tip", lo=0.0),
-        _per_hair_vec(frequency, n, "frequency"),
-        _per_hair_vec(offset, n, "offset"),
-        _per_hair(blend, n, "blend", lo=0.0, hi=1.0),
-        _params(t, n, n_verts),
+        per_hair(rest_roots, n, "rest_roots", vector=True),
+        per_hair(amp_root, n, "amp_root", lo=0.0),
+        per_hair(amp_tip, n, "amp_tip", lo=0.0),
+        per_hair(frequency, n, "frequency", vector=True),
+        per_hair(offset, n, "offset", vector=True),
+        per_hair(blend, n, "blend", lo=0.0, hi=1.0),
+        curve_parameter(t, n, n_verts),
     )
 
 
@@ -300,12 +244,12 @@ def kink(
     n, n_verts = local.shape[:2]
     _kink_kernel(
         local,
-        _roots(rest_roots, n),
+        per_hair(rest_roots, n, "rest_roots", vector=True),
         *_frame(rest_frame, n),
-        _per_hair(amp_root, n, "amp_root", lo=0.0),
-        _per_hair(amp_tip, n, "amp_tip", lo=0.0),
-        _per_hair_vec(frequency, n, "frequency"),
-        _params(t, n, n_verts),
+        per_hair(amp_root, n, "amp_root", lo=0.0),
+        per_hair(amp_tip, n, "amp_tip", lo=0.0),
+        per_hair(frequency, n, "frequency", vector=True),
+        curve_parameter(t, n, n_verts),
     )
 
 
@@ -334,17 +278,20 @@ def curl(
     """
     local = _check_local(local)
     n, n_verts = local.shape[:2]
-    radius = _per_hair(radius, n, "radius", lo=0.0)
-    f_root = _per_hair(frequency, n, "frequency")
-    f_tip = f_root if frequency_tip is None else _per_hair(frequency_tip, n, "frequency_tip")
-    phase = _per_hair(phase, n, "phase")
-    ramp_arr = _as_float(ramp, "ramp")
-    if ramp_arr.ndim != 0 or not 0.0 <= float(ramp_arr) <= 1.0:
+    radius = per_hair(radius, n, "radius", lo=0.0)
+    f_root = per_hair(frequency, n, "frequency")
+    f_tip = f_root if frequency_tip is None else per_hair(frequency_tip, n, "frequency_tip")
+    phase = per_hair(phase, n, "phase")
+    try:
+        ramp_value = float(ramp)
+    except (TypeError, ValueError):
+        ramp_value = math.nan
+    if not 0.0 <= ramp_value <= 1.0:
         raise InputError(f"ramp: expected one number in [0, 1], got {ramp!r}")
-    t = _params(t, n, n_verts)
+    t = curve_parameter(t, n, n_verts)
     if n == 0 or n_verts < 2:
         return
-    _curl_kernel(local, radius, f_root, f_tip, phase, float(ramp_arr), t)
+    _curl_kernel(local, radius, f_root, f_tip, phase, ramp_value, t)
 
 
 def curl_phase(seed: int, hair_ids: np.ndarray) -> np.ndarray:
