@@ -112,15 +112,14 @@ class Groom:
         if count < 0:
             raise InputError(f"count: must be ≥ 0, got {count}")
         parts: list[tuple[np.ndarray, ...]] = []
-        for start in range(0, count, CHUNK):
+        for start in range(0, max(count, 1), CHUNK):  # count 0: one empty chunk
             stop = min(start + CHUNK, count)
             tri, b = self.sampler.sample(stop - start, seed, "random", start)
             parts.append((tri, b, *self._chunk(tri, b, np.arange(start, stop), seed)))
             if progress is not None:
                 progress(stop, count)
         tri, bary, root_uv, counts, points, *attrs = (
-            np.concatenate([part[k] for part in parts]) if parts else _EMPTY[k]
-            for k in range(8)
+            np.concatenate([part[k] for part in parts]) for k in range(8)
         )
         return HairCurves(
             points,
@@ -193,9 +192,3 @@ class Groom:
             self._trees[group] = (cKDTree(self.guides.root_positions[members]), members)
         return self._trees[group]
 
-
-_EMPTY = (
-    np.empty(0, np.int32), np.empty((0, 2), np.float32), np.empty((0, 2), np.float32),
-    np.empty(0, np.int64), np.empty((0, 3), np.float32), np.empty(0, np.float32),
-    np.empty(0, np.float32), np.empty((0, 3), np.float32),
-)

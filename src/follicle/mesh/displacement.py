@@ -99,12 +99,12 @@ def _normal_uv_derivatives(
 ) -> tuple[np.ndarray, np.ndarray]:
     """∂N/∂u, ∂N/∂v (n, 3) of the unit interpolated normal at the samples.
 
-    The blended vertex normal Ñ is linear on each face (``SkinMesh.face_uv_gradient``);
+    The blended vertex normal Ñ is linear on each face (``SkinMesh.face_normal_uv_derivatives``);
     N = Ñ/|Ñ| then gives ∂N = (∂Ñ − N(N·∂Ñ)) / |Ñ|. Zero where the face's UVs are
     degenerate.
     """
     vn = mesh.vertex_normals(pose)
-    raw_du, raw_dv, _ = mesh.face_uv_gradient(vn)
+    raw_du, raw_dv, _ = mesh.face_normal_uv_derivatives(pose)
     f = mesh.faces[tri]
     w = np.stack([bary[:, 0], bary[:, 1], 1.0 - bary[:, 0] - bary[:, 1]], axis=1)
     size = np.linalg.norm(np.sum(vn[f] * w[:, :, None], axis=1), axis=1, keepdims=True)

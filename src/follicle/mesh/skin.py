@@ -265,6 +265,16 @@ class SkinMesh:
         """Per-face (dP/du, dP/dv, ok) of the positions; ok is False where undefined."""
         return self._cached("face_uv_derivatives", pose, self.face_uv_gradient)
 
+    def face_normal_uv_derivatives(
+        self, pose: str = "rest"
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per-face (dÑ/du, dÑ/dv, ok) of the blended (unnormalised) vertex normals."""
+
+        def make(_v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            return self.face_uv_gradient(self.vertex_normals(pose))
+
+        return self._cached("face_normal_uv_derivatives", pose, make)
+
     def face_tangents(self, pose: str = "rest") -> np.ndarray:
         """Unit face tangents (F, 3): dP/du, else the edge v0→v1 projected off the normal."""
 
