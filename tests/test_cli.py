@@ -34,7 +34,7 @@ def demo_dir(tmp_path_factory):
 def test_demo_writes_20000_hairs_and_a_picture_of_hair(demo_dir):
     curves = follicle.load_curves(demo_dir / "demo.npz")
     assert curves.curve_count == 20000
-    assert set(curves.point_data) == {"width", "color", "opacity"}
+    assert set(curves.point_data) == {"width", "color", "opacity", "normal"}
     img = Image.open(demo_dir / "demo.png")
     assert img.size == (320, 320) and img.mode == "RGBA"
     assert hair_pixel_fraction(demo_dir / "demo.png") > 0.05

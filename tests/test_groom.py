@@ -36,14 +36,14 @@ def test_idw_weights_match_hand_computed_values():
     assert idx[0, 0] == 2 and w[0, 0] == 1.0 and w[0, 1:].sum() == 0
 
 
-def test_blend_places_local_shapes_on_the_hair_frame():
-    local = np.array([[[0, 0, 0], [0, 0, 1]], [[0, 0, 0], [1, 0, 1]]], np.float32)
-    idx = np.array([[0, 1]])
-    w = np.array([[0.5, 0.5]], np.float32)
-    out = blend_guides(local, idx, w, np.array([[1.0, 2, 3]]), np.array([[1.0, 0, 0]]),
-                       np.array([[0.0, 0, 1]]), np.array([[0.0, 1, 0]]), scale=2.0)
-    # local (0.5, 0, 1) × 2 → x along tangent (1,0,0), z along normal (0,1,0)
-    np.testing.assert_allclose(out[0], [[1, 2, 3], [2, 4, 3]], atol=1e-6)
+def test_blend_mixes_local_shapes_and_scales_them():
+    local = np.array([[[0, 0, 0], [0, 0, 1], [0, 0, 2]], [[0, 0, 0], [1, 0, 1], [2, 0, 2]]],
+                     np.float32)  # fmt: skip
+    idx = np.array([[0, 1], [1, 0]])
+    w = np.array([[0.5, 0.5], [1.0, 0.0]], np.float32)
+    out = blend_guides(local, idx, w, 2, scale=np.array([2.0, 1.0]))
+    # early culling: only the first 2 vertices; hair 0 is (0.5, 0, 1) × 2, hair 1 guide 1
+    np.testing.assert_allclose(out, [[[0, 0, 0], [1, 0, 2]], [[0, 0, 0], [1, 0, 1]]])
 
 
 def test_resample_arclength_spaces_vertices_evenly():

@@ -115,7 +115,7 @@ def test_a_group_without_guides_is_an_error_naming_its_colour(caplog):
         only_red = Texture(np.full((2, 2, 3), 255, np.uint8) * np.array([1, 0, 0], np.uint8))
         g = Guides(HairCurves.from_polylines(guides), mesh, groups=InterpolationGroups(only_red))
         Groom(mesh, g, GroomParams(count=10, guide_samples=4)).grow()
-    assert "has 3 guide(s), fewer than guide_samples = 4" in caplog.text
+    assert "has 3 guide(s), fewer than the 4 its hairs blend (idw)" in caplog.text
 
 
 def test_guides_far_from_the_mesh_warn_with_the_distance(caplog):

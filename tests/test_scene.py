@@ -37,7 +37,11 @@ def test_relative_paths_resolve_against_the_scene_folder(tmp_path):
         ({"groom": {"density": -2}}, r"\[groom\]\.density: Input should be greater than 0"),
         ({"groom": {"density_refine": 5}}, r"\[groom\]\.density_refine: .*less than or equal"),
         ({"mesh": {"density": 1}}, r"\[mesh\]\.density: unknown key"),
-        ({"groom": {"tip_color": [1, 2, 0]}}, r"\[groom\]\.tip_color\.1: .*less than or equal"),
+        ({"groom": {"tip_color": [1, 2, 0]}}, r"\[groom\]\.tip_color: colour components must be ≤ 1"),
+        ({"groom": {"cut": 1.5}}, r"\[groom\]\.cut: must be ≤ 1 \(got 1.5\)"),
+        ({"groom": {"cut": {"value": 2, "texture": "c.png"}}}, r"\[groom\]\.cut: must be ≤ 1"),
+        ({"groom": {"scale": {"texture": "s.png", "warp": 1}}}, r"\[groom\]\.scale: unknown key"),
+        ({"groom": {"frizz_tip": {"value": 0.1}}}, r"\[groom\]\.frizz_tip: a table needs texture"),
     ],
 )
 def test_bad_values_name_the_key_and_the_allowed_range(data, message):

@@ -67,7 +67,7 @@ def _grad(h, x, y, z):
     return _GX[h] * x + _GY[h] * y + _GZ[h] * z
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def perlin(x: float, y: float, z: float) -> float:
     """Improved Perlin noise at (x, y, z): smooth, about [-1, 1], zero on the integer lattice."""
     p = _PERM

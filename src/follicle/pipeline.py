@@ -31,7 +31,7 @@ def groom_scene(scene: Scene) -> Groom:
     return Groom(
         mesh, guides, scene.groom, density=density,
         displacement=load_texture(displacement, scene.resolve) if displacement else None,
-        displacement_scale=scene.mesh.displacement_scale,
+        displacement_scale=scene.mesh.displacement_scale, resolve_path=scene.resolve,
     )
 
 

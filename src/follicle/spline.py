@@ -93,8 +93,11 @@ def _locate(t, nseg):
 
 
 @njit(cache=True, inline="always")
-def _weights(u):
-    # rows of [u^3, u^2, u, 1] . CATMULL_ROM, written out; exact at u = 0 and u = 1
+def basis(u):
+    """Catmull-Rom weights of P_{s-1}, P_s, P_{s+1}, P_{s+2} at u in [0, 1] (000 §2.2.8).
+
+    The rows of [u³, u², u, 1] · CATMULL_ROM written out; exact at u = 0 and u = 1.
+    """
     u2 = u * u
     u3 = u2 * u
     return (
@@ -117,7 +120,7 @@ def _dweights(u):
 
 
 @njit(cache=True, inline="always")
-def _ctrl(start, n, s):
+def control_points(start, n, s):
     """Indices of the 4 control points of segment s, end points duplicated (seed Fig. 2.8)."""
     return start + max(s - 1, 0), start + s, start + s + 1, start + min(s + 2, n - 1)
 
@@ -129,12 +132,12 @@ def _eval_kernel(v, ts, deriv):
     out = np.empty((ts.shape[0], 3), dtype=np.float64)
     for m in range(ts.shape[0]):
         s, u = _locate(ts[m], nseg)
-        i0, i1, i2, i3 = _ctrl(0, n, s)
+        i0, i1, i2, i3 = control_points(0, n, s)
         if deriv:
             w0, w1, w2, w3 = _dweights(u)
             scale = float(nseg)  # dC/dt = (N-1) dC/du
         else:
-            w0, w1, w2, w3 = _weights(u)
+            w0, w1, w2, w3 = basis(u)
             scale = 1.0
         for a in range(3):
             out[m, a] = scale * (w0 * v[i0, a] + w1 * v[i1, a] + w2 * v[i2, a] + w3 * v[i3, a])
@@ -190,9 +193,9 @@ def _resample_kernel(pts, offs, offs2, k):
         n = offs[c + 1] - a
         o = offs2[c]
         for s in range(n - 1):
-            i0, i1, i2, i3 = _ctrl(a, n, s)
+            i0, i1, i2, i3 = control_points(a, n, s)
             for j in range(k):
-                w0, w1, w2, w3 = _weights(j / k)
+                w0, w1, w2, w3 = basis(j / k)
                 for d in range(3):
                     out[o, d] = (
                         w0 * pts[i0, d] + w1 * pts[i1, d] + w2 * pts[i2, d] + w3 * pts[i3, d]
@@ -220,7 +223,7 @@ def resample(points: object, offsets: object, k: int) -> tuple[np.ndarray, np.nd
 
 # ------------------------------------------------------------------ cutting
 @njit(cache=True)
-def _cut_locate(t, nseg):
+def cut_locate(t, nseg):
     """(s, u) of a cut: u == 0 when t_cut falls on vertex s (then no new vertex is made)."""
     x = t * nseg
     r = np.floor(x + 0.5)
@@ -237,15 +240,15 @@ def _cut_kernel(pts, offs, nverts, tcut, offs2):
     for c in range(offs.shape[0] - 1):
         a = offs[c]
         n = nverts[c]  # vertex count of the full curve (the parametrisation)
-        s, u = _cut_locate(tcut[c], n - 1)
+        s, u = cut_locate(tcut[c], n - 1)
         o = offs2[c]
         for i in range(s + 1):  # 000 §2.2.8 cutting: keep P_0 .. P_s = C(a)
             for d in range(3):
                 out[o + i, d] = pts[a + i, d]
             tpar[o + i] = i / (n - 1)  # original parametrisation, not the cut one
         if u > 0.0:  # append C(t_cut); its segment needs P_{s-1} .. P_{s+2}
-            i0, i1, i2, i3 = _ctrl(a, n, s)
-            w0, w1, w2, w3 = _weights(u)
+            i0, i1, i2, i3 = control_points(a, n, s)
+            w0, w1, w2, w3 = basis(u)
             for d in range(3):
                 out[o + s + 1, d] = (
                     w0 * pts[i0, d] + w1 * pts[i1, d] + w2 * pts[i2, d] + w3 * pts[i3, d]
@@ -258,7 +261,7 @@ def _cut_kernel(pts, offs, nverts, tcut, offs2):
 def _cut_counts(nverts, tcut):
     out = np.empty(nverts.shape[0], dtype=np.int64)
     for c in range(nverts.shape[0]):
-        s, u = _cut_locate(tcut[c], nverts[c] - 1)
+        s, u = cut_locate(tcut[c], nverts[c] - 1)
         out[c] = s + 1 if u == 0.0 else s + 2
     return out
 
@@ -274,7 +277,7 @@ def cut_vertex_count(n: int, t_cut: float) -> int:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
         raise InputError(f"n: expected an integer vertex count >= 2, got {n!r}")
     t = float(_check_params(t_cut, "t_cut", low_open=True, scalar=True))
-    s, u = _cut_locate(t, int(n) - 1)
+    s, u = cut_locate(t, int(n) - 1)
     return s + 1 if u == 0.0 else min(s + 3, int(n))
 
 
@@ -334,7 +337,7 @@ def _bezier_kernel(pts, offs):
         a = offs[c]
         n = offs[c + 1] - a
         for s in range(n - 1):
-            i0, i1, i2, i3 = _ctrl(a, n, s)
+            i0, i1, i2, i3 = control_points(a, n, s)
             for d in range(3):
                 # 000 §2.2.8, Bezier conversion: B = [[0,1,0,0],[-1/6,1,1/6,0],...] . P
                 out[m, 0, d] = pts[i1, d]
@@ -366,7 +369,7 @@ def _bounds_kernel(pts, offs):
             lo = min(pts[a, d], pts[a + n - 1, d])
             hi = max(pts[a, d], pts[a + n - 1, d])
             for s in range(n - 1):
-                i0, i1, i2, i3 = _ctrl(a, n, s)
+                i0, i1, i2, i3 = control_points(a, n, s)
                 p0, p1, p2, p3 = pts[i0, d], pts[i1, d], pts[i2, d], pts[i3, d]
                 lo = min(lo, p1)
                 hi = max(hi, p1)

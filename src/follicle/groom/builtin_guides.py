@@ -187,15 +187,18 @@ def _follow(targets: np.ndarray, sdf: SDF, clear: float) -> np.ndarray:
     return out
 
 
-def builtin_guides(name: str, mesh: SkinMesh | None = None) -> HairCurves:
-    """Built-in guides 'long', 'short' or 'curly' (300 each) on ``mesh`` (default: the head).
+def builtin_guides(name: str, mesh: SkinMesh | None = None, count: int = _COUNT) -> HairCurves:
+    """Built-in guides 'long', 'short' or 'curly' (``count``, default 300) on ``mesh``.
 
+    ``mesh`` defaults to the head.
     On the built-in head collisions use its analytic signed distance; on another
     mesh they use exact closest points (its ``textures['scalp']`` is the density if
     present, else the whole surface grows hair).
     """
     if name not in BUILTIN_GUIDES:
         raise InputError(f"unknown built-in guides {name!r}; choose one of {list(BUILTIN_GUIDES)}")
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise InputError(f"count: expected a whole number of guides >= 1, got {count!r}")
     style = BUILTIN_GUIDES[name]
     if mesh is None:
         mesh = builtin_head()
@@ -207,7 +210,7 @@ def builtin_guides(name: str, mesh: SkinMesh | None = None) -> HairCurves:
     lo, hi = mesh.bounds("rest")
     centre = np.zeros(3) if is_head else 0.5 * (lo + hi)
 
-    tri, bary = sample_roots(mesh, _COUNT)
+    tri, bary = sample_roots(mesh, int(count))
     surf = mesh.evaluate(tri, bary.astype(np.float64))
     rng = np.random.default_rng(20240601)  # fixed: the built-in sets never change
     length = style.length * (1.0 + 0.1 * rng.uniform(-1.0, 1.0, size=len(tri)))

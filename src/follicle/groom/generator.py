@@ -1,14 +1,23 @@
 """Groom: grows every final hair from the guides, in the pipeline order of 000 §2.2.2.
 
-roots (DensitySampler on the rest mesh) ► interpolate (root-local IDW) ► place on the current pose
-► appearance (width, opacity, colour) ► HairCurves. Work is done in chunks of hair
-ids; each hair depends only on (seed, id), so chunking never changes a byte.
+roots (DensitySampler on the rest mesh) ► interpolation group ► cut factor, early vertex
+culling ► interpolate (idw | barycentric | offset) ► scale ► curl ► clump ► frizz ►
+kink ► multi-strand fibres ► cut ► colour, width, opacity ► curve normals, vertex
+removal ► placed on the mesh's current pose ► HairCurves.
+
+All shaping happens in rest-pose root-local frames. Roots, groups, interpolation
+weights and clump membership (the *layout*) are computed once per id range and kept
+(000 §2.3.6, Table 2.1): a new mesh pose only re-places the hairs, a property change
+regenerates them without re-sampling. Each hair is a pure function of (seed, hair id),
+so generating ids [0, N) at once equals concatenating any split of them, byte for byte.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -18,21 +27,30 @@ from ..errors import InputError
 from ..mesh.displacement import displace
 from ..mesh.head import SCALP_TEXTURE, parting_texture, scalp_texture
 from ..mesh.sampling import DensitySampler
-from ..mesh.skin import SkinMesh
+from ..mesh.skin import SkinMesh, SurfacePoints
 from ..mesh.texture import Texture
+from ..rng import uniforms
 from ..scene import GroomParams
 from .appearance import hair_appearance
+from .barycentric import GuideTriangulation
+from .clump import assign_clumps, clump
+from .fibres import make_fibres
+from .finalize import cut_in_place, cut_plan, finish, pack
 from .guides import Guides
-from .interpolate import blend_guides, idw_weights
+from .interpolate import blend_guides, idw_weights, tilt, translate_guides
+from .properties import GroomProperties
+from .shape import curl, curl_phase, frizz, kink
 
-__all__ = ["Groom", "resolve_density"]
+__all__ = ["Groom", "resolve_density", "load_texture"]
 
 log = logging.getLogger("follicle")
 
 CHUNK = 65536
-
-
 BUILTIN_TEXTURES = {"builtin:scalp": scalp_texture, "builtin:parting": parting_texture}
+_VERTEX_BYTES = 44  # points, normal, colour (3 × 12) + width, opacity (2 × 4)
+_CURVE_BYTES = 56  # offset, hair_id, strand_id, root_triangle (4 × 8) + 3 float32 pairs
+_LAYOUT_KEYS = ("seed", "interpolation", "guide_samples", "clump_count")
+_SAMPLER_KEYS = ("density", "density_refine")
 
 
 def resolve_density(
@@ -61,15 +79,74 @@ def load_texture(spec: str, resolve_path: Callable[[str], str] = str) -> Texture
     return Texture.load(resolve_path(spec))
 
 
+def _referenced_builtins(params: GroomParams) -> dict[str, Texture]:
+    """The built-in textures that ``params``' properties name."""
+    names = set()
+    for value in params.model_dump().values():
+        source = value.get("texture") if isinstance(value, dict) else value
+        if isinstance(source, str) and source in BUILTIN_TEXTURES:
+            names.add(source)
+    return {name: BUILTIN_TEXTURES[name]() for name in sorted(names)}
+
+
+def _available_memory() -> int:
+    """Bytes of memory available now (MemAvailable), or physical memory as a fallback."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+@dataclass
+class _Layout:
+    """Roots and what interpolation needs of them, for one id range (kept across poses)."""
+
+    ids: np.ndarray
+    triangles: np.ndarray
+    bary: np.ndarray
+    rest: SurfacePoints
+    group: np.ndarray
+    guide_index: np.ndarray  # (n, k) guide of each weight
+    guide_weight: np.ndarray  # (n, k) float32
+    clump: np.ndarray | None  # (n,) clump centre, −1 for none
+
+
+@dataclass
+class _Bucket:
+    """Curves of one group with one culled vertex count, shaped and finished."""
+
+    rows: np.ndarray  # hair row in the chunk of each curve
+    strand: np.ndarray
+    strand_uv: np.ndarray
+    points: np.ndarray  # (m, n, 3) root-local
+    length: np.ndarray  # (m,) vertices after the cut
+    keep: np.ndarray  # (m, n) bool
+    look: dict[str, np.ndarray]
+
+
+def _rows(value: np.ndarray, sel: np.ndarray) -> np.ndarray:
+    """Per-hair property rows ``sel``; a shared single row stays shared."""
+    return value if len(value) == 1 else value[sel]
+
+
 class Groom:
-    """Grows hair on ``mesh`` from ``guides`` with ``params`` (defaults when None).
+    """Grows hair on ``mesh`` from ``guides`` with ``params`` (the defaults when None).
 
     Hairs follow the guides' interpolation groups; each has ``params.vertices``
     vertices (default: the guides' count) unless its group sets its own.
 
     ``density`` overrides ``params.density`` (a Texture, number, path or None). With a
     ``displacement`` texture, roots on the current pose sit on the displaced skin
-    (000 §2.2.3); interpolation still uses the undisplaced rest pose.
+    (000 §2.2.3); interpolation still uses the undisplaced rest pose. Texture paths in
+    the properties resolve through ``resolve_path`` (the scene's folder).
+
+    Set ``groom.params`` to change properties (keeps roots and weights unless the
+    seed, density, interpolation or clump count change); move the mesh with
+    ``mesh.set_pose`` and call :meth:`generate` again to re-place the hairs.
     """
 
     def __init__(
@@ -80,102 +157,163 @@ class Groom:
         density: Texture | float | str | None = None,
         displacement: Texture | None = None,
         displacement_scale: float = 1.0,
+        resolve_path: Callable[[str], str] = str,
     ) -> None:
         self.mesh = mesh
-        self.params = params if params is not None else GroomParams()
         if isinstance(guides, HairCurves):
             guides = Guides(guides, mesh)
         self.guides = guides
-        spec = density if density is not None else self.params.density
-        self.sampler = DensitySampler(
-            mesh, resolve_density(mesh, spec), refine=self.params.density_refine
-        )
         self.displacement = displacement
         self.displacement_scale = displacement_scale
+        self._density = density
+        self._resolve = resolve_path
+        self._p: GroomParams | None = None
+        self._layouts: dict[tuple[int, int], _Layout] = {}
+        self._weights_by_group: dict[int, object] = {}
+        self._centre_cache: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self.params = params if params is not None else GroomParams()
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def params(self) -> GroomParams:
+        return self._p
+
+    @params.setter
+    def params(self, params: GroomParams) -> None:
+        if not isinstance(params, GroomParams):
+            raise InputError(f"params: expected GroomParams, got {type(params).__name__}")
+        old = self._p
+        textures = {**self.mesh.textures, **_referenced_builtins(params)}
+        self.properties = GroomProperties(params, self._resolve, textures)
+        if old is None or any(getattr(old, k) != getattr(params, k) for k in _SAMPLER_KEYS):
+            spec = self._density if self._density is not None else params.density
+            self.sampler = DensitySampler(
+                self.mesh, resolve_density(self.mesh, spec, self._resolve),
+                refine=params.density_refine,
+            )  # fmt: skip
+            self._layouts.clear()
+        if old is None or any(getattr(old, k) != getattr(params, k) for k in _LAYOUT_KEYS):
+            self._layouts.clear()
+            self._weights_by_group.clear()
         groups = self.guides.groups
-        default = self.params.vertices or self.guides.vertex_count
+        default = params.vertices or self.guides.vertex_count
         self._vertices = np.array(
             [groups.vertex_count(g, default) for g in range(groups.count)], dtype=np.int64
         )
-        self._trees: dict[int, tuple[cKDTree, np.ndarray]] = {}
+        self._centre_cache = None
+        self._p = params
 
-    def grow(
+    # ------------------------------------------------------------------ public API
+    def generate(
         self,
         count: int | None = None,
-        seed: int | None = None,
+        start: int = 0,
+        time: float = 0.0,
         progress: Callable[[int, int], None] | None = None,
     ) -> HairCurves:
-        """Grow ``count`` hairs (default params.count) on the mesh's current pose."""
-        p = self.params
-        count = p.count if count is None else count
-        seed = p.seed if seed is None else seed
-        if count < 0:
-            raise InputError(f"count: must be ≥ 0, got {count}")
-        parts: list[tuple[np.ndarray, ...]] = []
-        for start in range(0, max(count, 1), CHUNK):  # count 0: one empty chunk
-            stop = min(start + CHUNK, count)
-            tri, b = self.sampler.sample(stop - start, seed, "random", start)
-            parts.append((tri, b, *self._chunk(tri, b, np.arange(start, stop), seed)))
-            if progress is not None:
-                progress(stop, count)
-        tri, bary, root_uv, counts, points, *attrs = (
-            np.concatenate([part[k] for part in parts]) for k in range(8)
-        )
-        return HairCurves(
-            points,
-            np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
-            point_data=dict(zip(("width", "opacity", "color"), attrs, strict=True)),
-            curve_data={
-                "hair_id": np.arange(count, dtype=np.int64),
-                "root_uv": root_uv,
-                "root_triangle": tri.astype(np.int64),
-                "root_bary": bary,
-            },
-        )
+        """Hairs with ids [start, start + count) on the mesh's current pose.
 
-    def _chunk(
-        self, triangles: np.ndarray, bary: np.ndarray, ids: np.ndarray, seed: int
-    ) -> tuple[np.ndarray, ...]:
-        """Root UVs, vertex counts, points and per-vertex width, opacity, colour of hairs.
-
-        Each hair takes guides of its own interpolation group only (000 §2.2.4) and
-        that group's vertex count; the pieces are laid out in hair order.
+        ``count`` defaults to params.count; ``time`` (seconds) drives animated frizz.
+        Hairs cut to nothing or degenerated to one vertex are left out (their ids are
+        missing from ``curve_data['hair_id']``).
         """
-        p = self.params
-        rest = self.mesh.evaluate(triangles, bary, pose="rest")
-        group = self.guides.groups.group_of(rest.uv)
-        if self.displacement is None:
-            cur = self.mesh.evaluate(triangles, bary, pose="current")
-        else:
-            cur = displace(self.mesh, triangles, bary, self.displacement, self.displacement_scale)
-        counts = self._vertices[group]
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        total = int(counts.sum())
-        points = np.empty((total, 3), dtype=np.float32)
-        width, opacity = np.empty(total, np.float32), np.empty(total, np.float32)
-        color = np.empty((total, 3), np.float32)
-        for g in np.unique(group):
-            tree, members = self._group_guides(int(g))
-            sel = np.flatnonzero(group == g)
-            n = int(self._vertices[g])
-            idx, w = idw_weights(tree, rest.position[sel], p.guide_samples)
-            shapes = blend_guides(
-                self.guides.local_shapes(n)[members], idx, w, cur.position[sel],
-                cur.tangent[sel], cur.binormal[sel], cur.normal[sel], p.scale,
-            )
-            rows = (starts[sel][:, None] + np.arange(n)).ravel()
-            points[rows] = shapes.reshape(-1, 3)
-            look = hair_appearance(
-                ids[sel], seed, n, p.root_color, p.tip_color, p.hue_variation,
-                p.saturation_variation, p.value_variation, p.mutant_fraction, p.mutant_color,
-                p.root_width, p.tip_width, p.root_opacity, p.tip_opacity,
-            )
-            width[rows], opacity[rows], color[rows] = look["width"], look["opacity"], look["color"]
-        return rest.uv.astype(np.float32), counts, points, width, opacity, color
+        count = self.params.count if count is None else count
+        self._check_range(count, start)
+        self._check_memory(count)
+        spans = [(a, min(a + CHUNK, start + count)) for a in range(start, start + count, CHUNK)]
+        bound = sum(self._vertex_bound(a, b) for a, b in spans)
+        out = _allocate(bound, count * self.params.strand_count)
+        v = c = 0
+        for a, b in spans:
+            v, c = self._chunk(a, b, time, out, v, c)
+            if progress is not None:
+                progress(b - start, count)
+        return _curves(out, v, c)
 
-    def _group_guides(self, group: int) -> tuple[cKDTree, np.ndarray]:
-        """A KD-tree over the rest roots of ``group``'s guides, and their indices."""
-        if group not in self._trees:
+    def chunks(
+        self, chunk_size: int = CHUNK, count: int | None = None, start: int = 0, time: float = 0.0
+    ) -> Iterator[HairCurves]:
+        """The hairs of :meth:`generate` as consecutive HairCurves of ``chunk_size`` ids."""
+        count = self.params.count if count is None else count
+        self._check_range(count, start)
+        if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
+            raise InputError(f"chunk_size: expected a whole number, got {chunk_size!r}")
+        if chunk_size < 1:
+            raise InputError(f"chunk_size: must be ≥ 1, got {chunk_size}")
+        for a in range(start, start + count, int(chunk_size)):
+            yield self.generate(min(int(chunk_size), start + count - a), a, time)
+
+    def grow(
+        self, count: int | None = None, progress: Callable[[int, int], None] | None = None
+    ) -> HairCurves:
+        """:meth:`generate` from id 0 (the pipeline's entry point)."""
+        return self.generate(count, progress=progress)
+
+    # ------------------------------------------------------------------ checks
+    @staticmethod
+    def _check_range(count: int, start: int) -> None:
+        for name, v in (("count", count), ("start", start)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise InputError(f"{name}: expected a whole number, got {v!r}")
+            if v < 0:
+                raise InputError(f"{name}: must be ≥ 0, got {v}")
+        if start + count > 2**53:
+            raise InputError(f"start + count: hair ids must stay below 2**53, got {start + count}")
+
+    def _check_memory(self, count: int) -> None:
+        curves = count * self.params.strand_count
+        need = curves * (int(self._vertices.max()) * _VERTEX_BYTES + _CURVE_BYTES)
+        have = _available_memory()
+        if 2 * need > have:
+            raise InputError(
+                f"count: {count:,} hairs × {self.params.strand_count} strand(s) ×"
+                f" {int(self._vertices.max())} vertices need about {need / 2**30:.1f} GiB of"
+                f" output (twice that while building) but {have / 2**30:.1f} GiB are free;"
+                " lower count or vertices, or write the hair in pieces with Groom.chunks()"
+            )
+
+    # ------------------------------------------------------------------ layout
+    def _layout(self, start: int, stop: int) -> _Layout:
+        """Roots, groups, weights and clumps of ids [start, stop), computed once."""
+        key = (start, stop)
+        if key not in self._layouts:
+            p = self.params
+            tri, bary = self.sampler.sample(stop - start, p.seed, "random", start)
+            rest = self.mesh.evaluate(tri, bary, pose="rest")
+            group = self.guides.groups.group_of(rest.uv)
+            index, weight = self._weights(rest, group)
+            which = None
+            if p.clump_count > 0:
+                c_rest, c_group, _ = self._centres()
+                which = assign_clumps(c_rest.position, c_group, rest.position, group)
+            ids = np.arange(start, stop, dtype=np.int64)
+            self._layouts[key] = _Layout(ids, tri, bary, rest, group, index, weight, which)
+        return self._layouts[key]
+
+    def _weights(self, rest: SurfacePoints, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Guide indices and weights of every root, from its own group's guides only."""
+        p = self.params
+        k = {"idw": p.guide_samples + 1, "barycentric": 3, "offset": 1}[p.interpolation]
+        index = np.zeros((len(group), k), dtype=np.int64)
+        weight = np.zeros((len(group), k), dtype=np.float32)
+        for g in np.unique(group):
+            sel = np.flatnonzero(group == g)
+            members, finder = self._group_guides(int(g))
+            if p.interpolation == "barycentric":
+                idx, w = finder.weights(rest.position[sel], rest.normal[sel])
+            elif p.interpolation == "offset":
+                _, idx = finder.query(rest.position[sel], workers=-1)
+                idx, w = idx.reshape(-1, 1), np.ones((len(sel), 1), np.float32)
+            else:
+                idx, w = idw_weights(finder, rest.position[sel], p.guide_samples)
+            index[sel, : idx.shape[1]] = members[idx]
+            index[sel, idx.shape[1] :] = members[idx[:, :1]]  # padding, weight 0
+            weight[sel, : idx.shape[1]] = w
+        return index, weight
+
+    def _group_guides(self, group: int) -> tuple[np.ndarray, object]:
+        """A group's guide indices and their KD-tree (or triangulation), made once."""
+        if group not in self._weights_by_group:
             label = self.guides.groups.label(group)
             members = np.flatnonzero(self.guides.group == group)
             if len(members) == 0:
@@ -183,12 +321,244 @@ class Groom:
                     f"interpolation group {label} has hairs but no guides; add guides in"
                     " that colour's area or repaint the group texture"
                 )
-            if len(members) < self.params.guide_samples:
+            want = {"idw": self.params.guide_samples, "barycentric": 3}.get(
+                self.params.interpolation, 1
+            )
+            if len(members) < want:
                 log.warning(
-                    "interpolation group %s has %d guide(s), fewer than guide_samples = %d:"
-                    " its hairs blend all of them", label, len(members),
-                    self.params.guide_samples,
-                )
-            self._trees[group] = (cKDTree(self.guides.root_positions[members]), members)
-        return self._trees[group]
+                    "interpolation group %s has %d guide(s), fewer than the %d its hairs"
+                    " blend (%s): they blend all of them", label, len(members), want,
+                    self.params.interpolation,
+                )  # fmt: skip
+            roots = self.guides.root_positions[members]
+            if self.params.interpolation == "barycentric":
+                finder = GuideTriangulation(roots, self.guides.normals[members])
+            else:
+                finder = cKDTree(roots)
+            self._weights_by_group[group] = (members, finder)
+        return self._weights_by_group[group]
 
+    def _centres(self) -> tuple[SurfacePoints, np.ndarray, np.ndarray]:
+        """Clump centres: rest frames, groups and grown shapes in rest world space (C, N, 3)."""
+        if self._centre_cache is None:
+            p = self.params
+            count = p.clump_count
+            tri, bary = self.sampler.sample(count, p.seed, "halton", 2**40)
+            rest = self.mesh.evaluate(tri, bary, pose="rest")
+            group = self.guides.groups.group_of(rest.uv)
+            index, weight = self._weights(rest, group)
+            world = np.zeros((count, int(self._vertices.max()), 3))
+            props = self.properties.at(rest.uv)
+            ids = np.arange(2**40, 2**40 + count, dtype=np.int64)  # ids no hair uses
+            for g in np.unique(group):
+                sel = np.flatnonzero(group == g)
+                n = int(self._vertices[g])
+                local = blend_guides(
+                    self.guides.local_shapes(n), index[sel], weight[sel], n,
+                    _rows(props["scale"], sel),
+                )  # fmt: skip
+                self._curl(local, props, sel, ids[sel], np.linspace(0.0, 1.0, n)[None])
+                frame = np.stack([rest.tangent[sel], rest.binormal[sel], rest.normal[sel]], 1)
+                world[sel, :n] = rest.position[sel, None] + np.einsum("hna,hab->hnb", local, frame)
+            self._centre_cache = (rest, group, world)
+        return self._centre_cache
+
+    # ------------------------------------------------------------------ shaping
+    def _vertex_bound(self, start: int, stop: int) -> int:
+        """Most vertices ids [start, stop) can have: culled counts (000 §2.2.8) × strands."""
+        lay = self._layout(start, stop)
+        cut = np.broadcast_to(self.properties.at(lay.rest.uv)["cut"], lay.group.shape)
+        need = sum(
+            int(cut_plan(cut[lay.group == g], int(self._vertices[g])).sum())
+            for g in np.unique(lay.group)
+        )
+        return need * self.params.strand_count
+
+    def _chunk(
+        self, start: int, stop: int, time: float, out: dict[str, np.ndarray], v: int, c: int
+    ) -> tuple[int, int]:
+        """Grow ids [start, stop) into ``out`` from vertex ``v``, curve ``c``; the new ends."""
+        lay = self._layout(start, stop)
+        props = self.properties.at(lay.rest.uv)
+        buckets = []
+        for g in np.unique(lay.group):
+            sel = np.flatnonzero(lay.group == g)
+            n_total = int(self._vertices[g])
+            need = cut_plan(np.broadcast_to(props["cut"], lay.group.shape)[sel], n_total)
+            for n in np.unique(need[need >= 2]):
+                rows = sel[need == n]
+                buckets.append(self._bucket(lay, props, rows, n_total, int(n), time))
+        if self.displacement is None:
+            cur = self.mesh.evaluate(lay.triangles, lay.bary, pose="current")
+        else:
+            cur = displace(
+                self.mesh, lay.triangles, lay.bary, self.displacement, self.displacement_scale
+            )
+        return self._assemble(lay, cur, buckets, out, v, c)
+
+    def _bucket(
+        self, lay: _Layout, props: dict[str, np.ndarray], rows: np.ndarray, n_total: int,
+        n: int, time: float,
+    ) -> _Bucket:  # fmt: skip
+        """Hairs ``rows`` (one group, ``n`` of ``n_total`` vertices needed) shaped, finished."""
+        p = self.params
+
+        def prop(name: str) -> np.ndarray:
+            return _rows(props[name], rows)
+
+        ids = lay.ids[rows]
+        t = (np.arange(n) / (n_total - 1))[None]
+        scale = prop("scale")
+        if (props["random_scale"] > 0).any():
+            xi = uniforms(p.seed, ids, "random scale", 1)[:, 0]
+            scale = scale * (1.0 - prop("random_scale") * xi)
+        rest = lay.rest
+        frame = (rest.tangent[rows], rest.binormal[rows], rest.normal[rows])
+        index = lay.guide_index[rows]
+        if p.interpolation == "offset" and p.offset_mode == "translate":
+            local = translate_guides(self.guides.rest_shapes(n_total), index[:, 0], frame, n, scale)
+        else:
+            local = blend_guides(
+                self.guides.local_shapes(n_total), index, lay.guide_weight[rows], n, scale
+            )
+            if p.interpolation == "offset" and p.offset_angle > 0:
+                tilt(local, p.seed, ids, p.offset_angle)
+        self._curl(local, props, rows, ids, t)
+        if lay.clump is not None:
+            centre = self._centres()[2]
+            clump(
+                local, centre, lay.clump[rows], (rest.position[rows], *frame), prop("clump_root"),
+                prop("clump_tip"), p.clump_profile, prop("clump_noise"), ids, p.seed, t,
+            )  # fmt: skip
+        if (props["frizz_root"] > 0).any() or (props["frizz_tip"] > 0).any():
+            drift = np.asarray(p.frizz_direction) * (p.frizz_speed * time)
+            frizz(
+                local, rest.position[rows], prop("frizz_root"), prop("frizz_tip"),
+                np.asarray(p.frizz_frequency), drift, prop("frizz_blend"), t,
+            )  # fmt: skip
+        if (props["kink_root"] > 0).any() or (props["kink_tip"] > 0).any():
+            kink(
+                local, rest.position[rows], prop("kink_root"), prop("kink_tip"),
+                np.asarray(p.kink_frequency), frame, t,
+            )  # fmt: skip
+        return self._finish(local, rows, ids, prop, n_total)
+
+    def _curl(
+        self, local: np.ndarray, props: dict[str, np.ndarray], rows: np.ndarray,
+        ids: np.ndarray, t: np.ndarray,
+    ) -> None:  # fmt: skip
+        """001 §3.1.2 curl on ``local`` when any hair has a curl radius."""
+        if not (props["curl_radius"] > 0).any():
+            return
+        p = self.params
+        curl(
+            local, _rows(props["curl_radius"], rows), _rows(props["curl_frequency"], rows),
+            p.curl_frequency_tip, curl_phase(p.seed, ids), t=t,
+        )  # fmt: skip
+
+    def _finish(
+        self, local: np.ndarray, rows: np.ndarray, ids: np.ndarray,
+        prop: Callable[[str], np.ndarray], n_total: int,
+    ) -> _Bucket:  # fmt: skip
+        """Fibres, cut, appearance, normals and vertex removal of shaped hairs."""
+        p = self.params
+        m, n = local.shape[:2]
+        parent = np.arange(m)
+        strand = np.zeros(m, dtype=np.int64)
+        strand_uv = np.zeros((m, 2), dtype=np.float32)
+        if p.strand_count > 1:
+            local, parent, strand, strand_uv = make_fibres(
+                local, ids, p.seed, p.strand_count, prop("strand_splay_root"),
+                prop("strand_splay_centre"), prop("strand_splay_tip"),
+                np.radians(prop("strand_twist")), prop("strand_aspect"), prop("strand_offset"),
+                prop("strand_randomize"),
+            )  # fmt: skip
+
+        def per_curve(name: str) -> np.ndarray:
+            value = prop(name)
+            return value if len(value) == 1 else value[parent]
+
+        tcut = np.broadcast_to(per_curve("cut"), (len(parent),))
+        t, length = cut_in_place(local, tcut, n_total)
+        look = hair_appearance(
+            ids[parent], p.seed, n, per_curve("root_color"), per_curve("tip_color"),
+            per_curve("hue_variation"), per_curve("saturation_variation"),
+            per_curve("value_variation"), per_curve("mutant_fraction"),
+            per_curve("mutant_color"), per_curve("root_width"), per_curve("tip_width"),
+            per_curve("root_opacity"), per_curve("tip_opacity"), t=t,
+        )  # fmt: skip
+        keep = finish(local, length, p.skip_threshold)
+        return _Bucket(rows[parent], strand, strand_uv, local, length, keep, look)
+
+    def _assemble(
+        self, lay: _Layout, cur: SurfacePoints, buckets: list[_Bucket],
+        out: dict[str, np.ndarray], v: int, c: int,
+    ) -> tuple[int, int]:  # fmt: skip
+        """Buckets packed in (hair id, strand) order, placed on the current pose, into ``out``."""
+        if not buckets:
+            return v, c
+        strands = self.params.strand_count
+        keys = np.concatenate([b.rows * strands + b.strand for b in buckets])
+        counts = np.concatenate([b.keep.sum(axis=1) for b in buckets])
+        order = np.argsort(keys, kind="stable")
+        ends = v + np.cumsum(counts[order])
+        start = np.empty(len(keys), dtype=np.int64)
+        start[order] = ends - counts[order]
+        frame = (cur.position, cur.tangent, cur.binormal, cur.normal)
+        first = 0
+        for b in buckets:
+            m = len(b.rows)
+            pack(b.points, b.length, b.keep, b.rows, frame, start[first : first + m], b.look, out)
+            first += m
+        kept = order[counts[order] > 0]
+        rows = np.concatenate([b.rows for b in buckets])[kept]
+        end = c + len(kept)
+        out["counts"][c:end] = counts[kept]
+        out["hair_id"][c:end] = lay.ids[rows]
+        out["strand_id"][c:end] = np.concatenate([b.strand for b in buckets])[kept]
+        out["root_uv"][c:end] = lay.rest.uv[rows]
+        out["strand_uv"][c:end] = np.concatenate([b.strand_uv for b in buckets])[kept]
+        out["root_triangle"][c:end] = lay.triangles[rows]
+        out["root_bary"][c:end] = lay.bary[rows]
+        return int(ends[-1]) if len(ends) else v, end
+
+
+_POINT_KEYS = ("normal", "color", "width", "opacity")
+_CURVE_KEYS = ("hair_id", "strand_id", "root_uv", "strand_uv", "root_triangle", "root_bary")
+
+
+def _allocate(vertices: int, curves: int) -> dict[str, np.ndarray]:
+    """Output arrays for at most ``vertices`` vertices and ``curves`` curves."""
+    return {
+        "points": np.empty((vertices, 3), np.float32),
+        "normal": np.empty((vertices, 3), np.float32),
+        "color": np.empty((vertices, 3), np.float32),
+        "width": np.empty(vertices, np.float32),
+        "opacity": np.empty(vertices, np.float32),
+        "counts": np.empty(curves, np.int64),
+        "hair_id": np.empty(curves, np.int64),
+        "strand_id": np.empty(curves, np.int64),
+        "root_uv": np.empty((curves, 2), np.float32),
+        "strand_uv": np.empty((curves, 2), np.float32),
+        "root_triangle": np.empty(curves, np.int64),
+        "root_bary": np.empty((curves, 2), np.float32),
+    }
+
+
+def _curves(out: dict[str, np.ndarray], v: int, c: int) -> HairCurves:
+    """HairCurves of the first ``v`` vertices and ``c`` curves of ``out``.
+
+    Where cutting or vertex removal left much of the room unused, the arrays are
+    copied to their size so the spare memory is given back.
+    """
+
+    def fit(a: np.ndarray, n: int) -> np.ndarray:
+        return a[:n].copy() if n < 0.75 * len(a) else a[:n]
+
+    offsets = np.zeros(c + 1, dtype=np.int64)
+    np.cumsum(out["counts"][:c], out=offsets[1:])
+    return HairCurves(
+        fit(out["points"], v), offsets,
+        point_data={k: fit(out[k], v) for k in _POINT_KEYS},
+        curve_data={k: fit(out[k], c) for k in _CURVE_KEYS},
+    )  # fmt: skip

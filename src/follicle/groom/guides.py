@@ -91,6 +91,7 @@ class Guides:
         self.groups = groups if groups is not None else InterpolationGroups()
         self.group = self.groups.group_of(frame.uv)
         self._local: dict[int, np.ndarray] = {}
+        self._rest: dict[int, np.ndarray] = {}
         self.local = self.local_shapes(n)
 
     def local_shapes(self, vertices: int) -> np.ndarray:
@@ -104,6 +105,13 @@ class Guides:
             frames = np.stack([self.tangents, self.binormals, self.normals], axis=1)  # (S, 3, 3)
             self._local[vertices] = np.einsum("snk,sak->sna", rel, frames).astype(np.float32)
         return self._local[vertices]
+
+    def rest_shapes(self, vertices: int) -> np.ndarray:
+        """Guide shapes resampled to ``vertices``, world axes, root at the origin (S, V, 3)."""
+        if vertices not in self._rest:
+            rel = resample_arclength(self.curves, vertices)
+            self._rest[vertices] = (rel - rel[:, :1, :]).astype(np.float32)
+        return self._rest[vertices]
 
     @property
     def count(self) -> int:

@@ -1,14 +1,19 @@
-"""Hair shapes from guides by inverse-distance weighting in root-local frames (000 §2.2.4)."""
+"""Hair shapes from guides in root-local frames: blending (000 §2.2.4 IDW weights, or
+barycentric ones) and the single-strand offsets of 002 §5.1.4."""
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
+from ..rng import purpose_id, uniforms
+from .params import per_hair, row
 
-__all__ = ["idw_weights", "blend_guides"]
+__all__ = ["idw_weights", "blend_guides", "tilt", "translate_guides"]
+
+_TILT = purpose_id("offset angle")
 
 
 def idw_weights(
@@ -25,7 +30,7 @@ def idw_weights(
         raise InputError(f"guide_samples: need at least 1, got {samples}")
     tree = guide_roots if isinstance(guide_roots, cKDTree) else cKDTree(guide_roots)
     k = min(samples + 1, tree.n)
-    dist, idx = tree.query(hair_roots, k=k)
+    dist, idx = tree.query(hair_roots, k=k, workers=-1)
     if k == 1:
         return idx.reshape(-1, 1).astype(np.int64), np.ones((len(hair_roots), 1), np.float32)
     r = dist[:, -1:]
@@ -40,48 +45,87 @@ def idw_weights(
     return idx.astype(np.int64), w.astype(np.float32)
 
 
-@njit(cache=True)
-def _blend_kernel(local, idx, w, origin, tangent, binormal, normal, scale, out):
-    n_hairs, k = idx.shape
-    n_verts = local.shape[1]
-    for h in range(n_hairs):
+@njit(cache=True, parallel=True)
+def _blend_kernel(local, idx, w, scale, out):
+    n_verts = out.shape[1]
+    for h in prange(idx.shape[0]):
+        sc = scale[row(scale, h)]
         for i in range(n_verts):
             x = 0.0
             y = 0.0
             z = 0.0
-            for j in range(k):
+            for j in range(idx.shape[1]):
                 g = idx[h, j]
                 wj = w[h, j]
                 x += wj * local[g, i, 0]
                 y += wj * local[g, i, 1]
                 z += wj * local[g, i, 2]
-            x *= scale
-            y *= scale
-            z *= scale
-            for a in range(3):
-                out[h, i, a] = (
-                    origin[h, a] + x * tangent[h, a] + y * binormal[h, a] + z * normal[h, a]
-                )
+            out[h, i, 0] = sc * x
+            out[h, i, 1] = sc * y
+            out[h, i, 2] = sc * z
 
 
 def blend_guides(
-    local: np.ndarray,
-    indices: np.ndarray,
-    weights: np.ndarray,
-    origin: np.ndarray,
-    tangent: np.ndarray,
-    binormal: np.ndarray,
-    normal: np.ndarray,
-    scale: float = 1.0,
-) -> np.ndarray:
-    """Weighted guide shapes (S, N, 3 in root frames) placed on each hair's frame, (H, N, 3)."""
-    out = np.empty((len(indices), local.shape[1], 3), dtype=np.float32)
+    local: np.ndarray, indices: np.ndarray, weights: np.ndarray, vertices: int,
+    scale: float | np.ndarray = 1.0,
+) -> np.ndarray:  # fmt: skip
+    """Weighted guide shapes in root-local frames, times ``scale``: (H, vertices, 3) float64.
+
+    ``local`` (S, N, 3) holds the guides in their root frames (000 §2.2.4); only the
+    first ``vertices`` ≤ N are blended (a cut hair never needs the rest, §2.2.8).
+    """
+    out = np.empty((len(indices), vertices, 3), dtype=np.float64)
     _blend_kernel(
-        np.ascontiguousarray(local, np.float32),
-        np.ascontiguousarray(indices, np.int64),
-        np.ascontiguousarray(weights, np.float32),
-        *(np.ascontiguousarray(a, np.float64) for a in (origin, tangent, binormal, normal)),
-        float(scale),
-        out,
-    )
+        np.ascontiguousarray(local, np.float32), np.ascontiguousarray(indices, np.int64),
+        np.ascontiguousarray(weights, np.float32), per_hair(scale, len(indices), "scale"), out,
+    )  # fmt: skip
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _tilt_kernel(local, ca, sa, cb, sb):
+    for h in prange(local.shape[0]):
+        for i in range(local.shape[1]):
+            x, y, z = local[h, i, 0], local[h, i, 1], local[h, i, 2]
+            y, z = ca[h] * y - sa[h] * z, sa[h] * y + ca[h] * z  # about the root tangent x
+            x, z = cb[h] * x + sb[h] * z, -sb[h] * x + cb[h] * z  # about the binormal y
+            local[h, i, 0], local[h, i, 1], local[h, i, 2] = x, y, z
+
+
+def tilt(local: np.ndarray, seed: int, ids: np.ndarray, max_angle: float) -> None:
+    """002 §5.1.4 single-strand offset by angle, in place: each hair (root-local) turns
+    about its root tangent and binormal by two random angles in ±``max_angle`` degrees
+    from the (seed, id, "offset angle") stream, so copies of one guide fan out instead
+    of clustering."""
+    u = uniforms(seed, ids, _TILT, 2)
+    angle = np.radians(max_angle) * (2.0 * u - 1.0)
+    c, s = np.cos(angle), np.sin(angle)
+    _tilt_kernel(local, c[:, 0].copy(), s[:, 0].copy(), c[:, 1].copy(), s[:, 1].copy())
+
+
+@njit(cache=True, parallel=True)
+def _reframe_kernel(rel, idx, tangent, binormal, normal, scale, out):
+    for h in prange(idx.shape[0]):
+        g = idx[h]
+        sc = scale[row(scale, h)]
+        for i in range(out.shape[1]):
+            x, y, z = rel[g, i, 0], rel[g, i, 1], rel[g, i, 2]
+            out[h, i, 0] = sc * (x * tangent[h, 0] + y * tangent[h, 1] + z * tangent[h, 2])
+            out[h, i, 1] = sc * (x * binormal[h, 0] + y * binormal[h, 1] + z * binormal[h, 2])
+            out[h, i, 2] = sc * (x * normal[h, 0] + y * normal[h, 1] + z * normal[h, 2])
+
+
+def translate_guides(
+    rel: np.ndarray, indices: np.ndarray, rest_frame: tuple[np.ndarray, np.ndarray, np.ndarray],
+    vertices: int, scale: float | np.ndarray = 1.0,
+) -> np.ndarray:  # fmt: skip
+    """002 §5.1.4 single-strand offset by displacement: guide ``indices[h]``'s rest shape
+    ``rel`` (S, N, 3, world axes, root at 0) moved to hair h's root unturned, in the
+    hair's root-local frame (T, B, N rows of ``rest_frame``), times ``scale``."""
+    out = np.empty((len(indices), vertices, 3), dtype=np.float64)
+    _reframe_kernel(
+        np.ascontiguousarray(rel, np.float32), np.ascontiguousarray(indices, np.int64),
+        *(np.ascontiguousarray(a, np.float64) for a in rest_frame),
+        per_hair(scale, len(indices), "scale"), out,
+    )  # fmt: skip
     return out

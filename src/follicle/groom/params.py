@@ -33,7 +33,8 @@ def per_hair(
 ) -> np.ndarray:
     """``value`` for ``n`` hairs as float64 (n,), or (n, 3) with ``vector``; finite, in range.
 
-    A single number (or 3-vector) becomes one shared row, (1,) or (1, 3). ``lo``/``hi`` bound the
+    A single number (or 3-vector) becomes one shared row, (1,) or (1, 3); a shared row
+    passes as it is. ``lo``/``hi`` bound the
     values (``lo_open``: strictly above ``lo``); errors name ``name``.
     """
     if isinstance(value, (bool, np.bool_)):
@@ -45,7 +46,7 @@ def per_hair(
     one = (3,) if vector else ()
     if arr.shape == one:
         arr = arr.reshape((1, *one))
-    elif arr.shape != (n, *one):
+    elif arr.shape != (n, *one) and arr.shape != (1, *one):
         want = f"shape (3,) or ({n}, 3)" if vector else f"a number or shape ({n},)"
         raise InputError(f"{name}: expected {want}, got shape {arr.shape}")
     _check_range(arr, name, lo, hi, lo_open)
@@ -65,7 +66,7 @@ def curve_parameter(t: object, n: int, vertices: int) -> np.ndarray:
         raise InputError(f"t: expected numbers, got {t!r}") from exc
     if arr.shape == (vertices,):
         arr = arr[None]
-    elif arr.shape != (n, vertices):
+    elif arr.shape != (n, vertices) and arr.shape != (1, vertices):
         raise InputError(
             f"t: expected shape ({vertices},) or ({n}, {vertices}), got shape {arr.shape}"
         )

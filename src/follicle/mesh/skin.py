@@ -10,11 +10,11 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
-from ..frames import normalize, root_frames
+from ..frames import normalize
 from .texture import Texture
 
 __all__ = ["SkinMesh", "SurfacePoints"]
@@ -320,21 +320,21 @@ class SkinMesh:
         return tri, b
 
     def evaluate(self, triangles: object, bary: object, pose: str = "rest") -> SurfacePoints:
-        """Positions, root frames and UVs at (triangle, barycentric) samples (000 §2.2.3)."""
-        verts = self._verts(pose)
+        """Positions, root frames and UVs at (triangle, barycentric) samples (000 §2.2.3).
+
+        Frames as :func:`follicle.frames.root_frames` of the interpolated vertex normal
+        and tangent, in one parallel kernel (the groom evaluates millions of roots).
+        """
         tri, b = self._check_samples(triangles, bary)
-        f = self.faces[tri]
-        w = np.stack([b[:, 0], b[:, 1], 1.0 - b[:, 0] - b[:, 1]], axis=1)[:, :, None]
-
-        def interp(values: np.ndarray) -> np.ndarray:
-            return np.sum(values[f] * w, axis=1)
-
-        position = interp(verts)
-        normal, tangent, binormal = root_frames(
-            interp(self.vertex_normals(pose)), interp(self.vertex_tangents(pose))
-        )
-        uv = interp(self.uvs) if self.uvs is not None else np.zeros((len(tri), 2))
-        return SurfacePoints(position, normal, tangent, binormal, uv)
+        n = len(tri)
+        out = [np.empty((n, 3)) for _ in range(4)]
+        uv = np.zeros((n, 2))
+        uvs = self.uvs if self.uvs is not None else np.zeros((0, 2))
+        _evaluate_kernel(
+            self._verts(pose), self.vertex_normals(pose), self.vertex_tangents(pose), uvs,
+            self.faces, tri, b, *out, uv,
+        )  # fmt: skip
+        return SurfacePoints(*out, uv)
 
     def closest_points(
         self, points: object, pose: str = "rest"
@@ -471,3 +471,42 @@ def _closest_kernel(q, verts, faces, qi, ti):
             best_u[i] = wa
             best_v[i] = wb
     return best_t, best_u, best_v, best_d
+
+
+@njit(cache=True, parallel=True)
+def _evaluate_kernel(verts, normals, tangents, uvs, faces, tri, bary, position, normal, tangent,
+                     binormal, uv):  # fmt: skip
+    """Barycentric interpolation plus the root frame of 000 §2.2.3 for every sample."""
+    for k in prange(tri.shape[0]):
+        f0, f1, f2 = faces[tri[k], 0], faces[tri[k], 1], faces[tri[k], 2]
+        w0, w1 = bary[k, 0], bary[k, 1]
+        w2 = 1.0 - w0 - w1
+        for a in range(3):
+            position[k, a] = w0 * verts[f0, a] + w1 * verts[f1, a] + w2 * verts[f2, a]
+            normal[k, a] = w0 * normals[f0, a] + w1 * normals[f1, a] + w2 * normals[f2, a]
+            tangent[k, a] = w0 * tangents[f0, a] + w1 * tangents[f1, a] + w2 * tangents[f2, a]
+        if uvs.shape[0] > 0:
+            for a in range(2):
+                uv[k, a] = w0 * uvs[f0, a] + w1 * uvs[f1, a] + w2 * uvs[f2, a]
+        nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
+        ln = np.sqrt(nx * nx + ny * ny + nz * nz)
+        if ln > 0.0:
+            nx, ny, nz = nx / ln, ny / ln, nz / ln
+        tx, ty, tz = tangent[k, 0], tangent[k, 1], tangent[k, 2]
+        d = tx * nx + ty * ny + tz * nz
+        tx, ty, tz = tx - d * nx, ty - d * ny, tz - d * nz
+        lt = np.sqrt(tx * tx + ty * ty + tz * tz)
+        if lt < 1e-9:  # tangent along the normal: perpendicular from the least aligned axis
+            ax, ay, az = abs(nx), abs(ny), abs(nz)
+            tx = 1.0 if ax <= ay and ax <= az else 0.0
+            ty = 1.0 if tx == 0.0 and ay <= az else 0.0
+            tz = 1.0 if tx == 0.0 and ty == 0.0 else 0.0
+            d = tx * nx + ty * ny + tz * nz
+            tx, ty, tz = tx - d * nx, ty - d * ny, tz - d * nz
+            lt = np.sqrt(tx * tx + ty * ty + tz * tz)
+        tx, ty, tz = tx / lt, ty / lt, tz / lt
+        normal[k, 0], normal[k, 1], normal[k, 2] = nx, ny, nz
+        tangent[k, 0], tangent[k, 1], tangent[k, 2] = tx, ty, tz
+        binormal[k, 0] = ty * nz - tz * ny
+        binormal[k, 1] = tz * nx - tx * nz
+        binormal[k, 2] = tx * ny - ty * nx
