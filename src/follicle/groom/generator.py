@@ -51,6 +51,7 @@ _VERTEX_BYTES = 44  # points, normal, colour (3 × 12) + width, opacity (2 × 4)
 _CURVE_BYTES = 56  # offset, hair_id, strand_id, root_triangle (4 × 8) + 3 float32 pairs
 _LAYOUT_KEYS = ("seed", "interpolation", "guide_samples", "clump_count")
 _SAMPLER_KEYS = ("density", "density_refine")
+_CENTRE_IDS = 2**40  # clump centres use ids no hair has: their own random streams
 
 
 def resolve_density(
@@ -170,7 +171,8 @@ class Groom:
         self._p: GroomParams | None = None
         self._layouts: dict[tuple[int, int], _Layout] = {}
         self._weights_by_group: dict[int, object] = {}
-        self._centre_cache: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._centre_roots: tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._centre_shapes: np.ndarray | None = None
         self.params = params if params is not None else GroomParams()
 
     # ------------------------------------------------------------------ parameters
@@ -195,12 +197,13 @@ class Groom:
         if old is None or any(getattr(old, k) != getattr(params, k) for k in _LAYOUT_KEYS):
             self._layouts.clear()
             self._weights_by_group.clear()
+            self._centre_roots = None
         groups = self.guides.groups
         default = params.vertices or self.guides.vertex_count
         self._vertices = np.array(
             [groups.vertex_count(g, default) for g in range(groups.count)], dtype=np.int64
         )
-        self._centre_cache = None
+        self._centre_shapes = None
         self._p = params
 
     # ------------------------------------------------------------------ public API
@@ -221,11 +224,11 @@ class Groom:
         self._check_range(count, start)
         self._check_memory(count)
         spans = [(a, min(a + CHUNK, start + count)) for a in range(start, start + count, CHUNK)]
-        bound = sum(self._vertex_bound(a, b) for a, b in spans)
+        bound = sum(self._vertex_bound(self._layout(a, b)) for a, b in spans)
         out = _allocate(bound, count * self.params.strand_count)
         v = c = 0
         for a, b in spans:
-            v, c = self._chunk(a, b, time, out, v, c)
+            v, c = self._chunk(self._layout(a, b), time, out, v, c)
             if progress is not None:
                 progress(b - start, count)
         return _curves(out, v, c)
@@ -242,6 +245,27 @@ class Groom:
             raise InputError(f"chunk_size: must be ≥ 1, got {chunk_size}")
         for a in range(start, start + count, int(chunk_size)):
             yield self.generate(min(int(chunk_size), start + count - a), a, time)
+
+    def generate_at(
+        self, triangles: np.ndarray, bary: np.ndarray, ids: np.ndarray | None = None,
+        time: float = 0.0,
+    ) -> HairCurves:  # fmt: skip
+        """Hairs rooted at given (triangle, barycentric) points of the mesh, e.g. picked roots.
+
+        ``ids`` (default 0, 1, …; distinct, ≥ 0) key each hair's random choices.
+        """
+        tri = np.asarray(triangles)
+        b = np.asarray(bary)
+        self.mesh.evaluate(tri, b)  # validates both, naming the mesh
+        ids = np.arange(len(tri), dtype=np.int64) if ids is None else np.asarray(ids)
+        if ids.shape != (len(tri),) or not np.issubdtype(ids.dtype, np.integer):
+            raise InputError(f"ids: expected {len(tri)} integers, got {ids.dtype} {ids.shape}")
+        if len(np.unique(ids)) != len(ids) or (ids < 0).any():
+            raise InputError("ids: hair ids must be distinct and ≥ 0")
+        lay = self._make_layout(tri.astype(np.int64), b.astype(np.float32), ids.astype(np.int64))
+        bound = self._vertex_bound(lay)
+        out = _allocate(bound, len(tri) * self.params.strand_count)
+        return _curves(out, *self._chunk(lay, time, out, 0, 0))
 
     def grow(
         self, count: int | None = None, progress: Callable[[int, int], None] | None = None
@@ -277,18 +301,20 @@ class Groom:
         """Roots, groups, weights and clumps of ids [start, stop), computed once."""
         key = (start, stop)
         if key not in self._layouts:
-            p = self.params
-            tri, bary = self.sampler.sample(stop - start, p.seed, "random", start)
-            rest = self.mesh.evaluate(tri, bary, pose="rest")
-            group = self.guides.groups.group_of(rest.uv)
-            index, weight = self._weights(rest, group)
-            which = None
-            if p.clump_count > 0:
-                c_rest, c_group, _ = self._centres()
-                which = assign_clumps(c_rest.position, c_group, rest.position, group)
+            tri, bary = self.sampler.sample(stop - start, self.params.seed, "random", start)
             ids = np.arange(start, stop, dtype=np.int64)
-            self._layouts[key] = _Layout(ids, tri, bary, rest, group, index, weight, which)
+            self._layouts[key] = self._make_layout(tri, bary, ids)
         return self._layouts[key]
+
+    def _make_layout(self, tri: np.ndarray, bary: np.ndarray, ids: np.ndarray) -> _Layout:
+        rest = self.mesh.evaluate(tri, bary, pose="rest")
+        group = self.guides.groups.group_of(rest.uv)
+        index, weight = self._weights(rest, group)
+        which = None
+        if self.params.clump_count > 0:
+            c_rest, c_group, _ = self._centres()
+            which = assign_clumps(c_rest.position, c_group, rest.position, group)
+        return _Layout(ids, tri, bary, rest, group, index, weight, which)
 
     def _weights(self, rest: SurfacePoints, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Guide indices and weights of every root, from its own group's guides only."""
@@ -339,17 +365,21 @@ class Groom:
         return self._weights_by_group[group]
 
     def _centres(self) -> tuple[SurfacePoints, np.ndarray, np.ndarray]:
-        """Clump centres: rest frames, groups and grown shapes in rest world space (C, N, 3)."""
-        if self._centre_cache is None:
+        """Clump centres: rest frames, groups and grown shapes in rest world space (C, N, 3).
+
+        Their roots and weights stay with the layout; their shapes follow the properties.
+        """
+        if self._centre_roots is None:
             p = self.params
-            count = p.clump_count
-            tri, bary = self.sampler.sample(count, p.seed, "halton", 2**40)
+            tri, bary = self.sampler.sample(p.clump_count, p.seed, "halton", _CENTRE_IDS)
             rest = self.mesh.evaluate(tri, bary, pose="rest")
             group = self.guides.groups.group_of(rest.uv)
-            index, weight = self._weights(rest, group)
-            world = np.zeros((count, int(self._vertices.max()), 3))
+            self._centre_roots = (rest, group, *self._weights(rest, group))
+        rest, group, index, weight = self._centre_roots
+        if self._centre_shapes is None:
+            world = np.zeros((len(group), int(self._vertices.max()), 3))
             props = self.properties.at(rest.uv)
-            ids = np.arange(2**40, 2**40 + count, dtype=np.int64)  # ids no hair uses
+            ids = np.arange(_CENTRE_IDS, _CENTRE_IDS + len(group), dtype=np.int64)
             for g in np.unique(group):
                 sel = np.flatnonzero(group == g)
                 n = int(self._vertices[g])
@@ -360,13 +390,12 @@ class Groom:
                 self._curl(local, props, sel, ids[sel], np.linspace(0.0, 1.0, n)[None])
                 frame = np.stack([rest.tangent[sel], rest.binormal[sel], rest.normal[sel]], 1)
                 world[sel, :n] = rest.position[sel, None] + np.einsum("hna,hab->hnb", local, frame)
-            self._centre_cache = (rest, group, world)
-        return self._centre_cache
+            self._centre_shapes = world
+        return rest, group, self._centre_shapes
 
     # ------------------------------------------------------------------ shaping
-    def _vertex_bound(self, start: int, stop: int) -> int:
-        """Most vertices ids [start, stop) can have: culled counts (000 §2.2.8) × strands."""
-        lay = self._layout(start, stop)
+    def _vertex_bound(self, lay: _Layout) -> int:
+        """Most vertices the hairs of ``lay`` can have: culled counts (000 §2.2.8) × strands."""
         cut = np.broadcast_to(self.properties.at(lay.rest.uv)["cut"], lay.group.shape)
         need = sum(
             int(cut_plan(cut[lay.group == g], int(self._vertices[g])).sum())
@@ -375,10 +404,9 @@ class Groom:
         return need * self.params.strand_count
 
     def _chunk(
-        self, start: int, stop: int, time: float, out: dict[str, np.ndarray], v: int, c: int
+        self, lay: _Layout, time: float, out: dict[str, np.ndarray], v: int, c: int
     ) -> tuple[int, int]:
-        """Grow ids [start, stop) into ``out`` from vertex ``v``, curve ``c``; the new ends."""
-        lay = self._layout(start, stop)
+        """Grow the hairs of ``lay`` into ``out`` from vertex ``v``, curve ``c``; the new ends."""
         props = self.properties.at(lay.rest.uv)
         buckets = []
         for g in np.unique(lay.group):
