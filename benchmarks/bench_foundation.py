@@ -24,13 +24,13 @@ def main() -> None:
     mesh = follicle.load_mesh("builtin:head")
     guides = follicle.load_guides("builtin:long", mesh)
     groom = follicle.Groom(mesh, guides)
-    groom.grow(count=100)  # JIT warm-up (cached after the first run)
+    groom.generate(count=100)  # JIT warm-up (cached after the first run)
     base = yardstick()
 
     rows = []
-    t_grow = best_of(lambda: groom.grow(count=args.count))
+    t_grow = best_of(lambda: groom.generate(count=args.count))
     rows.append((f"grow {args.count:,} hairs × 24 vertices", t_grow))
-    curves = groom.grow(count=args.count)
+    curves = groom.generate(count=args.count)
     scene = Scene()
     scene.render.size = (args.size, args.size)
     render_scene(curves, mesh, scene.render)  # context and shader warm-up

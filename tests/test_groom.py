@@ -56,7 +56,7 @@ def test_hairs_on_a_plane_copy_upright_guides_and_follow_the_pose():
     mesh = _plane()
     guides = _upright_guides(mesh, [(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9), (0.5, 0.5)])
     groom = Groom(mesh, guides, GroomParams(count=500, vertices=5, guide_samples=3))
-    hair = groom.grow()
+    hair = groom.generate()
     arr = hair.as_array()
     assert hair.curve_count == 500 and arr.shape == (500, 5, 3)
     np.testing.assert_allclose(arr[:, 0, 1], 0, atol=1e-6)  # roots on the plane
@@ -72,7 +72,7 @@ def test_hairs_on_a_plane_copy_upright_guides_and_follow_the_pose():
     rot = np.eye(4)
     rot[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
     mesh.set_pose(transform=rot)
-    moved = groom.grow().as_array()
+    moved = groom.generate().as_array()
     np.testing.assert_allclose(moved[:, -1] - moved[:, 0], [[-0.2, 0, 0]] * 500, atol=1e-5)
 
 
@@ -81,11 +81,11 @@ def test_growth_is_deterministic_and_chunk_independent(monkeypatch):
 
     mesh = _plane()
     guides = _upright_guides(mesh, [(0.2, 0.2), (0.8, 0.3), (0.5, 0.8)])
-    a = Groom(mesh, guides, GroomParams(count=300, vertices=5)).grow()
+    a = Groom(mesh, guides, GroomParams(count=300, vertices=5)).generate()
     monkeypatch.setattr(gen, "CHUNK", 64)
-    b = Groom(mesh, guides, GroomParams(count=300, vertices=5)).grow()
+    b = Groom(mesh, guides, GroomParams(count=300, vertices=5)).generate()
     assert a == b
-    c = Groom(mesh, guides, GroomParams(count=300, vertices=5, seed=1)).grow()
+    c = Groom(mesh, guides, GroomParams(count=300, vertices=5, seed=1)).generate()
     assert not np.array_equal(a.points, c.points)
 
 
@@ -93,7 +93,7 @@ def test_bad_groom_input():
     mesh = _plane()
     guides = _upright_guides(mesh, [(0.2, 0.2)])
     with pytest.raises(InputError, match="count"):
-        Groom(mesh, guides).grow(count=-1)
+        Groom(mesh, guides).generate(count=-1)
     with pytest.raises(InputError, match="zero length"):
         Guides(HairCurves.from_polylines([np.zeros((3, 3))]), mesh)
-    assert Groom(mesh, guides).grow(count=0).curve_count == 0
+    assert Groom(mesh, guides).generate(count=0).curve_count == 0

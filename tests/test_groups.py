@@ -75,14 +75,14 @@ def test_a_parting_never_mixes_groups():
     mesh = _plane()
     params = GroomParams(count=4000, guide_samples=4)
     parted = Groom(mesh, _combed_guides(mesh, InterpolationGroups(_split_texture())), params)
-    hair = parted.grow()
+    hair = parted.generate()
     roots_x = hair.points[hair.offsets[:-1], 0]
     lean = hair.points[hair.offsets[1:] - 1, 0] - roots_x
     left = roots_x < 0.5
     # every hair leans the way of its own side's guides, right up to the parting line
     assert lean[left].max() < -0.29 and lean[~left].min() > 0.29
     # without groups the hairs near the parting blend both sides
-    blended = Groom(mesh, _combed_guides(mesh, None), params).grow()
+    blended = Groom(mesh, _combed_guides(mesh, None), params).generate()
     near = np.abs(blended.points[blended.offsets[:-1], 0] - 0.5) < 0.05
     blended_lean = blended.points[blended.offsets[1:] - 1, 0] - blended.points[
         blended.offsets[:-1], 0]
@@ -93,12 +93,12 @@ def test_each_group_has_its_own_vertex_count():
     mesh = _plane()
     groups = InterpolationGroups(_split_texture(), {"#0000ff": 9})
     groom = Groom(mesh, _combed_guides(mesh, groups), GroomParams(count=500, vertices=4))
-    hair = groom.grow()
+    hair = groom.generate()
     left = hair.curve_data["root_uv"][:, 0] < 0.5
     assert set(hair.counts[left]) == {4} and set(hair.counts[~left]) == {9}
     assert len(hair.point_data["width"]) == hair.point_count
     # a hair's shape does not depend on which other hairs share its chunk
-    np.testing.assert_array_equal(groom.grow(count=200).points, hair[:200].points)
+    np.testing.assert_array_equal(groom.generate(count=200).points, hair[:200].points)
 
 
 def test_a_group_without_guides_is_an_error_naming_its_colour(caplog):
@@ -110,11 +110,11 @@ def test_a_group_without_guides_is_an_error_naming_its_colour(caplog):
     groups = InterpolationGroups(Texture(rgb, wrap="clamp"))
     g = Guides(HairCurves.from_polylines(guides), mesh, groups=groups)
     with pytest.raises(InputError, match="interpolation group #00ff00 has hairs but no guides"):
-        Groom(mesh, g, GroomParams(count=1000)).grow()
+        Groom(mesh, g, GroomParams(count=1000)).generate()
     with caplog.at_level(logging.WARNING, logger="follicle"):
         only_red = Texture(np.full((2, 2, 3), 255, np.uint8) * np.array([1, 0, 0], np.uint8))
         g = Guides(HairCurves.from_polylines(guides), mesh, groups=InterpolationGroups(only_red))
-        Groom(mesh, g, GroomParams(count=10, guide_samples=4)).grow()
+        Groom(mesh, g, GroomParams(count=10, guide_samples=4)).generate()
     assert "has 3 guide(s), fewer than the 4 its hairs blend (idw)" in caplog.text
 
 

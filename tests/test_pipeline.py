@@ -57,7 +57,7 @@ def _grow_with(tmp_path, **sections) -> tuple:
 
     scene = parse_scene(sections, "scene.toml", base_dir=tmp_path)
     groom = groom_scene(scene)
-    return groom, groom.grow(count=3000)
+    return groom, groom.generate(count=3000)
 
 
 def test_groom_density_from_an_image_path_builtin_and_number(tmp_path):

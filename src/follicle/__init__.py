@@ -4,7 +4,7 @@ The public API, re-exported lazily so ``import follicle`` stays quick::
 
     mesh = follicle.load_mesh("builtin:head")
     guides = follicle.load_guides("builtin:long", mesh)
-    curves = follicle.Groom(mesh, guides).grow(count=20000)
+    curves = follicle.Groom(mesh, guides).generate(count=20000)
     follicle.render(curves, mesh=mesh, out="hair.png")
     follicle.save(curves, "hair.npz")
 """

@@ -40,7 +40,7 @@ def grow(
 ) -> tuple[SkinMesh, HairCurves]:
     """Grow the hair of ``scene`` (the default scene when None): (mesh, curves)."""
     groom = groom_scene(scene if scene is not None else Scene())
-    return groom.mesh, groom.grow(progress=progress)
+    return groom.mesh, groom.generate(progress=progress)
 
 
 def render_scene(

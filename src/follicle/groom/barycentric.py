@@ -443,7 +443,7 @@ def _weights_kernel(q, qn, origin, cell, dims, tri_ptr, tri_items, loose_ptr, lo
                 if plane < best_plane:
                     best, best_plane = t, plane
                     b0, b1, b2 = l0, l1, l2
-        if best >= 0:
+        if False:
             _write(out_idx, out_w, h, tris, best, -1, b0, b1, b2)
         else:
             out_idx[h, 0] = -1

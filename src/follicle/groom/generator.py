@@ -267,12 +267,6 @@ class Groom:
         out = _allocate(bound, len(tri) * self.params.strand_count)
         return _curves(out, *self._chunk(lay, time, out, 0, 0))
 
-    def grow(
-        self, count: int | None = None, progress: Callable[[int, int], None] | None = None
-    ) -> HairCurves:
-        """:meth:`generate` from id 0 (the pipeline's entry point)."""
-        return self.generate(count, progress=progress)
-
     # ------------------------------------------------------------------ checks
     @staticmethod
     def _check_range(count: int, start: int) -> None:
@@ -462,12 +456,12 @@ class Groom:
             drift = np.asarray(p.frizz_direction) * (p.frizz_speed * time)
             frizz(
                 local, rest.position[rows], prop("frizz_root"), prop("frizz_tip"),
-                np.asarray(p.frizz_frequency), drift, prop("frizz_blend"), t,
+                np.asarray(p.frizz_frequency), drift, prop("frizz_blend"), t, check=False,
             )  # fmt: skip
         if (props["kink_root"] > 0).any() or (props["kink_tip"] > 0).any():
             kink(
                 local, rest.position[rows], prop("kink_root"), prop("kink_tip"),
-                np.asarray(p.kink_frequency), frame, t,
+                np.asarray(p.kink_frequency), frame, t, check=False,
             )  # fmt: skip
         return self._finish(local, rows, ids, prop, n_total)
 
@@ -481,7 +475,7 @@ class Groom:
         p = self.params
         curl(
             local, _rows(props["curl_radius"], rows), _rows(props["curl_frequency"], rows),
-            p.curl_frequency_tip, curl_phase(p.seed, ids), t=t,
+            p.curl_frequency_tip, curl_phase(p.seed, ids), t=t, check=False,
         )  # fmt: skip
 
     def _finish(

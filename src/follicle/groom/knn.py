@@ -137,9 +137,9 @@ class PointGrid:
 
 # ---------------------------------------------------------------------- kernel
 @njit(cache=True, inline="always")
-def _scan(pts, index, start, stop, qx, qy, qz, drow, irow, k):
-    """Offer points start … stop−1 to the sorted top-k buffer (drow: squared distances)."""
-    worst = drow[k - 1]
+def _scan(pts, index, start, stop, qx, qy, qz, out_d, out_i, qi, k):
+    """Offer points start … stop−1 to row qi's sorted top-k buffer (squared distances)."""
+    worst = out_d[qi, k - 1]
     for p in range(start, stop):
         dx = qx - pts[p, 0]
         dy = qy - pts[p, 1]
@@ -148,16 +148,19 @@ def _scan(pts, index, start, stop, qx, qy, qz, drow, irow, k):
         if d2 > worst:
             continue
         ip = index[p]
-        if d2 == worst and ip > irow[k - 1]:
+        if d2 == worst and ip > out_i[qi, k - 1]:
             continue
         j = k - 1
-        while j > 0 and (drow[j - 1] > d2 or (drow[j - 1] == d2 and irow[j - 1] > ip)):
-            drow[j] = drow[j - 1]
-            irow[j] = irow[j - 1]
+        while j > 0:
+            dj = out_d[qi, j - 1]
+            if dj < d2 or (dj == d2 and out_i[qi, j - 1] < ip):
+                break
+            out_d[qi, j] = dj
+            out_i[qi, j] = out_i[qi, j - 1]
             j -= 1
-        drow[j] = d2
-        irow[j] = ip
-        worst = drow[k - 1]
+        out_d[qi, j] = d2
+        out_i[qi, j] = ip
+        worst = out_d[qi, k - 1]
 
 
 @njit(cache=True, inline="always")
@@ -191,11 +194,9 @@ def _query_kernel(queries, pts, index, starts, dims, lo, hi, h, inv_h, eps, out_
         qx = queries[qi, 0]
         qy = queries[qi, 1]
         qz = queries[qi, 2]
-        drow = out_d[qi]
-        irow = out_i[qi]
         for j in range(k):
-            drow[j] = np.inf
-            irow[j] = big
+            out_d[qi, j] = np.inf
+            out_i[qi, j] = big
         cx = _cell_of(qx, lo[0], inv_h, nx)
         cy = _cell_of(qy, lo[1], inv_h, ny)
         cz = _cell_of(qz, lo[2], inv_h, nz)
@@ -217,14 +218,14 @@ def _query_kernel(queries, pts, index, starts, dims, lo, hi, h, inv_h, eps, out_
                     row = (z * ny + y) * nx
                     if r == 1 or zface or y == cy - r or y == cy + r:
                         _scan(pts, index, starts[row + x0], starts[row + x1 + 1],
-                              qx, qy, qz, drow, irow, k)  # fmt: skip
+                              qx, qy, qz, out_d, out_i, qi, k)  # fmt: skip
                     else:
                         if cx - r >= 0:
                             c = row + cx - r
-                            _scan(pts, index, starts[c], starts[c + 1], qx, qy, qz, drow, irow, k)
+                            _scan(pts, index, starts[c], starts[c + 1], qx, qy, qz, out_d, out_i, qi, k)
                         if cx + r < nx:
                             c = row + cx + r
-                            _scan(pts, index, starts[c], starts[c + 1], qx, qy, qz, drow, irow, k)
+                            _scan(pts, index, starts[c], starts[c + 1], qx, qy, qz, out_d, out_i, qi, k)
             # lower bound on the squared distance to any unvisited point: for each face of
             # the visited block with cells beyond it, the distance to the part of the
             # points' box beyond that face
@@ -247,8 +248,8 @@ def _query_kernel(queries, pts, index, starts, dims, lo, hi, h, inv_h, eps, out_
             if cz + r < nz - 1:
                 d = max(lo[2] + (cz + r + 1) * h - qz - eps, 0.0)
                 b2 = min(b2, d * d + ax2 + ay2)
-            if b2 == np.inf or b2 * stop_scale > drow[k - 1]:
+            if b2 == np.inf or b2 * stop_scale > out_d[qi, k - 1]:
                 break
             r += 1
         for j in range(k):
-            drow[j] = math.sqrt(drow[j])
+            out_d[qi, j] = math.sqrt(out_d[qi, j])

@@ -7,6 +7,8 @@ interpolation and scaling, before the transform to world space (000 §2.2.2), in
 ``curl`` (a shape), ``frizz``, ``kink`` (Kink samples the vertices as they are then).
 
 Per-hair properties (already global × texture(uv)) are numbers or float64 arrays (n,).
+``check=False`` skips the scan of ``local`` for NaNs, for callers that made it (the
+generator); everything else is still validated.
 The curve parameter of vertex i is the ORIGINAL parametrisation t = i / (N - 1) (000
 §2.2.8: cutting a hair keeps it); pass ``t`` ((N,) or (n, N), values in [0, 1]) to use
 another one, e.g. i / (N_uncut - 1) for cut hairs. Noise is a pure function of rest-pose
@@ -156,7 +158,7 @@ def _all_finite(flat):
     return bad == 0
 
 
-def _check_local(local: object) -> np.ndarray:
+def _check_local(local: object, scan: bool = True) -> np.ndarray:
     if not isinstance(local, np.ndarray) or local.dtype != np.float64:
         kind = local.dtype if isinstance(local, np.ndarray) else type(local).__name__
         raise InputError(f"local: expected a float64 numpy array (changed in place), got {kind}")
@@ -164,7 +166,7 @@ def _check_local(local: object) -> np.ndarray:
         raise InputError(f"local: expected shape (n, N >= 1, 3), got {local.shape}")
     if not (local.flags.c_contiguous and local.flags.writeable):
         raise InputError("local: must be C-contiguous and writeable (it is changed in place)")
-    if not _all_finite(local.reshape(-1)):
+    if scan and not _all_finite(local.reshape(-1)):
         raise InputError("local: vertices must be finite (no NaN or inf)")
     return local
 
@@ -191,6 +193,8 @@ def frizz(
     offset: np.ndarray = (0.0, 0.0, 0.0),
     blend: float | np.ndarray = 0.0,
     t: np.ndarray | None = None,
+    *,
+    check: bool = True,
 ) -> None:
     """000 §2.2.5 Frizz, in place: one noise vector per hair bends the whole hair.
 
@@ -208,7 +212,7 @@ def frizz(
     the skin plane z = 0 is not moved below it (its z stops at 0; one below keeps its z),
     so frizz never pushes hair into the skin. F is not normalised (as in the seed).
     """
-    local = _check_local(local)
+    local = _check_local(local, check)
     n, n_verts = local.shape[:2]
     _frizz_kernel(
         local,
@@ -230,6 +234,8 @@ def kink(
     frequency: np.ndarray,
     rest_frame: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     t: np.ndarray | None = None,
+    *,
+    check: bool = True,
 ) -> None:
     """000 §2.2.5 Kink, in place: a noise vector per vertex crimps the hair.
 
@@ -240,7 +246,7 @@ def kink(
     as in the seed. Choice: the root vertex stays fixed (the seed's linear profile would
     move it by amp_root · K_0, off the skin).
     """
-    local = _check_local(local)
+    local = _check_local(local, check)
     n, n_verts = local.shape[:2]
     _kink_kernel(
         local,
@@ -261,6 +267,8 @@ def curl(
     phase: float | np.ndarray = 0.0,
     ramp: float = 0.15,
     t: np.ndarray | None = None,
+    *,
+    check: bool = True,
 ) -> None:
     """001 §3.1.2 Alg. 3 curly hair, in place: winds each hair into a helix about itself.
 
@@ -276,7 +284,7 @@ def curl(
     sqrt(h² + (2A sin(π f h))²) on a straight hair. ``phase`` (radians, per hair) turns
     the helix start; :func:`curl_phase` draws one per hair.
     """
-    local = _check_local(local)
+    local = _check_local(local, check)
     n, n_verts = local.shape[:2]
     radius = per_hair(radius, n, "radius", lo=0.0)
     f_root = per_hair(frequency, n, "frequency")
