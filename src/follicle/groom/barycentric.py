@@ -6,14 +6,16 @@ guide roots are triangulated over the surface itself, not in UV space and not as
 hull, so it works on any triangle mesh (heads, planes, open patches, tori, thin two-sided
 shapes) and with roots placed anywhere, e.g. by a density map.
 
-Triangulation: a triangle of guides is kept when its circumscribed ball (centre on the
-triangle's plane, radius of its circumcircle) holds no other guide facing the same way.
-On a plane this is Delaunay; on a sphere, the convex hull. Each guide proposes the
-triangles it makes with its nearest neighbours; the test depends only on the triangle
-(it looks at the neighbours of all three corners), so the corners agree on it. Slivers,
-oversized triangles and triangles tilted away from the normals are dropped, edges in
-more than two triangles are thinned, and triangles are wound right-handed about the
-normals.
+Triangulation: each guide tries the triangles it makes with two of its nearest guides.
+One is kept when no guide facing the same way lies inside its circumcircle, drawn in the
+plane normal to the summed normals of the four guides concerned: on a plane this is
+Delaunay, on a sphere the convex hull, and since the test depends only on the four
+guides, the corners of a triangle agree on it and of the two ways to split a quad
+exactly one is kept. Guides on an edge with one triangle retry with 3× the neighbours
+(uneven spacing puts some Delaunay neighbours farther away). Flat, tilted and huge
+triangles are never kept, edges in more than two triangles are thinned, slivers and
+oversized triangles are peeled off the border, and triangles are wound right-handed
+about the normals. Cocircular guides (grids) are told apart by a tiny fixed jitter.
 
 Weights: a hair root is projected along its normal onto the triangles binned in its grid
 cell, and the one holding it whose plane is nearest wins. Failing that (a boundary, a
@@ -38,11 +40,13 @@ _FLAT = 1e-3  # never kept: quality 4√3·area / Σ edge² below this (1: equil
 _HUGE = 8.0  # never kept: circumradius above this × the corners' largest spacing
 _MIN_QUALITY = 0.05  # peeled from the boundary: quality below this, or
 _MAX_RADIUS = 3.0  # circumradius above this × the corners' largest spacing
-_GROW_ROUNDS = 2  # guides on a boundary retry with 2×, 4× the neighbours (fills holes)
+_GROW = 3  # guides on an edge with one triangle retry with this × the neighbours
 _MARGIN = 0.15  # triangles are binned to cells with their box grown by this × longest edge
 _WALK_STEPS = 32
+_SORT_ABOVE = 30_000  # triangles; past this, hairs are visited in grid order
 _SEARCH = 8  # nearest guides looked at for a hair off the binned triangles
 _JOGGLE = 1e-8  # × median spacing: breaks ties between cocircular guides (grids)
+_SAME = 1e-2  # × median spacing: closer roots are one root for the triangulation
 
 
 # --------------------------------------------------------------------------- validation
@@ -151,13 +155,15 @@ def _in_circle(i0, i1, i2, d, p, n):
 
 
 @njit(cache=True)
-def _accept(i0, i1, i2, p, n, near, spacing):
-    """Is triangle {i0 < i1 < i2} kept? Returns (kept, flipped): flipped → wind i0, i2, i1.
+def _shape(i0, i1, i2, p, n, spacing):
+    """Shape tests of triangle {i0 < i1 < i2}: (ok, flipped, unit normal, circumcentre, r²).
 
-    A pure function of the triangle, so all three corners reach the same answer.
+    Not kept: corners whose normals face apart, flat triangles, triangles tilted more
+    than about 70° from a corner's normal, and huge ones. flipped: wind it i0, i2, i1
+    to turn right-handed about the normals.
     """
     if _dot(n, i0, n, i1) < 0.0 or _dot(n, i0, n, i2) < 0.0 or _dot(n, i1, n, i2) < 0.0:
-        return False, False
+        return False, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     ax, ay, az = p[i1, 0] - p[i0, 0], p[i1, 1] - p[i0, 1], p[i1, 2] - p[i0, 2]
     bx, by, bz = p[i2, 0] - p[i0, 0], p[i2, 1] - p[i0, 1], p[i2, 2] - p[i0, 2]
     cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
@@ -166,14 +172,14 @@ def _accept(i0, i1, i2, p, n, near, spacing):
     lb = bx * bx + by * by + bz * bz
     lab = (bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2
     if c2 <= 0.0 or 2.0 * np.sqrt(3.0 * c2) < _FLAT * (la + lb + lab):
-        return False, False
+        return False, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     flipped = (cx * (n[i0, 0] + n[i1, 0] + n[i2, 0]) + cy * (n[i0, 1] + n[i1, 1] + n[i2, 1])
                + cz * (n[i0, 2] + n[i1, 2] + n[i2, 2])) < 0.0
     s = (-1.0 if flipped else 1.0) / np.sqrt(c2)
     ux, uy, uz = cx * s, cy * s, cz * s  # unit normal, wound with the guide normals
     for v in (i0, i1, i2):
         if ux * n[v, 0] + uy * n[v, 1] + uz * n[v, 2] < _MIN_COS:
-            return False, False
+            return False, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     # circumcentre on the triangle's plane: p0 + (|b|² (c × a) + |a|² (b × c)) / 2|c|²
     f = 0.5 / c2
     ox = (lb * (cy * az - cz * ay) + la * (by * cz - bz * cy)) * f
@@ -182,10 +188,20 @@ def _accept(i0, i1, i2, p, n, near, spacing):
     r2 = ox * ox + oy * oy + oz * oz
     h = max(spacing[i0], max(spacing[i1], spacing[i2]))
     if r2 > (_HUGE * h) ** 2:
+        return False, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return True, flipped, ux, uy, uz, ox + p[i0, 0], oy + p[i0, 1], oz + p[i0, 2], r2
+
+
+@njit(cache=True)
+def _accept(i0, i1, i2, p, n, near, spacing):
+    """Is triangle {i0 < i1 < i2} kept? Returns (kept, flipped).
+
+    A pure function of the triangle (it looks at the neighbours of all three corners), so
+    every corner that tries it reaches the same answer.
+    """
+    ok, flipped, ux, uy, uz, ox, oy, oz, r2 = _shape(i0, i1, i2, p, n, spacing)
+    if not ok:
         return False, False
-    ox += p[i0, 0]
-    oy += p[i0, 1]
-    oz += p[i0, 2]
     # no guide facing the triangle's way inside its circumcircle (tested in the plane of
     # each four guides, so that of two triangles on a quad exactly one pair is kept)
     for v in (i0, i1, i2):
@@ -216,15 +232,17 @@ def _listed(near, u, g):
 
 
 @njit(cache=True, parallel=True)
-def _propose_kernel(p, n, near, spacing, write, start, out, count):
-    """Count (write=False) or write into out[start[c]:] the kept triangles of each guide c.
+def _propose_kernel(rows, changed, p, n, near, spacing, out, count):
+    """Kept triangles of each guide c = rows[i] and two of its neighbours into out[i].
 
-    Guide c tries c and every two of its neighbours; a triangle is tried once, by the
-    lowest-indexed corner that lists the other two.
+    Only triangles with a ``changed`` corner are tried, each once, by the lowest-indexed
+    corner that lists the other two. count[i] is how many were kept, even past out's
+    capacity (the caller retries those).
     """
-    s, k = near.shape
-    for ci in prange(s):
-        c = np.int64(ci)  # prange indices may be unsigned
+    k = near.shape[1]
+    cap = out.shape[1]
+    for i in prange(rows.shape[0]):
+        c = rows[i]
         slot = 0
         for a in range(k):
             ga = near[c, a]
@@ -234,6 +252,8 @@ def _propose_kernel(p, n, near, spacing, write, start, out, count):
                 gb = near[c, b]
                 if gb < 0:
                     break
+                if not (changed[c] or changed[ga] or changed[gb]):
+                    continue
                 if (ga < c and _listed(near, ga, c) and _listed(near, ga, gb)) or (
                     gb < c and _listed(near, gb, c) and _listed(near, gb, ga)
                 ):
@@ -243,13 +263,12 @@ def _propose_kernel(p, n, near, spacing, write, start, out, count):
                 i1 = c + ga + gb - i0 - i2
                 kept, flipped = _accept(i0, i1, i2, p, n, near, spacing)
                 if kept:
-                    if write:
-                        o = start[c] + slot
-                        out[o, 0] = i0
-                        out[o, 1] = i2 if flipped else i1
-                        out[o, 2] = i1 if flipped else i2
+                    if slot < cap:
+                        out[i, slot, 0] = i0
+                        out[i, slot, 1] = i2 if flipped else i1
+                        out[i, slot, 2] = i1 if flipped else i2
                     slot += 1
-        count[c] = slot
+        count[i] = slot
 
 
 @njit(cache=True)
@@ -269,6 +288,30 @@ def _fill_neighbours(near, rows, idx, n, active, k):
                 continue
             near[c, m] = g
             m += 1
+
+
+def _propose(
+    rows: np.ndarray,
+    changed: np.ndarray,
+    p: np.ndarray,
+    n: np.ndarray,
+    near: np.ndarray,
+    spacing: np.ndarray,
+) -> np.ndarray:
+    """Kept triangles (T, 3) with a ``changed`` corner made by the guides ``rows``, each once."""
+    k = int((near[rows] >= 0).sum(axis=1).max(initial=0))
+    cap = k + 8
+    out = np.full((len(rows), cap, 3), -1, np.int64)
+    count = np.zeros(len(rows), np.int64)
+    _propose_kernel(rows, changed, p, n, near, spacing, out, count)
+    fits = count <= cap
+    tris = out[(np.arange(cap)[None, :] < count[:, None]) & fits[:, None]]
+    if not fits.all():  # more than fitted: redo those guides with room for every pair
+        big = np.full(((~fits).sum(), max(k * (k - 1) // 2, 1), 3), -1, np.int64)
+        more = np.zeros(len(big), np.int64)
+        _propose_kernel(rows[~fits], changed, p, n, near, spacing, big, more)
+        tris = np.concatenate([tris, big[np.arange(big.shape[1])[None, :] < more[:, None]]])
+    return tris
 
 
 def _edges(tris: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray]:
@@ -407,14 +450,15 @@ def _write(out_idx, out_w, h, tris, t, g, b0, b1, b2):
 
 
 @njit(cache=True, parallel=True)
-def _weights_kernel(q, qn, origin, cell, dims, tri_ptr, tri_items, loose_ptr, loose_items, p,
-                    hit2, tris, tv, tc, tn, out_idx, out_w):
+def _weights_kernel(order, q, qn, origin, cell, dims, tri_ptr, tri_items, loose_ptr,
+                    loose_items, p, hit2, tris, tv, tc, tn, out_idx, out_w):
     """Fast path: q (H, 3) on a guide without triangles, or projected along its normal qn
     into a triangle binned to its cell (the one with the nearest plane). Misses get
-    out_idx[h, 0] = -1.
+    out_idx[h, 0] = -1. Hairs are visited in ``order`` (empty: as given).
     """
     d1, d2 = dims[1], dims[2]
-    for h in prange(q.shape[0]):
+    for i in prange(q.shape[0]):
+        h = order[i] if order.shape[0] else np.int64(i)  # one int type (prange: unsigned)
         q0, q1, q2 = q[h, 0], q[h, 1], q[h, 2]
         n0, n1, n2 = qn[h, 0], qn[h, 1], qn[h, 2]
         c0, c1, c2 = _cell_of(q0, q1, q2, origin, cell, dims)
@@ -443,7 +487,7 @@ def _weights_kernel(q, qn, origin, cell, dims, tri_ptr, tri_items, loose_ptr, lo
                 if plane < best_plane:
                     best, best_plane = t, plane
                     b0, b1, b2 = l0, l1, l2
-        if False:
+        if best >= 0:
             _write(out_idx, out_w, h, tris, best, -1, b0, b1, b2)
         else:
             out_idx[h, 0] = -1
@@ -538,8 +582,9 @@ def _search_kernel(rows, q, qn, nearest, dist2, gn, has_tri, hit2, tris, tv, tc,
 class GuideTriangulation:
     """Triangulation of guide roots over a surface (given by root positions and unit normals).
 
-    ``triangles`` (T, 3) int64 indexes ``roots``, wound right-handed about the normals.
-    ``neighbours``: how many nearest guides each guide makes triangles with.
+    ``triangles`` (T, 3) int64 indexes ``roots``, wound right-handed about the normals;
+    ``roots`` and ``normals`` (unit) are kept as float64. ``neighbours``: how many nearest
+    guides each guide makes triangles with (3× that on the border of the triangulation).
     """
 
     def __init__(self, roots: np.ndarray, normals: np.ndarray, neighbours: int = 12) -> None:
@@ -570,14 +615,12 @@ class GuideTriangulation:
             return  # every root in one place
         # coincident roots: only the first of each group is triangulated
         active = np.ones(s, bool)
-        for i, j in sorted(tree.query_pairs(scale * 1e-6)):
+        for i, j in sorted(tree.query_pairs(scale * _SAME)):
             if active[i]:
                 active[j] = False
-        most = k << _GROW_ROUNDS
-        near = np.full((s, most), -1, np.int64)
         every = np.arange(s, dtype=np.int64)
-        size = np.full(s, k, np.int64)
-        _fill_neighbours(near, every, idx.astype(np.int64), n, active, size)
+        near = np.full((s, _GROW * k), -1, np.int64)
+        _fill_neighbours(near, every, idx.astype(np.int64), n, active, np.full(s, k, np.int64))
         # local spacing: mean distance to up to 6 nearest facing neighbours (inf: none)
         six = near[:, :6]
         d = np.linalg.norm(p[np.maximum(six, 0)] - p[:, None, :], axis=2)
@@ -585,39 +628,27 @@ class GuideTriangulation:
         with np.errstate(invalid="ignore", divide="ignore"):
             spacing = np.where(count > 0, np.where(six >= 0, d, 0.0).sum(axis=1) / count, np.inf)
         rng = np.random.default_rng(0x6A0661E)
-        jog = p + rng.uniform(-1.0, 1.0, p.shape) * (_JOGGLE * scale)
-        for grow in range(_GROW_ROUNDS + 1):
-            tris = _thin_edges(p, self._propose(jog, n, near, spacing))
-            if grow == _GROW_ROUNDS or len(tris) == 0:
-                break
-            # guides on an edge with one triangle (a hole, or the border) look farther
+        jog = (p - p.mean(axis=0)) + rng.uniform(-1.0, 1.0, p.shape) * (_JOGGLE * scale)
+        tris = _thin_edges(p, _propose(every, active, jog, n, near, spacing))
+        # guides on an edge with one triangle (a hole, or the border) look farther: with
+        # uneven spacing some Delaunay neighbours are past the nearest k. Only triangles
+        # with such a corner can change; they are made again.
+        if len(tris):
             edge, counts = _edges(tris, s)
             rim = np.zeros(s, bool)
-            one = counts[edge] == 1  # (T, 3): edge opposite corner i
+            one = counts[edge] == 1  # (T, 3): the edge opposite corner i
             for i in range(3):
                 rim[tris[one[:, i], (i + 1) % 3]] = True
                 rim[tris[one[:, i], (i + 2) % 3]] = True
-            rows = np.flatnonzero(rim & active & (size < most))
-            if len(rows) == 0:
-                break
-            size[rows] *= 2
-            _, far = tree.query(p[rows], k=min(s, 2 * int(size[rows].max()) + 1))
-            _fill_neighbours(near, rows, far.reshape(len(rows), -1).astype(np.int64), n,
-                             active, size[rows])
+            rows = np.flatnonzero(rim)
+            if len(rows) and _GROW * k > k:
+                _, idx = tree.query(p[rows], k=min(s, 2 * _GROW * k + 1))
+                _fill_neighbours(near, rows, idx.reshape(len(rows), -1).astype(np.int64), n,
+                                 active, np.full(len(rows), _GROW * k, np.int64))
+                lists = rim | (rim[near] & (near >= 0)).any(axis=1)
+                again = _propose(np.flatnonzero(lists & active), rim, jog, n, near, spacing)
+                tris = _thin_edges(p, np.concatenate([tris[~rim[tris].any(axis=1)], again]))
         self.triangles = np.ascontiguousarray(_peel(p, tris, spacing), dtype=np.int64)
-
-    @staticmethod
-    def _propose(p: np.ndarray, n: np.ndarray, near: np.ndarray, spacing: np.ndarray) -> np.ndarray:
-        """Kept triangles (T, 3), each once, in guide order."""
-        s = len(p)
-        count = np.zeros(s, np.int64)
-        none = np.zeros((0, 3), np.int64)
-        _propose_kernel(p, n, near, spacing, False, count, none, count)
-        start = np.zeros(s, np.int64)
-        np.cumsum(count[:-1], out=start[1:])
-        out = np.empty((int(count.sum()), 3), np.int64)
-        _propose_kernel(p, n, near, spacing, True, start, out, np.zeros(s, np.int64))
-        return out
 
     def _prepare(self) -> None:
         """Per-triangle geometry, adjacency, vertex→triangle CSR and the grid."""
@@ -690,7 +721,13 @@ class GuideTriangulation:
             else:
                 near = cKDTree(self.roots).query(q, k=2)[1].astype(np.int64)
             return self._segment(q, near)
-        _weights_kernel(q, qn, self._origin, self._cell, self._dims, self._tri_ptr,
+        order = np.zeros(0, np.int64)
+        if len(self.triangles) > _SORT_ABOVE and h > len(self.triangles):
+            # many triangles do not stay in cache: visit the hairs cell by cell
+            cells = np.clip(np.floor((q - self._origin) / self._cell), 0, self._dims - 1)
+            key = (cells[:, 0] * self._dims[1] + cells[:, 1]) * self._dims[2] + cells[:, 2]
+            order = np.argsort(key.astype(np.int64), kind="stable")
+        _weights_kernel(order, q, qn, self._origin, self._cell, self._dims, self._tri_ptr,
                         self._tri_items, self._loose_ptr, self._loose_items, self.roots,
                         self._hit2, self.triangles, self._tv, self._tc, self._tn, idx, w)
         rows = np.flatnonzero(idx[:, 0] < 0)
