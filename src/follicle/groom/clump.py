@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange
-from scipy.spatial import cKDTree
 
 from ..rng import purpose_id, stream_key, uniform
+from .knn import PointGrid
 from .params import per_hair, row
 
 __all__ = ["assign_clumps", "clump"]
@@ -32,8 +32,8 @@ def assign_clumps(
         if len(members) == 0:
             continue
         sel = np.flatnonzero(group == g)
-        _, nearest = cKDTree(centre_roots[members]).query(roots[sel])
-        out[sel] = members[nearest]
+        _, nearest = PointGrid(centre_roots[members]).query(roots[sel], 1)
+        out[sel] = members[nearest[:, 0]]
     return out
 
 

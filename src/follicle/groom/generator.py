@@ -20,7 +20,6 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..curves import HairCurves
 from ..errors import InputError
@@ -38,6 +37,7 @@ from .fibres import make_fibres
 from .finalize import cut_in_place, cut_plan, finish, pack
 from .guides import Guides
 from .interpolate import blend_guides, idw_weights, tilt, translate_guides
+from .knn import PointGrid
 from .properties import GroomProperties
 from .shape import curl, curl_phase, frizz, kink
 
@@ -322,8 +322,8 @@ class Groom:
             if p.interpolation == "barycentric":
                 idx, w = finder.weights(rest.position[sel], rest.normal[sel])
             elif p.interpolation == "offset":
-                _, idx = finder.query(rest.position[sel], workers=-1)
-                idx, w = idx.reshape(-1, 1), np.ones((len(sel), 1), np.float32)
+                _, idx = finder.query(rest.position[sel], 1)
+                w = np.ones((len(sel), 1), np.float32)
             else:
                 idx, w = idw_weights(finder, rest.position[sel], p.guide_samples)
             index[sel, : idx.shape[1]] = members[idx]
@@ -332,7 +332,7 @@ class Groom:
         return index, weight
 
     def _group_guides(self, group: int) -> tuple[np.ndarray, object]:
-        """A group's guide indices and their KD-tree (or triangulation), made once."""
+        """A group's guide indices and their PointGrid (or triangulation), made once."""
         if group not in self._weights_by_group:
             label = self.guides.groups.label(group)
             members = np.flatnonzero(self.guides.group == group)
@@ -354,7 +354,7 @@ class Groom:
             if self.params.interpolation == "barycentric":
                 finder = GuideTriangulation(roots, self.guides.normals[members])
             else:
-                finder = cKDTree(roots)
+                finder = PointGrid(roots)
             self._weights_by_group[group] = (members, finder)
         return self._weights_by_group[group]
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange
-from scipy.spatial import cKDTree
 
 from ..errors import InputError
 from ..rng import purpose_id, uniforms
+from .knn import PointGrid
 from .params import per_hair, row
 
 __all__ = ["idw_weights", "blend_guides", "tilt", "translate_guides"]
@@ -17,20 +17,20 @@ _TILT = purpose_id("offset angle")
 
 
 def idw_weights(
-    guide_roots: cKDTree | np.ndarray, hair_roots: np.ndarray, samples: int
+    guide_roots: PointGrid | np.ndarray, hair_roots: np.ndarray, samples: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """The n+1 nearest guides of every hair and their weights (000 §2.2.4).
 
-    ``guide_roots`` is a cKDTree over the guide roots (build it once per group) or
+    ``guide_roots`` is a PointGrid over the guide roots (build it once per group) or
     the (S, 3) roots. Weights are ((r - d) / (r d))², normalised, with r the distance
     of the (n+1)-th nearest guide, so the farthest one fades out smoothly. A hair on
     a guide root copies that guide. Returns (indices int64 (H, k), weights float32 (H, k)).
     """
     if samples < 1:
         raise InputError(f"guide_samples: need at least 1, got {samples}")
-    tree = guide_roots if isinstance(guide_roots, cKDTree) else cKDTree(guide_roots)
-    k = min(samples + 1, tree.n)
-    dist, idx = tree.query(hair_roots, k=k, workers=-1)
+    grid = guide_roots if isinstance(guide_roots, PointGrid) else PointGrid(guide_roots)
+    k = min(samples + 1, grid.n)
+    dist, idx = grid.query(hair_roots, k)
     if k == 1:
         return idx.reshape(-1, 1).astype(np.int64), np.ones((len(hair_roots), 1), np.float32)
     r = dist[:, -1:]
