@@ -272,3 +272,17 @@ def test_bad_arguments_name_themselves(head_groom):
         head_groom.generate_at(np.array([0, 1]), np.full((2, 2), 0.3), ids=np.array([4, 4]))
     with pytest.raises(InputError, match="params: expected GroomParams"):
         head_groom.params = {"count": 3}
+
+
+def test_hairs_at_the_uv_pole_bend_like_their_guides():
+    """Root frames follow the UV tangent, which spins around the crown's UV pole; hairs
+    are turned to their guides' tangent, so none swings round in front of the face."""
+    mesh = builtin_head()
+    from follicle.groom.generator import load_texture
+    from follicle.groom.groups import InterpolationGroups
+
+    groups = InterpolationGroups(load_texture("builtin:parting"))
+    guides = load_guides("builtin:long", mesh, groups=groups)
+    hair = Groom(mesh, guides, GroomParams()).generate(16000)
+    z_max = np.maximum.reduceat(hair.points[:, 2], hair.offsets[:-1])
+    assert (z_max > 0.12).sum() == 0  # was 16 hairs with frames straight from the UVs

@@ -114,6 +114,7 @@ class _Layout:
     guide_index: np.ndarray  # (n, k) guide of each weight
     guide_weight: np.ndarray  # (n, k) float32
     clump: np.ndarray | None  # (n,) clump centre, −1 for none
+    turn: np.ndarray  # (n, 2) cos, sin of the guide-aligned frame about the normal
 
 
 @dataclass
@@ -127,6 +128,14 @@ class _Bucket:
     length: np.ndarray  # (m,) vertices after the cut
     keep: np.ndarray  # (m, n) bool
     look: dict[str, np.ndarray]
+
+
+def _turned(frame: SurfacePoints, turn: np.ndarray) -> SurfacePoints:
+    """``frame`` with tangent and binormal turned about the normal by (cos, sin) ``turn``."""
+    c, s = turn[:, :1], turn[:, 1:]
+    tangent = c * frame.tangent + s * frame.binormal
+    binormal = c * frame.binormal - s * frame.tangent  # stays tangent × normal
+    return frame._replace(tangent=tangent, binormal=binormal)
 
 
 def _rows(value: np.ndarray, sel: np.ndarray) -> np.ndarray:
@@ -304,11 +313,32 @@ class Groom:
         rest = self.mesh.evaluate(tri, bary, pose="rest")
         group = self.guides.groups.group_of(rest.uv)
         index, weight = self._weights(rest, group)
+        turn = self._guide_turn(rest, index, weight)
+        rest = _turned(rest, turn)
         which = None
         if self.params.clump_count > 0:
             c_rest, c_group, _ = self._centres()
             which = assign_clumps(c_rest.position, c_group, rest.position, group)
-        return _Layout(ids, tri, bary, rest, group, index, weight, which)
+        return _Layout(ids, tri, bary, rest, group, index, weight, which, turn)
+
+    def _guide_turn(self, rest: SurfacePoints, index: np.ndarray, weight: np.ndarray) -> np.ndarray:
+        """cos, sin of the angle about the normal from each root's UV tangent to its guides'.
+
+        Root-local frames follow the UV tangent, which spins around UV poles and seams;
+        a hair's frame is turned to the weighted tangent of its guides (projected on its
+        tangent plane), so it bends the way they do everywhere. At a guide root the
+        turn is 0 and the hair is that guide. Kept with the layout, the same turn is
+        applied on every pose.
+        """
+        t = np.einsum("hk,hka->ha", weight, self.guides.tangents[index])
+        x = np.einsum("ha,ha->h", t, rest.tangent)
+        y = np.einsum("ha,ha->h", t, rest.binormal)
+        r = np.hypot(x, y)
+        flat = r <= 1e-9  # guides' tangents cancel out or stand on the normal: no turn
+        r[flat] = 1.0
+        x[flat] = 1.0
+        y[flat] = 0.0
+        return np.stack([x / r, y / r], axis=1)
 
     def _weights(self, rest: SurfacePoints, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Guide indices and weights of every root, from its own group's guides only."""
@@ -368,7 +398,9 @@ class Groom:
             tri, bary = self.sampler.sample(p.clump_count, p.seed, "halton", _CENTRE_IDS)
             rest = self.mesh.evaluate(tri, bary, pose="rest")
             group = self.guides.groups.group_of(rest.uv)
-            self._centre_roots = (rest, group, *self._weights(rest, group))
+            index, weight = self._weights(rest, group)
+            rest = _turned(rest, self._guide_turn(rest, index, weight))
+            self._centre_roots = (rest, group, index, weight)
         rest, group, index, weight = self._centre_roots
         if self._centre_shapes is None:
             world = np.zeros((len(group), int(self._vertices.max()), 3))
@@ -416,7 +448,7 @@ class Groom:
             cur = displace(
                 self.mesh, lay.triangles, lay.bary, self.displacement, self.displacement_scale
             )
-        return self._assemble(lay, cur, buckets, out, v, c)
+        return self._assemble(lay, _turned(cur, lay.turn), buckets, out, v, c)
 
     def _bucket(
         self, lay: _Layout, props: dict[str, np.ndarray], rows: np.ndarray, n_total: int,
