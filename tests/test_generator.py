@@ -12,17 +12,7 @@ from follicle.mesh.head import builtin_head
 from follicle.mesh.skin import SkinMesh
 from follicle.mesh.texture import Texture
 from follicle.scene import GroomParams
-
-
-def _plane(cells: int = 8) -> SkinMesh:
-    """The unit square in the XZ plane facing +Y, UV = (x, z)."""
-    g = np.linspace(0.0, 1.0, cells + 1)
-    x, z = np.meshgrid(g, g)
-    verts = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], axis=1)
-    row = cells + 1
-    q = [i * row + j for i in range(cells) for j in range(cells)]
-    faces = [f for a in q for f in ([a, a + row, a + 1], [a + 1, a + row, a + row + 1])]
-    return SkinMesh(verts, faces, uvs=verts[:, [0, 2]], name="plane")
+from meshes import plane as _plane
 
 
 def _straight_guides(mesh: SkinMesh, n: int = 5, vertices: int = 9, length: float = 0.4) -> Guides:
@@ -106,7 +96,9 @@ def test_new_pose_and_property_changes_do_not_resample_roots(head_groom, monkeyp
     head_groom.generate(2000)
     calls = []
     real = head_groom.sampler.sample
-    monkeypatch.setattr(head_groom.sampler, "sample", lambda *a, **k: calls.append(a) or real(*a, **k))
+    monkeypatch.setattr(
+        head_groom.sampler, "sample", lambda *a, **k: calls.append(a) or real(*a, **k)
+    )
     m = np.eye(4)
     m[:3, 3] = [0.0, 0.5, 0.0]
     head_groom.mesh.set_pose(transform=m)
@@ -156,11 +148,14 @@ def test_a_cut_map_removes_hair_where_it_is_zero(tmp_path):
 def test_scale_and_random_scale():
     mesh = _plane()
     guides = _straight_guides(mesh)
+
+    def reach(hair: HairCurves) -> np.ndarray:
+        tips, roots = hair.points[hair.offsets[1:] - 1], hair.points[hair.offsets[:-1]]
+        return np.linalg.norm(tips - roots, axis=1)
+
     base = Groom(mesh, guides, GroomParams()).generate(2000)
-    length = np.linalg.norm(base.points[base.offsets[1:] - 1] - base.points[base.offsets[:-1]], axis=1)
     scaled = Groom(mesh, guides, GroomParams(scale=2.0, random_scale=1.0)).generate(2000)
-    s_len = np.linalg.norm(scaled.points[scaled.offsets[1:] - 1] - scaled.points[scaled.offsets[:-1]], axis=1)
-    ratio = s_len / (2.0 * length)  # 1 − ξ, ξ uniform in [0, 1)
+    ratio = reach(scaled) / (2.0 * reach(base))  # 1 − ξ, ξ uniform in [0, 1)
     assert 0.0 < ratio.min() and ratio.max() <= 1.0 + 1e-6
     assert abs(ratio.mean() - 0.5) < 0.03
 

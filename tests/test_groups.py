@@ -14,6 +14,7 @@ from follicle.groom.guides import Guides
 from follicle.mesh.skin import SkinMesh
 from follicle.mesh.texture import Texture
 from follicle.scene import GroomParams
+from meshes import plane as _plane
 
 RED, BLUE, GREEN = (255, 0, 0), (0, 0, 255), (0, 255, 0)
 
@@ -24,17 +25,6 @@ def _split_texture(left=RED, right=BLUE, size: int = 8) -> Texture:
     rgb[:, : size // 2] = left
     rgb[:, size // 2 :] = right
     return Texture(rgb, wrap="clamp", name="split")
-
-
-def _plane(cells: int = 8) -> SkinMesh:
-    """The unit square in the XZ plane facing +Y, UV = (x, z), cells×cells quads."""
-    g = np.linspace(0.0, 1.0, cells + 1)
-    x, z = np.meshgrid(g, g)
-    verts = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], axis=1)
-    row = cells + 1
-    q = [i * row + j for i in range(cells) for j in range(cells)]
-    faces = [f for a in q for f in ([a, a + row, a + 1], [a + 1, a + row, a + row + 1])]
-    return SkinMesh(verts, faces, uvs=verts[:, [0, 2]], name="plane")
 
 
 def _combed_guides(mesh: SkinMesh, groups: InterpolationGroups | None) -> Guides:

@@ -37,7 +37,7 @@ def test_relative_paths_resolve_against_the_scene_folder(tmp_path):
         ({"groom": {"density": -2}}, r"\[groom\]\.density: Input should be greater than 0"),
         ({"groom": {"density_refine": 5}}, r"\[groom\]\.density_refine: .*less than or equal"),
         ({"mesh": {"density": 1}}, r"\[mesh\]\.density: unknown key"),
-        ({"groom": {"tip_color": [1, 2, 0]}}, r"\[groom\]\.tip_color: colour components must be ≤ 1"),
+        ({"groom": {"tip_color": [1, 2, 0]}}, r"\[groom\]\.tip_color: colour components must be"),
         ({"groom": {"cut": 1.5}}, r"\[groom\]\.cut: must be ≤ 1 \(got 1.5\)"),
         ({"groom": {"cut": {"value": 2, "texture": "c.png"}}}, r"\[groom\]\.cut: must be ≤ 1"),
         ({"groom": {"scale": {"texture": "s.png", "warp": 1}}}, r"\[groom\]\.scale: unknown key"),

@@ -323,28 +323,18 @@ def _unvisited_bound2(qx, qy, qz, cx, cy, cz, r, dims, lo, hi, h, eps):
     Over the block's faces with cells beyond them, the distance to the part of the
     points' bounding box beyond the face; inf when the block covers the whole grid.
     """
-    ax = _outside(qx, lo[0], hi[0])
-    ay = _outside(qy, lo[1], hi[1])
-    az = _outside(qz, lo[2], hi[2])
+    q = (qx, qy, qz)
+    c = (cx, cy, cz)
+    out = (_outside(qx, lo[0], hi[0]), _outside(qy, lo[1], hi[1]), _outside(qz, lo[2], hi[2]))
     b2 = np.inf
-    if cx - r > 0:
-        d = max(qx - (lo[0] + (cx - r) * h) - eps, 0.0)
-        b2 = min(b2, d * d + ay * ay + az * az)
-    if cx + r < dims[0] - 1:
-        d = max(lo[0] + (cx + r + 1) * h - qx - eps, 0.0)
-        b2 = min(b2, d * d + ay * ay + az * az)
-    if cy - r > 0:
-        d = max(qy - (lo[1] + (cy - r) * h) - eps, 0.0)
-        b2 = min(b2, d * d + ax * ax + az * az)
-    if cy + r < dims[1] - 1:
-        d = max(lo[1] + (cy + r + 1) * h - qy - eps, 0.0)
-        b2 = min(b2, d * d + ax * ax + az * az)
-    if cz - r > 0:
-        d = max(qz - (lo[2] + (cz - r) * h) - eps, 0.0)
-        b2 = min(b2, d * d + ax * ax + ay * ay)
-    if cz + r < dims[2] - 1:
-        d = max(lo[2] + (cz + r + 1) * h - qz - eps, 0.0)
-        b2 = min(b2, d * d + ax * ax + ay * ay)
+    for a in range(3):
+        side2 = out[(a + 1) % 3] ** 2 + out[(a + 2) % 3] ** 2  # beyond the box on the others
+        if c[a] - r > 0:
+            d = max(q[a] - (lo[a] + (c[a] - r) * h) - eps, 0.0)
+            b2 = min(b2, d * d + side2)
+        if c[a] + r < dims[a] - 1:
+            d = max(lo[a] + (c[a] + r + 1) * h - q[a] - eps, 0.0)
+            b2 = min(b2, d * d + side2)
     return b2
 
 
