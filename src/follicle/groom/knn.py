@@ -279,17 +279,23 @@ def _scan(pts, index, start, stop, qx, qy, qz, out_d, out_i, qi, k):
     """Offer points start … stop−1 to row qi's top-k buffer; return the k-th distance²."""
     worst = out_d[qi, k - 1]
     for p in range(start, stop):
-        dx = qx - pts[p, 0]
-        dy = qy - pts[p, 1]
-        dz = qz - pts[p, 2]
-        d2 = dx * dx + dy * dy + dz * dz
-        if d2 > worst:
-            continue
-        ip = index[p]
-        if d2 == worst and ip > out_i[qi, k - 1]:
-            continue
-        worst = _offer(d2, ip, out_d, out_i, qi, k)
+        worst = _consider(pts, index, p, qx, qy, qz, out_d, out_i, qi, k, worst)
     return worst
+
+
+@njit(cache=True, inline="always")
+def _consider(pts, index, p, qx, qy, qz, out_d, out_i, qi, k, worst):
+    """Offer point p to row qi's top-k when it beats the k-th (ties: lower index); new k-th d²."""
+    dx = qx - pts[p, 0]
+    dy = qy - pts[p, 1]
+    dz = qz - pts[p, 2]
+    d2 = dx * dx + dy * dy + dz * dz
+    if d2 > worst:
+        return worst
+    ip = index[p]
+    if d2 == worst and ip > out_i[qi, k - 1]:
+        return worst
+    return _offer(d2, ip, out_d, out_i, qi, k)
 
 
 @njit(cache=True, inline="always")
@@ -432,18 +438,10 @@ def _query_kernel(queries, pts, index, starts, list_starts, list_pos, list_dist,
         for e in range(first, last):
             if list_dist[e] > stop:
                 break
-            p = list_pos[e]
-            dx = qx - pts[p, 0]
-            dy = qy - pts[p, 1]
-            dz = qz - pts[p, 2]
-            d2 = dx * dx + dy * dy + dz * dz
-            if d2 > worst:
-                continue
-            ip = index[p]
-            if d2 == worst and ip > out_i[qi, k - 1]:
-                continue
-            worst = _offer(d2, ip, out_d, out_i, qi, k)
-            stop = t + math.sqrt(worst) * grow
+            new = _consider(pts, index, list_pos[e], qx, qy, qz, out_d, out_i, qi, k, worst)
+            if new != worst:
+                worst = new
+                stop = t + math.sqrt(worst) * grow
         # any point outside the block is at least 1.5·h − max|e| away (the nearest face)
         b = 1.5 * h - max(abs(ex), abs(ey), abs(ez)) - eps
         done = b > 0.0 and b * b * keep > worst
