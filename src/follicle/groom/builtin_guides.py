@@ -190,10 +190,9 @@ def _follow(targets: np.ndarray, sdf: SDF, clear: float) -> np.ndarray:
 def builtin_guides(name: str, mesh: SkinMesh | None = None, count: int = _COUNT) -> HairCurves:
     """Built-in guides 'long', 'short' or 'curly' (``count``, default 300) on ``mesh``.
 
-    ``mesh`` defaults to the head.
-    On the built-in head collisions use its analytic signed distance; on another
-    mesh they use exact closest points (its ``textures['scalp']`` is the density if
-    present, else the whole surface grows hair).
+    ``mesh`` defaults to the built-in head. On the built-in head collisions use its
+    analytic signed distance; on another mesh they use exact closest points (its
+    ``textures['scalp']`` is the density if present, else the whole surface grows hair).
     """
     if name not in BUILTIN_GUIDES:
         raise InputError(f"unknown built-in guides {name!r}; choose one of {list(BUILTIN_GUIDES)}")

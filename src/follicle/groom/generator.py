@@ -47,8 +47,22 @@ log = logging.getLogger("follicle")
 
 CHUNK = 65536
 BUILTIN_TEXTURES = {"builtin:scalp": scalp_texture, "builtin:parting": parting_texture}
-_VERTEX_BYTES = 44  # points, normal, colour (3 × 12) + width, opacity (2 × 4)
-_CURVE_BYTES = 56  # offset, hair_id, strand_id, root_triangle (4 × 8) + 3 float32 pairs
+# the output arrays: name -> (dtype, shape per vertex or per curve)
+_POINT_FIELDS = {"points": (np.float32, (3,)), "normal": (np.float32, (3,)),
+                 "color": (np.float32, (3,)), "width": (np.float32, ()),
+                 "opacity": (np.float32, ())}  # fmt: skip
+_CURVE_FIELDS = {"counts": (np.int64, ()), "hair_id": (np.int64, ()),
+                 "strand_id": (np.int64, ()), "root_uv": (np.float32, (2,)),
+                 "strand_uv": (np.float32, (2,)), "root_triangle": (np.int64, ()),
+                 "root_bary": (np.float32, (2,))}  # fmt: skip
+
+
+def _bytes(fields: dict[str, tuple[type, tuple[int, ...]]]) -> int:
+    return sum(np.dtype(dtype).itemsize * int(np.prod(shape)) for dtype, shape in fields.values())
+
+
+_VERTEX_BYTES = _bytes(_POINT_FIELDS)
+_CURVE_BYTES = _bytes(_CURVE_FIELDS)
 _LAYOUT_KEYS = ("seed", "interpolation", "guide_samples", "clump_count")
 _SAMPLER_KEYS = ("density", "density_refine")
 _CENTRE_IDS = 2**40  # clump centres use ids no hair has: their own random streams
@@ -233,11 +247,15 @@ class Groom:
         self._check_range(count, start)
         self._check_memory(count)
         spans = [(a, min(a + CHUNK, start + count)) for a in range(start, start + count, CHUNK)]
-        bound = sum(self._vertex_bound(self._layout(a, b)) for a, b in spans)
+        # keep the layouts of this call only: repeating it (new pose, new properties)
+        # reuses them, while memory stays bounded by one call's roots
+        self._layouts = {key: self._layout(*key) for key in spans}
+        layouts = list(self._layouts.values())
+        bound = sum(self._vertex_bound(lay) for lay in layouts)
         out = _allocate(bound, count * self.params.strand_count)
         v = c = 0
-        for a, b in spans:
-            v, c = self._chunk(self._layout(a, b), time, out, v, c)
+        for (_, b), lay in zip(spans, layouts, strict=True):
+            v, c = self._chunk(lay, time, out, v, c)
             if progress is not None:
                 progress(b - start, count)
         return _curves(out, v, c)
@@ -264,14 +282,12 @@ class Groom:
         ``ids`` (default 0, 1, …; distinct, ≥ 0) key each hair's random choices.
         """
         tri = np.asarray(triangles)
-        b = np.asarray(bary)
-        self.mesh.evaluate(tri, b)  # validates both, naming the mesh
         ids = np.arange(len(tri), dtype=np.int64) if ids is None else np.asarray(ids)
         if ids.shape != (len(tri),) or not np.issubdtype(ids.dtype, np.integer):
             raise InputError(f"ids: expected {len(tri)} integers, got {ids.dtype} {ids.shape}")
         if len(np.unique(ids)) != len(ids) or (ids < 0).any():
             raise InputError("ids: hair ids must be distinct and ≥ 0")
-        lay = self._make_layout(tri.astype(np.int64), b.astype(np.float32), ids.astype(np.int64))
+        lay = self._make_layout(tri, np.asarray(bary), ids.astype(np.int64))  # mesh validates
         bound = self._vertex_bound(lay)
         out = _allocate(bound, len(tri) * self.params.strand_count)
         return _curves(out, *self._chunk(lay, time, out, 0, 0))
@@ -311,6 +327,7 @@ class Groom:
 
     def _make_layout(self, tri: np.ndarray, bary: np.ndarray, ids: np.ndarray) -> _Layout:
         rest = self.mesh.evaluate(tri, bary, pose="rest")
+        tri, bary = tri.astype(np.int64), bary.astype(np.float32)
         group = self.guides.groups.group_of(rest.uv)
         index, weight = self._weights(rest, group)
         turn = self._guide_turn(rest, index, weight)
@@ -422,7 +439,7 @@ class Groom:
     # ------------------------------------------------------------------ shaping
     def _vertex_bound(self, lay: _Layout) -> int:
         """Most vertices the hairs of ``lay`` can have: culled counts (000 §2.2.8) × strands."""
-        cut = np.broadcast_to(self.properties.at(lay.rest.uv)["cut"], lay.group.shape)
+        cut = np.broadcast_to(self.properties.at(lay.rest.uv, ("cut",))["cut"], lay.group.shape)
         need = sum(
             int(cut_plan(cut[lay.group == g], int(self._vertices[g])).sum())
             for g in np.unique(lay.group)
@@ -517,7 +534,7 @@ class Groom:
         """Fibres, cut, appearance, normals and vertex removal of shaped hairs."""
         p = self.params
         m, n = local.shape[:2]
-        parent = np.arange(m)
+        parent = None  # the hair row of each curve, when fibres multiply them
         strand = np.zeros(m, dtype=np.int64)
         strand_uv = np.zeros((m, 2), dtype=np.float32)
         if p.strand_count > 1:
@@ -530,19 +547,21 @@ class Groom:
 
         def per_curve(name: str) -> np.ndarray:
             value = prop(name)
-            return value if len(value) == 1 else value[parent]
+            return value if len(value) == 1 or parent is None else value[parent]
 
-        tcut = np.broadcast_to(per_curve("cut"), (len(parent),))
+        if parent is not None:
+            rows, ids = rows[parent], ids[parent]
+        tcut = np.broadcast_to(per_curve("cut"), (len(local),))
         t, length = cut_in_place(local, tcut, n_total)
         look = hair_appearance(
-            ids[parent], p.seed, n, per_curve("root_color"), per_curve("tip_color"),
+            ids, p.seed, n, per_curve("root_color"), per_curve("tip_color"),
             per_curve("hue_variation"), per_curve("saturation_variation"),
             per_curve("value_variation"), per_curve("mutant_fraction"),
             per_curve("mutant_color"), per_curve("root_width"), per_curve("tip_width"),
             per_curve("root_opacity"), per_curve("tip_opacity"), t=t,
         )  # fmt: skip
         keep = finish(local, length, p.skip_threshold)
-        return _Bucket(rows[parent], strand, strand_uv, local, length, keep, look)
+        return _Bucket(rows, strand, strand_uv, local, length, keep, look)
 
     def _assemble(
         self, lay: _Layout, cur: SurfacePoints, buckets: list[_Bucket],
@@ -577,25 +596,12 @@ class Groom:
         return int(ends[-1]) if len(ends) else v, end
 
 
-_POINT_KEYS = ("normal", "color", "width", "opacity")
-_CURVE_KEYS = ("hair_id", "strand_id", "root_uv", "strand_uv", "root_triangle", "root_bary")
-
-
 def _allocate(vertices: int, curves: int) -> dict[str, np.ndarray]:
     """Output arrays for at most ``vertices`` vertices and ``curves`` curves."""
     return {
-        "points": np.empty((vertices, 3), np.float32),
-        "normal": np.empty((vertices, 3), np.float32),
-        "color": np.empty((vertices, 3), np.float32),
-        "width": np.empty(vertices, np.float32),
-        "opacity": np.empty(vertices, np.float32),
-        "counts": np.empty(curves, np.int64),
-        "hair_id": np.empty(curves, np.int64),
-        "strand_id": np.empty(curves, np.int64),
-        "root_uv": np.empty((curves, 2), np.float32),
-        "strand_uv": np.empty((curves, 2), np.float32),
-        "root_triangle": np.empty(curves, np.int64),
-        "root_bary": np.empty((curves, 2), np.float32),
+        k: np.empty((n, *shape), dtype)
+        for fields, n in ((_POINT_FIELDS, vertices), (_CURVE_FIELDS, curves))
+        for k, (dtype, shape) in fields.items()
     }
 
 
@@ -613,6 +619,6 @@ def _curves(out: dict[str, np.ndarray], v: int, c: int) -> HairCurves:
     np.cumsum(out["counts"][:c], out=offsets[1:])
     return HairCurves(
         fit(out["points"], v), offsets,
-        point_data={k: fit(out[k], v) for k in _POINT_KEYS},
-        curve_data={k: fit(out[k], c) for k in _CURVE_KEYS},
+        point_data={k: fit(out[k], v) for k in _POINT_FIELDS if k != "points"},
+        curve_data={k: fit(out[k], c) for k in _CURVE_FIELDS if k != "counts"},
     )  # fmt: skip

@@ -100,8 +100,7 @@ class Guides:
         x along the root tangent, y the binormal, z the normal (000 §2.2.4).
         """
         if vertices not in self._local:
-            rel = resample_arclength(self.curves, vertices)
-            rel -= rel[:, :1, :]
+            rel = self.rest_shapes(vertices).astype(np.float64)
             frames = np.stack([self.tangents, self.binormals, self.normals], axis=1)  # (S, 3, 3)
             self._local[vertices] = np.einsum("snk,sak->sna", rel, frames).astype(np.float32)
         return self._local[vertices]

@@ -51,10 +51,14 @@ class GroomProperties:
             for name in names
         }
 
-    def at(self, uv: np.ndarray) -> dict[str, np.ndarray]:
-        """Every property at the roots ``uv`` (n, 2): float64 (n,)/(n, 3), or (1,)/(1, 3) shared."""
+    def at(self, uv: np.ndarray, names: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+        """Properties (all, or ``names``) at the roots ``uv`` (n, 2).
+
+        float64 (n,)/(n, 3), or (1,)/(1, 3) when shared by every hair.
+        """
         out = {}
-        for name, prop in self.maps.items():
+        for name in self.maps if names is None else names:
+            prop = self.maps[name]
             if prop.constant:
                 value = np.asarray(prop.value, dtype=np.float64).reshape(1, -1)
                 out[name] = value[:, 0] if prop.kind == "scalar" else value
@@ -63,7 +67,3 @@ class GroomProperties:
             if name in FRACTIONS:
                 out[name] = np.clip(out[name], 0.0, 1.0)
         return out
-
-    def textured(self, name: str) -> bool:
-        """Whether property ``name`` varies over the surface."""
-        return not self.maps[name].constant
