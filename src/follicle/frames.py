@@ -70,7 +70,8 @@ def polyline_frames(p, first, tan, nor, bi):
 
     The one kernel behind every curve frame (000 §2.2.8): Catmull-Rom vertex tangents
     (P_{i+1} − P_{i−1}) / 2, the first normal ``first`` (3,) made orthogonal to the
-    first tangent, carried by double reflection (Wang et al. 2008); binormal = t × n.
+    first tangent, carried by double reflection (Wang et al. 2008; two reflections are an
+    exact rotation, so no re-orthonormalisation on the serial path); binormal = t × n.
     A zero tangent carries the previous one, leading zeros take the first valid one, a
     fully degenerate polyline gets +Z. The zero threshold comes from this polyline
     alone, so any grouping of curves gives the same frames. Allocates nothing.
@@ -90,9 +91,10 @@ def polyline_frames(p, first, tan, nor, bi):
         z = 0.5 * (p[hi, 2] - p[lo, 2])
         nt = np.sqrt(x * x + y * y + z * z)
         if nt > eps:
-            tan[i, 0] = x / nt
-            tan[i, 1] = y / nt
-            tan[i, 2] = z / nt
+            inv = 1.0 / nt
+            tan[i, 0] = x * inv
+            tan[i, 1] = y * inv
+            tan[i, 2] = z * inv
             if first_ok < 0:
                 first_ok = i
         elif first_ok >= 0:
@@ -107,9 +109,8 @@ def polyline_frames(p, first, tan, nor, bi):
         for i in range(first_ok):
             for a in range(3):
                 tan[i, a] = tan[first_ok, a]
-    nor[0, 0], nor[0, 1], nor[0, 2] = _perpendicular(
-        tan[0, 0], tan[0, 1], tan[0, 2], first[0], first[1], first[2]
-    )
+    rx, ry, rz = _perpendicular(tan[0, 0], tan[0, 1], tan[0, 2], first[0], first[1], first[2])
+    nor[0, 0], nor[0, 1], nor[0, 2] = rx, ry, rz
     for i in range(nv - 1):
         v1x = p[i + 1, 0] - p[i, 0]
         v1y = p[i + 1, 1] - p[i, 1]
@@ -120,23 +121,23 @@ def polyline_frames(p, first, tan, nor, bi):
             # the two reflections still make the minimal rotation t_i -> t_{i+1}
             v1x, v1y, v1z = tan[i, 0], tan[i, 1], tan[i, 2]
             c1 = 1.0
-        kn = (2.0 / c1) * (v1x * nor[i, 0] + v1y * nor[i, 1] + v1z * nor[i, 2])
-        kt = (2.0 / c1) * (v1x * tan[i, 0] + v1y * tan[i, 1] + v1z * tan[i, 2])
-        rlx = nor[i, 0] - kn * v1x
-        rly = nor[i, 1] - kn * v1y
-        rlz = nor[i, 2] - kn * v1z
-        v2x = tan[i + 1, 0] - (tan[i, 0] - kt * v1x)
-        v2y = tan[i + 1, 1] - (tan[i, 1] - kt * v1y)
-        v2z = tan[i + 1, 2] - (tan[i, 2] - kt * v1z)
+        k1 = 2.0 / c1
+        kn = k1 * (v1x * rx + v1y * ry + v1z * rz)
+        kt = k1 * (v1x * tan[i, 0] + v1y * tan[i, 1] + v1z * tan[i, 2])
+        rx -= kn * v1x
+        ry -= kn * v1y
+        rz -= kn * v1z
+        tx, ty, tz = tan[i + 1, 0], tan[i + 1, 1], tan[i + 1, 2]
+        v2x = tx - (tan[i, 0] - kt * v1x)
+        v2y = ty - (tan[i, 1] - kt * v1y)
+        v2z = tz - (tan[i, 2] - kt * v1z)
         c2 = v2x * v2x + v2y * v2y + v2z * v2z
         if c2 > eps * eps:
-            k2 = (2.0 / c2) * (v2x * rlx + v2y * rly + v2z * rlz)
-            rlx -= k2 * v2x
-            rly -= k2 * v2y
-            rlz -= k2 * v2z
-        nor[i + 1, 0], nor[i + 1, 1], nor[i + 1, 2] = _perpendicular(  # re-orthonormalise
-            tan[i + 1, 0], tan[i + 1, 1], tan[i + 1, 2], rlx, rly, rlz
-        )
+            k2 = (2.0 / c2) * (v2x * rx + v2y * ry + v2z * rz)
+            rx -= k2 * v2x
+            ry -= k2 * v2y
+            rz -= k2 * v2z
+        nor[i + 1, 0], nor[i + 1, 1], nor[i + 1, 2] = rx, ry, rz
     for i in range(nv):
         tx, ty, tz = tan[i, 0], tan[i, 1], tan[i, 2]
         nx, ny, nz = nor[i, 0], nor[i, 1], nor[i, 2]

@@ -17,7 +17,7 @@ from ..errors import InputError
 from ..rng import purpose_id, stream_key, uniform
 from .params import curve_parameter, per_hair, row
 
-__all__ = ["hair_appearance"]
+__all__ = ["ENDS", "hair_ends", "vertex_look", "hair_appearance"]
 
 _MUTANT = purpose_id("mutant hair")  # one number per hair: mutant when ξ < fraction
 _VARIATION = purpose_id("color variation")  # numbers 0, 1, 2: hue, saturation, value
@@ -36,17 +36,16 @@ def _shifted_hsv(r, g, b, dh, ds, dv):
     return h - dh, _clamp01(s - ds), _clamp01(v - dv)
 
 
-@njit(cache=True, parallel=True)
-def _appearance_kernel(ids, seed, t, root_rgb, tip_rgb, hue_var, sat_var, val_var,
-                       mutant_fraction, mutant_rgb, root_w, tip_w, root_op, tip_op,
-                       color, width, opacity):
-    """Fill ``color`` (n·N, 3), ``width`` and ``opacity`` (n·N,) for hairs ``ids``.
+# per hair: root h, s, v, signed hue distance to the tip, tip s, v; width and opacity
+# at root and tip: everything a vertex's look needs besides its curve parameter
+ENDS = 10
 
-    Per-hair inputs and ``t`` have n rows or one shared row (:func:`.params.row`).
-    """
-    n = ids.shape[0]
-    nv = t.shape[1]
-    for i in prange(n):
+
+@njit(cache=True, parallel=True)
+def _ends_kernel(ids, seed, root_rgb, tip_rgb, hue_var, sat_var, val_var, mutant_fraction,
+                 mutant_rgb, root_w, tip_w, root_op, tip_op, ends):  # fmt: skip
+    """Fill ``ends`` (n, ENDS) for hairs ``ids``; inputs have n rows or one shared row."""
+    for i in prange(ids.shape[0]):
         hair = ids[i]
         fraction = mutant_fraction[row(mutant_fraction, i)]
         mutant = uniform(stream_key(seed, hair, _MUTANT), 0) < fraction
@@ -63,23 +62,35 @@ def _appearance_kernel(ids, seed, t, root_rgb, tip_rgb, hue_var, sat_var, val_va
             ta = tip_rgb[row(tip_rgb, i)]
             h1, s1, v1 = _shifted_hsv(ra[0], ra[1], ra[2], dh, ds, dv)
             h2, s2, v2 = _shifted_hsv(ta[0], ta[1], ta[2], dh, ds, dv)
-        hue_dist = hue_distance1(h1, h2)  # shortest signed route, from wrapped hues
-        w1 = root_w[row(root_w, i)]
-        w2 = tip_w[row(tip_w, i)]
-        o1 = root_op[row(root_op, i)]
-        o2 = tip_op[row(tip_op, i)]
+        e = ends[i]
+        e[0], e[1], e[2] = h1, s1, v1
+        e[3] = hue_distance1(h1, h2)  # shortest signed route, from wrapped hues
+        e[4], e[5] = s2, v2
+        e[6], e[7] = root_w[row(root_w, i)], tip_w[row(tip_w, i)]
+        e[8], e[9] = root_op[row(root_op, i)], tip_op[row(tip_op, i)]
+
+
+@njit(cache=True, inline="always")
+def vertex_look(e, t):
+    """(r, g, b, width, opacity) at curve parameter ``t`` of a hair with ends ``e``.
+
+    000 §2.2.9: value = t·tip + (1 − t)·root; hue = hue1 + t·hue_dist, wrapped.
+    """
+    u = 1.0 - t
+    r, g, b = hsv_to_rgb1(e[0] + t * e[3], u * e[1] + t * e[4], u * e[2] + t * e[5])
+    return r, g, b, u * e[6] + t * e[7], u * e[8] + t * e[9]
+
+
+@njit(cache=True, parallel=True)
+def _look_kernel(ends, t, color, width, opacity):
+    nv = t.shape[1]
+    for i in prange(ends.shape[0]):
         tr = row(t, i)
         for j in range(nv):
-            tj = t[tr, j]
-            u = 1.0 - tj
             k = i * nv + j
-            # 000 §2.2.9: value = t·tip + (1 − t)·root; hue = hue1 + t·hue_dist, wrapped
-            r, g, b = hsv_to_rgb1(h1 + tj * hue_dist, u * s1 + tj * s2, u * v1 + tj * v2)
-            color[k, 0] = r
-            color[k, 1] = g
-            color[k, 2] = b
-            width[k] = u * w1 + tj * w2
-            opacity[k] = u * o1 + tj * o2
+            color[k, 0], color[k, 1], color[k, 2], width[k], opacity[k] = vertex_look(
+                ends[i], t[tr, j]
+            )
 
 
 # --------------------------------------------------------------------- validation
@@ -95,10 +106,9 @@ def _hair_ids(hair_ids: object) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------- public
-def hair_appearance(
+def hair_ends(
     hair_ids: object,
     seed: int,
-    vertices: int,
     root_color: object,
     tip_color: object,
     hue_var: float | np.ndarray,
@@ -110,12 +120,10 @@ def hair_appearance(
     tip_width: float | np.ndarray,
     root_opacity: float | np.ndarray,
     tip_opacity: float | np.ndarray,
-    t: np.ndarray | None = None,
-) -> dict[str, np.ndarray]:
-    """Point data ``color`` (n·N, 3), ``width``, ``opacity`` (n·N,) float32, in hair order.
+) -> np.ndarray:
+    """Each hair's colour, width and opacity at root and tip: float64 (n, ENDS).
 
-    000 §2.2.6 colour, opacity and width of a hair, interpolated to its N vertices
-    (§2.2.9). Per-hair inputs are the property values already evaluated at each root
+    000 §2.2.6. Per-hair inputs are the property values already evaluated at each root
     (a scalar or (3,) colour is shared by all n hairs):
 
     - ``root_color``, ``tip_color``, ``mutant_color``: linear RGB ≥ 0, (n, 3) or (3,),
@@ -134,9 +142,7 @@ def hair_appearance(
     - ``root_width``, ``tip_width``: diameters in metres, > 0; ``root_opacity``,
       ``tip_opacity`` in [0, 1]. Linear in t.
 
-    The colour is interpolated in HSV, hue along the shortest route. ``t`` is the curve
-    parameter of each vertex, (N,) for all hairs or (n, N) per hair (a cut hair keeps the
-    parameters of its uncut curve, 000 §2.2.8); None means i / (N − 1).
+    :func:`vertex_look` reads a vertex's values off a row.
     """
     ids = _hair_ids(hair_ids)
     n = ids.shape[0]
@@ -144,12 +150,6 @@ def hair_appearance(
         raise InputError(f"seed: expected an integer, got {seed!r}")
     if not 0 <= int(seed) < 2**64:
         raise InputError(f"seed: expected an integer in [0, 2**64), got {seed}")
-    if isinstance(vertices, bool) or not isinstance(vertices, (int, np.integer)):
-        raise InputError(f"vertices: expected an integer, got {vertices!r}")
-    if vertices < 2:
-        raise InputError(f"vertices: a hair needs at least 2 vertices, got {vertices}")
-    tt = curve_parameter(t, n, int(vertices))
-
     inputs = (
         per_hair(root_color, n, "root_color", 0.0, vector=True),
         per_hair(tip_color, n, "tip_color", 0.0, vector=True),
@@ -163,9 +163,31 @@ def hair_appearance(
         per_hair(root_opacity, n, "root_opacity", 0.0, 1.0),
         per_hair(tip_opacity, n, "tip_opacity", 0.0, 1.0),
     )
-    total = n * int(vertices)
+    ends = np.empty((n, ENDS), dtype=np.float64)
+    _ends_kernel(ids, np.uint64(seed), *inputs, ends)
+    return ends
+
+
+def hair_appearance(
+    hair_ids: object, seed: int, vertices: int, t: np.ndarray | None = None, **properties: object
+) -> dict[str, np.ndarray]:
+    """Point data ``color`` (n·N, 3), ``width``, ``opacity`` (n·N,) float32, in hair order.
+
+    ``properties`` are the keyword arguments of :func:`hair_ends`; each hair's values are
+    interpolated to its N vertices (000 §2.2.9), the colour in HSV with the hue along
+    the shortest route. ``t`` is the curve parameter of each vertex, (N,) for all hairs
+    or (n, N) per hair (a cut hair keeps the parameters of its uncut curve, 000
+    §2.2.8); None means i / (N − 1).
+    """
+    if isinstance(vertices, bool) or not isinstance(vertices, (int, np.integer)):
+        raise InputError(f"vertices: expected an integer, got {vertices!r}")
+    if vertices < 2:
+        raise InputError(f"vertices: a hair needs at least 2 vertices, got {vertices}")
+    ends = hair_ends(hair_ids, seed, **properties)
+    tt = curve_parameter(t, len(ends), int(vertices))
+    total = len(ends) * int(vertices)
     color = np.empty((total, 3), dtype=np.float32)
     width = np.empty(total, dtype=np.float32)
     opacity = np.empty(total, dtype=np.float32)
-    _appearance_kernel(ids, np.uint64(seed), tt, *inputs, color, width, opacity)
+    _look_kernel(ends, tt, color, width, opacity)
     return {"color": color, "width": width, "opacity": opacity}

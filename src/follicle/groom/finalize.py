@@ -14,6 +14,7 @@ from numba import njit, prange
 
 from ..frames import polyline_frames
 from ..spline import basis, control_points, cut_locate
+from .appearance import vertex_look
 
 __all__ = ["cut_plan", "cut_in_place", "finish", "pack"]
 
@@ -41,36 +42,36 @@ def cut_plan(tcut: np.ndarray, n_total: int) -> np.ndarray:
 
 
 @njit(cache=True, parallel=True)
-def _cut_kernel(p, tcut, n_total, t, length):
+def _cut_kernel(p, tcut, n_total, length, t_end):
     n = p.shape[1]
     for h in prange(p.shape[0]):
-        for i in range(n):
-            t[h, i] = i / (n_total - 1)  # the ORIGINAL parametrisation
         s, u = cut_locate(tcut[h], n_total - 1)
         if s >= n_total - 1 or u == 0.0:  # uncut, or cut on vertex s: keep P_0 .. P_s
             length[h] = min(s + 1, n)
+            t_end[h] = (length[h] - 1) / (n_total - 1)
             continue
         i0, i1, i2, i3 = control_points(0, n_total, s)
         w0, w1, w2, w3 = basis(u)
         for a in range(3):
-            p[h, s + 1, a] = w0 * p[h, i0, a] + w1 * p[h, i1, a] + w2 * p[h, i2, a] + w3 * p[
-                h, i3, a
-            ]
-        t[h, s + 1] = tcut[h]
+            p[h, s + 1, a] = (
+                w0 * p[h, i0, a] + w1 * p[h, i1, a] + w2 * p[h, i2, a] + w3 * p[h, i3, a]
+            )
+        t_end[h] = tcut[h]
         length[h] = s + 2
 
 
 def cut_in_place(p: np.ndarray, tcut: np.ndarray, n_total: int) -> tuple[np.ndarray, np.ndarray]:
     """Cut curves ``p`` (m, n, 3) of ``n_total``-vertex hairs at ``tcut`` (m,), in place.
 
-    Vertex s + 1 becomes C(t_cut) (000 §2.2.8). Returns (t (m, n): each vertex's
-    parameter on the uncut curve, the cut vertex gets t_cut; length (m,): vertices kept).
+    Vertex s + 1 becomes C(t_cut) (000 §2.2.8). Returns (length (m,): vertices kept;
+    t_end (m,): the parameter of the last kept vertex). Every vertex keeps the parameter
+    i / (n_total − 1) of the uncut curve but the cut vertex, which gets t_cut.
     ``p`` must hold at least :func:`cut_plan` vertices of every curve.
     """
-    t = np.empty(p.shape[:2], dtype=np.float64)
     length = np.empty(p.shape[0], dtype=np.int64)
-    _cut_kernel(p, np.ascontiguousarray(tcut, dtype=np.float64), int(n_total), t, length)
-    return t, length
+    t_end = np.empty(p.shape[0], dtype=np.float64)
+    _cut_kernel(p, np.ascontiguousarray(tcut, dtype=np.float64), int(n_total), length, t_end)
+    return length, t_end
 
 
 @njit(cache=True, inline="always")
@@ -148,8 +149,9 @@ _BLOCK = 128  # curves per scratch buffer in the pack kernel
 
 @njit(cache=True, parallel=True)
 def _pack_kernel(p, length, keep, rows, origin, tangent, binormal, normal, start, first,
-                 color, width, opacity, out_p, out_n, out_c, out_w, out_o):  # fmt: skip
+                 ends, t_end, n_total, out_p, out_n, out_c, out_w, out_o):  # fmt: skip
     m, n = p.shape[0], p.shape[1]
+    step = 1.0 / (n_total - 1)
     for blk in prange((m + _BLOCK - 1) // _BLOCK):
         tan = np.empty((n, 3))
         nor = np.empty((n, 3))
@@ -170,9 +172,8 @@ def _pack_kernel(p, length, keep, rows, origin, tangent, binormal, normal, start
                     out_p[k, a] = (origin[r, a] + x * tangent[r, a] + y * binormal[r, a]
                                    + z * normal[r, a])  # fmt: skip
                     out_n[k, a] = nx * tangent[r, a] + ny * binormal[r, a] + nz * normal[r, a]
-                    out_c[k, a] = color[h * n + i, a]
-                out_w[k] = width[h * n + i]
-                out_o[k] = opacity[h * n + i]
+                t = i * step if i < L - 1 else t_end[h]
+                out_c[k, 0], out_c[k, 1], out_c[k, 2], out_w[k], out_o[k] = vertex_look(ends[h], t)
                 k += 1
 
 
@@ -183,7 +184,9 @@ def pack(
     rows: np.ndarray,
     frame: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     start: np.ndarray,
-    look: dict[str, np.ndarray],
+    ends: np.ndarray,
+    t_end: np.ndarray,
+    n_total: int,
     out: dict[str, np.ndarray],
 ) -> None:
     """Write the kept vertices of curves ``p`` into ``out`` from vertex ``start[h]`` on.
@@ -191,11 +194,11 @@ def pack(
     Curve normals are the rotation-minimising frame normals of each cut curve with
     N_0 the root tangent (000 §2.2.8). Points and normals go from the root-local frame
     of hair ``rows[h]`` to the skin: ``frame`` = (origin, tangent, binormal, normal),
-    each (hairs, 3) float64. ``look`` holds per-vertex colour (m·n, 3), width and
-    opacity (m·n,).
+    each (hairs, 3) float64. Colour, width and opacity come from each curve's
+    :func:`.appearance.hair_ends` row at the vertex's parameter on the uncut
+    ``n_total``-vertex curve (``t_end`` for the last one, from :func:`cut_in_place`).
     """
     _pack_kernel(
-        p, length, keep, rows, *frame, start, _ROOT_TANGENT, look["color"], look["width"],
-        look["opacity"], out["points"], out["normal"], out["color"], out["width"],
-        out["opacity"],
+        p, length, keep, rows, *frame, start, _ROOT_TANGENT, ends, t_end, int(n_total),
+        out["points"], out["normal"], out["color"], out["width"], out["opacity"],
     )  # fmt: skip

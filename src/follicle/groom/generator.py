@@ -30,13 +30,13 @@ from ..mesh.skin import SkinMesh, SurfacePoints
 from ..mesh.texture import Texture
 from ..rng import uniforms
 from ..scene import GroomParams
-from .appearance import hair_appearance
+from .appearance import hair_ends
 from .barycentric import GuideTriangulation
 from .clump import assign_clumps, clump
 from .fibres import make_fibres
 from .finalize import cut_in_place, cut_plan, finish, pack
 from .guides import Guides
-from .interpolate import blend_guides, idw_weights, tilt, translate_guides
+from .interpolate import blend_guides, guide_turn, idw_weights, tilt, translate_guides
 from .knn import PointGrid
 from .properties import GroomProperties
 from .shape import curl, curl_phase, frizz, kink
@@ -139,9 +139,11 @@ class _Bucket:
     strand: np.ndarray
     strand_uv: np.ndarray
     points: np.ndarray  # (m, n, 3) root-local
+    n_total: int  # vertices of the uncut hairs
     length: np.ndarray  # (m,) vertices after the cut
     keep: np.ndarray  # (m, n) bool
-    look: dict[str, np.ndarray]
+    t_end: np.ndarray  # (m,) curve parameter of the last vertex
+    ends: np.ndarray  # (m, ENDS) colour, width, opacity at root and tip
 
 
 def _turned(frame: SurfacePoints, turn: np.ndarray) -> SurfacePoints:
@@ -330,7 +332,7 @@ class Groom:
         tri, bary = tri.astype(np.int64), bary.astype(np.float32)
         group = self.guides.groups.group_of(rest.uv)
         index, weight = self._weights(rest, group)
-        turn = self._guide_turn(rest, index, weight)
+        turn = self._turn(rest, index, weight)
         rest = _turned(rest, turn)
         which = None
         if self.params.clump_count > 0:
@@ -338,24 +340,9 @@ class Groom:
             which = assign_clumps(c_rest.position, c_group, rest.position, group)
         return _Layout(ids, tri, bary, rest, group, index, weight, which, turn)
 
-    def _guide_turn(self, rest: SurfacePoints, index: np.ndarray, weight: np.ndarray) -> np.ndarray:
-        """cos, sin of the angle about the normal from each root's UV tangent to its guides'.
-
-        Root-local frames follow the UV tangent, which spins around UV poles and seams;
-        a hair's frame is turned to the weighted tangent of its guides (projected on its
-        tangent plane), so it bends the way they do everywhere. At a guide root the
-        turn is 0 and the hair is that guide. Kept with the layout, the same turn is
-        applied on every pose.
-        """
-        t = np.einsum("hk,hka->ha", weight, self.guides.tangents[index])
-        x = np.einsum("ha,ha->h", t, rest.tangent)
-        y = np.einsum("ha,ha->h", t, rest.binormal)
-        r = np.hypot(x, y)
-        flat = r <= 1e-9  # guides' tangents cancel out or stand on the normal: no turn
-        r[flat] = 1.0
-        x[flat] = 1.0
-        y[flat] = 0.0
-        return np.stack([x / r, y / r], axis=1)
+    def _turn(self, rest: SurfacePoints, index: np.ndarray, weight: np.ndarray) -> np.ndarray:
+        """Each root's frame turned to its guides' (kept with the layout, same on every pose)."""
+        return guide_turn(index, weight, self.guides.tangents, rest.tangent, rest.binormal)
 
     def _weights(self, rest: SurfacePoints, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Guide indices and weights of every root, from its own group's guides only."""
@@ -416,7 +403,7 @@ class Groom:
             rest = self.mesh.evaluate(tri, bary, pose="rest")
             group = self.guides.groups.group_of(rest.uv)
             index, weight = self._weights(rest, group)
-            rest = _turned(rest, self._guide_turn(rest, index, weight))
+            rest = _turned(rest, self._turn(rest, index, weight))
             self._centre_roots = (rest, group, index, weight)
         rest, group, index, weight = self._centre_roots
         if self._centre_shapes is None:
@@ -552,16 +539,16 @@ class Groom:
         if parent is not None:
             rows, ids = rows[parent], ids[parent]
         tcut = np.broadcast_to(per_curve("cut"), (len(local),))
-        t, length = cut_in_place(local, tcut, n_total)
-        look = hair_appearance(
-            ids, p.seed, n, per_curve("root_color"), per_curve("tip_color"),
+        length, t_end = cut_in_place(local, tcut, n_total)
+        ends = hair_ends(
+            ids, p.seed, per_curve("root_color"), per_curve("tip_color"),
             per_curve("hue_variation"), per_curve("saturation_variation"),
             per_curve("value_variation"), per_curve("mutant_fraction"),
             per_curve("mutant_color"), per_curve("root_width"), per_curve("tip_width"),
-            per_curve("root_opacity"), per_curve("tip_opacity"), t=t,
+            per_curve("root_opacity"), per_curve("tip_opacity"),
         )  # fmt: skip
         keep = finish(local, length, p.skip_threshold)
-        return _Bucket(rows, strand, strand_uv, local, length, keep, look)
+        return _Bucket(rows, strand, strand_uv, local, n_total, length, keep, t_end, ends)
 
     def _assemble(
         self, lay: _Layout, cur: SurfacePoints, buckets: list[_Bucket],
@@ -581,7 +568,10 @@ class Groom:
         first = 0
         for b in buckets:
             m = len(b.rows)
-            pack(b.points, b.length, b.keep, b.rows, frame, start[first : first + m], b.look, out)
+            pack(
+                b.points, b.length, b.keep, b.rows, frame, start[first : first + m], b.ends,
+                b.t_end, b.n_total, out,
+            )  # fmt: skip
             first += m
         kept = order[counts[order] > 0]
         rows = np.concatenate([b.rows for b in buckets])[kept]

@@ -11,7 +11,7 @@ from ..rng import purpose_id, uniforms
 from .knn import PointGrid
 from .params import per_hair, row
 
-__all__ = ["idw_weights", "blend_guides", "tilt", "translate_guides"]
+__all__ = ["idw_weights", "guide_turn", "blend_guides", "tilt", "translate_guides"]
 
 _TILT = purpose_id("offset angle")
 
@@ -31,18 +31,77 @@ def idw_weights(
     grid = guide_roots if isinstance(guide_roots, PointGrid) else PointGrid(guide_roots)
     k = min(samples + 1, grid.n)
     dist, idx = grid.query(hair_roots, k)
-    if k == 1:
-        return idx.reshape(-1, 1).astype(np.int64), np.ones((len(hair_roots), 1), np.float32)
-    r = dist[:, -1:]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        w = ((r - dist) / (r * dist)) ** 2
-    exact = dist[:, 0] <= 1e-12
-    w[exact] = 0.0
-    w[exact, 0] = 1.0
-    flat = ~np.isfinite(w).all(axis=1) | (w.sum(axis=1) <= 0)  # all equidistant
-    w[flat] = 1.0
-    w /= w.sum(axis=1, keepdims=True)
-    return idx.astype(np.int64), w.astype(np.float32)
+    w = np.empty(dist.shape, dtype=np.float32)
+    _idw_kernel(dist, w)
+    return idx, w
+
+
+@njit(cache=True, parallel=True)
+def _idw_kernel(dist, w):
+    k = dist.shape[1]
+    for h in prange(dist.shape[0]):
+        d = dist[h]
+        if k == 1 or d[0] <= 1e-12:  # on a guide root (or one guide): copy it
+            for j in range(k):
+                w[h, j] = 0.0
+            w[h, 0] = 1.0
+            continue
+        r = d[k - 1]
+        total = 0.0
+        for j in range(k):
+            x = (r - d[j]) / (r * d[j])
+            total += x * x
+        if not total > 0.0 or not np.isfinite(total):  # all equidistant: equal weights
+            for j in range(k):
+                w[h, j] = 1.0 / k
+            continue
+        for j in range(k):
+            x = (r - d[j]) / (r * d[j])
+            w[h, j] = x * x / total
+
+
+@njit(cache=True, parallel=True)
+def _turn_kernel(index, weight, guide_tangents, tangent, binormal, out):
+    for h in prange(index.shape[0]):
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        for j in range(index.shape[1]):
+            g = index[h, j]
+            wj = weight[h, j]
+            tx += wj * guide_tangents[g, 0]
+            ty += wj * guide_tangents[g, 1]
+            tz += wj * guide_tangents[g, 2]
+        x = tx * tangent[h, 0] + ty * tangent[h, 1] + tz * tangent[h, 2]
+        y = tx * binormal[h, 0] + ty * binormal[h, 1] + tz * binormal[h, 2]
+        r = np.hypot(x, y)
+        if r <= 1e-9:  # guides' tangents cancel out or stand on the normal: no turn
+            out[h, 0] = 1.0
+            out[h, 1] = 0.0
+        else:
+            out[h, 0] = x / r
+            out[h, 1] = y / r
+
+
+def guide_turn(
+    index: np.ndarray, weight: np.ndarray, guide_tangents: np.ndarray, tangent: np.ndarray,
+    binormal: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """(cos, sin) (H, 2) of the angle about the normal from each root's ``tangent`` to the
+    ``weight``-ed sum of its guides' root tangents, projected on its tangent plane.
+
+    Root-local frames follow the UV tangent, which spins around UV poles and seams;
+    turned by this angle, a hair's frame lines up with its guides', so it bends the way
+    they do everywhere. At a guide root the turn is 0. No turn where the guides'
+    tangents cancel out or stand on the normal.
+    """
+    out = np.empty((len(index), 2), dtype=np.float64)
+    _turn_kernel(
+        np.ascontiguousarray(index, np.int64), np.ascontiguousarray(weight, np.float32),
+        np.ascontiguousarray(guide_tangents, np.float64), np.ascontiguousarray(tangent),
+        np.ascontiguousarray(binormal), out,
+    )  # fmt: skip
+    return out
 
 
 @njit(cache=True, parallel=True)
