@@ -14,6 +14,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from .errors import InputError
+from .finite import all_finite
 
 __all__ = ["HairCurves"]
 
@@ -125,7 +126,7 @@ class HairCurves:
                 f"offsets: curve {bad} has {int(steps[bad])} vertices; every curve needs at least 2"
                 " (offsets must rise by 2 or more)"
             )
-        if not np.all(np.isfinite(self.points)):
+        if not all_finite(self.points):
             bad = int(np.argmax(~np.isfinite(self.points).all(axis=1)))
             raise InputError(f"points: vertex {bad} is not finite (NaN or inf)")
         for kind, data, size in (
@@ -137,7 +138,7 @@ class HairCurves:
                     raise InputError(
                         f"{kind}['{key}']: expected {size} rows, got shape {arr.shape}"
                     )
-                if np.issubdtype(arr.dtype, np.floating) and not np.all(np.isfinite(arr)):
+                if np.issubdtype(arr.dtype, np.floating) and not all_finite(arr):
                     raise InputError(f"{kind}['{key}']: contains NaN or inf")
 
     # ---------------------------------------------------------------- views

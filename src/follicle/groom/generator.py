@@ -471,6 +471,7 @@ class Groom:
             xi = uniforms(p.seed, ids, "random scale", 1)[:, 0]
             scale = scale * (1.0 - prop("random_scale") * xi)
         rest = lay.rest
+        root = rest.position[rows]
         frame = (rest.tangent[rows], rest.binormal[rows], rest.normal[rows])
         index = lay.guide_index[rows]
         if p.interpolation == "offset" and p.offset_mode == "translate":
@@ -485,18 +486,18 @@ class Groom:
         if lay.clump is not None:
             centre = self._centres()[2]
             clump(
-                local, centre, lay.clump[rows], (rest.position[rows], *frame), prop("clump_root"),
+                local, centre, lay.clump[rows], (root, *frame), prop("clump_root"),
                 prop("clump_tip"), p.clump_profile, prop("clump_noise"), ids, p.seed, t,
             )  # fmt: skip
         if (props["frizz_root"] > 0).any() or (props["frizz_tip"] > 0).any():
             drift = np.asarray(p.frizz_direction) * (p.frizz_speed * time)
             frizz(
-                local, rest.position[rows], prop("frizz_root"), prop("frizz_tip"),
+                local, root, prop("frizz_root"), prop("frizz_tip"),
                 np.asarray(p.frizz_frequency), drift, prop("frizz_blend"), t, check=False,
             )  # fmt: skip
         if (props["kink_root"] > 0).any() or (props["kink_tip"] > 0).any():
             kink(
-                local, rest.position[rows], prop("kink_root"), prop("kink_tip"),
+                local, root, prop("kink_root"), prop("kink_tip"),
                 np.asarray(p.kink_frequency), frame, t, check=False,
             )  # fmt: skip
         return self._finish(local, rows, ids, prop, n_total)

@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import InputError
+from ..finite import all_finite
 from ..frames import polyline_frames
 from ..noise import noise3
 from ..rng import uniforms
@@ -149,15 +150,6 @@ def _curl_kernel(local, radius, f_root, f_tip, phase, ramp, t):
 
 
 # ---------------------------------------------------------------------------- validation
-@njit(cache=True, parallel=True)
-def _all_finite(flat):
-    bad = 0
-    for i in prange(flat.shape[0]):
-        if not math.isfinite(flat[i]):
-            bad += 1
-    return bad == 0
-
-
 def _check_local(local: object, scan: bool = True) -> np.ndarray:
     if not isinstance(local, np.ndarray) or local.dtype != np.float64:
         kind = local.dtype if isinstance(local, np.ndarray) else type(local).__name__
@@ -166,7 +158,7 @@ def _check_local(local: object, scan: bool = True) -> np.ndarray:
         raise InputError(f"local: expected shape (n, N >= 1, 3), got {local.shape}")
     if not (local.flags.c_contiguous and local.flags.writeable):
         raise InputError("local: must be C-contiguous and writeable (it is changed in place)")
-    if scan and not _all_finite(local.reshape(-1)):
+    if scan and not all_finite(local):
         raise InputError("local: vertices must be finite (no NaN or inf)")
     return local
 
