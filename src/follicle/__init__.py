@@ -33,6 +33,7 @@ _LAZY = {
     "Guides": "follicle.groom.guides",
     "load_guides": "follicle.groom.guides",
     "Groom": "follicle.groom.generator",
+    "Simulator": "follicle.sim.simulator",
     "Scene": "follicle.scene",
     "load_scene": "follicle.scene",
     "grow": "follicle.pipeline",

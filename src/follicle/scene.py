@@ -29,6 +29,7 @@ __all__ = [
     "GuidesParams",
     "GroomParams",
     "SimParams",
+    "ColliderParams",
     "RenderParams",
     "OutputParams",
     "load_scene",
@@ -226,16 +227,84 @@ class GroomParams(_Section):
     )
 
 
-class SimParams(_Section):
-    """Guide-strand dynamics (used by the simulator)."""
+class ColliderParams(_Section):
+    """A sphere (centre, radius) or capsule (a, b, radius) the hair cannot enter."""
 
-    solver: Literal["pbd", "dftl"] = Field("pbd", description="inextensibility solver")
+    kind: Literal["sphere", "capsule"] = Field("sphere", description="sphere or capsule")
+    centre: Vec3 = Field((0.0, 0.0, 0.0), description="sphere centre, m")
+    a: Vec3 = Field((0.0, 0.0, 0.0), description="capsule axis start, m")
+    b: Vec3 = Field((0.0, 0.0, 0.0), description="capsule axis end, m")
+    radius: float = Field(0.1, gt=0, le=100, description="radius, m")
+    follow: bool = Field(
+        True, description="moves with the transform given to set_pose (the head); false: fixed"
+    )
+
+
+class SimParams(_Section):
+    """Guide-strand dynamics (001 §3, 002 §5.1.2–5.1.3)."""
+
+    solver: Literal["pbd", "dftl"] = Field(
+        "pbd", description="inextensibility: PBD distance constraints or Dynamic Follow-The-Leader"
+    )
+    integrator: Literal["verlet", "euler"] = Field(
+        "verlet", description="Verlet (002 eq. 5.1) or semi-implicit Euler"
+    )
     substep: float = Field(1 / 120, gt=0, le=0.1, description="internal fixed time step, s")
     iterations: int = Field(8, ge=1, le=200, description="constraint iterations per substep")
+    vertices: int | None = Field(
+        None, ge=2, le=1024, description="vertices per simulated strand; unset = the guides'"
+    )
     gravity: Vec3 = Field((0.0, -9.81, 0.0), description="gravity, m/s²")
     damping: float = Field(0.5, ge=0, le=100, description="velocity damping per second")
-    stretch_stiffness: Unit = Field(1.0, description="distance constraint stiffness")
-    bend_stiffness: Unit = Field(0.2, description="bending constraint stiffness")
+    drag: float = Field(0.0, ge=0, le=1000, description="air drag b of −b·v (002 eq. 5.3), 1/s")
+    wind: Vec3 = Field((0.0, 0.0, 0.0), description="wind acceleration w of 002 eq. 5.2, m/s²")
+    wind_turbulence: float = Field(
+        0.5, ge=0, le=10, description="noise added to the wind, relative to its strength"
+    )
+    wind_frequency: float = Field(4.0, ge=0, le=1000, description="turbulence frequency, 1/m")
+    wind_drift: Vec3 = Field(
+        (1.0, 0.0, 0.0), description="speed the turbulence pattern drifts with, m/s"
+    )
+    stretch_stiffness: Unit = Field(1.0, description="PBD distance constraint stiffness")
+    stretch_limit: float | None = Field(
+        1e-4, ge=0, le=1, description="PBD: afterwards no segment longer than (1 + limit) × rest;"
+        " unset = off",
+    )
+    stretch_limit_damping: Unit = Field(
+        0.8, description="PBD: the limit's moves leave velocities like DFTL's (001 eq. 3.1)"
+    )
+    bend_stiffness: Unit = Field(0.2, description="bending (002 eq. 5.6) stiffness")
+    bend_scale: float = Field(
+        1.0, gt=0, le=10, description="bending rest distances × scale (> 1 stiffens)"
+    )
+    bend_attenuation: float = Field(
+        1.0, ge=0, le=100, description="bending weakens along the strand: k / (1 + att·(i−1))"
+    )
+    cone_angle: float = Field(
+        180.0, gt=0, le=180, description="largest turn between segments, degrees; 180 = off"
+    )
+    shape_local: Unit = Field(
+        0.0, description="stiffness towards each segment's rest direction (local shape)"
+    )
+    shape_global: Unit = Field(0.0, description="stiffness towards the skinned rest pose")
+    shape_global_range: tuple[Unit, Unit] = Field(
+        (0.0, 1.0), description="global shape: full up to the first, zero from the second"
+        " (root-to-tip fractions)",
+    )
+    dftl_damping: Unit = Field(0.9, description="DFTL velocity correction s (001 eq. 3.1)")
+    collision_margin: float = Field(
+        0.002, ge=0, le=1, description="distance kept from colliders, m"
+    )
+    friction: Unit = Field(0.3, description="share of tangential speed lost in contact")
+    colliders: list[ColliderParams] = Field(
+        default_factory=list, description="spheres and capsules: [[sim.colliders]] tables"
+    )
+
+    @model_validator(mode="after")
+    def _range_ordered(self) -> SimParams:
+        if self.shape_global_range[0] > self.shape_global_range[1]:
+            raise ValueError("shape_global_range: the start must not exceed the end")
+        return self
 
 
 class RenderParams(_Section):

@@ -1,0 +1,51 @@
+"""External accelerations on strand vertices (002 §5.1.2): gravity, wind, drag.
+
+Wind follows 002 eq. 5.2: F = |w × t| / |w| · w, strongest across a segment and zero
+along it (wind does not stretch a strand it blows along), with w made turbulent by
+``noise3`` scrolled through space over time. Drag is −b·v (eq. 5.3). Vertex masses are
+1, so forces are accelerations.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from ..noise import noise3
+
+__all__ = ["acceleration"]
+
+
+@njit(cache=True, inline="always")
+def acceleration(px, py, pz, tx, ty, tz, vx, vy, vz, gravity, wind, turbulence, frequency,
+                 scroll, drag):  # fmt: skip
+    """Acceleration at a vertex at p with unit tangent t and velocity v.
+
+    ``gravity``, ``wind`` (3,) m/s²; ``turbulence`` ≥ 0 scales the noise part of the
+    wind relative to |wind|; ``frequency`` 1/m; ``scroll`` (3,) the noise offset now
+    (wind drift × time, m); ``drag`` b in 1/s.
+    """
+    ax = gravity[0] - drag * vx
+    ay = gravity[1] - drag * vy
+    az = gravity[2] - drag * vz
+    strength = math.sqrt(wind[0] * wind[0] + wind[1] * wind[1] + wind[2] * wind[2])
+    if strength > 0.0:
+        wx, wy, wz = wind[0], wind[1], wind[2]
+        if turbulence > 0.0:
+            nx, ny, nz = noise3(frequency * px + scroll[0], frequency * py + scroll[1],
+                                frequency * pz + scroll[2])  # fmt: skip
+            k = turbulence * strength
+            wx += k * nx
+            wy += k * ny
+            wz += k * nz
+        w2 = math.sqrt(wx * wx + wy * wy + wz * wz)
+        if w2 > 0.0:
+            cx = wy * tz - wz * ty
+            cy = wz * tx - wx * tz
+            cz = wx * ty - wy * tx
+            f = math.sqrt(cx * cx + cy * cy + cz * cz) / w2  # |w × t| / |w|
+            ax += f * wx
+            ay += f * wy
+            az += f * wz
+    return ax, ay, az

@@ -1,0 +1,503 @@
+"""Hair-hair interaction through a voxel grid: friction and repulsion (001 §3.2, 002 §5.1.3).
+
+Strands do not collide with each other one by one; the hair acts as a whole through
+two fields on a regular grid (Petrovic et al. 2005, Müller et al. 2012, as in 001 §3.2):
+
+* density, eq. 3.2: every particle splats a trilinear "tent" weight, 1 at the particle
+  falling linearly to 0 one voxel away, onto the 8 vertices of its cell:
+  ``D = Σ (1 − |Px − x|/h)(1 − |Py − y|/h)(1 − |Pz − z|/h)``;
+* velocity, eq. 3.3: ``V = Σ w v / D`` with the same weights (0 where D ≤ 1e-12, so
+  empty space never divides).
+
+Both sums are smoothed with box-blur passes (002 §5.1.3: each vertex becomes the mean of
+its 3×3×3 neighbourhood, only neighbours inside the grid counted) before the division,
+so V stays a density-weighted mean. Particle velocities are then updated:
+
+* friction, eq. 3.4: ``v ← (1 − s_friction)·v + s_friction·v_grid(P)``, v_grid the
+  trilinear interpolation of V, so strands drift with their neighbours;
+* repulsion, eq. 3.5–3.7: g is the central-difference gradient of the interpolated
+  density at P with radius r = h, normalised; the seed writes ``v ← v + s·g/Δt``, but
+  the push must go towards lower density (002 §5.1.3) and be independent of the grid's
+  scale, so here ``v ← v − s_repulsion·ĝ·h/Δt``: s_repulsion = 1 moves a particle one
+  voxel in one step. No push where |g| is ~0 (no direction to push in).
+
+With r = h, ``D(P + h·e) − D(P − h·e)`` of the trilinear density is exactly the trilinear
+interpolation at P of the vertex differences ``D[i + 1] − D[i − 1]`` (P's cell shifted by
+one voxel keeps its fractions). So the gradient is computed once per vertex and
+interpolated like the velocity: one lookup per particle instead of six, same values
+(inside the grid; like every field here it reads 0 outside).
+
+The grid is fitted around the particles at each call with a margin of one voxel plus one
+per blur pass: the blurred sums then never reach the border, where the clamped mean would
+pile density up and push the outermost hair inwards; so blurring keeps the total density
+(the particle count) and a lone particle feels no push from its own density.
+
+Particles with inverse mass 0 (by default the root, index 0, of every strand) splat like
+the others, since they occupy space and carry the head's motion, but are never changed.
+
+Splatting is parallel and deterministic: particles are cut into at most 8 contiguous
+blocks (a count that depends on the particle count and grid size, never on the number of
+threads), each block splats into its own float64 grid, and the grids are summed in block
+order, so the same input gives the same bytes with any thread count.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from numbers import Integral, Real
+
+import numpy as np
+from numba import njit, prange
+
+from ..errors import InputError
+from ..finite import all_finite
+
+__all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume"]
+
+_MAX_CELLS = 128**3  # cap on cells in a grid (2.1 M; 68 MB of float64 sums)
+_MIN_VOXEL = 1e-6  # m; voxel size for a single point or a sub-micrometre cloud
+_BLOCKS = 8  # splat blocks: fixed, so the summation order never depends on threads
+_BLOCK_BYTES = 256 * 2**20  # at most this much memory for the blocks' private grids
+_TINY_DENSITY = 1e-12  # D at or below this counts as empty: V = 0 there
+
+
+@dataclass(frozen=True, eq=False)
+class GridSpec:
+    """Where the grid is: vertex (i, j, k) lies at ``origin + voxel·(i, j, k)``."""
+
+    origin: np.ndarray  # (3,) float64, world position of vertex (0, 0, 0)
+    voxel: float  # voxel size h in metres
+    shape: tuple[int, int, int]  # vertices along x, y, z
+
+    def __post_init__(self) -> None:
+        origin = np.array(self.origin, dtype=np.float64)
+        if origin.shape != (3,) or not np.isfinite(origin).all():
+            raise InputError(f"origin: expected 3 finite numbers, got {self.origin!r}")
+        if not isinstance(self.voxel, Real) or not math.isfinite(self.voxel) or self.voxel <= 0:
+            raise InputError(f"voxel: must be a finite size > 0 in metres, got {self.voxel!r}")
+        shape = tuple(self.shape)
+        if len(shape) != 3 or not all(isinstance(n, Integral) and n >= 2 for n in shape):
+            raise InputError(f"shape: expected 3 vertex counts >= 2, got {self.shape!r}")
+        origin.setflags(write=False)
+        object.__setattr__(self, "origin", origin)
+        object.__setattr__(self, "voxel", float(self.voxel))
+        object.__setattr__(self, "shape", tuple(int(n) for n in shape))
+
+
+def grid_for(
+    points: np.ndarray, resolution: int = 32, voxel_size: float | None = None, margin: int = 1
+) -> GridSpec:
+    """A grid around ``points`` (..., 3), at least ``margin`` voxels clear on every side.
+
+    The voxel size is ``voxel_size`` when given, else the longest side of the points'
+    bounds divided by ``resolution`` (so that many cells span it, plus the margins). Axes
+    of zero extent still get one cell (plus margins); a single point gets 1 µm voxels.
+    The voxel grows when needed to keep at most 128³ cells. The grid is centred on the
+    bounds, so a symmetric cloud gets a symmetric grid.
+    """
+    pts = _points(points, "points")
+    _check_resolution(resolution, voxel_size)
+    if isinstance(margin, bool) or not isinstance(margin, Integral) or margin < 1:
+        raise InputError(f"margin: must be an integer >= 1 (voxels), got {margin!r}")
+    # per column: numpy's min(axis=0) over (M, 3) is ~50× slower than three strided scans
+    lo = np.array([pts[:, a].min() for a in range(3)], dtype=np.float64)
+    hi = np.array([pts[:, a].max() for a in range(3)], dtype=np.float64)
+    extent = hi - lo
+    h = float(voxel_size) if voxel_size is not None else max(extent.max() / resolution, _MIN_VOXEL)
+    cells = _cells(extent, h, margin)
+    while np.prod(cells) > _MAX_CELLS:
+        h *= max(float(np.cbrt(np.prod(cells) / _MAX_CELLS)), 1.01)
+        cells = _cells(extent, h, margin)
+    origin = (lo + hi) / 2 - h * cells / 2
+    return GridSpec(origin=origin, voxel=h, shape=tuple(int(c) + 1 for c in cells))
+
+
+def _cells(extent: np.ndarray, h: float, margin: int) -> np.ndarray:
+    """Cells per axis: enough to cover ``extent`` (at least one) plus the margin each side."""
+    return np.maximum(np.ceil(extent / h), 1).astype(np.int64) + 2 * margin
+
+
+@dataclass(frozen=True, eq=False)
+class VolumeGrid:
+    """Density, velocity and density gradient of the hair on a grid (built by ``splat``)."""
+
+    spec: GridSpec
+    density: np.ndarray  # spec.shape, float64, eq. 3.2 (blurred)
+    velocity: np.ndarray  # spec.shape + (3,), float64, eq. 3.3 (0 where D <= 1e-12)
+    gradient: np.ndarray  # spec.shape + (3,), float64, (D[i+1] − D[i−1]) / 2h per axis
+
+    @classmethod
+    def splat(
+        cls,
+        x: np.ndarray,
+        v: np.ndarray,
+        spec: GridSpec | None = None,
+        blur_passes: int = 1,
+    ) -> VolumeGrid:
+        """Splat particles ``x`` (S, N, 3) with velocities ``v`` (S, N, 3) onto a grid.
+
+        ``spec`` None places the grid around ``x`` (``grid_for`` at its defaults, margin
+        1 + ``blur_passes``); with a given spec, particles outside it add only their
+        corners that fall inside. ``blur_passes`` 3×3×3 box blurs smooth the density and
+        momentum sums.
+        """
+        xs = _strands(x, "x")
+        vs = _strands(v, "v")
+        if vs.shape != xs.shape:
+            raise InputError(f"v: expected the shape of x {xs.shape}, got {vs.shape}")
+        passes = _blur_passes(blur_passes)
+        if spec is None:
+            spec = grid_for(xs, margin=1 + passes)
+        return _splat_grid(xs, vs, spec, passes)
+
+    def sample_density(self, points: np.ndarray) -> np.ndarray:
+        """Trilinearly interpolated density at ``points`` (M, 3), 0 outside the grid: (M,)."""
+        return _sample_density(self.density, self.spec.origin, 1 / self.spec.voxel, _query(points))
+
+    def sample_velocity(self, points: np.ndarray) -> np.ndarray:
+        """Trilinearly interpolated grid velocity at ``points`` (M, 3), 0 outside: (M, 3)."""
+        return _sample_vector(self.velocity, self.spec.origin, 1 / self.spec.voxel, _query(points))
+
+    def density_gradient(self, points: np.ndarray) -> np.ndarray:
+        """Density gradient at ``points`` (M, 3) by central differences, r = h (eq. 3.7)."""
+        return _sample_vector(self.gradient, self.spec.origin, 1 / self.spec.voxel, _query(points))
+
+
+def apply_volume(
+    x: np.ndarray,
+    v: np.ndarray,
+    dt: float,
+    friction: float,
+    repulsion: float,
+    blur_passes: int = 1,
+    resolution: int = 32,
+    voxel_size: float | None = None,
+    inv_mass: np.ndarray | None = None,
+) -> VolumeGrid:
+    """Hair-hair friction and repulsion: update ``v`` in place and return the grid used.
+
+    ``x`` (S, N, 3) positions; ``v`` (S, N, 3) C-contiguous float32 velocities, changed in
+    place; ``dt`` > 0 the step (s); ``friction`` in [0, 1] (eq. 3.4); ``repulsion`` >= 0,
+    in voxels per step (see the module docstring); ``blur_passes``, ``resolution`` and
+    ``voxel_size`` place and smooth the grid (``grid_for``). ``inv_mass`` (S, N): particles
+    with 0 are left alone; None pins the roots (index 0 of each strand) only.
+    """
+    xs = _strands(x, "x")
+    in_place = isinstance(v, np.ndarray) and v.dtype == np.float32
+    if not (in_place and v.flags.c_contiguous and v.flags.writeable):
+        raise InputError(
+            "v: expected a writable C-contiguous float32 array (it is updated in place); "
+            "pass np.ascontiguousarray(v, dtype=np.float32) and keep that array"
+        )
+    if v.shape != xs.shape:
+        raise InputError(f"v: expected the shape of x {xs.shape}, got {v.shape}")
+    if not all_finite(v):
+        raise InputError("v: contains NaN or inf; fix the velocities")
+    dt = _number(dt, "dt", "a time step > 0 in seconds", lambda a: a > 0)
+    friction = _number(friction, "friction", "a number in [0, 1]", lambda a: 0 <= a <= 1)
+    repulsion = _number(repulsion, "repulsion", "a number >= 0", lambda a: a >= 0)
+    free = _free_mask(inv_mass, xs.shape[:2])
+    passes = _blur_passes(blur_passes)
+    grid = _splat_grid(xs, v, grid_for(xs, resolution, voxel_size, 1 + passes), passes)
+    h = grid.spec.voxel
+    _update(
+        xs.reshape(-1, 3),
+        v.reshape(-1, 3),
+        free.reshape(-1),
+        grid.velocity,
+        grid.gradient,
+        grid.spec.origin,
+        1 / h,
+        friction,
+        repulsion * h / dt,
+    )
+    return grid
+
+
+# --- validation ------------------------------------------------------------------------
+
+
+def _strands(a: object, name: str) -> np.ndarray:
+    """(S, N, 3) finite float array as C-contiguous float32."""
+    arr = np.asarray(a)
+    if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] * arr.shape[1] == 0:
+        raise InputError(
+            f"{name}: expected a non-empty (strands, particles, 3) array, got shape {arr.shape}"
+        )
+    if not np.issubdtype(arr.dtype, np.floating):
+        raise InputError(f"{name}: expected floats (float32 or float64), got {arr.dtype}")
+    out = np.ascontiguousarray(arr, dtype=np.float32)
+    if not all_finite(out):
+        raise InputError(f"{name}: contains NaN or inf (or values beyond float32); fix them")
+    return out
+
+
+def _points(a: object, name: str) -> np.ndarray:
+    """(..., 3) finite float array as (M, 3) C-contiguous float32 or float64, M >= 1."""
+    arr = np.asarray(a)
+    if arr.ndim < 1 or arr.shape[-1] != 3 or arr.size == 0:
+        raise InputError(f"{name}: expected a non-empty (..., 3) array, got shape {arr.shape}")
+    if not np.issubdtype(arr.dtype, np.floating):
+        raise InputError(f"{name}: expected floats (float32 or float64), got {arr.dtype}")
+    dtype = np.float32 if arr.dtype == np.float32 else np.float64
+    out = np.ascontiguousarray(arr.reshape(-1, 3), dtype=dtype)
+    if not all_finite(out):
+        raise InputError(f"{name}: contains NaN or inf; fix them")
+    return out
+
+
+def _query(points: object) -> np.ndarray:
+    """Query points for the samplers as (M, 3) float64 (one compiled sampler per field)."""
+    return _points(points, "points").astype(np.float64, copy=False)
+
+
+def _check_resolution(resolution: object, voxel_size: object) -> None:
+    """``resolution`` an integer >= 2; ``voxel_size`` None or a finite size > 0."""
+    if isinstance(resolution, bool) or not isinstance(resolution, Integral) or resolution < 2:
+        raise InputError(
+            f"resolution: must be an integer >= 2 (cells along the longest side), "
+            f"got {resolution!r}"
+        )
+    if voxel_size is not None:
+        _number(voxel_size, "voxel_size", "a size > 0 in metres, or None", lambda a: a > 0)
+
+
+def _number(a: object, name: str, want: str, ok: Callable[[float], bool]) -> float:
+    """``a`` as a finite float for which ``ok`` holds, else an InputError naming ``name``."""
+    if isinstance(a, bool) or not isinstance(a, Real) or not math.isfinite(a) or not ok(a):
+        raise InputError(f"{name}: must be {want}, got {a!r}")
+    return float(a)
+
+
+def _blur_passes(blur_passes: object) -> int:
+    """``blur_passes`` as an int >= 0."""
+    if isinstance(blur_passes, bool) or not isinstance(blur_passes, Integral) or blur_passes < 0:
+        raise InputError(f"blur_passes: must be an integer >= 0, got {blur_passes!r}")
+    return int(blur_passes)
+
+
+def _free_mask(inv_mass: object, shape: tuple[int, int]) -> np.ndarray:
+    """(S, N) bool: True where the particle may move (inverse mass > 0)."""
+    if inv_mass is None:
+        free = np.ones(shape, dtype=np.bool_)
+        free[:, 0] = False
+        return free
+    im = np.asarray(inv_mass)
+    if im.shape != shape or not np.issubdtype(im.dtype, np.floating):
+        raise InputError(
+            f"inv_mass: expected a float array of shape {shape}, got {im.dtype} {im.shape}"
+        )
+    if not np.isfinite(im).all() or (im < 0).any():
+        raise InputError("inv_mass: must be finite and >= 0 (0 pins a particle)")
+    return im != 0
+
+
+def _splat_grid(x: np.ndarray, v: np.ndarray, spec: GridSpec, blur_passes: int) -> VolumeGrid:
+    """Splat validated (S, N, 3) float32 arrays onto ``spec`` and blur: the VolumeGrid."""
+    if not isinstance(spec, GridSpec):
+        raise InputError(f"spec: expected a GridSpec (see grid_for), got {type(spec).__name__}")
+    m = x.shape[0] * x.shape[1]
+    grid_bytes = 4 * 8 * int(np.prod(spec.shape))
+    blocks = max(1, min(_BLOCKS, m, _BLOCK_BYTES // grid_bytes))
+    starts = (np.arange(blocks + 1, dtype=np.int64) * m) // blocks
+    flat_x, flat_v = x.reshape(-1, 3), v.reshape(-1, 3)
+    sums = _splat(flat_x, flat_v, starts, spec.origin, 1 / spec.voxel, *spec.shape)
+    for _ in range(blur_passes):
+        sums = _box_blur(sums)
+    density, velocity, gradient = _resolve(sums, spec.voxel)
+    return VolumeGrid(spec=spec, density=density, velocity=velocity, gradient=gradient)
+
+
+# --- kernels ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _locate(px, py, pz, origin, inv_h, nx, ny, nz):
+    """Cell (i, j, k) holding the point and its fractions (tx, ty, tz) in [0, 1).
+
+    Grid coordinates are clamped to [-2, n + 1] first: far-away points stay far outside
+    (all corners off the grid) without overflowing the integer conversion.
+    """
+    fx = min(max((px - origin[0]) * inv_h, -2.0), nx + 1.0)
+    fy = min(max((py - origin[1]) * inv_h, -2.0), ny + 1.0)
+    fz = min(max((pz - origin[2]) * inv_h, -2.0), nz + 1.0)
+    ix = math.floor(fx)
+    iy = math.floor(fy)
+    iz = math.floor(fz)
+    return ix, iy, iz, fx - ix, fy - iy, fz - iz
+
+
+@njit(cache=True)
+def _corner(cell, c, nx, ny, nz):
+    """Corner ``c`` (0..7, bits x, y, z) of a cell: vertex (i, j, k) and tent weight.
+
+    A corner off the grid has weight 0 (and index 0, safe to read).
+    """
+    ix, iy, iz, tx, ty, tz = cell
+    dx = c & 1
+    dy = (c >> 1) & 1
+    dz = c >> 2
+    i = ix + dx
+    j = iy + dy
+    k = iz + dz
+    if i < 0 or j < 0 or k < 0 or i >= nx or j >= ny or k >= nz:
+        return 0, 0, 0, 0.0
+    w = (tx if dx else 1.0 - tx) * (ty if dy else 1.0 - ty) * (tz if dz else 1.0 - tz)
+    return i, j, k, w
+
+
+@njit(cache=True, parallel=True)
+def _splat(x, v, starts, origin, inv_h, nx, ny, nz):
+    """Sums (nx, ny, nz, 4) of [w, w·vx, w·vy, w·vz] (eq. 3.2, numerator of 3.3).
+
+    Block b splats particles starts[b]:starts[b+1] into its own grid; the grids are then
+    added in block order, vertex by vertex, so the result does not depend on threads.
+    """
+    blocks = starts.shape[0] - 1
+    private = np.zeros((blocks, nx, ny, nz, 4))
+    for b in prange(blocks):
+        grid = private[b]
+        for p in range(starts[b], starts[b + 1]):
+            px, py, pz = float(x[p, 0]), float(x[p, 1]), float(x[p, 2])
+            cell = _locate(px, py, pz, origin, inv_h, nx, ny, nz)
+            for c in range(8):
+                i, j, k, w = _corner(cell, c, nx, ny, nz)
+                if w > 0.0:
+                    grid[i, j, k, 0] += w
+                    grid[i, j, k, 1] += w * v[p, 0]
+                    grid[i, j, k, 2] += w * v[p, 1]
+                    grid[i, j, k, 3] += w * v[p, 2]
+    flat = private.reshape(blocks, -1)
+    total = np.empty(flat.shape[1])
+    for e in prange(flat.shape[1]):
+        s = 0.0
+        for b in range(blocks):
+            s += flat[b, e]
+        total[e] = s
+    return total.reshape(nx, ny, nz, 4)
+
+
+@njit(cache=True, parallel=True)
+def _box_blur(src):
+    """One box-blur pass: each vertex the mean of its 3×3×3 neighbours inside the grid."""
+    nx, ny, nz, nc = src.shape
+    dst = np.empty_like(src)
+    for i in prange(nx):
+        i0, i1 = max(i - 1, 0), min(i + 1, nx - 1)
+        for j in range(ny):
+            j0, j1 = max(j - 1, 0), min(j + 1, ny - 1)
+            for k in range(nz):
+                k0, k1 = max(k - 1, 0), min(k + 1, nz - 1)
+                count = (i1 - i0 + 1) * (j1 - j0 + 1) * (k1 - k0 + 1)
+                for ch in range(nc):
+                    s = 0.0
+                    for a in range(i0, i1 + 1):
+                        for b in range(j0, j1 + 1):
+                            for c in range(k0, k1 + 1):
+                                s += src[a, b, c, ch]
+                    dst[i, j, k, ch] = s / count
+    return dst
+
+
+@njit(cache=True)
+def _resolve(sums, h):
+    """Density, velocity (eq. 3.3; 0 where D <= 1e-12) and vertex density gradient.
+
+    The gradient is (D[i + 1] − D[i − 1]) / 2h along each axis, D = 0 off the grid.
+    """
+    nx, ny, nz, _ = sums.shape
+    density = np.ascontiguousarray(sums[..., 0])
+    velocity = np.zeros((nx, ny, nz, 3))
+    gradient = np.empty((nx, ny, nz, 3))
+    inv_2h = 0.5 / h
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                d = density[i, j, k]
+                if d > _TINY_DENSITY:
+                    for a in range(3):
+                        velocity[i, j, k, a] = sums[i, j, k, a + 1] / d
+                up = density[i + 1, j, k] if i + 1 < nx else 0.0
+                down = density[i - 1, j, k] if i > 0 else 0.0
+                gradient[i, j, k, 0] = (up - down) * inv_2h
+                up = density[i, j + 1, k] if j + 1 < ny else 0.0
+                down = density[i, j - 1, k] if j > 0 else 0.0
+                gradient[i, j, k, 1] = (up - down) * inv_2h
+                up = density[i, j, k + 1] if k + 1 < nz else 0.0
+                down = density[i, j, k - 1] if k > 0 else 0.0
+                gradient[i, j, k, 2] = (up - down) * inv_2h
+    return density, velocity, gradient
+
+
+@njit(cache=True)
+def _density_at(density, origin, inv_h, px, py, pz):
+    """Trilinear density at a point (0 outside the grid)."""
+    nx, ny, nz = density.shape
+    cell = _locate(px, py, pz, origin, inv_h, nx, ny, nz)
+    d = 0.0
+    for c in range(8):
+        i, j, k, w = _corner(cell, c, nx, ny, nz)
+        d += w * density[i, j, k]
+    return d
+
+
+@njit(cache=True)
+def _vector_at(field, origin, inv_h, px, py, pz):
+    """Trilinear value of a (nx, ny, nz, 3) vertex field at a point (0 outside the grid)."""
+    nx, ny, nz, _ = field.shape
+    cell = _locate(px, py, pz, origin, inv_h, nx, ny, nz)
+    fx = fy = fz = 0.0
+    for c in range(8):
+        i, j, k, w = _corner(cell, c, nx, ny, nz)
+        fx += w * field[i, j, k, 0]
+        fy += w * field[i, j, k, 1]
+        fz += w * field[i, j, k, 2]
+    return fx, fy, fz
+
+
+@njit(cache=True)
+def _sample_density(density, origin, inv_h, pts):
+    """``_density_at`` for each row of ``pts`` (M, 3)."""
+    out = np.empty(pts.shape[0])
+    for p in range(pts.shape[0]):
+        out[p] = _density_at(density, origin, inv_h, pts[p, 0], pts[p, 1], pts[p, 2])
+    return out
+
+
+@njit(cache=True)
+def _sample_vector(field, origin, inv_h, pts):
+    """``_vector_at`` for each row of ``pts`` (M, 3)."""
+    out = np.empty((pts.shape[0], 3))
+    for p in range(pts.shape[0]):
+        out[p, 0], out[p, 1], out[p, 2] = _vector_at(
+            field, origin, inv_h, pts[p, 0], pts[p, 1], pts[p, 2]
+        )
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _update(x, v, free, velocity, gradient, origin, inv_h, friction, push):
+    """Friction (eq. 3.4) then repulsion (eq. 3.5–3.7, ``push`` = s_repulsion·h/dt) on v.
+
+    Terms with a zero coefficient are skipped, so they leave v bit for bit unchanged.
+    """
+    for p in prange(x.shape[0]):
+        if not free[p]:
+            continue
+        px, py, pz = float(x[p, 0]), float(x[p, 1]), float(x[p, 2])
+        vx, vy, vz = float(v[p, 0]), float(v[p, 1]), float(v[p, 2])
+        if friction > 0.0:
+            gx, gy, gz = _vector_at(velocity, origin, inv_h, px, py, pz)
+            vx = (1.0 - friction) * vx + friction * gx
+            vy = (1.0 - friction) * vy + friction * gy
+            vz = (1.0 - friction) * vz + friction * gz
+        if push > 0.0:
+            dx, dy, dz = _vector_at(gradient, origin, inv_h, px, py, pz)
+            norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if norm > _TINY_DENSITY * inv_h:  # |D(P + h·e) − D(P − h·e)| ~ 0: no direction
+                vx -= push * dx / norm
+                vy -= push * dy / norm
+                vz -= push * dz / norm
+        v[p, 0], v[p, 1], v[p, 2] = vx, vy, vz
