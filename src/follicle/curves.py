@@ -13,8 +13,8 @@ from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from .arrays import all_finite
 from .errors import InputError
-from .finite import all_finite
 
 __all__ = ["HairCurves"]
 

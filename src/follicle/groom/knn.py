@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
+from ..arrays import as_points
 from ..errors import InputError
 
 __all__ = ["PointGrid"]
@@ -43,23 +44,6 @@ _NEIGHBOURS = np.array(  # the 27 cell offsets of a 3×3×3 block, nearest first
 )  # fmt: skip
 
 
-def _as_points(name: str, array: object, allow_empty: bool) -> np.ndarray:
-    """``array`` as a C-contiguous float64 (N, 3) array of finite values, or InputError."""
-    try:
-        arr = np.asarray(array, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name}: expected an (N, 3) array of numbers ({exc})") from None
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise InputError(f"{name}: expected shape (N, 3), got {arr.shape}")
-    if arr.shape[0] == 0 and not allow_empty:
-        raise InputError(f"{name}: needs at least one point, got shape {arr.shape}")
-    # A finite sum proves every value finite (cheap); an infinite or NaN one may be an overflow.
-    if not np.isfinite(arr.sum()) and not np.isfinite(arr).all():
-        bad = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
-        raise InputError(f"{name}: row {bad} is not finite: {arr[bad].tolist()}")
-    return np.ascontiguousarray(arr)
-
-
 class PointGrid:
     """Exact k-nearest-neighbour queries against a fixed point set, on a uniform grid.
 
@@ -75,7 +59,7 @@ class PointGrid:
     n: int
 
     def __init__(self, points: np.ndarray) -> None:
-        pts = _as_points("points", points, allow_empty=False).copy()  # ours, not the caller's
+        pts = as_points("points", points, allow_empty=False).copy()  # ours, not the caller's
         self.n = int(pts.shape[0])
         lo = pts.min(axis=0)
         hi = pts.max(axis=0)
@@ -133,7 +117,7 @@ class PointGrid:
         ``k`` is clamped to ``n``; the result is always 2-D. Equal distances are ordered
         by the lower point index.
         """
-        q = _as_points("queries", queries, allow_empty=True)
+        q = as_points("queries", queries)
         if isinstance(k, (bool, np.bool_)):
             raise InputError(f"k: expected an integer >= 1, got {k!r}")
         try:

@@ -23,8 +23,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..arrays import all_finite
 from ..errors import InputError
-from ..finite import all_finite
 from ..frames import polyline_frames
 from ..noise import noise3
 from ..rng import uniforms

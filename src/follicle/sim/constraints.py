@@ -22,8 +22,17 @@ import math
 
 from numba import njit
 
-__all__ = ["distance_pass", "bend_pass", "follow_the_leader", "strain_limit", "cone_pass",
-           "local_shape_pass", "global_shape_pass", "skinned"]  # fmt: skip
+__all__ = ["segment", "skinned", "distance_pass", "bend_pass", "follow_the_leader",
+           "strain_limit", "cone_pass", "local_shape_pass", "global_shape_pass"]  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def segment(x, s, i, j):
+    """(dx, dy, dz, length) of x[s, j] − x[s, i]."""
+    dx = x[s, j, 0] - x[s, i, 0]
+    dy = x[s, j, 1] - x[s, i, 1]
+    dz = x[s, j, 2] - x[s, i, 2]
+    return dx, dy, dz, math.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 @njit(cache=True, inline="always")
@@ -42,10 +51,7 @@ def _project_pair(x, w, s, i, j, rest, k):
     total = wi + wj
     if total <= 0.0:
         return
-    dx = x[s, j, 0] - x[s, i, 0]
-    dy = x[s, j, 1] - x[s, i, 1]
-    dz = x[s, j, 2] - x[s, i, 2]
-    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    dx, dy, dz, length = segment(x, s, i, j)
     if length < 1e-12:
         return
     c = k * (length - rest) / (length * total)
@@ -93,16 +99,10 @@ def follow_the_leader(x, s, rest_length, correction):
     their current direction; ``correction`` (N, 3) gets each vertex's move."""
     correction[0, 0] = correction[0, 1] = correction[0, 2] = 0.0
     for i in range(1, x.shape[1]):
-        dx = x[s, i, 0] - x[s, i - 1, 0]
-        dy = x[s, i, 1] - x[s, i - 1, 1]
-        dz = x[s, i, 2] - x[s, i - 1, 2]
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz, length = segment(x, s, i - 1, i)
         if length < 1e-12:  # coincident: keep the previous segment's direction
             if i >= 2:
-                dx = x[s, i - 1, 0] - x[s, i - 2, 0]
-                dy = x[s, i - 1, 1] - x[s, i - 2, 1]
-                dz = x[s, i - 1, 2] - x[s, i - 2, 2]
-                length = math.sqrt(dx * dx + dy * dy + dz * dz)
+                dx, dy, dz, length = segment(x, s, i - 2, i - 1)
             if length < 1e-12:
                 dx, dy, dz, length = 0.0, 1.0, 0.0, 1.0
         f = rest_length[s, i - 1] / length
@@ -125,10 +125,7 @@ def strain_limit(x, w, s, rest_length, limit, correction):
         correction[i, 0] = correction[i, 1] = correction[i, 2] = 0.0
         if w[s, i] == 0.0:
             continue
-        dx = x[s, i, 0] - x[s, i - 1, 0]
-        dy = x[s, i, 1] - x[s, i - 1, 1]
-        dz = x[s, i, 2] - x[s, i - 1, 2]
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz, length = segment(x, s, i - 1, i)
         most = (1.0 + limit) * rest_length[s, i - 1]
         if length > most:
             f = most / length - 1.0
@@ -143,10 +140,7 @@ def cone_pass(x, s, cos_limit, sin_limit, first_x, first_y, first_z):
     direction ``first``) to the cone of half-angle acos(cos_limit), keeping lengths."""
     px, py, pz = first_x, first_y, first_z
     for i in range(1, x.shape[1]):
-        dx = x[s, i, 0] - x[s, i - 1, 0]
-        dy = x[s, i, 1] - x[s, i - 1, 1]
-        dz = x[s, i, 2] - x[s, i - 1, 2]
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz, length = segment(x, s, i - 1, i)
         if length < 1e-12:
             continue
         ux, uy, uz = dx / length, dy / length, dz / length

@@ -46,8 +46,10 @@ import numbers
 import numpy as np
 from numba import njit, prange
 
+from ..arrays import as_points, frozen, rigid
 from ..errors import InputError
 from ..frames import normalize
+from ..mesh.skin import closest_weights
 
 __all__ = ["SDF", "sdf_sample"]
 
@@ -57,7 +59,6 @@ _PAD_MIN_VOXELS = 3  # … but at least this many voxels
 _MAX_VERTICES = 256**3  # a bigger grid is refused (64 MiB of float32)
 _BLOCK = 8  # the band pass bins triangles per block of this many vertices per axis
 _SLIVER = 1e-6  # faces with 2·area <= this × (longest edge)² are dropped (zero area)
-_RIGID_TOL = 1e-6  # a transform's rotation must satisfy |RᵀR − I| <= this
 
 
 class SDF:
@@ -91,8 +92,8 @@ class SDF:
         orig = np.asarray(origin, dtype=np.float64)
         if orig.shape != (3,) or not np.isfinite(orig).all():
             raise InputError(f"origin: expected 3 finite numbers, got {orig.tolist()}")
-        self.values = _frozen(vals.copy())
-        self.origin = _frozen(orig.copy())
+        self.values = frozen(vals.copy())
+        self.origin = frozen(orig.copy())
         self.voxel = _positive("voxel", voxel)
         self.transform, self._local_from_world = _rigid(
             np.eye(4) if transform is None else transform
@@ -172,7 +173,7 @@ class SDF:
         The normal is the normalised gradient of the trilinear interpolant (zero where
         that gradient vanishes, which takes exactly balanced grid values).
         """
-        q = _as_points(points)
+        q = as_points("points", points)
         dist = np.empty(q.shape[0])
         normal = np.empty((q.shape[0], 3))
         _sample_kernel(*self.sample_args, q, dist, normal)
@@ -184,12 +185,6 @@ class SDF:
 
 
 # ------------------------------------------------------------------- checks
-def _frozen(arr: np.ndarray) -> np.ndarray:
-    arr = np.ascontiguousarray(arr)
-    arr.setflags(write=False)
-    return arr
-
-
 def _positive(name: str, value: object, allow_zero: bool = False) -> float:
     """``value`` as a finite float > 0 (or >= 0), or InputError naming ``name``."""
     bound = ">= 0" if allow_zero else "> 0"
@@ -286,39 +281,8 @@ def _bin_triangles(
 
 
 def _rigid(transform: object) -> tuple[np.ndarray, np.ndarray]:
-    """(world_from_local, local_from_world) for a finite rigid 4×4 matrix, or InputError."""
-    m = np.asarray(transform, dtype=np.float64)
-    if m.shape != (4, 4) or not np.isfinite(m).all():
-        raise InputError(f"transform: expected a finite 4×4 matrix, got shape {m.shape}")
-    if np.abs(m[3] - (0.0, 0.0, 0.0, 1.0)).max() > _RIGID_TOL:
-        raise InputError(f"transform: the last row must be (0, 0, 0, 1), got {m[3].tolist()}")
-    rot = m[:3, :3]
-    err = float(np.abs(rot.T @ rot - np.eye(3)).max())
-    if err > _RIGID_TOL:
-        raise InputError(
-            f"transform: not rigid (|RᵀR − I| = {err:.3g} > {_RIGID_TOL:g}); scaling and shear"
-            " are not supported: build the SDF from the scaled vertices instead"
-        )
-    inverse = np.eye(4)
-    inverse[:3, :3] = rot.T
-    inverse[:3, 3] = -rot.T @ m[:3, 3]
-    world = m.copy()
-    world[3] = (0.0, 0.0, 0.0, 1.0)
-    return _frozen(world), _frozen(inverse)
-
-
-def _as_points(points: object) -> np.ndarray:
-    """Query points as a C-contiguous finite float64 (M, 3) array, or InputError."""
-    try:
-        q = np.ascontiguousarray(points, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"points: expected an (M, 3) array of numbers ({exc})") from None
-    if q.ndim != 2 or q.shape[1] != 3:
-        raise InputError(f"points: expected shape (M, 3), got {q.shape}")
-    if not np.isfinite(q.sum()) and not np.isfinite(q).all():  # a finite sum proves all finite
-        bad = int(np.flatnonzero(~np.isfinite(q).all(axis=1))[0])
-        raise InputError(f"points: row {bad} is not finite: {q[bad].tolist()}")
-    return q
+    """(world_from_local, local_from_world) of a rigid ``transform``, or InputError."""
+    return rigid(transform, hint=": build the SDF from the scaled vertices instead")
 
 
 def _pseudo_normals(
@@ -443,51 +407,10 @@ def _sample_kernel(values, origin, inv_voxel, local_from_world, points, dist, no
 
 # -------------------------------------------------------------------- build
 @njit(cache=True, inline="always")
-def _closest_weights(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
-    """Weights (wa, wb, wc) of the point of triangle abc closest to p, by Voronoi region
-    (Ericson, RTCD §5.1.5). A vertex region gives two exact zeros, an edge region one.
-
-    Scalar arguments: about 4× faster per call than array views of the corners, which
-    matters for the millions of calls of a build.
-    """
-    abx, aby, abz = bx - ax, by - ay, bz - az
-    acx, acy, acz = cx - ax, cy - ay, cz - az
-    apx, apy, apz = px - ax, py - ay, pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
-    if d1 <= 0.0 and d2 <= 0.0:
-        return 1.0, 0.0, 0.0  # vertex a
-    bpx, bpy, bpz = px - bx, py - by, pz - bz
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
-    if d3 >= 0.0 and d4 <= d3:
-        return 0.0, 1.0, 0.0  # vertex b
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        w = d1 / (d1 - d3)
-        return 1.0 - w, w, 0.0  # edge ab
-    cpx, cpy, cpz = px - cx, py - cy, pz - cz
-    d5 = abx * cpx + aby * cpy + abz * cpz
-    d6 = acx * cpx + acy * cpy + acz * cpz
-    if d6 >= 0.0 and d5 <= d6:
-        return 0.0, 0.0, 1.0  # vertex c
-    vb = d5 * d2 - d1 * d6
-    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-        w = d2 / (d2 - d6)
-        return 1.0 - w, 0.0, w  # edge ac
-    va = d3 * d6 - d5 * d4
-    if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
-        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        return 0.0, 1.0 - w, w  # edge bc
-    inv = 1.0 / (va + vb + vc)  # inside the face
-    return va * inv, vb * inv, vc * inv
-
-
-@njit(cache=True, inline="always")
 def _distance2(px, py, pz, verts, faces, t):
     """(squared distance, wa, wb, wc): p to triangle t, and its closest point's weights."""
     i, j, k = faces[t, 0], faces[t, 1], faces[t, 2]
-    wa, wb, wc = _closest_weights(px, py, pz, verts[i, 0], verts[i, 1], verts[i, 2],
+    wa, wb, wc = closest_weights(px, py, pz, verts[i, 0], verts[i, 1], verts[i, 2],
                                   verts[j, 0], verts[j, 1], verts[j, 2],
                                   verts[k, 0], verts[k, 1], verts[k, 2])  # fmt: skip
     dx = px - (wa * verts[i, 0] + wb * verts[j, 0] + wc * verts[k, 0])

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from ..arrays import rigid
 from ..curves import HairCurves
 from ..errors import InputError
 from ..groom.guides import Guides
@@ -30,16 +31,6 @@ def _orthonormal(frames: np.ndarray) -> np.ndarray:
     t = frames[:, 0] - np.sum(frames[:, 0] * n, axis=1, keepdims=True) * n
     t /= np.linalg.norm(t, axis=1, keepdims=True)
     return np.stack([t, np.cross(n, t), n], axis=1)
-
-
-def _rigid(transform: object) -> np.ndarray:
-    m = np.asarray(transform, dtype=np.float64)
-    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
-        raise InputError(f"transform: expected a finite 4×4 matrix, got shape {m.shape}")
-    r = m[:3, :3]
-    if not np.allclose(r.T @ r, np.eye(3), atol=1e-6) or not np.allclose(m[3], [0, 0, 0, 1]):
-        raise InputError("transform: expected a rigid motion (rotation and translation only)")
-    return m
 
 
 class Simulator:
@@ -80,7 +71,7 @@ class Simulator:
         if (transform is None) == (vertices is None):
             raise InputError("set_pose: give exactly one of transform= or vertices=")
         if transform is not None:
-            self._transform = _rigid(transform)
+            self._transform = np.array(rigid(transform)[0])
             if self.mesh is not None:
                 self.mesh.set_pose(transform=self._transform)
         elif self.mesh is None:

@@ -26,6 +26,7 @@ from .constraints import (
     follow_the_leader,
     global_shape_pass,
     local_shape_pass,
+    segment,
     skinned,
     strain_limit,
 )
@@ -36,7 +37,7 @@ from .state import State
 __all__ = ["Solver", "linearised"]
 
 
-def linearised(k: float, iterations: int) -> float:
+def linearised(k: float | np.ndarray, iterations: int) -> float | np.ndarray:
     """002 eq. 5.5: the per-iteration stiffness that gives ``k`` after ``iterations``."""
     return 1.0 - (1.0 - k) ** (1.0 / iterations)
 
@@ -63,10 +64,7 @@ def _substep_kernel(x, v, x_old, v_old, corr, contact, w, rest_length, rest_loca
         for i in range(1, n):  # integrate
             if w[s, i] == 0.0:
                 continue
-            tx = x_old[s, i, 0] - x_old[s, i - 1, 0]
-            ty = x_old[s, i, 1] - x_old[s, i - 1, 1]
-            tz = x_old[s, i, 2] - x_old[s, i - 1, 2]
-            tl = math.sqrt(tx * tx + ty * ty + tz * tz)
+            tx, ty, tz, tl = segment(x_old, s, i - 1, i)
             if tl > 0.0:
                 tx, ty, tz = tx / tl, ty / tl, tz / tl
             vx, vy, vz = v[s, i, 0], v[s, i, 1], v[s, i, 2]
@@ -91,7 +89,7 @@ def _substep_kernel(x, v, x_old, v_old, corr, contact, w, rest_length, rest_loca
                 bend_pass(x, w, s, static, bend_rest, bend_scale, k_bend, attenuation)
             if k_local > 0.0:
                 local_shape_pass(x, w, s, root, frame, rest_local[s], k_local)
-            if k_global[n - 1] > 0.0 or k_global[1] > 0.0:
+            if k_global[1] > 0.0:  # the profile never rises towards the tip
                 global_shape_pass(x, w, s, root, frame, rest_local[s], k_global)
             for i in range(1, n):
                 x[s, i, 0], x[s, i, 1], x[s, i, 2], _, _, _, _ = collide(
@@ -167,8 +165,7 @@ class Solver:
         t = np.linspace(0.0, 1.0, self.model.vertices)
         start, end = p.shape_global_range
         fade = np.clip((end - t) / max(end - start, 1e-9), 0.0, 1.0)
-        k = p.shape_global * np.where(t <= start, 1.0, fade)
-        return np.array([linearised(float(a), p.iterations) for a in k], dtype=np.float64)
+        return linearised(p.shape_global * np.where(t <= start, 1.0, fade), p.iterations)
 
     def substep(self, state: State, roots: np.ndarray, frames: np.ndarray, dt: float,
                 spheres: np.ndarray, capsules: np.ndarray) -> None:  # fmt: skip

@@ -51,8 +51,8 @@ from numbers import Integral, Real
 import numpy as np
 from numba import njit, prange
 
+from ..arrays import all_finite
 from ..errors import InputError
-from ..finite import all_finite
 
 __all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume"]
 

@@ -1,0 +1,84 @@
+"""Checks and conversions of array inputs shared by every stage.
+
+Read-only copies, finiteness scans without a boolean temporary, (N, 3) point sets, and
+rigid 4×4 transforms: each error names the argument and what it must be.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from .errors import InputError
+
+__all__ = ["frozen", "all_finite", "as_points", "rigid"]
+
+RIGID_TOLERANCE = 1e-6  # a rigid transform's rotation satisfies |RᵀR − I| ≤ this
+
+
+def frozen(arr: np.ndarray) -> np.ndarray:
+    """``arr`` C-contiguous and read-only (a copy only when it was not contiguous)."""
+    arr = np.ascontiguousarray(arr)
+    arr.setflags(write=False)
+    return arr
+
+
+@njit(cache=True, parallel=True)
+def _count_bad(flat):
+    bad = 0
+    for i in prange(flat.shape[0]):
+        if not math.isfinite(flat[i]):
+            bad += 1
+    return bad
+
+
+def all_finite(arr: np.ndarray) -> bool:
+    """True when no element of the float array ``arr`` is NaN or inf (parallel scan)."""
+    flat = arr.reshape(-1) if arr.flags.c_contiguous else np.ascontiguousarray(arr).reshape(-1)
+    return _count_bad(flat) == 0
+
+
+def as_points(name: str, array: object, allow_empty: bool = True) -> np.ndarray:
+    """``array`` as a C-contiguous float64 (N, 3) array of finite values, or InputError."""
+    try:
+        arr = np.ascontiguousarray(array, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: expected an (N, 3) array of numbers ({exc})") from None
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InputError(f"{name}: expected shape (N, 3), got {arr.shape}")
+    if arr.shape[0] == 0 and not allow_empty:
+        raise InputError(f"{name}: needs at least one point, got shape {arr.shape}")
+    # A finite sum proves every value finite (cheap); an infinite or NaN one may be an overflow.
+    if not np.isfinite(arr.sum()) and not np.isfinite(arr).all():
+        bad = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
+        raise InputError(f"{name}: row {bad} is not finite: {arr[bad].tolist()}")
+    return arr
+
+
+def rigid(
+    transform: object, name: str = "transform", hint: str = ""
+) -> tuple[np.ndarray, np.ndarray]:
+    """(the matrix, its inverse), both read-only float64 (4, 4), for a finite rigid motion.
+
+    Scaling and shear are refused; ``hint`` is added to that message (what to do instead).
+    """
+    m = np.asarray(transform, dtype=np.float64)
+    if m.shape != (4, 4) or not np.isfinite(m).all():
+        raise InputError(f"{name}: expected a finite 4×4 matrix, got shape {m.shape}")
+    if np.abs(m[3] - (0.0, 0.0, 0.0, 1.0)).max() > RIGID_TOLERANCE:
+        raise InputError(f"{name}: the last row must be (0, 0, 0, 1), got {m[3].tolist()}")
+    rot = m[:3, :3]
+    err = float(np.abs(rot.T @ rot - np.eye(3)).max())
+    if err > RIGID_TOLERANCE:
+        raise InputError(
+            f"{name}: not rigid (|RᵀR − I| = {err:.3g} > {RIGID_TOLERANCE:g}); scaling and"
+            f" shear are not supported{hint}"
+        )
+    inverse = np.eye(4)
+    inverse[:3, :3] = rot.T
+    inverse[:3, 3] = -rot.T @ m[:3, 3]
+    world = m.copy()
+    world[3] = (0.0, 0.0, 0.0, 1.0)
+    return frozen(world), frozen(inverse)
