@@ -290,7 +290,7 @@ GOOD = {"dt": 0.01, "friction": 0.5, "repulsion": 0.1}
         ({"x": np.zeros((4, 3))}, "x"),
         ({"x": np.zeros((4, 5, 3), np.int32)}, "x"),
         ({"x": np.full((4, 5, 3), np.nan)}, "x"),
-        ({"v": np.zeros((4, 5, 3))}, "v"),  # float64: cannot be updated in place
+        ({"v": np.zeros((4, 5, 3), np.float16)}, "v"),  # float16: not updated in place
         ({"v": np.zeros((4, 5, 3, 2), np.float32)[..., 0]}, "v"),  # not contiguous
         ({"v": np.zeros((4, 6, 3), np.float32)}, "v"),
         ({"v": np.full((4, 5, 3), np.inf, np.float32)}, "v"),

@@ -1,4 +1,4 @@
-"""The ``follicle`` command: demo, grow, render, info.
+"""The ``follicle`` command: demo, grow, simulate, render, info.
 
 Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
 traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
@@ -124,46 +124,179 @@ def grow(scene_path: str, out: str | None, count: int | None, seed: int | None) 
     click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {target}")
 
 
+MOTIONS = ("none", "turn", "nod", "shake")  # follicle.sim.motion.MOTIONS (not imported: slow)
+
+
 @main.command()
-@click.argument("source", metavar="SCENE|CURVES", type=click.Path(dir_okay=False))
+@click.argument("scene_path", metavar="SCENE", type=click.Path(dir_okay=False))
 @click.option("-o", "--out", type=click.Path(dir_okay=False), default=None,
-              help="Output PNG; default [output].image of the scene, or CURVES with .png.")
+              help="Output cache (.npz); default sim.npz in the scene's folder.")
+@click.option("--frames", type=int, default=48, show_default=True,
+              help="Frames to store; frame 0 is the rest state.")
+@click.option("--fps", type=float, default=24.0, show_default=True, help="Frames per second.")
+@click.option("--motion", type=click.Choice(MOTIONS), default=None,
+              help="Head animation, overrides [sim].motion: turn (look left and back), nod,"
+              " shake (a fading \"no\"); each takes [sim].motion_period, then holds still.")
+@click.option("--count", type=int, default=None,
+              help="Override [groom].count: the hairs `follicle render` grows from the cache.")
+def simulate(scene_path: str, out: str | None, frames: int, fps: float, motion: str | None,
+             count: int | None) -> None:
+    """Simulate the guide hairs of a scene under a head animation; save a cache.
+
+    Writes the guides of every frame, the head transforms and the scene itself (.npz);
+    `follicle render CACHE.npz -o FOLDER` grows and renders the hair of each frame.
+    """
+    from .pipeline import simulate_scene
+    from .scene import load_scene
+    from .sim.cache import save_cache
+
+    scene = _with_overrides(load_scene(scene_path), count=count)
+    if motion is not None:
+        scene.sim = _validated(scene.sim, "sim", {"motion": motion})
+    target = out or scene.resolve("sim.npz")
+    _check_writable_suffix(target, (".npz",))
+    start = time.perf_counter()
+    stepping = [start]  # when frame 0 was ready: the set-up (groom, SDF, simulator) is done
+
+    with _step("simulate"), _progress("simulating") as progress:
+        def report(done: int, total: int) -> None:
+            if done == 1:
+                stepping[0] = time.perf_counter()
+            progress(done, total)
+
+        cache, stats = simulate_scene(scene, frames, fps, report)
+    end = time.perf_counter()
+    steps = cache.frame_count - 1
+    rate = f"{steps / (end - stepping[0]):.1f} frames/s" if steps else "no steps"
+    with _step("save"):
+        save_cache(target, cache.positions, cache.transforms, cache.fps, cache.scene_toml,
+                   cache.base_dir)
+    click.echo(
+        f"{cache.frame_count} frames at {cache.fps:g} fps ({scene.sim.motion}),"
+        f" {cache.strand_count} guides × {cache.vertex_count} vertices,"
+        f" {end - start:.2f} s ({rate} after {stepping[0] - start:.2f} s of set-up);"
+        f" max stretch {stats['max_stretch']:.2%},"
+        f" max penetration {stats['max_penetration'] * 1000:.2f} mm → {target}"
+    )
+
+
+@main.command()
+@click.argument("source", metavar="SCENE|CURVES|CACHE", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", type=click.Path(), default=None,
+              help="Output PNG; default [output].image of the scene, or CURVES with .png. For a"
+              " CACHE, a folder of frame_0000.png, …; default CACHE's name + _frames.")
 @click.option("--mesh", "mesh_path", default=None,
               help="Mesh to draw under a curves file (e.g. builtin:head).")
 @click.option("--size", type=(int, int), default=None, help="Image width and height.")
 @click.option("--shading", type=click.Choice(["kajiya-kay"]), default=None, help="Hair shading.")
 @click.option("--msaa", type=click.Choice(["0", "1", "2", "4", "8", "16"]), default=None,
               help="Multisample anti-aliasing samples.")
+@click.option("--count", type=int, default=None,
+              help="Override [groom].count (a scene or a cache).")
+@click.option("--frames", "frame_range", default=None, metavar="START:STOP",
+              help="A cache's frames to render, STOP excluded (0:24, 10:, or one frame: 5);"
+              " default all.")
 def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int, int] | None,
-           shading: str | None, msaa: str | None) -> None:
-    """Render a scene (grown on the fly) or a saved curves file to PNG."""
+           shading: str | None, msaa: str | None, count: int | None,
+           frame_range: str | None) -> None:
+    """Render a scene (grown on the fly) or a saved curves file to PNG, or each frame of a
+    simulation cache (`follicle simulate`) to a PNG sequence, seen through one camera.
+    An MP4 of the sequence is not written yet (coming with the rendering issue)."""
     from .io.dispatch import load_curves
     from .mesh.load import load_mesh
     from .pipeline import grow as grow_scene
     from .pipeline import render_scene
     from .scene import Scene, load_scene
+    from .sim.cache import is_cache
 
     overrides = {k: v for k, v in {"size": size, "shading": shading,
                                    "msaa": None if msaa is None else int(msaa)}.items()
                  if v is not None}
     if Path(source).suffix.lower() == ".toml":
-        scene = load_scene(source)
+        scene = _with_overrides(load_scene(source), count=count)
         target = out or scene.resolve(scene.output.image)
         _check_writable_suffix(target, (".png",))
+        _not_for(source, "a scene", frames=frame_range)
         with _step("grow"), _progress("growing hair") as progress:
             mesh, curves = grow_scene(scene, progress)
         if mesh_path is not None:
             mesh = load_mesh(mesh_path)
+    elif is_cache(source):
+        _not_for(source, "a simulation cache", mesh=mesh_path)
+        _render_cache(source, out, overrides, count, frame_range)
+        return
     else:
         scene = Scene()
         target = out or str(Path(source).with_suffix(".png"))
         _check_writable_suffix(target, (".png",))
+        _not_for(source, "a curves file", count=count, frames=frame_range)
         curves = load_curves(source)
         mesh = load_mesh(mesh_path) if mesh_path else None
     params = _validated(scene.render, "render", overrides)
     with _step("render"):
         render_scene(curves, mesh, params, out=target)
     click.echo(f"→ {target}")
+
+
+def _render_cache(source: str, out: str | None, overrides: dict[str, object], count: int | None,
+                  frame_range: str | None) -> None:  # fmt: skip
+    """`follicle render CACHE`: every (or --frames) frame to OUT/frame_0000.png, …"""
+    from .errors import InputError
+    from .pipeline import render_cache
+    from .sim.cache import load_cache
+
+    cache = load_cache(source)
+    frames = _frame_range(frame_range, cache.frame_count)
+    scene = _with_overrides(cache.scene(), count=count)
+    scene.render = _validated(scene.render, "render", overrides)
+    target = Path(out) if out else Path(source).with_name(Path(source).stem + "_frames")
+    if target.suffix.lower() == ".png" or target.is_file():
+        raise InputError(
+            f"{target}: a simulation cache renders to a folder of frame_0000.png, …; give -o a"
+            " folder"
+        )
+    start = time.perf_counter()
+    with _step("render"), _progress("rendering frames") as progress:
+        paths = render_cache(cache, target, scene, frames, progress)
+    wall = time.perf_counter() - start
+    w, h = scene.render.size
+    click.echo(
+        f"{len(paths)} frames ({frames.start}–{frames.stop - 1}) of {scene.groom.count:,} hairs,"
+        f" {w}×{h}, {wall:.2f} s ({len(paths) / wall:.1f} frames/s) →"
+        f" {paths[0]}{f' … {paths[-1].name}' if len(paths) > 1 else ''}"
+    )
+
+
+def _frame_range(text: str | None, count: int) -> range:
+    """``--frames`` START:STOP (STOP excluded; either may be left out) or N, within a cache
+    of ``count`` frames."""
+    from .errors import InputError
+
+    if text is None:
+        return range(count)
+    first, colon, last = text.partition(":")
+    try:
+        a = int(first) if first.strip() else 0
+        b = (int(last) if last.strip() else count) if colon else a + 1
+    except ValueError:
+        raise InputError(
+            f"--frames {text!r}: expected START:STOP (e.g. 0:24, 10:, :12) or one frame number"
+        ) from None
+    if not 0 <= a < b <= count:
+        raise InputError(
+            f"--frames {text}: the cache has {count} frames (0..{count - 1}); give"
+            f" 0 ≤ START < STOP ≤ {count}"
+        )
+    return range(a, b)
+
+
+def _not_for(source: str, what: str, **options: object) -> None:
+    """InputError when a command-line option that does not apply to ``what`` was given."""
+    from .errors import InputError
+
+    given = [name for name, value in options.items() if value is not None]
+    if given:
+        raise InputError(f"{source}: --{given[0]} does not apply to {what}")
 
 
 @main.command()

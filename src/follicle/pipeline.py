@@ -1,21 +1,31 @@
-"""Scene-level stages: what `follicle grow` and `follicle render` run, callable from Python."""
+"""Scene-level stages: what `follicle grow`, `simulate` and `render` run, callable from Python."""
 
 from __future__ import annotations
 
+import math
+import os
 from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .curves import HairCurves
+from .errors import InputError
 from .groom.generator import Groom, load_texture, resolve_density
 from .groom.groups import InterpolationGroups
 from .groom.guides import load_guides
 from .mesh.load import load_mesh
 from .mesh.skin import SkinMesh
-from .render import Camera, render
-from .scene import RenderParams, Scene
+from .render import Camera, Renderer, frame_camera, render, save_png
+from .scene import RenderParams, Scene, scene_to_toml
 
-__all__ = ["groom_scene", "grow", "render_scene"]
+if TYPE_CHECKING:
+    from .sim.cache import SimCache
+
+__all__ = ["groom_scene", "grow", "render_scene", "simulate_scene", "render_cache"]
+
+Progress = Callable[[int, int], None]
 
 
 def groom_scene(scene: Scene) -> Groom:
@@ -62,3 +72,107 @@ def render_scene(
         background=(params.background_top, params.background_bottom),
         fov=params.fov,
     )
+
+
+def simulate_scene(
+    scene: Scene, frames: int = 48, fps: float = 24.0, progress: Progress | None = None
+) -> tuple[SimCache, dict[str, float]]:
+    """Simulate the guides of ``scene`` under its [sim].motion head animation.
+
+    Frame 0 is the rest state; frame f poses the head at time f / fps and steps 1 / fps.
+    Returns the cache (not yet written: :func:`follicle.sim.cache.save_cache`) and the
+    last frame's ``Simulator.stats``.
+    """
+    from .sim.cache import SimCache
+    from .sim.motion import head_motion, motion_pivot
+    from .sim.simulator import Simulator
+
+    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
+        raise InputError(f"frames: expected a whole number ≥ 1, got {frames!r}")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not 0 < fps < math.inf:
+        raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
+    text = scene_to_toml(scene, comments=False)  # fails now, not after the simulation
+    groom = groom_scene(scene)
+    p = scene.sim
+    pivot = p.motion_pivot if p.motion_pivot is not None else motion_pivot(groom.mesh)
+    sim = Simulator(groom.guides, params=p)
+    positions = np.empty((int(frames), *sim.positions.shape), dtype=np.float32)
+    transforms = np.empty((int(frames), 4, 4))
+    positions[0], transforms[0] = sim.positions, np.eye(4)
+    if progress is not None:
+        progress(1, int(frames))  # frame 0, the rest state: set-up is done
+    for f in range(1, int(frames)):
+        transforms[f] = head_motion(p.motion, f / fps, p.motion_amplitude, p.motion_period, pivot)
+        sim.set_pose(transform=transforms[f])
+        sim.step(1.0 / fps)
+        positions[f] = sim.positions
+        if progress is not None:
+            progress(f + 1, int(frames))
+    cache = SimCache(positions, transforms, float(fps), text, str(scene.base_dir))
+    return cache, sim.stats
+
+
+def _sequence_camera(cache: SimCache, groom: Groom, first: HairCurves, params: RenderParams,
+                     ) -> Camera:  # fmt: skip
+    """One camera for every frame of ``cache``: the scene's eye/target, else framed on
+    frame 0's hair and the head and guides of all frames (no jumps, nothing leaves view)."""
+    if params.eye is not None and params.target is not None:
+        return Camera(eye=params.eye, target=params.target, fov_y=params.fov)
+    boxes = [first.bounds()] if first.point_count else []
+    pts = cache.positions.reshape(-1, 3)
+    boxes.append((pts.min(axis=0).astype(np.float64), pts.max(axis=0).astype(np.float64)))
+    for transform in cache.transforms:
+        groom.mesh.set_pose(transform=transform)
+        boxes.append(groom.mesh.bounds("current"))
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    w, h = params.size
+    framed = frame_camera(lo, hi, fov_y=params.fov, aspect=w / h)
+    # no near/far: the renderer fits them to each frame
+    return Camera(eye=framed.eye, target=framed.target, up=framed.up, fov_y=params.fov)
+
+
+def render_cache(
+    cache: SimCache, out_dir: str | os.PathLike[str], scene: Scene | None = None,
+    frames: range | None = None, progress: Progress | None = None,
+) -> list[Path]:  # fmt: skip
+    """Render frames of a simulation cache to ``out_dir/frame_0000.png``, … (atomically).
+
+    ``scene`` (default: the cache's own) sets the hair and [render]; ``frames`` (default
+    all) picks cache frames; files are named by cache frame, so ranges add up to one
+    sequence seen through one camera.
+    """
+    count = cache.frame_count
+    frames = range(count) if frames is None else frames
+    if not isinstance(frames, range) or frames.step != 1 or len(frames) == 0 \
+            or frames.start < 0 or frames.stop > count:  # fmt: skip
+        raise InputError(
+            f"frames: expected a non-empty range within 0..{count - 1} (the cache has"
+            f" {count} frames), got {frames!r}"
+        )
+    scene = cache.scene() if scene is None else scene
+    params = scene.render
+    groom = groom_scene(scene)
+
+    def hair(f: int) -> HairCurves:
+        groom.mesh.set_pose(transform=cache.transforms[f])  # follow reads the current pose
+        return groom.follow(cache.positions[f], time=f / cache.fps)
+
+    first = hair(0)  # frames the camera; grown again when drawn, after the poses moved
+    camera = _sequence_camera(cache, groom, first, params)  # poses the mesh on every frame
+    digits = max(4, len(str(count - 1)))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    background = (params.background_top, params.background_bottom)
+    with Renderer(size=params.size, msaa=params.msaa, background=background) as renderer:
+        for done, f in enumerate(frames, 1):
+            curves = hair(f)
+            image = renderer.draw(curves, groom.mesh, camera=camera, shading=params.shading,
+                                  subdivisions=params.subdivisions, fov=params.fov)
+            path = out / f"frame_{f:0{digits}d}.png"
+            save_png(image, path)
+            written.append(path)
+            if progress is not None:
+                progress(done, len(frames))
+    return written

@@ -265,6 +265,11 @@ class SimParams(_Section):
     wind_drift: Vec3 = Field(
         (1.0, 0.0, 0.0), description="speed the turbulence pattern drifts with, m/s"
     )
+    wind_gust: float = Field(
+        0.0, ge=0, le=100, description="gusts: the wind × (1 + gust·g(t)), g a smooth noise"
+        " in [0, 1]; 0 = steady",
+    )
+    wind_gust_period: float = Field(2.0, gt=0, le=1000, description="typical gust length, s")
     stretch_stiffness: Unit = Field(1.0, description="PBD distance constraint stiffness")
     stretch_limit: float | None = Field(
         1e-4, ge=0, le=1, description="PBD: afterwards no segment longer than (1 + limit) × rest;"
@@ -298,6 +303,34 @@ class SimParams(_Section):
     friction: Unit = Field(0.3, description="share of tangential speed lost in contact")
     colliders: list[ColliderParams] = Field(
         default_factory=list, description="spheres and capsules: [[sim.colliders]] tables"
+    )
+    skin_collision: bool = Field(
+        True, description="collide with the skin mesh through its signed distance field"
+    )
+    skin_voxel: float | None = Field(
+        None, gt=0, le=1, description="skin SDF voxel size, m; unset = the mesh's longest"
+        " side / 64",
+    )
+    volume_friction: Unit = Field(
+        0.05, description="hair-hair friction: velocities pulled to the grid's (001 eq. 3.4)"
+    )
+    volume_repulsion: float = Field(
+        0.0, ge=0, le=1, description="hair-hair repulsion down the density gradient, voxels"
+        " per substep (001 eq. 3.5–3.7)",
+    )
+    volume_resolution: int = Field(
+        32, ge=2, le=128, description="hair volume grid: cells along the hair's longest side"
+    )
+    volume_blur: int = Field(1, ge=0, le=8, description="box-blur passes on the volume grid")
+    motion: Literal["none", "turn", "nod", "shake"] = Field(
+        "none", description="`follicle simulate`: the built-in head animation"
+    )
+    motion_amplitude: float = Field(
+        40.0, ge=0, le=180, description="head animation angle, degrees"
+    )
+    motion_period: float = Field(2.0, gt=0, le=100, description="head animation period, s")
+    motion_pivot: Vec3 | None = Field(
+        None, description="head animation pivot; unset = the neck (bottom centre of the mesh)"
     )
 
     @model_validator(mode="after")
@@ -414,6 +447,8 @@ def load_scene(path: str | os.PathLike[str] | None) -> Scene:
 
 
 def _toml_value(value: Any) -> str:
+    if isinstance(value, BaseModel):  # e.g. [[sim.colliders]] entries: inline tables
+        value = value.model_dump()
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, int):

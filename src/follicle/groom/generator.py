@@ -262,6 +262,25 @@ class Groom:
                 progress(b - start, count)
         return _curves(out, v, c)
 
+    def follow(
+        self, guides: object, count: int | None = None, start: int = 0, time: float = 0.0
+    ) -> HairCurves:
+        """The hairs of :meth:`generate` grown from moved guides: a Simulator of this
+        groom's guides, or their vertices (S, N, 3) on the mesh's current pose.
+
+        Roots, weights and clumps stay those of the rest groom, so 1,000 simulated guides
+        drive any number of hairs frame after frame; a hair at a guide's root follows
+        that guide. Set the mesh's pose (``mesh.set_pose``) to the simulated frame first.
+        """
+        positions = getattr(guides, "positions", guides)
+        rest, self.guides = self.guides, self.guides.posed(positions)
+        self._centre_shapes = None  # clump centres are grown from the guides' shapes
+        try:
+            return self.generate(count, start, time)
+        finally:
+            self.guides = rest
+            self._centre_shapes = None
+
     def chunks(
         self, chunk_size: int = CHUNK, count: int | None = None, start: int = 0, time: float = 0.0
     ) -> Iterator[HairCurves]:

@@ -112,6 +112,28 @@ class Guides:
             self._rest[vertices] = (rel - rel[:, :1, :]).astype(np.float32)
         return self._rest[vertices]
 
+    def posed(self, positions: object) -> Guides:
+        """These guides with new shapes ``positions`` (S, N, 3), given on the mesh's current
+        pose (e.g. simulated): each strand is carried to the rest pose through its root's
+        frame, so interpolated hairs follow it (000 §2.2.4: hairs blend root-local shapes).
+        """
+        x = np.asarray(positions, dtype=np.float64)
+        if x.ndim != 3 or x.shape[0] != self.count or x.shape[1] < 2 or x.shape[2] != 3:
+            raise InputError(
+                f"positions: expected ({self.count}, N ≥ 2, 3) guide vertices (one strand per"
+                f" guide), got shape {x.shape}; simulate these guides, not another set"
+            )
+        if not np.isfinite(x).all():
+            raise InputError("positions: contain NaN or inf; the simulation blew up")
+        cur = self.mesh.evaluate(self.triangles, self.bary, pose="current")
+        now = np.stack([cur.tangent, cur.binormal, cur.normal], axis=1)
+        rest = np.stack([self.tangents, self.binormals, self.normals], axis=1)
+        local = np.einsum("sna,ska->snk", x - cur.position[:, None], now)
+        shapes = self.root_positions[:, None] + np.einsum("snk,ska->sna", local, rest)
+        data = {"root_triangle": self.triangles, "root_bary": self.bary}
+        return Guides(HairCurves.from_array(shapes, curve_data=data), self.mesh,
+                      groups=self.groups)  # fmt: skip
+
     @property
     def count(self) -> int:
         return self.local.shape[0]

@@ -18,7 +18,7 @@ from ..curves import HairCurves
 from ..errors import FormatError, InputError
 from .atomic import atomic_path
 
-__all__ = ["FORMAT_VERSION", "save_npz", "load_npz"]
+__all__ = ["FORMAT_VERSION", "save_npz", "load_npz", "save_arrays"]
 
 FORMAT_VERSION = 1
 _FIXED_DATE = (1980, 1, 1, 0, 0, 0)
@@ -36,6 +36,13 @@ def save_npz(curves: HairCurves, path: str | os.PathLike[str]) -> Path:
             if "/" in name or not name:
                 raise InputError(f"{kind}: attribute name {name!r} cannot be stored")
             arrays[f"{kind}.{name}"] = arr
+    return save_arrays(path, arrays)
+
+
+def save_arrays(path: str | os.PathLike[str], arrays: dict[str, np.ndarray]) -> Path:
+    """Write named arrays as an uncompressed ``.npz`` that ``np.load`` reads, atomically
+    and with fixed member timestamps (``np.savez`` stamps the time: same arrays, other bytes).
+    """
     with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED) as zf:
         for key, arr in arrays.items():
             info = zipfile.ZipInfo(f"{key}.npy", date_time=_FIXED_DATE)

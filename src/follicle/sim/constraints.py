@@ -23,7 +23,8 @@ import math
 from numba import njit
 
 __all__ = ["segment", "skinned", "distance_pass", "bend_pass", "follow_the_leader",
-           "strain_limit", "cone_pass", "local_shape_pass", "global_shape_pass"]  # fmt: skip
+           "strain_limit", "cone_pass", "rest_pose", "local_shape_pass",
+           "global_shape_pass"]  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -182,45 +183,56 @@ def _rotate_min(ax, ay, az, bx, by, bz, ux, uy, uz):
 
 
 @njit(cache=True)
-def local_shape_pass(x, w, s, root, frame, local, k):
+def rest_pose(root, frame, local, target, rest_dir):
+    """Fill ``target`` (N, 3) with the rest shape ``local`` skinned to ``root``/``frame``
+    and ``rest_dir`` (N, 3) with its unit segments, row i the one ending at vertex i
+    (zero when degenerate): what shape matching reads, once per substep."""
+    for i in range(local.shape[0]):
+        target[i, 0], target[i, 1], target[i, 2] = skinned(root, frame, local, i)
+    rest_dir[0, 0] = rest_dir[0, 1] = rest_dir[0, 2] = 0.0
+    for i in range(1, local.shape[0]):
+        ex = target[i, 0] - target[i - 1, 0]
+        ey = target[i, 1] - target[i - 1, 1]
+        ez = target[i, 2] - target[i - 1, 2]
+        le = math.sqrt(ex * ex + ey * ey + ez * ez)
+        le = 1.0 / le if le > 1e-12 else 0.0
+        rest_dir[i, 0], rest_dir[i, 1], rest_dir[i, 2] = ex * le, ey * le, ez * le
+
+
+@njit(cache=True)
+def local_shape_pass(x, w, s, target, rest_dir, k):
     """Move each vertex towards its rest place relative to the previous segment.
 
     Segment 0 follows the root frame; segment i the rest segment i turned by the
-    smallest rotation from rest segment i−1 to the current segment i−1.
+    smallest rotation from rest segment i−1 to the current segment i−1 (``target``
+    and ``rest_dir`` from :func:`rest_pose`).
     """
     n = x.shape[1]
     for i in range(n - 1):
         j = i + 1
         if w[s, j] == 0.0:
             continue
-        ax, ay, az = skinned(root, frame, local, i)
-        bx, by, bz = skinned(root, frame, local, j)
-        rx, ry, rz = bx - ax, by - ay, bz - az  # rest segment i, world axes
+        rx = target[j, 0] - target[i, 0]  # rest segment i, world axes
+        ry = target[j, 1] - target[i, 1]
+        rz = target[j, 2] - target[i, 2]
         if i > 0:
-            px, py, pz = skinned(root, frame, local, i - 1)
-            ex, ey, ez = ax - px, ay - py, az - pz  # rest segment i − 1
-            cx = x[s, i, 0] - x[s, i - 1, 0]
-            cy = x[s, i, 1] - x[s, i - 1, 1]
-            cz = x[s, i, 2] - x[s, i - 1, 2]
-            le = math.sqrt(ex * ex + ey * ey + ez * ez)
-            lc = math.sqrt(cx * cx + cy * cy + cz * cz)
-            if le < 1e-12 or lc < 1e-12:
+            ex, ey, ez = rest_dir[i, 0], rest_dir[i, 1], rest_dir[i, 2]
+            cx, cy, cz, lc = segment(x, s, i - 1, i)
+            if lc < 1e-12 or (ex == 0.0 and ey == 0.0 and ez == 0.0):
                 continue
-            rx, ry, rz = _rotate_min(ex / le, ey / le, ez / le, cx / lc, cy / lc, cz / lc,
-                                     rx, ry, rz)  # fmt: skip
+            rx, ry, rz = _rotate_min(ex, ey, ez, cx / lc, cy / lc, cz / lc, rx, ry, rz)
         x[s, j, 0] += k * (x[s, i, 0] + rx - x[s, j, 0])
         x[s, j, 1] += k * (x[s, i, 1] + ry - x[s, j, 1])
         x[s, j, 2] += k * (x[s, i, 2] + rz - x[s, j, 2])
 
 
 @njit(cache=True)
-def global_shape_pass(x, w, s, root, frame, local, k_profile):
-    """Move vertex i towards the skinned rest pose by ``k_profile[i]``."""
+def global_shape_pass(x, w, s, target, k_profile):
+    """Move vertex i towards the skinned rest pose ``target`` (N, 3) by ``k_profile[i]``."""
     for i in range(1, x.shape[1]):
         k = k_profile[i]
         if k <= 0.0 or w[s, i] == 0.0:
             continue
-        tx, ty, tz = skinned(root, frame, local, i)
-        x[s, i, 0] += k * (tx - x[s, i, 0])
-        x[s, i, 1] += k * (ty - x[s, i, 1])
-        x[s, i, 2] += k * (tz - x[s, i, 2])
+        x[s, i, 0] += k * (target[i, 0] - x[s, i, 0])
+        x[s, i, 1] += k * (target[i, 1] - x[s, i, 1])
+        x[s, i, 2] += k * (target[i, 2] - x[s, i, 2])

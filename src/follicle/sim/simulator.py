@@ -2,7 +2,9 @@
 
 ``step(dt)`` advances the caller's dt in fixed substeps of ``params.substep`` with an
 accumulator, so behaviour does not depend on the caller's frame rate; the skin's new
-pose (``set_pose``) is reached by the roots gradually over the step's substeps.
+pose (``set_pose``) is reached gradually over the step's substeps: the roots, and for a
+rigid transform the colliders and the skin's SDF too. After every substep the hair
+volume (``[sim].volume_*``) exchanges momentum between neighbouring strands.
 """
 
 from __future__ import annotations
@@ -10,27 +12,35 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
 from ..arrays import rigid
 from ..curves import HairCurves
 from ..errors import InputError
 from ..groom.guides import Guides
 from ..mesh.skin import SkinMesh
+from ..noise import perlin
 from ..scene import SimParams
-from .collision import penetration
+from .collision import NO_SDF, penetration
 from .model import Model
+from .sdf import SDF
 from .solver import Solver
 from .state import State
+from .volume import apply_volume
 
 __all__ = ["Simulator"]
 
 
-def _orthonormal(frames: np.ndarray) -> np.ndarray:
-    """Rows tangent, binormal, normal made orthonormal again (Gram-Schmidt from the normal)."""
-    n = frames[:, 2] / np.linalg.norm(frames[:, 2], axis=1, keepdims=True)
-    t = frames[:, 0] - np.sum(frames[:, 0] * n, axis=1, keepdims=True) * n
-    t /= np.linalg.norm(t, axis=1, keepdims=True)
-    return np.stack([t, np.cross(n, t), n], axis=1)
+def _blend(a: np.ndarray, b: np.ndarray, f: float) -> np.ndarray:
+    """The rigid transform a fraction ``f`` of the way from ``a`` to ``b`` (4×4): the
+    translation blended linearly, the rotation along the shortest arc (slerp)."""
+    if f >= 1.0 or np.array_equal(a, b):
+        return b
+    turn = Rotation.from_matrix(np.stack([a[:3, :3], b[:3, :3]]))
+    out = np.eye(4)
+    out[:3, :3] = Slerp([0.0, 1.0], turn)(f).as_matrix()
+    out[:3, 3] = (1.0 - f) * a[:3, 3] + f * b[:3, 3]
+    return out
 
 
 class Simulator:
@@ -52,6 +62,13 @@ class Simulator:
         self.solver = Solver(self.model, params)
         self._transform = np.eye(4)
         self._accumulator = 0.0
+        self.sdf = None  # the skin's SDF on the current pose
+        if mesh is not None and params.skin_collision:
+            self.sdf = SDF.from_mesh(mesh.vertices, mesh.faces, voxel_size=params.skin_voxel)
+            self._sdf_rest = self.sdf  # built on the pose rigid transforms are applied to
+            if mesh.vertices is not mesh.rest_vertices:  # posed: rigid moves start from rest
+                self._sdf_rest = SDF.from_mesh(mesh.rest_vertices, mesh.faces,
+                                               voxel_size=params.skin_voxel)  # fmt: skip
         self.reset()
 
     # ------------------------------------------------------------------ pose
@@ -74,10 +91,15 @@ class Simulator:
             self._transform = np.array(rigid(transform)[0])
             if self.mesh is not None:
                 self.mesh.set_pose(transform=self._transform)
+            if self.sdf is not None:
+                self.sdf = self._sdf_rest.with_transform(self._transform)
         elif self.mesh is None:
             raise InputError("set_pose: vertices= needs a mesh; without one give transform=")
         else:
             self.mesh.set_pose(vertices=vertices)
+            if self.sdf is not None:  # a deformed skin: a new field (its own frame)
+                self.sdf = SDF.from_mesh(self.mesh.vertices, self.mesh.faces,
+                                         voxel_size=self.params.skin_voxel)  # fmt: skip
 
     def teleport(self, transform: object | None = None, vertices: object | None = None) -> None:
         """Re-pose at once: every strand moves rigidly with its root frame (no explosion)."""
@@ -90,6 +112,7 @@ class Simulator:
         self.state.x[:] = roots[:, None] + np.einsum("sac,snc->sna", turn, x)
         self.state.v[:] = np.einsum("sac,snc->sna", turn, self.state.v.astype(np.float64))
         self.state.roots, self.state.frames = roots, frames
+        self._state_transform = self._transform
 
     def reset(self) -> None:
         """Hair back to its rest shape on the skin's current pose, at rest, time 0."""
@@ -97,12 +120,15 @@ class Simulator:
         local = self.model.rest_local.astype(np.float64)
         x = roots[:, None] + np.einsum("snk,ska->sna", local, frames)
         self.state = State(x, np.zeros_like(x), 0.0, roots, frames)
+        self._state_transform = self._transform
         self._accumulator = 0.0
+        self.solver.energy[:] = 0.0
 
     # ------------------------------------------------------------------ stepping
-    def _colliders(self) -> tuple[np.ndarray, np.ndarray]:
-        """Spheres (K, 4) and capsules (L, 7) in world space now."""
-        r, t = self._transform[:3, :3], self._transform[:3, 3]
+    def _colliders(self, transform: np.ndarray, sdf: SDF | None) -> tuple:
+        """Spheres (K, 4), capsules (L, 7) and the SDF's sample arguments in world space
+        with the head at ``transform``."""
+        r, t = transform[:3, :3], transform[:3, 3]
         spheres, capsules = [], []
         for c in self.params.colliders:
             move = (lambda p: r @ np.asarray(p) + t) if c.follow else np.asarray
@@ -111,7 +137,15 @@ class Simulator:
             else:
                 capsules.append([*move(c.a), *move(c.b), c.radius])
         return (np.array(spheres, np.float64).reshape(-1, 4),
-                np.array(capsules, np.float64).reshape(-1, 7))  # fmt: skip
+                np.array(capsules, np.float64).reshape(-1, 7),
+                NO_SDF if sdf is None else sdf.sample_args)  # fmt: skip
+
+    def wind(self, time: float) -> np.ndarray:
+        """The wind at ``time`` (s): [sim].wind × (1 + gust·g), g = ½ + Perlin noise of
+        time / gust period, clipped to [0, 1] (a smooth, irregular gust signal)."""
+        p = self.params
+        g = min(max(0.5 + perlin(time / p.wind_gust_period + 0.5, 0.31, 0.73), 0.0), 1.0)
+        return np.asarray(p.wind, np.float64) * (1.0 + p.wind_gust * g)
 
     def step(self, dt: float) -> None:
         """Advance ``dt`` seconds: as many fixed substeps as fit, the rest carried over."""
@@ -119,20 +153,30 @@ class Simulator:
             raise InputError(f"dt: expected a finite number of seconds, got {dt!r}")
         if dt < 0:
             raise InputError(f"dt: must be ≥ 0, got {dt}")
-        h = self.params.substep
+        p = self.params
+        h = p.substep
         self._accumulator += dt
         count = int(math.floor(self._accumulator / h + 1e-9))
         self._accumulator = max(self._accumulator - count * h, 0.0)
         if count == 0:
             return
-        start_roots, start_frames = self.state.roots, self.state.frames
-        end_roots, end_frames = self._pinned()
-        spheres, capsules = self._colliders()
+        start = (self.state.roots, self.state.frames)
+        end = self._pinned()
+        begin, finish = self._state_transform, self._transform
+        rigid_skin = self.sdf is not None and self.sdf.values is self._sdf_rest.values
+        volume = p.volume_friction > 0 or p.volume_repulsion > 0
         for k in range(1, count + 1):
             f = k / count
-            roots = (1.0 - f) * start_roots + f * end_roots
-            frames = _orthonormal((1.0 - f) * start_frames + f * end_frames)
-            self.solver.substep(self.state, roots, frames, h, spheres, capsules)
+            transform = _blend(begin, finish, f)
+            sdf = self._sdf_rest.with_transform(transform) if rigid_skin else self.sdf
+            colliders = self._colliders(transform, sdf)
+            self.solver.substep(self.state, start, end, f, self.wind(self.state.time), colliders)
+            if volume:
+                apply_volume(self.state.x, self.state.v, h, p.volume_friction,
+                             p.volume_repulsion, p.volume_blur, p.volume_resolution,
+                             inv_mass=self.model.inv_mass)  # fmt: skip
+        self.state.roots, self.state.frames = end
+        self._state_transform = finish
 
     # ------------------------------------------------------------------ results
     @property
@@ -142,19 +186,16 @@ class Simulator:
 
     @property
     def stats(self) -> dict[str, float]:
-        """max/mean relative stretch, deepest collider penetration (m), kinetic energy
-        (½ Σ |v|² over free vertices of unit mass, v = the last substep's move / its
-        length: DFTL's stored velocities carry eq. 3.1's correction, which does not move
-        a hanging strand)."""
+        """max/mean relative stretch, deepest penetration (m) into a collider or the skin,
+        kinetic energy (½ Σ |v|² over free vertices of unit mass, v = the last substep's
+        move / its length: DFTL's stored velocities carry eq. 3.1's correction, which
+        does not move a hanging strand)."""
         x = self.state.x
         seg = np.linalg.norm(np.diff(x, axis=1), axis=2)
         stretch = np.abs(seg / self.model.rest_length - 1.0)
-        free = self.model.inv_mass > 0
-        v2 = np.sum(self.solver.last_velocity(self.state) ** 2, axis=2)
-        spheres, capsules = self._colliders()
         return {
             "max_stretch": float(stretch.max()),
             "mean_stretch": float(stretch.mean()),
-            "max_penetration": penetration(self.state.x, spheres, capsules),
-            "kinetic_energy": float(0.5 * v2[free].sum()),
+            "max_penetration": penetration(x, *self._colliders(self._transform, self.sdf)),
+            "kinetic_energy": float(self.solver.energy.sum()),
         }

@@ -178,18 +178,19 @@ def apply_volume(
 ) -> VolumeGrid:
     """Hair-hair friction and repulsion: update ``v`` in place and return the grid used.
 
-    ``x`` (S, N, 3) positions; ``v`` (S, N, 3) C-contiguous float32 velocities, changed in
-    place; ``dt`` > 0 the step (s); ``friction`` in [0, 1] (eq. 3.4); ``repulsion`` >= 0,
-    in voxels per step (see the module docstring); ``blur_passes``, ``resolution`` and
-    ``voxel_size`` place and smooth the grid (``grid_for``). ``inv_mass`` (S, N): particles
+    ``x`` (S, N, 3) positions; ``v`` (S, N, 3) C-contiguous float32 or float64
+    velocities, changed in place; ``dt`` > 0 the step (s); ``friction`` in [0, 1]
+    (eq. 3.4); ``repulsion`` >= 0, in voxels per step (see the module docstring);
+    ``blur_passes``, ``resolution`` and ``voxel_size`` place and smooth the grid
+    (``grid_for``). ``inv_mass`` (S, N): particles
     with 0 are left alone; None pins the roots (index 0 of each strand) only.
     """
     xs = _strands(x, "x")
-    in_place = isinstance(v, np.ndarray) and v.dtype == np.float32
+    in_place = isinstance(v, np.ndarray) and v.dtype in (np.float32, np.float64)
     if not (in_place and v.flags.c_contiguous and v.flags.writeable):
         raise InputError(
-            "v: expected a writable C-contiguous float32 array (it is updated in place); "
-            "pass np.ascontiguousarray(v, dtype=np.float32) and keep that array"
+            "v: expected a writable C-contiguous float32 or float64 array (it is updated in"
+            " place); pass np.ascontiguousarray(v, dtype=np.float32) and keep that array"
         )
     if v.shape != xs.shape:
         raise InputError(f"v: expected the shape of x {xs.shape}, got {v.shape}")
@@ -220,7 +221,7 @@ def apply_volume(
 
 
 def _strands(a: object, name: str) -> np.ndarray:
-    """(S, N, 3) finite float array as C-contiguous float32."""
+    """(S, N, 3) finite float array as C-contiguous float32 (float64 kept as it is)."""
     arr = np.asarray(a)
     if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] * arr.shape[1] == 0:
         raise InputError(
@@ -228,7 +229,8 @@ def _strands(a: object, name: str) -> np.ndarray:
         )
     if not np.issubdtype(arr.dtype, np.floating):
         raise InputError(f"{name}: expected floats (float32 or float64), got {arr.dtype}")
-    out = np.ascontiguousarray(arr, dtype=np.float32)
+    dtype = np.float64 if arr.dtype == np.float64 else np.float32
+    out = np.ascontiguousarray(arr, dtype=dtype)
     if not all_finite(out):
         raise InputError(f"{name}: contains NaN or inf (or values beyond float32); fix them")
     return out

@@ -1,0 +1,208 @@
+"""Simulation caches: the guide strands of every frame, written by `follicle simulate`.
+
+A cache is an uncompressed ``.npz`` (``np.load`` reads it) with the keys
+
+- ``format``: the string ``"follicle-sim-cache"``; ``version``: 1 (int64);
+- ``positions`` (F, S, N, 3) float32: guide vertices per frame, world space, metres;
+- ``transforms`` (F, 4, 4) float64: the head's world-from-rest rigid transform per frame;
+- ``fps`` float64: frames per second (frame f is at time f / fps; frame 0 is the rest state);
+- ``scene_toml``: the scene simulated, as TOML with every value filled in, and
+  ``base_dir``: the folder its relative paths start in,
+
+so `follicle render` can grow the same hair on every frame without the scene file.
+Written atomically with fixed member timestamps: the same run gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..arrays import all_finite, frozen, rigid
+from ..errors import FormatError, InputError
+from ..io.npz import save_arrays
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python 3.10 only
+    import tomli as tomllib
+
+if TYPE_CHECKING:
+    from ..scene import Scene
+
+__all__ = ["CACHE_FORMAT", "CACHE_VERSION", "SimCache", "save_cache", "load_cache", "is_cache"]
+
+CACHE_FORMAT = "follicle-sim-cache"
+CACHE_VERSION = 1
+_KEYS = ("format", "version", "positions", "transforms", "fps", "scene_toml", "base_dir")
+
+
+def _text(name: str, value: object) -> str:
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind == "U":
+        value = str(value[()])
+    if not isinstance(value, str):
+        raise InputError(f"{name}: expected a text string, got {_describe(value)}")
+    return value
+
+
+def _describe(value: object) -> str:
+    if isinstance(value, np.ndarray):
+        return f"{value.dtype} array of shape {value.shape}"
+    return type(value).__name__
+
+
+@dataclass(frozen=True, eq=False)
+class SimCache:
+    """A simulation's frames: guide ``positions`` (F, S, N, 3) float32, head ``transforms``
+    (F, 4, 4) float64, ``fps``, and the scene (``scene_toml``, ``base_dir``).
+
+    Every array is checked (dtype, shape, finite, rigid transforms) and kept read-only;
+    ``source`` names the cache in error messages.
+    """
+
+    positions: np.ndarray
+    transforms: np.ndarray
+    fps: float
+    scene_toml: str
+    base_dir: str
+    source: str = field(default="simulation cache", compare=False)
+
+    def __post_init__(self) -> None:
+        pos, tr = self.positions, self.transforms
+        if not isinstance(pos, np.ndarray) or pos.dtype != np.float32 or pos.ndim != 4:
+            raise InputError(
+                f"positions: expected a float32 (F, S, N, 3) array, got {_describe(pos)}"
+            )
+        f, s, n, three = pos.shape
+        if f < 1 or s < 1 or n < 2 or three != 3:
+            raise InputError(
+                f"positions: expected (F ≥ 1, S ≥ 1, N ≥ 2, 3) frames × strands × vertices,"
+                f" got shape {pos.shape}"
+            )
+        if not isinstance(tr, np.ndarray) or tr.dtype != np.float64 or tr.shape[1:] != (4, 4):
+            raise InputError(f"transforms: expected a float64 (F, 4, 4) array, got {_describe(tr)}")
+        if tr.shape[0] != f:
+            raise InputError(
+                f"frame counts differ: {f} frames of positions but {tr.shape[0]} transforms"
+            )
+        if not all_finite(pos):
+            frame = int(np.flatnonzero(~np.isfinite(pos).reshape(f, -1).all(axis=1))[0])
+            raise InputError(f"positions: frame {frame} contains NaN or inf")
+        for k in range(f):
+            rigid(tr[k], f"transforms: frame {k}")  # finite, last row 0 0 0 1, no scale
+        fps = self.fps
+        if isinstance(fps, np.ndarray) and fps.ndim == 0:
+            fps = fps.item()
+        real = (int, float, np.integer, np.floating)
+        if isinstance(fps, bool) or not isinstance(fps, real) or not 0 < fps < np.inf:
+            raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
+        object.__setattr__(self, "positions", frozen(pos))
+        object.__setattr__(self, "transforms", frozen(tr))
+        object.__setattr__(self, "fps", float(fps))
+        object.__setattr__(self, "scene_toml", _text("scene_toml", self.scene_toml))
+        object.__setattr__(self, "base_dir", _text("base_dir", self.base_dir))
+
+    @property
+    def frame_count(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def strand_count(self) -> int:
+        return int(self.positions.shape[1])
+
+    @property
+    def vertex_count(self) -> int:
+        """Vertices per simulated strand."""
+        return int(self.positions.shape[2])
+
+    def scene(self) -> Scene:
+        """The stored scene, validated, with relative paths resolved against ``base_dir``."""
+        from ..scene import parse_scene
+
+        try:
+            data = tomllib.loads(self.scene_toml)
+        except tomllib.TOMLDecodeError as exc:
+            raise FormatError(f"{self.source}: stored scene: TOML syntax error: {exc}") from None
+        return parse_scene(data, f"{self.source} (stored scene)", Path(self.base_dir))
+
+
+def save_cache(
+    path: str | os.PathLike[str], positions: object, transforms: object, fps: float,
+    scene_toml: str, base_dir: str,
+) -> Path:  # fmt: skip
+    """Write a simulation cache to ``path`` (.npz) atomically; positions are stored as
+    float32, transforms as float64. Bad arrays raise InputError and write nothing."""
+    if Path(path).suffix.lower() != ".npz":
+        raise FormatError(f"{path}: a simulation cache must end in .npz")
+    try:
+        pos = np.asarray(positions, dtype=np.float32)
+        tr = np.asarray(transforms, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"save_cache: positions and transforms must be numeric ({exc})") from None
+    cache = SimCache(pos, tr, fps, scene_toml, str(base_dir), source=str(path))
+    return save_arrays(path, {
+        "format": np.array(CACHE_FORMAT),
+        "version": np.array(CACHE_VERSION, dtype=np.int64),
+        "positions": cache.positions,
+        "transforms": cache.transforms,
+        "fps": np.array(cache.fps, dtype=np.float64),
+        "scene_toml": np.array(cache.scene_toml),
+        "base_dir": np.array(cache.base_dir),
+    })  # fmt: skip
+
+
+def is_cache(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` is a ``.npz`` whose ``format`` says simulation cache (any version);
+    False for curves files, other archives, non-zip and missing files."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            if "format.npy" not in zf.namelist():
+                return False
+            with zf.open("format.npy") as fh:
+                tag = np.lib.format.read_array(fh, allow_pickle=False)
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError):
+        return False
+    return tag.ndim == 0 and tag.dtype.kind == "U" and str(tag[()]) == CACHE_FORMAT
+
+
+def load_cache(path: str | os.PathLike[str]) -> SimCache:
+    """Read and check a cache written by :func:`save_cache`; FormatError says what is wrong."""
+    p = Path(path)
+    if not p.is_file():
+        raise FormatError(f"{p}: no such file")
+    try:
+        with np.load(p, allow_pickle=False) as npz:
+            data = {k: npz[k] for k in npz.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise FormatError(f"{p}: not a readable .npz archive ({exc})") from None
+    tag = data.get("format")
+    if tag is None or tag.ndim != 0 or tag.dtype.kind != "U" or str(tag[()]) != CACHE_FORMAT:
+        raise FormatError(
+            f"{p}: not a simulation cache (no format = {CACHE_FORMAT!r}); write one with"
+            " `follicle simulate`"
+        )
+    missing = [k for k in _KEYS if k not in data]
+    if missing:
+        raise FormatError(f"{p}: missing array(s) {', '.join(missing)}; the cache is incomplete")
+    version = data["version"]
+    if version.ndim != 0 or version.dtype.kind not in "iu":
+        raise FormatError(f"{p}: version: expected an integer, got {_describe(version)}")
+    if int(version) != CACHE_VERSION:
+        fix = "upgrade follicle" if int(version) > CACHE_VERSION else "simulate again"
+        raise FormatError(
+            f"{p}: cache version {int(version)}; this follicle reads version {CACHE_VERSION}: {fix}"
+        )
+    fps = data["fps"]
+    if fps.ndim != 0 or fps.dtype.kind != "f":
+        raise FormatError(f"{p}: fps: expected a float, got {_describe(fps)}")
+    try:
+        return SimCache(data["positions"], data["transforms"], fps, data["scene_toml"],
+                        data["base_dir"], source=str(p))
+    except InputError as exc:
+        raise FormatError(f"{p}: {exc}") from None

@@ -1,0 +1,212 @@
+"""`follicle simulate` and `follicle render CACHE`: caches, PNG sequences, exit codes."""
+
+import os
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+from follicle import cli
+from follicle.cli import main
+from follicle.errors import FollicleError
+from follicle.sim.cache import is_cache, load_cache
+from follicle.sim.motion import MOTIONS, head_motion
+
+
+def _gl_available() -> bool:
+    try:
+        from follicle.render.context import get_context
+
+        get_context()
+    except FollicleError:
+        return False
+    return True
+
+
+# as in test_render.py: skipped on a developer machine without EGL, never in CI
+gl = pytest.mark.skipif(
+    not os.environ.get("CI") and not _gl_available(),
+    reason="no EGL / OpenGL 3.3 (install Mesa EGL: libegl1 libgl1-mesa-dri)",
+)
+
+SCENE = """\
+[guides]
+path = "builtin:short"
+[groom]
+count = 3000
+[sim]
+motion = "nod"
+motion_amplitude = 50
+motion_period = 0.5
+[render]
+size = [64, 64]
+msaa = 0
+"""
+
+
+def run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def sim(tmp_path_factory):
+    """A 3-frame turn of the head: (folder, cache path, command output)."""
+    folder = tmp_path_factory.mktemp("sim")
+    (folder / "scene.toml").write_text(SCENE)
+    result = run("simulate", folder / "scene.toml", "--frames", 3, "--fps", 12,
+                 "--motion", "turn", "--count", 500)
+    assert result.exit_code == 0, result.output
+    return folder, folder / "sim.npz", result.output
+
+
+def test_simulate_writes_a_cache_beside_the_scene(sim):
+    folder, path, output = sim
+    assert is_cache(path)
+    cache = load_cache(path)
+    assert cache.positions.shape[0] == 3 and cache.positions.shape[3] == 3
+    assert cache.positions.shape[1] > 10 and cache.positions.shape[2] >= 2
+    assert cache.transforms.shape == (3, 4, 4) and cache.fps == 12.0
+    assert np.array_equal(cache.transforms[0], np.eye(4))
+    scene = cache.scene()
+    assert scene.sim.motion == "turn"  # --motion beats [sim].motion
+    assert scene.groom.count == 500 and scene.guides.path == "builtin:short"
+    assert str(scene.base_dir) == str(folder.resolve())
+    lo = np.array([-0.09538657, -0.232, -0.11098265])
+    hi = np.array([0.09538657, 0.11997434, 0.11623616])
+    pivot = [0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])]  # the built-in head's neck
+    expected = head_motion("turn", 2 / 12, 50, 0.5, pivot)
+    assert np.allclose(cache.transforms[2], expected, atol=1e-6)
+    # the hair moved with the head: guides at frame 2 are off the rest pose
+    moved = np.linalg.norm(cache.positions[2] - cache.positions[0], axis=2)
+    assert moved[:, 0].max() > 0.01  # roots ride on the turning skin
+    assert np.isfinite(cache.positions).all()
+    assert sorted(p.name for p in folder.iterdir()) == ["scene.toml", "sim.npz"]
+    line = output.strip()
+    assert "\n" not in line
+    assert line.startswith("3 frames at 12 fps (turn), ")
+    for part in ("guides ×", "vertices", "frames/s", "max stretch", "max penetration", "sim.npz"):
+        assert part in line
+
+
+def test_same_scene_same_bytes(sim, tmp_path):
+    folder, path, _ = sim
+    again = tmp_path / "again.npz"
+    result = run("simulate", folder / "scene.toml", "--frames", 3, "--fps", 12,
+                 "--motion", "turn", "--count", 500, "-o", again)
+    assert result.exit_code == 0, result.output
+    assert again.read_bytes() == path.read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--frames", 0], "frames: expected a whole number ≥ 1, got 0"),
+        (["--fps", 0], "fps: expected a finite number > 0, got 0.0"),
+        (["--fps", -24], "fps: expected a finite number > 0"),
+        (["--fps", "nan"], "fps: expected a finite number > 0, got nan"),
+        (["--fps", "inf"], "fps: expected a finite number > 0, got inf"),
+        (["-o", "{dir}/c.abc"], "c.abc: output must end in .npz"),
+        (["--count", -1], "[groom].count: Input should be greater than or equal to 0"),
+        (["--motion", "spin"], "Invalid value for '--motion'"),
+    ],
+)
+def test_bad_simulate_input_is_exit_2_and_no_file(tmp_path, args, message):
+    (tmp_path / "scene.toml").write_text(SCENE)
+    args = [str(a).format(dir=tmp_path) for a in args]
+    result = run("simulate", tmp_path / "scene.toml", *args)
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    if "--motion" not in args:  # click's own usage errors print the usage too
+        assert result.output.startswith("error:") and result.output.count("\n") == 1
+    assert [p.name for p in tmp_path.iterdir()] == ["scene.toml"]
+
+
+def test_missing_or_bad_scene(tmp_path):
+    result = run("simulate", tmp_path / "nope.toml")
+    assert result.exit_code == 2 and "no such scene file" in result.output
+    (tmp_path / "bad.toml").write_text("[sim]\nmotion = \"wave\"\n")
+    result = run("simulate", tmp_path / "bad.toml")
+    assert result.exit_code == 2 and "[sim].motion" in result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
+
+
+def test_cli_motions_match_the_module():
+    assert cli.MOTIONS == MOTIONS
+
+
+@pytest.mark.parametrize("command", [["simulate"], ["render"]])
+def test_help(command):
+    result = run(*command, "--help")
+    assert result.exit_code == 0 and "Usage:" in result.output
+    text = " ".join(result.output.split())  # help is wrapped to the terminal
+    if command == ["simulate"]:
+        assert "sim.npz in the scene's folder" in text
+    else:
+        assert "CACHE" in text and "MP4" in text
+
+
+@gl
+def test_render_a_cache_to_a_png_sequence(sim, tmp_path):
+    _, path, _ = sim
+    out = tmp_path / "frames"
+    result = run("render", path, "-o", out, "--size", 48, 40)
+    assert result.exit_code == 0, result.output
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["frame_0000.png", "frame_0001.png", "frame_0002.png"]
+    images = [np.asarray(Image.open(out / n).convert("RGB")).astype(int) for n in names]
+    assert all(img.shape == (40, 48, 3) for img in images)
+    assert np.abs(images[2] - images[0]).mean() > 1.0  # the head turned: the picture changed
+    line = result.output.strip()
+    assert "\n" not in line and line.startswith("3 frames (0–2) of 500 hairs, 48×40")
+    # one camera for the whole sequence: a range renders the same frames again
+    part = tmp_path / "part"
+    result = run("render", path, "-o", part, "--size", 48, 40, "--frames", "1:")
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in part.iterdir()) == names[1:]
+    for n in names[1:]:
+        assert (part / n).read_bytes() == (out / n).read_bytes()
+
+
+@gl
+def test_render_defaults_and_hair_count(sim, tmp_path):
+    _, path, _ = sim
+    cache = tmp_path / "c.npz"
+    cache.write_bytes(path.read_bytes())
+    result = run("render", cache, "--frames", 2, "--count", 50)
+    assert result.exit_code == 0, result.output
+    assert [p.name for p in (tmp_path / "c_frames").iterdir()] == ["frame_0002.png"]
+    assert Image.open(tmp_path / "c_frames" / "frame_0002.png").size == (64, 64)  # [render]
+    assert "of 50 hairs" in result.output
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--frames", "2:9"], "--frames 2:9: the cache has 3 frames (0..2)"),
+        (["--frames", "2:2"], "0 ≤ START < STOP ≤ 3"),
+        (["--frames", "-1:"], "the cache has 3 frames"),
+        (["--frames", "a:b"], "expected START:STOP"),
+        (["-o", "{dir}/x.png"], "renders to a folder of frame_0000.png"),
+        (["--mesh", "builtin:head"], "--mesh does not apply to a simulation cache"),
+        (["--count", -3], "[groom].count: Input should be greater than or equal to 0"),
+        (["--size", 0, 10], "[render].size"),
+    ],
+)
+def test_bad_render_input_is_exit_2_and_no_file(sim, tmp_path, args, message):
+    _, path, _ = sim
+    args = [str(a).format(dir=tmp_path) for a in args]
+    result = run("render", path, "-o", tmp_path / "out", *args)
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert result.output.startswith("error:") and result.output.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_frames_and_count_need_the_right_source(tmp_path):
+    (tmp_path / "s.toml").write_text("[groom]\ncount = 5\n")
+    result = run("render", tmp_path / "s.toml", "--frames", "0:2", "-o", tmp_path / "s.png")
+    assert result.exit_code == 2 and "--frames does not apply to a scene" in result.output
+    result = run("render", tmp_path / "h.npz", "--count", 4)
+    assert result.exit_code == 2 and "--count does not apply to a curves file" in result.output
+    assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
