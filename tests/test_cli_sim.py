@@ -1,6 +1,5 @@
 """`follicle simulate` and `follicle render CACHE`: caches, PNG sequences, exit codes."""
 
-import os
 
 import numpy as np
 import pytest
@@ -9,26 +8,9 @@ from PIL import Image
 
 from follicle import cli
 from follicle.cli import main
-from follicle.errors import FollicleError
 from follicle.sim.cache import is_cache, load_cache
 from follicle.sim.motion import MOTIONS, head_motion
-
-
-def _gl_available() -> bool:
-    try:
-        from follicle.render.context import get_context
-
-        get_context()
-    except FollicleError:
-        return False
-    return True
-
-
-# as in test_render.py: skipped on a developer machine without EGL, never in CI
-gl = pytest.mark.skipif(
-    not os.environ.get("CI") and not _gl_available(),
-    reason="no EGL / OpenGL 3.3 (install Mesa EGL: libegl1 libgl1-mesa-dri)",
-)
+from glmark import gl
 
 SCENE = """\
 [guides]

@@ -2,34 +2,16 @@
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
 import trimesh
 
 from follicle.curves import HairCurves
-from follicle.errors import FollicleError, InputError
+from follicle.errors import InputError
 from follicle.render import Camera, Light, Renderer, render, save_png
 from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
 from follicle.render.strands import back_to_front, segment_indices
-
-
-def _gl_available() -> bool:
-    try:
-        from follicle.render.context import get_context
-
-        get_context()
-    except FollicleError:
-        return False
-    return True
-
-
-# Skipped on a developer machine without EGL; never in CI, where a missing EGL must fail.
-gl = pytest.mark.skipif(
-    not os.environ.get("CI") and not _gl_available(),
-    reason="no EGL / OpenGL 3.3 (install Mesa EGL: libegl1 libgl1-mesa-dri)",
-)
+from glmark import gl
 
 
 class StandInMesh:

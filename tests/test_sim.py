@@ -196,3 +196,90 @@ def test_bad_calls_say_what_is_wrong(call, needle):
 def test_zero_length_guide_is_refused():
     with pytest.raises(InputError, match="zero length"):
         Simulator(HairCurves.from_array(np.zeros((1, 4, 3))))
+
+
+# --------------------------------------------------------------- skin, grooms, gusts
+@pytest.fixture(scope="module")
+def head_groom():
+    """The default scene's groom: the built-in head and its 300 long guides."""
+    from follicle.pipeline import groom_scene
+    from follicle.scene import Scene
+
+    return groom_scene(Scene())
+
+
+def test_a_fast_head_turn_keeps_hair_out_of_the_skin_mesh(head_groom):
+    mesh = head_groom.mesh
+    mesh.reset_pose()
+    sim = Simulator(head_groom.guides, params=SimParams(iterations=4))
+    assert sim.sdf is not None
+    _run(sim, 0.5)  # hair settles onto the head
+    lo, hi = mesh.bounds("rest")
+    pivot = np.array([(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2])
+    reach = float(np.linalg.norm(sim.positions[:, 0] - pivot, axis=1).max())
+    omega = 2.0 / reach  # the fastest root moves at 2 m/s
+    worst, rate = 0.0, 120
+    try:
+        for k in range(1, rate // 2):
+            a = omega * k / rate
+            c, s = np.cos(a), np.sin(a)
+            turn = np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1.0]])
+            turn[:3, 3] = pivot - turn[:3, :3] @ pivot
+            sim.set_pose(transform=turn)
+            sim.step(1 / rate)
+            worst = max(worst, sim.stats["max_penetration"])
+    finally:
+        mesh.reset_pose()
+    assert a > 0.9  # it turned by more than 50°
+    assert worst <= sim.params.collision_margin  # no vertex deeper than the margin
+
+
+def test_groomed_vertices_inside_the_skin_at_rest_keep_their_depth_as_margin():
+    from follicle.mesh.head import builtin_head
+
+    head = builtin_head()
+    lo, hi = head.bounds("rest")
+    top = np.array([(lo[0] + hi[0]) / 2, hi[1], (lo[2] + hi[2]) / 2])
+    pts = top + np.linspace(0, 0.05, 8)[:, None] * [0.0, -1.0, 0.0]  # into the head
+    sim = Simulator(HairCurves.from_array(pts[None]), head)
+    rest = sim.positions.copy()
+    assert (sim.solver.rest_clearance[0, 1:] < -0.005).all()  # groomed under the scalp
+    sim.params = sim.solver.params = SimParams(gravity=(0, 0, 0))
+    _run(sim, 0.5)
+    np.testing.assert_allclose(sim.positions, rest, atol=1e-6)  # not pushed, not stretched
+
+
+def test_hairs_follow_the_simulated_guides(head_groom):
+    mesh = head_groom.mesh
+    mesh.reset_pose()
+    sim = Simulator(head_groom.guides)  # the guides' own vertex count: exact transport
+    grown = head_groom.generate(count=2000)
+    at_rest = head_groom.follow(sim, count=2000)  # at rest: the same hairs
+    np.testing.assert_array_equal(at_rest.offsets, grown.offsets)
+    np.testing.assert_allclose(at_rest.points, grown.points, atol=1e-6)  # float32 rounding
+    c, s = np.cos(0.6), np.sin(0.6)
+    turn = np.array([[c, 0, s, 0.1], [0, 1, 0, 0.2], [-s, 0, c, 0], [0, 0, 0, 1.0]])
+    try:
+        sim.teleport(transform=turn)
+        moved = head_groom.follow(sim.positions.copy(), count=2000)
+        np.testing.assert_allclose(moved.points, head_groom.generate(count=2000).points,
+                                   atol=1e-5)  # fmt: skip
+        _run(sim, 0.5)  # the guides swing: hairs near a guide's root follow that guide
+        follow = head_groom.follow(sim, count=2000)
+    finally:
+        mesh.reset_pose()
+    assert np.isfinite(follow.points).all() and follow.curve_count == grown.curve_count
+    assert np.abs(follow.points - moved.points).max() > 0.01  # the hairs did move
+    with pytest.raises(InputError, match="positions"):
+        head_groom.follow(np.zeros((3, 24, 3)))
+
+
+def test_wind_gusts_vary_between_steady_and_the_gust_strength():
+    params = SimParams(wind=(2.0, 0.0, 0.0), wind_gust=3.0, wind_gust_period=0.5)
+    sim = Simulator(_strands(), params=params)
+    speeds = np.array([sim.wind(t)[0] for t in np.linspace(0.0, 20.0, 2001)])
+    assert speeds.min() >= 2.0 and speeds.max() <= 8.0
+    assert speeds.max() - speeds.min() > 3.0  # real gusts …
+    assert np.abs(np.diff(speeds)).max() < 0.5  # … that rise and fall smoothly
+    steady = Simulator(_strands(), params=SimParams(wind=(2.0, 0.0, 0.0)))
+    assert {float(steady.wind(t)[0]) for t in (0.0, 1.3, 7.7)} == {2.0}

@@ -51,16 +51,21 @@ def save_arrays(path: str | os.PathLike[str], arrays: dict[str, np.ndarray]) -> 
     return Path(path)
 
 
-def load_npz(path: str | os.PathLike[str]) -> HairCurves:
-    """Read a HairCurves written by :func:`save_npz`."""
+def load_arrays(path: str | os.PathLike[str]) -> tuple[Path, dict[str, np.ndarray]]:
+    """Every array of an .npz archive (no pickles), or FormatError naming the file."""
     p = Path(path)
     if not p.is_file():
         raise FormatError(f"{p}: no such file")
     try:
         with np.load(p, allow_pickle=False) as npz:
-            data = {k: npz[k] for k in npz.files}
+            return p, {k: npz[k] for k in npz.files}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise FormatError(f"{p}: not a readable follicle .npz archive ({exc})") from None
+        raise FormatError(f"{p}: not a readable .npz archive ({exc})") from None
+
+
+def load_npz(path: str | os.PathLike[str]) -> HairCurves:
+    """Read a HairCurves written by :func:`save_npz`."""
+    p, data = load_arrays(path)
     for key in ("format_version", "points", "offsets"):
         if key not in data:
             raise FormatError(f"{p}: missing array '{key}'; is this a follicle curves file?")

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..arrays import all_finite, frozen, rigid
 from ..errors import FormatError, InputError
-from ..io.npz import save_arrays
+from ..io.npz import load_arrays, save_arrays
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -173,14 +173,7 @@ def is_cache(path: str | os.PathLike[str]) -> bool:
 
 def load_cache(path: str | os.PathLike[str]) -> SimCache:
     """Read and check a cache written by :func:`save_cache`; FormatError says what is wrong."""
-    p = Path(path)
-    if not p.is_file():
-        raise FormatError(f"{p}: no such file")
-    try:
-        with np.load(p, allow_pickle=False) as npz:
-            data = {k: npz[k] for k in npz.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise FormatError(f"{p}: not a readable .npz archive ({exc})") from None
+    p, data = load_arrays(path)
     tag = data.get("format")
     if tag is None or tag.ndim != 0 or tag.dtype.kind != "U" or str(tag[()]) != CACHE_FORMAT:
         raise FormatError(

@@ -13,13 +13,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from .sdf import sdf_sample
+from .sdf import sdf_distance, sdf_sample
 
-__all__ = ["collide", "penetration", "NO_SDF"]
+__all__ = ["collide", "penetration", "clearance", "NO_SDF"]
 
-_INV_SQRT3 = 1.0 / math.sqrt(3.0)
 # sdf_sample's arguments for "no skin SDF": an empty grid
 NO_SDF = (np.zeros((0, 0, 0), np.float32), np.zeros(3), 1.0, np.eye(4))
 
@@ -39,15 +38,16 @@ def _push(px, py, pz, cx, cy, cz, r, nx, ny, nz, hit, gap):
     return cx + r * ux, cy + r * uy, cz + r * uz, ux, uy, uz, True, gap
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw,
             margin):  # fmt: skip
     """p moved out of every collider grown by ``margin``: (x, y, z, nx, ny, nz, hit,
     clearance). ``n`` is the last contact's outward normal. ``clearance`` is 0 after a
-    push, else how far p may move before it can touch a grown collider: the smallest
-    gap, with the SDF's divided by √3 (each partial derivative of a trilinear interpolant
-    of distances is at most 1, so its gradient is at most √3). The skin SDF (grid
-    ``sdf_values`` with :func:`sdf_sample`'s arguments) is skipped when the grid is empty.
+    push, else the smallest gap between p and a grown collider (for the SDF, a gap in
+    interpolated distance: divided by √3 it bounds how far p may move before it can
+    touch, as each partial derivative of a trilinear interpolant of distances is at
+    most 1). The skin SDF (grid ``sdf_values`` with :func:`sdf_sample`'s arguments) is
+    skipped when the grid is empty.
     """
     nx, ny, nz, hit = 0.0, 0.0, 0.0, False
     gap = math.inf
@@ -68,13 +68,15 @@ def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel
             nx, ny, nz, hit, gap,
         )  # fmt: skip
     if sdf_values.size > 0:
-        d, gx, gy, gz = sdf_sample(sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, px, py, pz)
-        if d < margin and (gx != 0.0 or gy != 0.0 or gz != 0.0):
-            depth = margin - d
-            px, py, pz = px + depth * gx, py + depth * gy, pz + depth * gz
-            nx, ny, nz, hit = gx, gy, gz, True
-        else:
-            gap = min(gap, (d - margin) * _INV_SQRT3)
+        d = sdf_distance(sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, px, py, pz)
+        if d < margin:  # near: the exact distance and the normal
+            d, gx, gy, gz = sdf_sample(sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, px, py,
+                                       pz)  # fmt: skip
+            if d < margin and (gx != 0.0 or gy != 0.0 or gz != 0.0):
+                depth = margin - d
+                px, py, pz = px + depth * gx, py + depth * gy, pz + depth * gz
+                nx, ny, nz, hit = gx, gy, gz, True
+        gap = min(gap, max(d - margin, 0.0))
     return px, py, pz, nx, ny, nz, hit, 0.0 if hit else gap
 
 
@@ -96,3 +98,23 @@ def penetration(x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray,
     """Deepest penetration (m) of any vertex of ``x`` (S, N, 3) into a collider or the
     skin (no margin): how far the deepest vertex would have to move to get out."""
     return float(_depth_kernel(x, spheres, capsules, *sdf))
+
+
+@njit(cache=True, parallel=True)
+def _clearance_kernel(x, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, out):
+    for s in prange(x.shape[0]):
+        for i in range(x.shape[1]):
+            px, py, pz = x[s, i, 0], x[s, i, 1], x[s, i, 2]
+            qx, qy, qz, _, _, _, hit, gap = collide(px, py, pz, spheres, capsules, sdf_values,
+                                                    sdf_origin, sdf_inv_voxel, sdf_lfw, 0.0)
+            depth = math.sqrt((qx - px) ** 2 + (qy - py) ** 2 + (qz - pz) ** 2)
+            out[s, i] = -depth if hit else gap
+
+
+def clearance(x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray,
+              sdf: tuple = NO_SDF) -> np.ndarray:  # fmt: skip
+    """(S, N) distance of each vertex of ``x`` (S, N, 3) from the nearest collider (inf
+    for none), or minus its depth inside."""
+    out = np.empty(x.shape[:2])
+    _clearance_kernel(np.ascontiguousarray(x, np.float64), spheres, capsules, *sdf, out)
+    return out

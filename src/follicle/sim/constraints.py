@@ -1,4 +1,14 @@
-"""Per-strand position constraints, each an njit function over one strand ``s`` of (S, N, 3).
+"""Strand constraints, each an njit function over a *block* of strands.
+
+A block holds up to B strands vertex-major, ``X[i, axis, b]`` (N, 3, B): every loop
+runs over the block's strands innermost, so the strands' independent dependency chains
+(follow-the-leader and shape matching go root to tip) overlap in the CPU and the
+compiler can vectorise them. ``nb`` ≤ B is the number of strands in use. A pass that
+writes one row of X while reading another first computes the row into ``row`` (3, B)
+and then copies it: the compiler cannot tell two rows of X apart and would otherwise
+keep such loops scalar (6× slower). Per-vertex
+values are (N, B): ``W`` inverse masses (0 pins a vertex), ``L`` rest lengths of the
+segment starting at each vertex.
 
 - distance (002 §5.1.2): segments solved even then odd, so no two in a batch share a
   vertex; the pinned root (inverse mass 0) never moves.
@@ -22,217 +32,233 @@ import math
 
 from numba import njit
 
-__all__ = ["segment", "skinned", "distance_pass", "bend_pass", "follow_the_leader",
-           "strain_limit", "cone_pass", "rest_pose", "local_shape_pass",
-           "global_shape_pass"]  # fmt: skip
+__all__ = ["distance_pass", "bend_pass", "follow_the_leader", "strain_limit", "cone_pass",
+           "rest_pose", "local_shape_pass", "global_shape_pass"]  # fmt: skip
+
+_TINY = 1e-12  # segments shorter than this have no direction
+
+_jit = njit(cache=True, error_model="numpy")
 
 
-@njit(cache=True, inline="always")
-def segment(x, s, i, j):
-    """(dx, dy, dz, length) of x[s, j] − x[s, i]."""
-    dx = x[s, j, 0] - x[s, i, 0]
-    dy = x[s, j, 1] - x[s, i, 1]
-    dz = x[s, j, 2] - x[s, i, 2]
-    return dx, dy, dz, math.sqrt(dx * dx + dy * dy + dz * dz)
-
-
-@njit(cache=True, inline="always")
-def skinned(root, frame, local, i):
-    """Vertex ``i`` of ``local`` (N, 3) root-frame coordinates placed at ``root`` with
-    ``frame`` (3, 3) rows tangent, binormal, normal."""
-    lx, ly, lz = local[i, 0], local[i, 1], local[i, 2]
-    return (root[0] + lx * frame[0, 0] + ly * frame[1, 0] + lz * frame[2, 0],
-            root[1] + lx * frame[0, 1] + ly * frame[1, 1] + lz * frame[2, 1],
-            root[2] + lx * frame[0, 2] + ly * frame[1, 2] + lz * frame[2, 2])  # fmt: skip
-
-
-@njit(cache=True, inline="always")
-def _project_pair(x, w, s, i, j, rest, k):
-    wi, wj = w[s, i], w[s, j]
-    total = wi + wj
-    if total <= 0.0:
-        return
-    dx, dy, dz, length = segment(x, s, i, j)
-    if length < 1e-12:
-        return
-    c = k * (length - rest) / (length * total)
-    x[s, i, 0] += wi * c * dx
-    x[s, i, 1] += wi * c * dy
-    x[s, i, 2] += wi * c * dz
-    x[s, j, 0] -= wj * c * dx
-    x[s, j, 1] -= wj * c * dy
-    x[s, j, 2] -= wj * c * dz
-
-
-@njit(cache=True)
-def distance_pass(x, w, rest_length, s, k):
-    """One even/odd sweep of the segment length constraints of strand ``s``."""
-    n = x.shape[1]
+@_jit
+def distance_pass(X, W, L, k, row, nb):
+    """One even/odd sweep of the segment length constraints."""
     for parity in range(2):
-        for i in range(parity, n - 1, 2):
-            _project_pair(x, w, s, i, i + 1, rest_length[s, i], k)
+        for i in range(parity, X.shape[0] - 1, 2):
+            for b in range(nb):  # the move along the segment, per unit inverse mass
+                dx = X[i + 1, 0, b] - X[i, 0, b]
+                dy = X[i + 1, 1, b] - X[i, 1, b]
+                dz = X[i + 1, 2, b] - X[i, 2, b]
+                length = math.sqrt(dx * dx + dy * dy + dz * dz)
+                total = W[i, b] + W[i + 1, b]
+                c = 0.0
+                if total > 0.0 and length > _TINY:
+                    c = k * (length - L[i, b]) / (length * total)
+                row[0, b], row[1, b], row[2, b] = c * dx, c * dy, c * dz
+            for a in range(3):
+                for b in range(nb):
+                    X[i, a, b] += W[i, b] * row[a, b]
+                for b in range(nb):
+                    X[i + 1, a, b] -= W[i + 1, b] * row[a, b]
 
 
-@njit(cache=True)
-def bend_pass(x, w, s, static, bend_rest, scale, k, attenuation):
-    """Pull vertices 2 … N−1 of strand ``s`` to ``scale`` × their rest distance from the
-    static point ``static`` (3,), which does not move; vertex i's coefficient is
-    k / (1 + att·(i − 1)) (002 eq. 5.6 with att = 1 is k / i).
-    """
-    for i in range(2, x.shape[1]):
-        if w[s, i] == 0.0:
-            continue
-        dx = x[s, i, 0] - static[0]
-        dy = x[s, i, 1] - static[1]
-        dz = x[s, i, 2] - static[2]
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if length < 1e-12:
-            continue
-        c = k / (1.0 + attenuation * (i - 1)) * (length - scale * bend_rest[s, i]) / length
-        x[s, i, 0] -= c * dx
-        x[s, i, 1] -= c * dy
-        x[s, i, 2] -= c * dz
+@_jit
+def bend_pass(X, W, static, bend_rest, scale, k, attenuation, nb):
+    """Pull vertices 2 … N−1 to ``scale`` × their rest distance ``bend_rest`` (N, B) from
+    the static point ``static`` (3, B), which does not move; vertex i's coefficient is
+    k / (1 + att·(i − 1)) (002 eq. 5.6 with att = 1 is k / i)."""
+    for i in range(2, X.shape[0]):
+        ki = k / (1.0 + attenuation * (i - 1))
+        for b in range(nb):
+            dx = X[i, 0, b] - static[0, b]
+            dy = X[i, 1, b] - static[1, b]
+            dz = X[i, 2, b] - static[2, b]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            c = 0.0
+            if W[i, b] > 0.0 and length > _TINY:
+                c = ki * (length - scale * bend_rest[i, b]) / length
+            X[i, 0, b] -= c * dx
+            X[i, 1, b] -= c * dy
+            X[i, 2, b] -= c * dz
 
 
-@njit(cache=True)
-def follow_the_leader(x, s, rest_length, correction):
+@_jit
+def follow_the_leader(X, L, corr, row, nb):
     """FTL root to tip: each vertex put at its rest length from the previous one along
-    their current direction; ``correction`` (N, 3) gets each vertex's move."""
-    correction[0, 0] = correction[0, 1] = correction[0, 2] = 0.0
-    for i in range(1, x.shape[1]):
-        dx, dy, dz, length = segment(x, s, i - 1, i)
-        if length < 1e-12:  # coincident: keep the previous segment's direction
-            if i >= 2:
-                dx, dy, dz, length = segment(x, s, i - 2, i - 1)
-            if length < 1e-12:
-                dx, dy, dz, length = 0.0, 1.0, 0.0, 1.0
-        f = rest_length[s, i - 1] / length
-        nx = x[s, i - 1, 0] + f * dx
-        ny = x[s, i - 1, 1] + f * dy
-        nz = x[s, i - 1, 2] + f * dz
-        correction[i, 0] = nx - x[s, i, 0]
-        correction[i, 1] = ny - x[s, i, 1]
-        correction[i, 2] = nz - x[s, i, 2]
-        x[s, i, 0], x[s, i, 1], x[s, i, 2] = nx, ny, nz
+    their current direction; ``corr`` (N, 3, B) gets each vertex's move."""
+    for b in range(nb):
+        corr[0, 0, b] = corr[0, 1, b] = corr[0, 2, b] = 0.0
+    for i in range(1, X.shape[0]):
+        for b in range(nb):
+            dx = X[i, 0, b] - X[i - 1, 0, b]
+            dy = X[i, 1, b] - X[i - 1, 1, b]
+            dz = X[i, 2, b] - X[i - 1, 2, b]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if length < _TINY:  # coincident: keep the previous segment's direction
+                dx, dy, dz = 0.0, 1.0, 0.0
+                if i >= 2:
+                    px = X[i - 1, 0, b] - X[i - 2, 0, b]
+                    py = X[i - 1, 1, b] - X[i - 2, 1, b]
+                    pz = X[i - 1, 2, b] - X[i - 2, 2, b]
+                    lp = math.sqrt(px * px + py * py + pz * pz)
+                    if lp >= _TINY:
+                        dx, dy, dz = px / lp, py / lp, pz / lp
+                length = 1.0
+            f = L[i - 1, b] / length
+            row[0, b] = X[i - 1, 0, b] + f * dx
+            row[1, b] = X[i - 1, 1, b] + f * dy
+            row[2, b] = X[i - 1, 2, b] + f * dz
+        _put_row(X, i, row, corr, nb)
 
 
-@njit(cache=True)
-def strain_limit(x, w, s, rest_length, limit, correction):
+@_jit
+def strain_limit(X, W, L, limit, corr, row, nb):
     """Root to tip, shorten any segment longer than (1 + ``limit``) × rest by moving its
     child (Provot's strain limiting): PBD's iterations leave the rest of the stretch.
-    ``correction`` (N, 3) gets each vertex's move, for 001 eq. 3.1's velocity fix."""
-    correction[0, 0] = correction[0, 1] = correction[0, 2] = 0.0
-    for i in range(1, x.shape[1]):
-        correction[i, 0] = correction[i, 1] = correction[i, 2] = 0.0
-        if w[s, i] == 0.0:
-            continue
-        dx, dy, dz, length = segment(x, s, i - 1, i)
-        most = (1.0 + limit) * rest_length[s, i - 1]
-        if length > most:
-            f = most / length - 1.0
-            for a, d in ((0, dx), (1, dy), (2, dz)):
-                correction[i, a] = f * d
-                x[s, i, a] += f * d
+    ``corr`` (N, 3, B) gets each vertex's move, for 001 eq. 3.1's velocity fix."""
+    for b in range(nb):
+        corr[0, 0, b] = corr[0, 1, b] = corr[0, 2, b] = 0.0
+    for i in range(1, X.shape[0]):
+        for b in range(nb):
+            dx = X[i, 0, b] - X[i - 1, 0, b]
+            dy = X[i, 1, b] - X[i - 1, 1, b]
+            dz = X[i, 2, b] - X[i - 1, 2, b]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            most = (1.0 + limit) * L[i - 1, b]
+            f = 0.0
+            if W[i, b] > 0.0 and length > most:
+                f = most / length - 1.0
+            row[0, b] = X[i, 0, b] + f * dx
+            row[1, b] = X[i, 1, b] + f * dy
+            row[2, b] = X[i, 2, b] + f * dz
+        _put_row(X, i, row, corr, nb)
 
 
-@njit(cache=True)
-def cone_pass(x, s, cos_limit, sin_limit, first_x, first_y, first_z):
+@_jit
+def _put_row(X, i, row, corr, nb):
+    """Row i of X becomes ``row``; ``corr[i]`` gets the move."""
+    for a in range(3):
+        for b in range(nb):
+            corr[i, a, b] = row[a, b] - X[i, a, b]
+            X[i, a, b] = row[a, b]
+
+
+@_jit
+def cone_pass(X, cos_limit, sin_limit, first, nb):
     """Limit each segment's turn from the previous one (the first from the unit root
-    direction ``first``) to the cone of half-angle acos(cos_limit), keeping lengths."""
-    px, py, pz = first_x, first_y, first_z
-    for i in range(1, x.shape[1]):
-        dx, dy, dz, length = segment(x, s, i - 1, i)
-        if length < 1e-12:
-            continue
-        ux, uy, uz = dx / length, dy / length, dz / length
-        c = ux * px + uy * py + uz * pz
-        if c < cos_limit:
-            # the cone's axis component plus the unit perpendicular in the plane of u, p
-            qx, qy, qz = ux - c * px, uy - c * py, uz - c * pz
-            q = math.sqrt(qx * qx + qy * qy + qz * qz)
-            if q < 1e-12:  # straight back: any perpendicular will do
-                qx, qy, qz = (1.0, 0.0, 0.0) if abs(px) < 0.9 else (0.0, 1.0, 0.0)
-                d = qx * px + qy * py + qz * pz
-                qx, qy, qz = qx - d * px, qy - d * py, qz - d * pz
+    direction ``first`` (3, B)) to the cone of half-angle acos(cos_limit), keeping
+    lengths."""
+    for b in range(nb):
+        px, py, pz = first[0, b], first[1, b], first[2, b]
+        for i in range(1, X.shape[0]):
+            dx = X[i, 0, b] - X[i - 1, 0, b]
+            dy = X[i, 1, b] - X[i - 1, 1, b]
+            dz = X[i, 2, b] - X[i - 1, 2, b]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if length < _TINY:
+                continue
+            ux, uy, uz = dx / length, dy / length, dz / length
+            c = ux * px + uy * py + uz * pz
+            if c < cos_limit:
+                # the cone's axis component plus the unit perpendicular in the plane of u, p
+                qx, qy, qz = ux - c * px, uy - c * py, uz - c * pz
                 q = math.sqrt(qx * qx + qy * qy + qz * qz)
-            ux = cos_limit * px + sin_limit * qx / q
-            uy = cos_limit * py + sin_limit * qy / q
-            uz = cos_limit * pz + sin_limit * qz / q
-            x[s, i, 0] = x[s, i - 1, 0] + length * ux
-            x[s, i, 1] = x[s, i - 1, 1] + length * uy
-            x[s, i, 2] = x[s, i - 1, 2] + length * uz
-        px, py, pz = ux, uy, uz
+                if q < _TINY:  # straight back: any perpendicular will do
+                    qx, qy, qz = (1.0, 0.0, 0.0) if abs(px) < 0.9 else (0.0, 1.0, 0.0)
+                    d = qx * px + qy * py + qz * pz
+                    qx, qy, qz = qx - d * px, qy - d * py, qz - d * pz
+                    q = math.sqrt(qx * qx + qy * qy + qz * qz)
+                ux = cos_limit * px + sin_limit * qx / q
+                uy = cos_limit * py + sin_limit * qy / q
+                uz = cos_limit * pz + sin_limit * qz / q
+                X[i, 0, b] = X[i - 1, 0, b] + length * ux
+                X[i, 1, b] = X[i - 1, 1, b] + length * uy
+                X[i, 2, b] = X[i - 1, 2, b] + length * uz
+            px, py, pz = ux, uy, uz
 
 
-@njit(cache=True, inline="always")
-def _rotate_min(ax, ay, az, bx, by, bz, ux, uy, uz):
-    """u turned by the smallest rotation taking unit a to unit b (Rodrigues)."""
-    vx = ay * bz - az * by
-    vy = az * bx - ax * bz
-    vz = ax * by - ay * bx
-    c = ax * bx + ay * by + az * bz
-    if c <= -1.0 + 1e-9:  # opposite: no unique smallest rotation, leave u
-        return ux, uy, uz
-    f = 1.0 / (1.0 + c)
-    wx = vy * uz - vz * uy
-    wy = vz * ux - vx * uz
-    wz = vx * uy - vy * ux
-    return (ux + wx + f * (vy * wz - vz * wy),
-            uy + wy + f * (vz * wx - vx * wz),
-            uz + wz + f * (vx * wy - vy * wx))  # fmt: skip
+@_jit
+def rest_pose(root, frame, local, s0, target, rest_dir, nb):
+    """The rest shape skinned to the roots: ``target`` (N, 3, B) = root + frame ·
+    ``local[s0 + b]`` (rows tangent, binormal, normal of ``frame`` (3, 3, B)), and
+    ``rest_dir`` (N, 3, B) its unit segments, row i the one ending at vertex i (zero when
+    degenerate): what shape matching reads, made once per substep."""
+    for b in range(nb):
+        for i in range(target.shape[0]):
+            lx, ly, lz = local[s0 + b, i, 0], local[s0 + b, i, 1], local[s0 + b, i, 2]
+            for a in range(3):
+                target[i, a, b] = (root[a, b] + lx * frame[0, a, b] + ly * frame[1, a, b]
+                                   + lz * frame[2, a, b])  # fmt: skip
+    for b in range(nb):
+        rest_dir[0, 0, b] = rest_dir[0, 1, b] = rest_dir[0, 2, b] = 0.0
+    for i in range(1, target.shape[0]):
+        for b in range(nb):
+            ex = target[i, 0, b] - target[i - 1, 0, b]
+            ey = target[i, 1, b] - target[i - 1, 1, b]
+            ez = target[i, 2, b] - target[i - 1, 2, b]
+            le = math.sqrt(ex * ex + ey * ey + ez * ez)
+            inv = 1.0 / le if le > _TINY else 0.0
+            rest_dir[i, 0, b], rest_dir[i, 1, b], rest_dir[i, 2, b] = ex * inv, ey * inv, ez * inv
 
 
-@njit(cache=True)
-def rest_pose(root, frame, local, target, rest_dir):
-    """Fill ``target`` (N, 3) with the rest shape ``local`` skinned to ``root``/``frame``
-    and ``rest_dir`` (N, 3) with its unit segments, row i the one ending at vertex i
-    (zero when degenerate): what shape matching reads, once per substep."""
-    for i in range(local.shape[0]):
-        target[i, 0], target[i, 1], target[i, 2] = skinned(root, frame, local, i)
-    rest_dir[0, 0] = rest_dir[0, 1] = rest_dir[0, 2] = 0.0
-    for i in range(1, local.shape[0]):
-        ex = target[i, 0] - target[i - 1, 0]
-        ey = target[i, 1] - target[i - 1, 1]
-        ez = target[i, 2] - target[i - 1, 2]
-        le = math.sqrt(ex * ex + ey * ey + ez * ez)
-        le = 1.0 / le if le > 1e-12 else 0.0
-        rest_dir[i, 0], rest_dir[i, 1], rest_dir[i, 2] = ex * le, ey * le, ez * le
-
-
-@njit(cache=True)
-def local_shape_pass(x, w, s, target, rest_dir, k):
+@_jit
+def local_shape_pass(X, W, target, rest_dir, k, row, nb):
     """Move each vertex towards its rest place relative to the previous segment.
 
     Segment 0 follows the root frame; segment i the rest segment i turned by the
-    smallest rotation from rest segment i−1 to the current segment i−1 (``target``
-    and ``rest_dir`` from :func:`rest_pose`).
+    smallest rotation (Rodrigues) from rest segment i−1 to the current segment i−1
+    (``target`` and ``rest_dir`` from :func:`rest_pose`). Without branches, so the
+    loop over the block vectorises: the exceptions are multiplied away.
     """
-    n = x.shape[1]
-    for i in range(n - 1):
+    for b in range(nb):
+        kb = k if W[1, b] > 0.0 else 0.0
+        for a in range(3):
+            X[1, a, b] += kb * (X[0, a, b] + target[1, a, b] - target[0, a, b] - X[1, a, b])
+    for i in range(1, X.shape[0] - 1):
         j = i + 1
-        if w[s, j] == 0.0:
-            continue
-        rx = target[j, 0] - target[i, 0]  # rest segment i, world axes
-        ry = target[j, 1] - target[i, 1]
-        rz = target[j, 2] - target[i, 2]
-        if i > 0:
-            ex, ey, ez = rest_dir[i, 0], rest_dir[i, 1], rest_dir[i, 2]
-            cx, cy, cz, lc = segment(x, s, i - 1, i)
-            if lc < 1e-12 or (ex == 0.0 and ey == 0.0 and ez == 0.0):
-                continue
-            rx, ry, rz = _rotate_min(ex, ey, ez, cx / lc, cy / lc, cz / lc, rx, ry, rz)
-        x[s, j, 0] += k * (x[s, i, 0] + rx - x[s, j, 0])
-        x[s, j, 1] += k * (x[s, i, 1] + ry - x[s, j, 1])
-        x[s, j, 2] += k * (x[s, i, 2] + rz - x[s, j, 2])
+        for b in range(nb):
+            rx = target[j, 0, b] - target[i, 0, b]  # rest segment i, world axes
+            ry = target[j, 1, b] - target[i, 1, b]
+            rz = target[j, 2, b] - target[i, 2, b]
+            ax, ay, az = rest_dir[i, 0, b], rest_dir[i, 1, b], rest_dir[i, 2, b]
+            cx = X[i, 0, b] - X[i - 1, 0, b]
+            cy = X[i, 1, b] - X[i - 1, 1, b]
+            cz = X[i, 2, b] - X[i - 1, 2, b]
+            lc2 = cx * cx + cy * cy + cz * cz
+            # a degenerate current or rest segment, or a pinned vertex: no move
+            ok = (lc2 > _TINY * _TINY) & (ax * ax + ay * ay + az * az > 0.0) & (W[j, b] > 0.0)
+            kb = k if ok else 0.0
+            inv = 1.0 / math.sqrt(max(lc2, 1e-300))
+            bx, by, bz = cx * inv, cy * inv, cz * inv
+            c = ax * bx + ay * by + az * bz
+            m = 1.0 if c > -1.0 + 1e-9 else 0.0  # opposite: no unique rotation, r kept
+            vx = (ay * bz - az * by) * m
+            vy = (az * bx - ax * bz) * m
+            vz = (ax * by - ay * bx) * m
+            f = m / (2.0 + c - m)  # 1 / (1 + c), or 0
+            wx = vy * rz - vz * ry
+            wy = vz * rx - vx * rz
+            wz = vx * ry - vy * rx
+            rx += wx + f * (vy * wz - vz * wy)
+            ry += wy + f * (vz * wx - vx * wz)
+            rz += wz + f * (vx * wy - vy * wx)
+            row[0, b] = X[j, 0, b] + kb * (X[i, 0, b] + rx - X[j, 0, b])
+            row[1, b] = X[j, 1, b] + kb * (X[i, 1, b] + ry - X[j, 1, b])
+            row[2, b] = X[j, 2, b] + kb * (X[i, 2, b] + rz - X[j, 2, b])
+        for a in range(3):
+            for b in range(nb):
+                X[j, a, b] = row[a, b]
 
 
-@njit(cache=True)
-def global_shape_pass(x, w, s, target, k_profile):
-    """Move vertex i towards the skinned rest pose ``target`` (N, 3) by ``k_profile[i]``."""
-    for i in range(1, x.shape[1]):
+@_jit
+def global_shape_pass(X, W, target, k_profile, nb):
+    """Move vertex i towards the skinned rest pose ``target`` by ``k_profile[i]``."""
+    for i in range(1, X.shape[0]):
         k = k_profile[i]
-        if k <= 0.0 or w[s, i] == 0.0:
+        if k <= 0.0:
             continue
-        x[s, i, 0] += k * (target[i, 0] - x[s, i, 0])
-        x[s, i, 1] += k * (target[i, 1] - x[s, i, 1])
-        x[s, i, 2] += k * (target[i, 2] - x[s, i, 2])
+        for b in range(nb):
+            kb = k if W[i, b] > 0.0 else 0.0
+            X[i, 0, b] += kb * (target[i, 0, b] - X[i, 0, b])
+            X[i, 1, b] += kb * (target[i, 1, b] - X[i, 1, b])
+            X[i, 2, b] += kb * (target[i, 2, b] - X[i, 2, b])

@@ -21,7 +21,7 @@ from ..groom.guides import Guides
 from ..mesh.skin import SkinMesh
 from ..noise import perlin
 from ..scene import SimParams
-from .collision import NO_SDF, penetration
+from .collision import NO_SDF, clearance, penetration
 from .model import Model
 from .sdf import SDF
 from .solver import Solver
@@ -29,6 +29,18 @@ from .state import State
 from .volume import apply_volume
 
 __all__ = ["Simulator"]
+
+
+def _orthonormal(tangent: np.ndarray, binormal: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Frames (S, 3, 3), rows tangent, binormal, normal, made exactly orthonormal from the
+    normal, keeping each frame's handedness (the skin's frames are left-handed, b = t × n),
+    as the solver re-makes the frames it blends between poses."""
+    n = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+    t = tangent - np.sum(tangent * n, axis=1, keepdims=True) * n
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(n, t)
+    b *= np.where(np.sum(b * binormal, axis=1, keepdims=True) < 0.0, -1.0, 1.0)
+    return np.ascontiguousarray(np.stack([t, b, n], axis=1), np.float64)
 
 
 def _blend(a: np.ndarray, b: np.ndarray, f: float) -> np.ndarray:
@@ -59,9 +71,9 @@ class Simulator:
         self.mesh = mesh
         self.params = params
         self.model = Model.build(guides, mesh, params.vertices)
-        self.solver = Solver(self.model, params)
         self._transform = np.eye(4)
         self._accumulator = 0.0
+        self._pinned_cache: tuple[np.ndarray, np.ndarray] | None = None
         self.sdf = None  # the skin's SDF on the current pose
         if mesh is not None and params.skin_collision:
             self.sdf = SDF.from_mesh(mesh.vertices, mesh.faces, voxel_size=params.skin_voxel)
@@ -69,24 +81,34 @@ class Simulator:
             if mesh.vertices is not mesh.rest_vertices:  # posed: rigid moves start from rest
                 self._sdf_rest = SDF.from_mesh(mesh.rest_vertices, mesh.faces,
                                                voxel_size=params.skin_voxel)  # fmt: skip
+        roots, frames = self._pinned()
+        rest = roots[:, None] + np.einsum("snk,ska->sna", self.model.rest_local, frames)
+        near = clearance(rest, *self._colliders(self._transform, self.sdf))
+        self.solver = Solver(self.model, params, near)
         self.reset()
 
     # ------------------------------------------------------------------ pose
     def _pinned(self) -> tuple[np.ndarray, np.ndarray]:
-        """Roots (S, 3) and root frames (S, 3, 3) on the skin's current pose."""
-        m = self.model
-        if self.mesh is not None:
-            cur = self.mesh.evaluate(m.triangles, m.bary, pose="current")
-            frames = np.stack([cur.tangent, cur.binormal, cur.normal], axis=1)
-            return np.ascontiguousarray(cur.position, np.float64), np.ascontiguousarray(frames)
-        r, t = self._transform[:3, :3], self._transform[:3, 3]
-        return m.rest_roots @ r.T + t, np.ascontiguousarray(m.rest_frames @ r.T)
+        """Roots (S, 3) and root frames (S, 3, 3) on the skin's current pose (kept until
+        the pose changes)."""
+        if self._pinned_cache is None:
+            m = self.model
+            if self.mesh is not None:
+                cur = self.mesh.evaluate(m.triangles, m.bary, pose="current")
+                frames = _orthonormal(cur.tangent, cur.binormal, cur.normal)
+                self._pinned_cache = (np.ascontiguousarray(cur.position, np.float64), frames)
+            else:
+                r, t = self._transform[:3, :3], self._transform[:3, 3]
+                self._pinned_cache = (m.rest_roots @ r.T + t,
+                                      np.ascontiguousarray(m.rest_frames @ r.T))  # fmt: skip
+        return self._pinned_cache
 
     def set_pose(self, transform: object | None = None, vertices: object | None = None) -> None:
         """Move the skin: a 4×4 rigid ``transform`` of the rest pose, or new mesh
         ``vertices``. The roots get there over the next :meth:`step`."""
         if (transform is None) == (vertices is None):
             raise InputError("set_pose: give exactly one of transform= or vertices=")
+        self._pinned_cache = None
         if transform is not None:
             self._transform = np.array(rigid(transform)[0])
             if self.mesh is not None:

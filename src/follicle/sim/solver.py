@@ -1,6 +1,7 @@
 """Solver: advances a State by one fixed substep (002 §5.1.2, 001 §3.1.1).
 
-One parallel kernel does a whole strand per iteration: pin the root to the skin,
+One parallel kernel takes blocks of strands (vertex-major, strands innermost, see
+:mod:`.constraints`) through a whole substep: pin the root to the skin,
 integrate (Verlet, 002 eq. 5.1, or semi-implicit Euler) under gravity, wind and drag
 with per-second damping, then ``iterations`` rounds of distance (PBD) or none (DFTL),
 bending, shape matching and collisions, then for DFTL one follow-the-leader pass, the
@@ -27,7 +28,6 @@ from .constraints import (
     global_shape_pass,
     local_shape_pass,
     rest_pose,
-    skinned,
     strain_limit,
 )
 from .forces import acceleration
@@ -42,60 +42,69 @@ def linearised(k: float | np.ndarray, iterations: int) -> float | np.ndarray:
     return 1.0 - (1.0 - k) ** (1.0 / iterations)
 
 
-_CHUNK = 64  # strands per task: each task allocates its scratch rows once
+BLOCK = 32  # strands per block: the inner loops run across them
 
 
 @njit(cache=True, inline="always")
-def _pin(roots0, frames0, roots1, frames1, f, s, root, frame):
-    """``root``/``frame`` of strand s a fraction ``f`` of the way from pose 0 to pose 1:
-    positions blended, the frame blended and made orthonormal again from its normal."""
+def _pin(roots0, frames0, roots1, frames1, f, s, b, root, frame):
+    """Strand s's root and frame, into column b of ``root`` (3, B) / ``frame`` (3, 3, B),
+    a fraction ``f`` of the way from pose 0 to pose 1: positions blended, the frame
+    blended and made orthonormal again from its normal, keeping its handedness."""
     g = 1.0 - f
+    nx = g * frames0[s, 2, 0] + f * frames1[s, 2, 0]
+    ny = g * frames0[s, 2, 1] + f * frames1[s, 2, 1]
+    nz = g * frames0[s, 2, 2] + f * frames1[s, 2, 2]
+    n = math.sqrt(nx * nx + ny * ny + nz * nz)
+    nx, ny, nz = nx / n, ny / n, nz / n
+    tx = g * frames0[s, 0, 0] + f * frames1[s, 0, 0]
+    ty = g * frames0[s, 0, 1] + f * frames1[s, 0, 1]
+    tz = g * frames0[s, 0, 2] + f * frames1[s, 0, 2]
+    d = tx * nx + ty * ny + tz * nz
+    tx, ty, tz = tx - d * nx, ty - d * ny, tz - d * nz
+    t = math.sqrt(tx * tx + ty * ty + tz * tz)
+    tx, ty, tz = tx / t, ty / t, tz / t
+    bx = ny * tz - nz * ty  # normal × tangent, turned to the side the blended binormal is
+    by = nz * tx - nx * tz
+    bz = nx * ty - ny * tx
     for a in range(3):
-        root[a] = g * roots0[s, a] + f * roots1[s, a]
-        frame[2, a] = g * frames0[s, 2, a] + f * frames1[s, 2, a]
-        frame[0, a] = g * frames0[s, 0, a] + f * frames1[s, 0, a]
-    n = math.sqrt(frame[2, 0] ** 2 + frame[2, 1] ** 2 + frame[2, 2] ** 2)
-    for a in range(3):
-        frame[2, a] /= n
-    d = frame[0, 0] * frame[2, 0] + frame[0, 1] * frame[2, 1] + frame[0, 2] * frame[2, 2]
-    for a in range(3):
-        frame[0, a] -= d * frame[2, a]
-    t = math.sqrt(frame[0, 0] ** 2 + frame[0, 1] ** 2 + frame[0, 2] ** 2)
-    for a in range(3):
-        frame[0, a] /= t
-    frame[1, 0] = frame[2, 1] * frame[0, 2] - frame[2, 2] * frame[0, 1]  # normal × tangent
-    frame[1, 1] = frame[2, 2] * frame[0, 0] - frame[2, 0] * frame[0, 2]
-    frame[1, 2] = frame[2, 0] * frame[0, 1] - frame[2, 1] * frame[0, 0]
+        root[a, b] = g * roots0[s, a] + f * roots1[s, a]
+    hand = (g * frames0[s, 1, 0] + f * frames1[s, 1, 0]) * bx + (
+        g * frames0[s, 1, 1] + f * frames1[s, 1, 1]) * by + (
+        g * frames0[s, 1, 2] + f * frames1[s, 1, 2]) * bz
+    sign = -1.0 if hand < 0.0 else 1.0
+    frame[0, 0, b], frame[0, 1, b], frame[0, 2, b] = tx, ty, tz
+    frame[1, 0, b], frame[1, 1, b], frame[1, 2, b] = sign * bx, sign * by, sign * bz
+    frame[2, 0, b], frame[2, 1, b], frame[2, 2, b] = nx, ny, nz
 
 
-@njit(cache=True)
-def _collide_pass(x, w, s, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
-                  sdf_inv_voxel, sdf_lfw, margin):  # fmt: skip
-    """Push strand s's free vertices out of the colliders; contact normals into
-    ``contact``. A vertex still within ``gap`` of where it was last found clear
-    (``ref``) cannot have reached a collider and is not looked up again."""
+@njit(cache=True, error_model="numpy")
+def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
+                  sdf_inv_voxel, sdf_lfw, M, nb):  # fmt: skip
+    """Push the free vertices out of the colliders grown by their margins ``M`` (N, B);
+    contact normals into ``contact``. A
+    vertex still within ``gap`` of where it was last found clear (``ref``) cannot have
+    reached a collider and is not looked up again."""
     if spheres.shape[0] == 0 and capsules.shape[0] == 0 and sdf_values.size == 0:
         return
-    for i in range(1, x.shape[1]):
-        if w[s, i] == 0.0:
-            continue
-        dx = x[s, i, 0] - ref[i, 0]
-        dy = x[s, i, 1] - ref[i, 1]
-        dz = x[s, i, 2] - ref[i, 2]
-        if dx * dx + dy * dy + dz * dz < gap2[i]:
-            continue
-        px, py, pz, nx, ny, nz, hit, gap = collide(
-            x[s, i, 0], x[s, i, 1], x[s, i, 2], spheres, capsules, sdf_values, sdf_origin,
-            sdf_inv_voxel, sdf_lfw, margin,
-        )  # fmt: skip
-        x[s, i, 0], x[s, i, 1], x[s, i, 2] = px, py, pz
-        ref[i, 0], ref[i, 1], ref[i, 2] = px, py, pz
-        gap2[i] = gap * gap
-        if hit:
-            contact[i, 0], contact[i, 1], contact[i, 2] = nx, ny, nz
+    for i in range(1, X.shape[0]):
+        for b in range(nb):
+            dx = X[i, 0, b] - ref[i, 0, b]
+            dy = X[i, 1, b] - ref[i, 1, b]
+            dz = X[i, 2, b] - ref[i, 2, b]
+            if W[i, b] == 0.0 or dx * dx + dy * dy + dz * dz < gap2[i, b]:
+                continue
+            px, py, pz, nx, ny, nz, hit, gap = collide(
+                X[i, 0, b], X[i, 1, b], X[i, 2, b], spheres, capsules, sdf_values,
+                sdf_origin, sdf_inv_voxel, sdf_lfw, M[i, b],
+            )  # fmt: skip
+            X[i, 0, b], X[i, 1, b], X[i, 2, b] = px, py, pz
+            ref[i, 0, b], ref[i, 1, b], ref[i, 2, b] = px, py, pz
+            gap2[i, b] = gap * gap / 3.0  # see collide: the SDF may fall √3× faster
+            if hit:
+                contact[i, 0, b], contact[i, 1, b], contact[i, 2, b] = nx, ny, nz
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, root_direction,
                     roots0, frames0, roots1, frames1, f, dt, damp, euler, dftl, iterations,
                     gravity, wind, turbulence, frequency, scroll, drag, k_stretch, k_bend,
@@ -104,114 +113,147 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                     sdf_origin, sdf_inv_voxel, sdf_lfw, margin, friction, energy,
                     bad):  # fmt: skip
     strands, n = x.shape[0], x.shape[1]
-    for chunk in prange((strands + _CHUNK - 1) // _CHUNK):
-        x_old = np.empty((n, 3))
-        v_old = np.empty((n, 3))
-        corr = np.zeros((n, 3))
-        contact = np.empty((n, 3))
-        target = np.empty((n, 3))
-        rest_dir = np.empty((n, 3))
-        ref = np.empty((n, 3))
-        gap2 = np.empty(n)
-        root = np.empty(3)
-        frame = np.empty((3, 3))
-        for s in range(chunk * _CHUNK, min(strands, (chunk + 1) * _CHUNK)):
+    shape = k_local > 0.0 or k_global[1] > 0.0
+    correct = dftl or stretch_limit >= 0.0  # 001 eq. 3.1 applies
+    correction = dftl_damping if dftl else limit_damping
+    windy = wind[0] != 0.0 or wind[1] != 0.0 or wind[2] != 0.0
+    for block in prange((strands + BLOCK - 1) // BLOCK):
+        s0 = block * BLOCK
+        nb = min(BLOCK, strands - s0)
+        X = np.empty((n, 3, BLOCK))  # positions now
+        X0 = np.empty((n, 3, BLOCK))  # … and at the start of the substep
+        V0 = np.empty((n, 3, BLOCK))  # velocities at the start
+        V = np.empty((n, 3, BLOCK))  # … and at the end
+        corr = np.zeros((n, 3, BLOCK))
+        contact = np.zeros((n, 3, BLOCK))
+        target = np.empty((n, 3, BLOCK))
+        rest_dir = np.empty((n, 3, BLOCK))
+        ref = np.empty((n, 3, BLOCK))
+        gap2 = np.full((n, BLOCK), -1.0)  # look every vertex up once
+        W = np.empty((n, BLOCK))
+        L = np.zeros((n, BLOCK))
+        R = np.empty((n, BLOCK))
+        M = np.empty((n, BLOCK))
+        root = np.empty((3, BLOCK))
+        frame = np.empty((3, 3, BLOCK))
+        static = np.empty((3, BLOCK))
+        first = np.empty((3, BLOCK))
+        moved = np.zeros(BLOCK)
+        row = np.empty((3, BLOCK))  # one row of X on its way in (see .constraints)
+        for b in range(nb):  # gather the block, vertex-major
+            s = s0 + b
             for i in range(n):
-                gap2[i] = -1.0  # look every vertex up once
+                W[i, b] = w[s, i]
+                R[i, b] = bend_rest[s, i]
+                M[i, b] = margin[s, i]
+                if i < n - 1:
+                    L[i, b] = rest_length[s, i]
                 for a in range(3):
-                    x_old[i, a] = x[s, i, a]
-                    v_old[i, a] = v[s, i, a]
-                    contact[i, a] = 0.0
-            _pin(roots0, frames0, roots1, frames1, f, s, root, frame)
+                    X[i, a, b] = X0[i, a, b] = x[s, i, a]
+                    V0[i, a, b] = v[s, i, a]
+            _pin(roots0, frames0, roots1, frames1, f, s, b, root, frame)
+            sl, d = static_local[s], root_direction[s]
             for a in range(3):
-                v[s, 0, a] = (root[a] - x[s, 0, a]) / dt
-                x[s, 0, a] = root[a]
-            for i in range(1, n):  # integrate
-                if w[s, i] == 0.0:
-                    continue
-                tx = x_old[i, 0] - x_old[i - 1, 0]
-                ty = x_old[i, 1] - x_old[i - 1, 1]
-                tz = x_old[i, 2] - x_old[i - 1, 2]
-                tl = math.sqrt(tx * tx + ty * ty + tz * tz)
-                if tl > 0.0:
-                    tx, ty, tz = tx / tl, ty / tl, tz / tl
-                vx, vy, vz = v[s, i, 0], v[s, i, 1], v[s, i, 2]
-                ax, ay, az = acceleration(x_old[i, 0], x_old[i, 1], x_old[i, 2], tx, ty, tz,
-                                          vx, vy, vz, gravity, wind, turbulence, frequency,
-                                          scroll, drag)  # fmt: skip
+                X[0, a, b] = root[a, b]
+                static[a, b] = (root[a, b] + sl[0] * frame[0, a, b] + sl[1] * frame[1, a, b]
+                                + sl[2] * frame[2, a, b])  # fmt: skip
+                first[a, b] = d[0] * frame[0, a, b] + d[1] * frame[1, a, b] + d[2] * frame[2, a, b]
+        for i in range(1, n):  # integrate
+            for b in range(nb):
+                m = 1.0 if W[i, b] > 0.0 else 0.0  # pinned vertices stay
+                vx, vy, vz = V0[i, 0, b], V0[i, 1, b], V0[i, 2, b]
+                if windy:  # the tangent the wind acts across (002 eq. 5.2)
+                    tx = X0[i, 0, b] - X0[i - 1, 0, b]
+                    ty = X0[i, 1, b] - X0[i - 1, 1, b]
+                    tz = X0[i, 2, b] - X0[i - 1, 2, b]
+                    tl = math.sqrt(tx * tx + ty * ty + tz * tz)
+                    if tl > 0.0:
+                        tx, ty, tz = tx / tl, ty / tl, tz / tl
+                    ax, ay, az = acceleration(X0[i, 0, b], X0[i, 1, b], X0[i, 2, b], tx, ty, tz,
+                                              vx, vy, vz, gravity, wind, turbulence, frequency,
+                                              scroll, drag)  # fmt: skip
+                else:
+                    ax = gravity[0] - drag * vx
+                    ay = gravity[1] - drag * vy
+                    az = gravity[2] - drag * vz
                 if euler:  # v ← (v + a dt) damped, x ← x + v dt
-                    vx, vy, vz = (vx + ax * dt) * damp, (vy + ay * dt) * damp, (vz + az * dt) * damp
-                    x[s, i, 0] += vx * dt
-                    x[s, i, 1] += vy * dt
-                    x[s, i, 2] += vz * dt
+                    X[i, 0, b] += m * (vx + ax * dt) * damp * dt
+                    X[i, 1, b] += m * (vy + ay * dt) * damp * dt
+                    X[i, 2, b] += m * (vz + az * dt) * damp * dt
                 else:  # 002 eq. 5.1: P = P⁻¹ + (P⁻¹ − P⁻²) + a Δt², the implicit velocity damped
-                    x[s, i, 0] += vx * dt * damp + ax * dt * dt
-                    x[s, i, 1] += vy * dt * damp + ay * dt * dt
-                    x[s, i, 2] += vz * dt * damp + az * dt * dt
-            static = skinned(root, frame, static_local[s:s + 1], 0)
-            if k_local > 0.0 or k_global[1] > 0.0:
-                rest_pose(root, frame, rest_local[s], target, rest_dir)
-            for _ in range(iterations):
-                if not dftl:
-                    distance_pass(x, w, rest_length, s, k_stretch)
-                if k_bend > 0.0:
-                    bend_pass(x, w, s, static, bend_rest, bend_scale, k_bend, attenuation)
-                if k_local > 0.0:
-                    local_shape_pass(x, w, s, target, rest_dir, k_local)
-                if k_global[1] > 0.0:  # the profile never rises towards the tip
-                    global_shape_pass(x, w, s, target, k_global)
-                _collide_pass(x, w, s, ref, gap2, contact, spheres, capsules, sdf_values,
-                              sdf_origin, sdf_inv_voxel, sdf_lfw, margin)  # fmt: skip
-            if dftl:
-                follow_the_leader(x, s, rest_length, corr)
-            elif stretch_limit >= 0.0:
-                strain_limit(x, w, s, rest_length, 0.5 * stretch_limit, corr)
-            if cos_limit > -1.0:
-                d = root_direction[s]
-                fx = d[0] * frame[0, 0] + d[1] * frame[1, 0] + d[2] * frame[2, 0]
-                fy = d[0] * frame[0, 1] + d[1] * frame[1, 1] + d[2] * frame[2, 1]
-                fz = d[0] * frame[0, 2] + d[1] * frame[1, 2] + d[2] * frame[2, 2]
-                cone_pass(x, s, cos_limit, sin_limit, fx, fy, fz)
-            for i in range(n):  # only the last pass's contacts get friction
-                contact[i, 0] = contact[i, 1] = contact[i, 2] = 0.0
-            _collide_pass(x, w, s, ref, gap2, contact, spheres, capsules, sdf_values,
-                          sdf_origin, sdf_inv_voxel, sdf_lfw, margin)  # collisions are hard: last
-            ok = True
-            correction = dftl_damping if dftl else limit_damping
-            moved = 0.0
-            for i in range(1, n):  # velocities from the moves
+                    X[i, 0, b] += m * (vx * dt * damp + ax * dt * dt)
+                    X[i, 1, b] += m * (vy * dt * damp + ay * dt * dt)
+                    X[i, 2, b] += m * (vz * dt * damp + az * dt * dt)
+        if shape:
+            rest_pose(root, frame, rest_local, s0, target, rest_dir, nb)
+        for _ in range(iterations):
+            if not dftl:
+                distance_pass(X, W, L, k_stretch, row, nb)
+            if k_bend > 0.0:
+                bend_pass(X, W, static, R, bend_scale, k_bend, attenuation, nb)
+            if k_local > 0.0:
+                local_shape_pass(X, W, target, rest_dir, k_local, row, nb)
+            if k_global[1] > 0.0:  # the profile never rises towards the tip
+                global_shape_pass(X, W, target, k_global, nb)
+            _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
+                          sdf_inv_voxel, sdf_lfw, M, nb)  # fmt: skip
+        if dftl:
+            follow_the_leader(X, L, corr, row, nb)
+        elif stretch_limit >= 0.0:
+            strain_limit(X, W, L, 0.5 * stretch_limit, corr, row, nb)
+        if cos_limit > -1.0:
+            cone_pass(X, cos_limit, sin_limit, first, nb)
+        contact[:] = 0.0  # only the last pass's contacts get friction
+        _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
+                      sdf_inv_voxel, sdf_lfw, M, nb)  # collisions are hard: last
+        keep = 1.0 - friction
+        for i in range(n):  # velocities from the moves
+            fix = correction / dt if correct and 0 < i < n - 1 else 0.0  # 001 eq. 3.1
+            j = min(i + 1, n - 1)
+            for b in range(nb):
+                vx = (X[i, 0, b] - X0[i, 0, b]) / dt
+                vy = (X[i, 1, b] - X0[i, 1, b]) / dt
+                vz = (X[i, 2, b] - X0[i, 2, b]) / dt
+                moved[b] += (vx * vx + vy * vy + vz * vz) if W[i, b] > 0.0 else 0.0
+                vx -= fix * corr[j, 0, b]
+                vy -= fix * corr[j, 1, b]
+                vz -= fix * corr[j, 2, b]
+                # in contact (n ≠ 0): no speed into the collider, tangential speed × keep
+                nx, ny, nz = contact[i, 0, b], contact[i, 1, b], contact[i, 2, b]
+                vn = vx * nx + vy * ny + vz * nz
+                touching = nx != 0.0 or ny != 0.0 or nz != 0.0
+                t = keep if touching else 1.0
+                r = max(vn, 0.0) - t * vn if touching else 0.0
+                V[i, 0, b] = r * nx + t * vx
+                V[i, 1, b] = r * ny + t * vy
+                V[i, 2, b] = r * nz + t * vz
+        ok = np.ones(BLOCK, np.bool_)
+        for i in range(n):
+            for a in range(3):
+                for b in range(nb):
+                    ok[b] &= math.isfinite(X[i, a, b]) & math.isfinite(V[i, a, b])
+        for b in range(nb):  # scatter back, or keep the old state where anything blew up
+            s = s0 + b
+            src_x, src_v = (X, V) if ok[b] else (X0, V0)
+            for i in range(n):
                 for a in range(3):
-                    va = (x[s, i, a] - x_old[i, a]) / dt
-                    if w[s, i] > 0.0:
-                        moved += va * va
-                    if (dftl or stretch_limit >= 0.0) and i < n - 1:  # 001 eq. 3.1
-                        va -= correction * corr[i + 1, a] / dt
-                    v[s, i, a] = va
-                nx, ny, nz = contact[i, 0], contact[i, 1], contact[i, 2]
-                if nx != 0.0 or ny != 0.0 or nz != 0.0:  # in contact: no inward speed, friction
-                    vn = v[s, i, 0] * nx + v[s, i, 1] * ny + v[s, i, 2] * nz
-                    keep = max(vn, 0.0)
-                    v[s, i, 0] = keep * nx + (1.0 - friction) * (v[s, i, 0] - vn * nx)
-                    v[s, i, 1] = keep * ny + (1.0 - friction) * (v[s, i, 1] - vn * ny)
-                    v[s, i, 2] = keep * nz + (1.0 - friction) * (v[s, i, 2] - vn * nz)
-                for a in range(3):
-                    if not (math.isfinite(x[s, i, a]) and math.isfinite(v[s, i, a])):
-                        ok = False
-            energy[s] = 0.5 * moved
-            if not ok:
-                for i in range(n):
-                    for a in range(3):
-                        x[s, i, a] = x_old[i, a]
-                        v[s, i, a] = v_old[i, a]
-            bad[s] = 0 if ok else 1
+                    x[s, i, a] = src_x[i, a, b]
+                    v[s, i, a] = src_v[i, a, b]
+            energy[s] = 0.5 * moved[b] if ok[b] else 0.0
+            bad[s] = 0 if ok[b] else 1
 
 
 class Solver:
     """Runs substeps of a Model's strands with one set of parameters (a SimParams)."""
 
-    def __init__(self, model: Model, params: object) -> None:
+    def __init__(self, model: Model, params: object, rest_clearance: np.ndarray | None = None
+                 ) -> None:  # fmt: skip
+        """``rest_clearance`` (S, N): each vertex's distance from the colliders at rest
+        (negative inside): a vertex groomed nearer than the margin keeps that nearness as
+        its margin, so the rest pose is never pushed (nor stretched) by collisions."""
         self.model = model
         self.params = params
+        self.rest_clearance = rest_clearance
         self.energy = np.zeros(model.strands)  # ½ Σ |Δx / dt|² per strand, last substep
         self._bad = np.zeros(model.strands, np.uint8)
         self._for: object = None  # the params _constants were made for
@@ -243,6 +285,11 @@ class Solver:
                 math.sin(cone), p.dftl_damping,
                 -1.0 if p.stretch_limit is None else p.stretch_limit, p.stretch_limit_damping,
             )  # fmt: skip
+            margin = np.full(self.model.rest_length.shape[:1] + (self.model.vertices,),
+                             p.collision_margin)  # fmt: skip
+            if self.rest_clearance is not None:
+                np.minimum(margin, self.rest_clearance, out=margin)
+            self._margin = margin
             self._for = p
         return self._kept
 
@@ -259,7 +306,7 @@ class Solver:
         _substep_kernel(
             state.x, state.v, m.inv_mass, m.rest_length, m.rest_local, m.bend_rest,
             m.static_local, m.root_direction, *start, *end, f, p.substep, *integration, wind,
-            *noise, scroll, *constraints, spheres, capsules, *sdf, p.collision_margin,
+            *noise, scroll, *constraints, spheres, capsules, *sdf, self._margin,
             p.friction, self.energy, self._bad,
         )  # fmt: skip
         if self._bad.any():

@@ -350,27 +350,46 @@ def _corner(cell, c, nx, ny, nz):
     return i, j, k, w
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, inline="always")
+def _cell(px, py, pz, origin, inv_h, nx, ny, nz):
+    """Cell (i, j, k) and fractions of a point known to lie inside the grid (the grid was
+    fitted around it with a margin): no per-corner bounds checks. The clamp only guards
+    memory against rounding at the border."""
+    fx = (px - origin[0]) * inv_h
+    fy = (py - origin[1]) * inv_h
+    fz = (pz - origin[2]) * inv_h
+    ix = min(max(int(fx), 0), nx - 2)
+    iy = min(max(int(fy), 0), ny - 2)
+    iz = min(max(int(fz), 0), nz - 2)
+    return ix, iy, iz, fx - ix, fy - iy, fz - iz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
 def _splat(x, v, starts, origin, inv_h, nx, ny, nz):
-    """Sums (nx, ny, nz, 4) of [w, w·vx, w·vy, w·vz] (eq. 3.2, numerator of 3.3).
+    """Sums (nx, ny, nz, 4) of [w, w·vx, w·vy, w·vz] (eq. 3.2, numerator of 3.3) of
+    particles inside the grid.
 
     Block b splats particles starts[b]:starts[b+1] into its own grid; the grids are then
     added in block order, vertex by vertex, so the result does not depend on threads.
     """
     blocks = starts.shape[0] - 1
     private = np.zeros((blocks, nx, ny, nz, 4))
-    for b in prange(blocks):
-        grid = private[b]
-        for p in range(starts[b], starts[b + 1]):
-            px, py, pz = float(x[p, 0]), float(x[p, 1]), float(x[p, 2])
-            cell = _locate(px, py, pz, origin, inv_h, nx, ny, nz)
-            for c in range(8):
-                i, j, k, w = _corner(cell, c, nx, ny, nz)
-                if w > 0.0:
-                    grid[i, j, k, 0] += w
-                    grid[i, j, k, 1] += w * v[p, 0]
-                    grid[i, j, k, 2] += w * v[p, 1]
-                    grid[i, j, k, 3] += w * v[p, 2]
+    for blk in prange(blocks):
+        grid = private[blk]
+        for p in range(starts[blk], starts[blk + 1]):
+            ix, iy, iz, tx, ty, tz = _cell(x[p, 0], x[p, 1], x[p, 2], origin, inv_h, nx, ny, nz)
+            vx, vy, vz = v[p, 0], v[p, 1], v[p, 2]
+            for a in range(2):
+                wa = tx if a else 1.0 - tx
+                for b in range(2):
+                    wab = wa * (ty if b else 1.0 - ty)
+                    for c in range(2):
+                        w = wab * (tz if c else 1.0 - tz)
+                        cell = grid[ix + a, iy + b, iz + c]
+                        cell[0] += w
+                        cell[1] += w * vx
+                        cell[2] += w * vy
+                        cell[3] += w * vz
     flat = private.reshape(blocks, -1)
     total = np.empty(flat.shape[1])
     for e in prange(flat.shape[1]):
@@ -381,26 +400,44 @@ def _splat(x, v, starts, origin, inv_h, nx, ny, nz):
     return total.reshape(nx, ny, nz, 4)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def _box_blur(src):
-    """One box-blur pass: each vertex the mean of its 3×3×3 neighbours inside the grid."""
+    """One box-blur pass: each vertex the mean of its 3×3×3 neighbours inside the grid.
+
+    The neighbourhood and its count factor per axis, so this is three 1-D means of up to
+    three values (9 reads per vertex instead of 27).
+    """
     nx, ny, nz, nc = src.shape
-    dst = np.empty_like(src)
-    for i in prange(nx):
+    a = np.empty_like(src)
+    b = np.empty_like(src)
+    for i in prange(nx):  # along x: src → a
         i0, i1 = max(i - 1, 0), min(i + 1, nx - 1)
+        for j in range(ny):
+            for k in range(nz):
+                for ch in range(nc):
+                    s = 0.0
+                    for q in range(i0, i1 + 1):
+                        s += src[q, j, k, ch]
+                    a[i, j, k, ch] = s / (i1 - i0 + 1)
+    for i in prange(nx):  # along y: a → b
         for j in range(ny):
             j0, j1 = max(j - 1, 0), min(j + 1, ny - 1)
             for k in range(nz):
-                k0, k1 = max(k - 1, 0), min(k + 1, nz - 1)
-                count = (i1 - i0 + 1) * (j1 - j0 + 1) * (k1 - k0 + 1)
                 for ch in range(nc):
                     s = 0.0
-                    for a in range(i0, i1 + 1):
-                        for b in range(j0, j1 + 1):
-                            for c in range(k0, k1 + 1):
-                                s += src[a, b, c, ch]
-                    dst[i, j, k, ch] = s / count
-    return dst
+                    for q in range(j0, j1 + 1):
+                        s += a[i, q, k, ch]
+                    b[i, j, k, ch] = s / (j1 - j0 + 1)
+    for i in prange(nx):  # along z: b → a
+        for j in range(ny):
+            for k in range(nz):
+                k0, k1 = max(k - 1, 0), min(k + 1, nz - 1)
+                for ch in range(nc):
+                    s = 0.0
+                    for q in range(k0, k1 + 1):
+                        s += b[i, j, q, ch]
+                    a[i, j, k, ch] = s / (k1 - k0 + 1)
+    return a
 
 
 @njit(cache=True)
@@ -479,24 +516,42 @@ def _sample_vector(field, origin, inv_h, pts):
     return out
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, inline="always")
+def _inside_at(field, ix, iy, iz, tx, ty, tz):
+    """Trilinear value of a (nx, ny, nz, 3) field in cell (i, j, k) at fractions t."""
+    fx = fy = fz = 0.0
+    for a in range(2):
+        wa = tx if a else 1.0 - tx
+        for b in range(2):
+            wab = wa * (ty if b else 1.0 - ty)
+            for c in range(2):
+                w = wab * (tz if c else 1.0 - tz)
+                fx += w * field[ix + a, iy + b, iz + c, 0]
+                fy += w * field[ix + a, iy + b, iz + c, 1]
+                fz += w * field[ix + a, iy + b, iz + c, 2]
+    return fx, fy, fz
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
 def _update(x, v, free, velocity, gradient, origin, inv_h, friction, push):
-    """Friction (eq. 3.4) then repulsion (eq. 3.5–3.7, ``push`` = s_repulsion·h/dt) on v.
+    """Friction (eq. 3.4) then repulsion (eq. 3.5–3.7, ``push`` = s_repulsion·h/dt) on v
+    of particles inside the grid.
 
     Terms with a zero coefficient are skipped, so they leave v bit for bit unchanged.
     """
+    nx, ny, nz, _ = velocity.shape
     for p in prange(x.shape[0]):
         if not free[p]:
             continue
-        px, py, pz = float(x[p, 0]), float(x[p, 1]), float(x[p, 2])
+        ix, iy, iz, tx, ty, tz = _cell(x[p, 0], x[p, 1], x[p, 2], origin, inv_h, nx, ny, nz)
         vx, vy, vz = float(v[p, 0]), float(v[p, 1]), float(v[p, 2])
         if friction > 0.0:
-            gx, gy, gz = _vector_at(velocity, origin, inv_h, px, py, pz)
+            gx, gy, gz = _inside_at(velocity, ix, iy, iz, tx, ty, tz)
             vx = (1.0 - friction) * vx + friction * gx
             vy = (1.0 - friction) * vy + friction * gy
             vz = (1.0 - friction) * vz + friction * gz
         if push > 0.0:
-            dx, dy, dz = _vector_at(gradient, origin, inv_h, px, py, pz)
+            dx, dy, dz = _inside_at(gradient, ix, iy, iz, tx, ty, tz)
             norm = math.sqrt(dx * dx + dy * dy + dz * dz)
             if norm > _TINY_DENSITY * inv_h:  # |D(P + h·e) − D(P − h·e)| ~ 0: no direction
                 vx -= push * dx / norm
