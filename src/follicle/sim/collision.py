@@ -80,26 +80,6 @@ def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel
     return px, py, pz, nx, ny, nz, hit, 0.0 if hit else gap
 
 
-@njit(cache=True)
-def _depth_kernel(x, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw):
-    worst = 0.0
-    for s in range(x.shape[0]):
-        for i in range(x.shape[1]):
-            px, py, pz = x[s, i, 0], x[s, i, 1], x[s, i, 2]
-            qx, qy, qz, _, _, _, hit, _ = collide(px, py, pz, spheres, capsules, sdf_values,
-                                                  sdf_origin, sdf_inv_voxel, sdf_lfw, 0.0)
-            if hit:
-                worst = max(worst, math.sqrt((qx - px) ** 2 + (qy - py) ** 2 + (qz - pz) ** 2))
-    return worst
-
-
-def penetration(x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray,
-                sdf: tuple = NO_SDF) -> float:  # fmt: skip
-    """Deepest penetration (m) of any vertex of ``x`` (S, N, 3) into a collider or the
-    skin (no margin): how far the deepest vertex would have to move to get out."""
-    return float(_depth_kernel(x, spheres, capsules, *sdf))
-
-
 @njit(cache=True, parallel=True)
 def _clearance_kernel(x, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, out):
     for s in prange(x.shape[0]):
@@ -118,3 +98,10 @@ def clearance(x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray,
     out = np.empty(x.shape[:2])
     _clearance_kernel(np.ascontiguousarray(x, np.float64), spheres, capsules, *sdf, out)
     return out
+
+
+def penetration(x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray,
+                sdf: tuple = NO_SDF) -> float:  # fmt: skip
+    """Deepest penetration (m) of any vertex of ``x`` (S, N, 3) into a collider or the
+    skin (no margin): how far the deepest vertex would have to move to get out."""
+    return max(0.0, -float(clearance(x, spheres, capsules, sdf).min()))

@@ -40,6 +40,15 @@ _TINY = 1e-12  # segments shorter than this have no direction
 _jit = njit(cache=True, error_model="numpy")
 
 
+@njit(cache=True, inline="always")
+def _segment(X, i, b):
+    """(dx, dy, dz, length) of strand b's segment from vertex i − 1 to vertex i."""
+    dx = X[i, 0, b] - X[i - 1, 0, b]
+    dy = X[i, 1, b] - X[i - 1, 1, b]
+    dz = X[i, 2, b] - X[i - 1, 2, b]
+    return dx, dy, dz, math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
 @_jit
 def distance_pass(X, W, L, k, row, nb):
     """One even/odd sweep of the segment length constraints."""
@@ -90,17 +99,11 @@ def follow_the_leader(X, L, corr, row, nb):
         corr[0, 0, b] = corr[0, 1, b] = corr[0, 2, b] = 0.0
     for i in range(1, X.shape[0]):
         for b in range(nb):
-            dx = X[i, 0, b] - X[i - 1, 0, b]
-            dy = X[i, 1, b] - X[i - 1, 1, b]
-            dz = X[i, 2, b] - X[i - 1, 2, b]
-            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            dx, dy, dz, length = _segment(X, i, b)
             if length < _TINY:  # coincident: keep the previous segment's direction
                 dx, dy, dz = 0.0, 1.0, 0.0
                 if i >= 2:
-                    px = X[i - 1, 0, b] - X[i - 2, 0, b]
-                    py = X[i - 1, 1, b] - X[i - 2, 1, b]
-                    pz = X[i - 1, 2, b] - X[i - 2, 2, b]
-                    lp = math.sqrt(px * px + py * py + pz * pz)
+                    px, py, pz, lp = _segment(X, i - 1, b)
                     if lp >= _TINY:
                         dx, dy, dz = px / lp, py / lp, pz / lp
                 length = 1.0
@@ -120,10 +123,7 @@ def strain_limit(X, W, L, limit, corr, row, nb):
         corr[0, 0, b] = corr[0, 1, b] = corr[0, 2, b] = 0.0
     for i in range(1, X.shape[0]):
         for b in range(nb):
-            dx = X[i, 0, b] - X[i - 1, 0, b]
-            dy = X[i, 1, b] - X[i - 1, 1, b]
-            dz = X[i, 2, b] - X[i - 1, 2, b]
-            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            dx, dy, dz, length = _segment(X, i, b)
             most = (1.0 + limit) * L[i - 1, b]
             f = 0.0
             if W[i, b] > 0.0 and length > most:
@@ -151,10 +151,7 @@ def cone_pass(X, cos_limit, sin_limit, first, nb):
     for b in range(nb):
         px, py, pz = first[0, b], first[1, b], first[2, b]
         for i in range(1, X.shape[0]):
-            dx = X[i, 0, b] - X[i - 1, 0, b]
-            dy = X[i, 1, b] - X[i - 1, 1, b]
-            dz = X[i, 2, b] - X[i - 1, 2, b]
-            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            dx, dy, dz, length = _segment(X, i, b)
             if length < _TINY:
                 continue
             ux, uy, uz = dx / length, dy / length, dz / length
