@@ -1,4 +1,9 @@
-"""``save`` and ``load_curves``: pick a reader or writer by file extension."""
+"""``save`` and ``load_curves``: pick a reader or writer by file extension.
+
+A writer is ``write(chunks: Iterator[HairCurves], path, **options) -> Path``: it takes
+the hair as a stream of chunks (see :mod:`follicle.io.stream`) and writes atomically.
+A reader is ``read(path) -> HairCurves``.
+"""
 
 from __future__ import annotations
 
@@ -7,8 +12,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..curves import HairCurves
-from ..errors import FormatError, InputError
+from ..errors import FormatError
 from .npz import load_npz, save_npz
+from .stream import Curves, as_chunks
 
 __all__ = ["save", "load_curves", "WRITERS", "READERS"]
 
@@ -25,11 +31,11 @@ def _suffix(path: str | os.PathLike[str], table: dict, verb: str) -> str:
     return suffix
 
 
-def save(curves: HairCurves, path: str | os.PathLike[str], **options: object) -> Path:
-    """Write ``curves`` to ``path`` in the format its extension names."""
-    if not isinstance(curves, HairCurves):
-        raise InputError(f"save: expected HairCurves, got {type(curves).__name__}")
-    return WRITERS[_suffix(path, WRITERS, "write")](curves, path, **options)
+def save(curves: Curves, path: str | os.PathLike[str], **options: object) -> Path:
+    """Write ``curves`` (HairCurves, or an iterable of HairCurves chunks) to ``path`` in
+    the format its extension names."""
+    writer = WRITERS[_suffix(path, WRITERS, "write")]
+    return writer(as_chunks(curves), path, **options)
 
 
 def load_curves(path: str | os.PathLike[str]) -> HairCurves:

@@ -17,6 +17,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import FormatError, InputError
 from .atomic import atomic_path
+from .stream import Curves, as_chunks
 
 __all__ = ["FORMAT_VERSION", "save_npz", "load_npz", "save_arrays"]
 
@@ -24,8 +25,11 @@ FORMAT_VERSION = 1
 _FIXED_DATE = (1980, 1, 1, 0, 0, 0)
 
 
-def save_npz(curves: HairCurves, path: str | os.PathLike[str]) -> Path:
-    """Write ``curves`` to ``path`` (atomically, byte-reproducibly)."""
+def save_npz(curves: Curves, path: str | os.PathLike[str]) -> Path:
+    """Write ``curves`` (HairCurves or chunks, joined in memory: .npz is not a streaming
+    format) to ``path``, atomically and byte-reproducibly."""
+    chunks = list(as_chunks(curves))
+    curves = chunks[0] if len(chunks) == 1 else HairCurves.concatenate(chunks)
     arrays: dict[str, np.ndarray] = {
         "format_version": np.array(FORMAT_VERSION, dtype=np.int64),
         "points": curves.points,
