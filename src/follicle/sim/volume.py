@@ -35,10 +35,12 @@ pile density up and push the outermost hair inwards; so blurring keeps the total
 Particles with inverse mass 0 (by default the root, index 0, of every strand) splat like
 the others, since they occupy space and carry the head's motion, but are never changed.
 
-Splatting is parallel and deterministic: particles are cut into at most 8 contiguous
-blocks (a count that depends on the particle count and grid size, never on the number of
-threads), each block splats into its own float64 grid, and the grids are summed in block
-order, so the same input gives the same bytes with any thread count.
+Splatting is parallel and deterministic: every thread adds into its own grid of
+fixed-point integers (weights in units of 2⁻⁴⁰, momenta of 2⁻³⁶ m/s), and integer sums do
+not depend on their order, so the same input gives the same bytes with any number of
+threads and any split of the particles among them. (Fusing splat and update into the
+solver's kernel was measured: no faster, as both are bound by the grid arithmetic, not
+by reading the hair.)
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from numbers import Integral, Real
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -56,11 +59,13 @@ from ..errors import InputError
 
 __all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume"]
 
-_MAX_CELLS = 128**3  # cap on cells in a grid (2.1 M; 68 MB of float64 sums)
+_MAX_CELLS = 128**3  # cap on cells in a grid (2.1 M; 68 MB of int64 sums per thread)
 _MIN_VOXEL = 1e-6  # m; voxel size for a single point or a sub-micrometre cloud
-_BLOCKS = 8  # splat blocks: fixed, so the summation order never depends on threads
-_BLOCK_BYTES = 256 * 2**20  # at most this much memory for the blocks' private grids
 _TINY_DENSITY = 1e-12  # D at or below this counts as empty: V = 0 there
+_FIX_W = 2.0**40  # fixed-point units per unit of splatted weight …
+_FIX_M = 2.0**36  # … and per m/s of splatted momentum
+_SPLAT_SPEED = 1.0e3  # m/s; faster particles splat this speed, so int64 sums cannot overflow
+_SPLAT_CHUNK = 4096  # particles per parallel chunk of the standalone splat
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,8 +130,17 @@ class VolumeGrid:
 
     spec: GridSpec
     density: np.ndarray  # spec.shape, float64, eq. 3.2 (blurred)
-    velocity: np.ndarray  # spec.shape + (3,), float64, eq. 3.3 (0 where D <= 1e-12)
-    gradient: np.ndarray  # spec.shape + (3,), float64, (D[i+1] − D[i−1]) / 2h per axis
+    flow: np.ndarray  # spec.shape + (6,), float64: velocity, then density gradient
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """spec.shape + (3,): eq. 3.3, 0 where D <= 1e-12."""
+        return self.flow[..., :3]
+
+    @property
+    def gradient(self) -> np.ndarray:
+        """spec.shape + (3,): (D[i+1] − D[i−1]) / 2h per axis."""
+        return self.flow[..., 3:]
 
     @classmethod
     def splat(
@@ -158,11 +172,11 @@ class VolumeGrid:
 
     def sample_velocity(self, points: np.ndarray) -> np.ndarray:
         """Trilinearly interpolated grid velocity at ``points`` (M, 3), 0 outside: (M, 3)."""
-        return _sample_vector(self.velocity, self.spec.origin, 1 / self.spec.voxel, _query(points))
+        return _sample_vector(self.flow, 0, self.spec.origin, 1 / self.spec.voxel, _query(points))
 
     def density_gradient(self, points: np.ndarray) -> np.ndarray:
         """Density gradient at ``points`` (M, 3) by central differences, r = h (eq. 3.7)."""
-        return _sample_vector(self.gradient, self.spec.origin, 1 / self.spec.voxel, _query(points))
+        return _sample_vector(self.flow, 3, self.spec.origin, 1 / self.spec.voxel, _query(points))
 
 
 def apply_volume(
@@ -203,17 +217,8 @@ def apply_volume(
     passes = _blur_passes(blur_passes)
     grid = _splat_grid(xs, v, grid_for(xs, resolution, voxel_size, 1 + passes), passes)
     h = grid.spec.voxel
-    _update(
-        xs.reshape(-1, 3),
-        v.reshape(-1, 3),
-        free.reshape(-1),
-        grid.velocity,
-        grid.gradient,
-        grid.spec.origin,
-        1 / h,
-        friction,
-        repulsion * h / dt,
-    )
+    _update(xs.reshape(-1, 3), v.reshape(-1, 3), free.reshape(-1), grid.flow, grid.spec.origin,
+            1 / h, friction, repulsion * h / dt)
     return grid
 
 
@@ -300,16 +305,13 @@ def _splat_grid(x: np.ndarray, v: np.ndarray, spec: GridSpec, blur_passes: int) 
     """Splat validated (S, N, 3) float32 arrays onto ``spec`` and blur: the VolumeGrid."""
     if not isinstance(spec, GridSpec):
         raise InputError(f"spec: expected a GridSpec (see grid_for), got {type(spec).__name__}")
-    m = x.shape[0] * x.shape[1]
-    grid_bytes = 4 * 8 * int(np.prod(spec.shape))
-    blocks = max(1, min(_BLOCKS, m, _BLOCK_BYTES // grid_bytes))
-    starts = (np.arange(blocks + 1, dtype=np.int64) * m) // blocks
-    flat_x, flat_v = x.reshape(-1, 3), v.reshape(-1, 3)
-    sums = _splat(flat_x, flat_v, starts, spec.origin, 1 / spec.voxel, *spec.shape)
+    grids = np.zeros((numba.get_num_threads(), *spec.shape, 4), np.int64)
+    _splat(x.reshape(-1, 3), v.reshape(-1, 3), grids, spec.origin, 1 / spec.voxel)
+    sums = _fixed_sums(grids)
     for _ in range(blur_passes):
         sums = _box_blur(sums)
-    density, velocity, gradient = _resolve(sums, spec.voxel)
-    return VolumeGrid(spec=spec, density=density, velocity=velocity, gradient=gradient)
+    density, flow = _resolve(sums, spec.voxel)
+    return VolumeGrid(spec=spec, density=density, flow=flow)
 
 
 # --- kernels ---------------------------------------------------------------------------
@@ -352,52 +354,86 @@ def _corner(cell, c, nx, ny, nz):
 
 @njit(cache=True, inline="always")
 def _cell(px, py, pz, origin, inv_h, nx, ny, nz):
-    """Cell (i, j, k) and fractions of a point known to lie inside the grid (the grid was
-    fitted around it with a margin): no per-corner bounds checks. The clamp only guards
-    memory against rounding at the border."""
+    """Cell (i, j, k) and fractions of a point, both clamped into the grid: a point a
+    little outside (the solver's grid is placed a substep earlier) reads the border."""
     fx = (px - origin[0]) * inv_h
     fy = (py - origin[1]) * inv_h
     fz = (pz - origin[2]) * inv_h
     ix = min(max(int(fx), 0), nx - 2)
     iy = min(max(int(fy), 0), ny - 2)
     iz = min(max(int(fz), 0), nz - 2)
-    return ix, iy, iz, fx - ix, fy - iy, fz - iz
+    return (ix, iy, iz, min(max(fx - ix, 0.0), 1.0), min(max(fy - iy, 0.0), 1.0),
+            min(max(fz - iz, 0.0), 1.0))  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _fixed(value, scale):
+    """``value`` in whole fixed-point units of 1/scale, rounded to nearest (so the
+    rounding errors of many particles cancel rather than add up)."""
+    return np.int64(math.floor(value * scale + 0.5))
+
+
+@njit(cache=True, inline="always")
+def _add(cell, w, vx, vy, vz):
+    cell[0] += _fixed(w, _FIX_W)
+    cell[1] += _fixed(w * vx, _FIX_M)
+    cell[2] += _fixed(w * vy, _FIX_M)
+    cell[3] += _fixed(w * vz, _FIX_M)
+
+
+@njit(cache=True, inline="always")
+def _splat_point(grid, origin, inv_h, px, py, pz, vx, vy, vz):
+    """Add a particle's tent weight and momentum (eq. 3.2, 3.3) to the fixed-point sums
+    ``grid`` (nx, ny, nz, 4) int64; corners off the grid are left out."""
+    nx, ny, nz = grid.shape[0], grid.shape[1], grid.shape[2]
+    vx = min(max(vx, -_SPLAT_SPEED), _SPLAT_SPEED)
+    vy = min(max(vy, -_SPLAT_SPEED), _SPLAT_SPEED)
+    vz = min(max(vz, -_SPLAT_SPEED), _SPLAT_SPEED)
+    fx = (px - origin[0]) * inv_h
+    fy = (py - origin[1]) * inv_h
+    fz = (pz - origin[2]) * inv_h
+    if 0.0 <= fx < nx - 1 and 0.0 <= fy < ny - 1 and 0.0 <= fz < nz - 1:
+        ix, iy, iz = int(fx), int(fy), int(fz)
+        tx, ty, tz = fx - ix, fy - iy, fz - iz
+        for a in range(2):
+            wa = tx if a else 1.0 - tx
+            for b in range(2):
+                wab = wa * (ty if b else 1.0 - ty)
+                for c in range(2):
+                    _add(grid[ix + a, iy + b, iz + c], wab * (tz if c else 1.0 - tz), vx, vy, vz)
+    elif -1.0 < fx < nx and -1.0 < fy < ny and -1.0 < fz < nz:  # on the border
+        cell = _locate(px, py, pz, origin, inv_h, nx, ny, nz)
+        for c in range(8):
+            i, j, k, w = _corner(cell, c, nx, ny, nz)
+            if w > 0.0:
+                _add(grid[i, j, k], w, vx, vy, vz)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _splat(x, v, starts, origin, inv_h, nx, ny, nz):
-    """Sums (nx, ny, nz, 4) of [w, w·vx, w·vy, w·vz] (eq. 3.2, numerator of 3.3) of
-    particles inside the grid.
+def _splat(x, v, grids, origin, inv_h):
+    """Splat particles (M, 3) into the per-thread fixed-point sums ``grids``
+    (T, nx, ny, nz, 4) of [w, w·vx, w·vy, w·vz] (eq. 3.2, numerator of 3.3)."""
+    m = x.shape[0]
+    for chunk in prange((m + _SPLAT_CHUNK - 1) // _SPLAT_CHUNK):
+        grid = grids[numba.get_thread_id()]
+        for p in range(chunk * _SPLAT_CHUNK, min((chunk + 1) * _SPLAT_CHUNK, m)):
+            _splat_point(grid, origin, inv_h, x[p, 0], x[p, 1], x[p, 2], v[p, 0], v[p, 1],
+                        v[p, 2])  # fmt: skip
 
-    Block b splats particles starts[b]:starts[b+1] into its own grid; the grids are then
-    added in block order, vertex by vertex, so the result does not depend on threads.
-    """
-    blocks = starts.shape[0] - 1
-    private = np.zeros((blocks, nx, ny, nz, 4))
-    for blk in prange(blocks):
-        grid = private[blk]
-        for p in range(starts[blk], starts[blk + 1]):
-            ix, iy, iz, tx, ty, tz = _cell(x[p, 0], x[p, 1], x[p, 2], origin, inv_h, nx, ny, nz)
-            vx, vy, vz = v[p, 0], v[p, 1], v[p, 2]
-            for a in range(2):
-                wa = tx if a else 1.0 - tx
-                for b in range(2):
-                    wab = wa * (ty if b else 1.0 - ty)
-                    for c in range(2):
-                        w = wab * (tz if c else 1.0 - tz)
-                        cell = grid[ix + a, iy + b, iz + c]
-                        cell[0] += w
-                        cell[1] += w * vx
-                        cell[2] += w * vy
-                        cell[3] += w * vz
-    flat = private.reshape(blocks, -1)
-    total = np.empty(flat.shape[1])
+
+@njit(cache=True, parallel=True)
+def _fixed_sums(grids):
+    """The threads' fixed-point sums (T, nx, ny, nz, 4) added (exactly, as integers) and
+    converted to float64 (nx, ny, nz, 4)."""
+    t = grids.shape[0]
+    flat = grids.reshape(t, -1)
+    out = np.empty(flat.shape[1])
     for e in prange(flat.shape[1]):
-        s = 0.0
-        for b in range(blocks):
-            s += flat[b, e]
-        total[e] = s
-    return total.reshape(nx, ny, nz, 4)
+        total = np.int64(0)
+        for k in range(t):
+            total += flat[k, e]
+        out[e] = total / (_FIX_W if e % 4 == 0 else _FIX_M)
+    return out.reshape(grids.shape[1:])
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -442,14 +478,14 @@ def _box_blur(src):
 
 @njit(cache=True)
 def _resolve(sums, h):
-    """Density, velocity (eq. 3.3; 0 where D <= 1e-12) and vertex density gradient.
+    """Density and flow: velocity (eq. 3.3; 0 where D <= 1e-12), then the vertex density
+    gradient.
 
     The gradient is (D[i + 1] − D[i − 1]) / 2h along each axis, D = 0 off the grid.
     """
     nx, ny, nz, _ = sums.shape
     density = np.ascontiguousarray(sums[..., 0])
-    velocity = np.zeros((nx, ny, nz, 3))
-    gradient = np.empty((nx, ny, nz, 3))
+    flow = np.zeros((nx, ny, nz, 6))
     inv_2h = 0.5 / h
     for i in range(nx):
         for j in range(ny):
@@ -457,17 +493,17 @@ def _resolve(sums, h):
                 d = density[i, j, k]
                 if d > _TINY_DENSITY:
                     for a in range(3):
-                        velocity[i, j, k, a] = sums[i, j, k, a + 1] / d
+                        flow[i, j, k, a] = sums[i, j, k, a + 1] / d
                 up = density[i + 1, j, k] if i + 1 < nx else 0.0
                 down = density[i - 1, j, k] if i > 0 else 0.0
-                gradient[i, j, k, 0] = (up - down) * inv_2h
+                flow[i, j, k, 3] = (up - down) * inv_2h
                 up = density[i, j + 1, k] if j + 1 < ny else 0.0
                 down = density[i, j - 1, k] if j > 0 else 0.0
-                gradient[i, j, k, 1] = (up - down) * inv_2h
+                flow[i, j, k, 4] = (up - down) * inv_2h
                 up = density[i, j, k + 1] if k + 1 < nz else 0.0
                 down = density[i, j, k - 1] if k > 0 else 0.0
-                gradient[i, j, k, 2] = (up - down) * inv_2h
-    return density, velocity, gradient
+                flow[i, j, k, 5] = (up - down) * inv_2h
+    return density, flow
 
 
 @njit(cache=True)
@@ -483,16 +519,16 @@ def _density_at(density, origin, inv_h, px, py, pz):
 
 
 @njit(cache=True)
-def _vector_at(field, origin, inv_h, px, py, pz):
-    """Trilinear value of a (nx, ny, nz, 3) vertex field at a point (0 outside the grid)."""
+def _vector_at(field, at, origin, inv_h, px, py, pz):
+    """Trilinear value of channels at … at + 2 of a vertex field at a point (0 outside)."""
     nx, ny, nz, _ = field.shape
     cell = _locate(px, py, pz, origin, inv_h, nx, ny, nz)
     fx = fy = fz = 0.0
     for c in range(8):
         i, j, k, w = _corner(cell, c, nx, ny, nz)
-        fx += w * field[i, j, k, 0]
-        fy += w * field[i, j, k, 1]
-        fz += w * field[i, j, k, 2]
+        fx += w * field[i, j, k, at]
+        fy += w * field[i, j, k, at + 1]
+        fz += w * field[i, j, k, at + 2]
     return fx, fy, fz
 
 
@@ -506,55 +542,58 @@ def _sample_density(density, origin, inv_h, pts):
 
 
 @njit(cache=True)
-def _sample_vector(field, origin, inv_h, pts):
+def _sample_vector(field, at, origin, inv_h, pts):
     """``_vector_at`` for each row of ``pts`` (M, 3)."""
     out = np.empty((pts.shape[0], 3))
     for p in range(pts.shape[0]):
         out[p, 0], out[p, 1], out[p, 2] = _vector_at(
-            field, origin, inv_h, pts[p, 0], pts[p, 1], pts[p, 2]
+            field, at, origin, inv_h, pts[p, 0], pts[p, 1], pts[p, 2]
         )
     return out
 
 
 @njit(cache=True, inline="always")
-def _inside_at(field, ix, iy, iz, tx, ty, tz):
-    """Trilinear value of a (nx, ny, nz, 3) field in cell (i, j, k) at fractions t."""
-    fx = fy = fz = 0.0
+def _exchange(flow, origin, inv_h, px, py, pz, vx, vy, vz, friction, push):
+    """A particle's velocity after friction (eq. 3.4) and repulsion (eq. 3.5–3.7,
+    ``push`` = s_repulsion·h/dt) with the hair around it (``flow`` (nx, ny, nz, 6)).
+
+    Terms with a zero coefficient are skipped, so they leave v bit for bit unchanged.
+    """
+    nx, ny, nz = flow.shape[0], flow.shape[1], flow.shape[2]
+    ix, iy, iz, tx, ty, tz = _cell(px, py, pz, origin, inv_h, nx, ny, nz)
+    gx = gy = gz = dx = dy = dz = 0.0
     for a in range(2):
         wa = tx if a else 1.0 - tx
         for b in range(2):
             wab = wa * (ty if b else 1.0 - ty)
             for c in range(2):
                 w = wab * (tz if c else 1.0 - tz)
-                fx += w * field[ix + a, iy + b, iz + c, 0]
-                fy += w * field[ix + a, iy + b, iz + c, 1]
-                fz += w * field[ix + a, iy + b, iz + c, 2]
-    return fx, fy, fz
+                f = flow[ix + a, iy + b, iz + c]
+                gx += w * f[0]
+                gy += w * f[1]
+                gz += w * f[2]
+                dx += w * f[3]
+                dy += w * f[4]
+                dz += w * f[5]
+    if friction > 0.0:
+        vx = (1.0 - friction) * vx + friction * gx
+        vy = (1.0 - friction) * vy + friction * gy
+        vz = (1.0 - friction) * vz + friction * gz
+    if push > 0.0:
+        norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if norm > _TINY_DENSITY * inv_h:  # |D(P + h·e) − D(P − h·e)| ~ 0: no direction
+            vx -= push * dx / norm
+            vy -= push * dy / norm
+            vz -= push * dz / norm
+    return vx, vy, vz
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _update(x, v, free, velocity, gradient, origin, inv_h, friction, push):
-    """Friction (eq. 3.4) then repulsion (eq. 3.5–3.7, ``push`` = s_repulsion·h/dt) on v
-    of particles inside the grid.
-
-    Terms with a zero coefficient are skipped, so they leave v bit for bit unchanged.
-    """
-    nx, ny, nz, _ = velocity.shape
+def _update(x, v, free, flow, origin, inv_h, friction, push):
+    """:func:`_exchange` for every free particle of ``x``, ``v`` (M, 3), in place."""
     for p in prange(x.shape[0]):
-        if not free[p]:
-            continue
-        ix, iy, iz, tx, ty, tz = _cell(x[p, 0], x[p, 1], x[p, 2], origin, inv_h, nx, ny, nz)
-        vx, vy, vz = float(v[p, 0]), float(v[p, 1]), float(v[p, 2])
-        if friction > 0.0:
-            gx, gy, gz = _inside_at(velocity, ix, iy, iz, tx, ty, tz)
-            vx = (1.0 - friction) * vx + friction * gx
-            vy = (1.0 - friction) * vy + friction * gy
-            vz = (1.0 - friction) * vz + friction * gz
-        if push > 0.0:
-            dx, dy, dz = _inside_at(gradient, ix, iy, iz, tx, ty, tz)
-            norm = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if norm > _TINY_DENSITY * inv_h:  # |D(P + h·e) − D(P − h·e)| ~ 0: no direction
-                vx -= push * dx / norm
-                vy -= push * dy / norm
-                vz -= push * dz / norm
-        v[p, 0], v[p, 1], v[p, 2] = vx, vy, vz
+        if free[p]:
+            v[p, 0], v[p, 1], v[p, 2] = _exchange(
+                flow, origin, inv_h, x[p, 0], x[p, 1], x[p, 2], float(v[p, 0]), float(v[p, 1]),
+                float(v[p, 2]), friction, push,
+            )  # fmt: skip
