@@ -1,4 +1,4 @@
-"""The ``follicle`` command: demo, grow, simulate, render, info.
+"""The ``follicle`` command: demo, grow, export, simulate, render, info.
 
 Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
 traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
@@ -24,6 +24,8 @@ from .errors import FollicleError
 if TYPE_CHECKING:
     from pydantic import BaseModel
 
+    from .curves import HairCurves
+    from .groom.generator import Groom
     from .scene import Scene
 
     M = TypeVar("M", bound=BaseModel)
@@ -106,22 +108,76 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
 @main.command()
 @click.argument("scene_path", metavar="SCENE", type=click.Path(dir_okay=False))
 @click.option("-o", "--out", type=click.Path(dir_okay=False), default=None,
-              help="Output curves file (.npz); default [output].curves of the scene.")
+              help="Output curves file: .npz, or .hair, .tfx, .obj, .pbrt, .txt (Mitsuba), …"
+              " written chunk by chunk as the hair grows; default [output].curves of the"
+              " scene.")
 @click.option("--count", type=int, default=None, help="Override [groom].count.")
 @click.option("--seed", type=int, default=None, help="Override [groom].seed.")
 def grow(scene_path: str, out: str | None, count: int | None, seed: int | None) -> None:
-    """Grow the hair of a scene file and save the curves."""
+    """Grow the hair of a scene file and save the curves.
+
+    Formats other than .npz are streamed: the hair is grown and written in chunks, so
+    memory stays bounded whatever the count.
+    """
     from .io.dispatch import save
+    from .pipeline import groom_scene
     from .pipeline import grow as grow_scene
     from .scene import load_scene
 
     scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
     target = out or scene.resolve(scene.output.curves)
-    _check_writable_suffix(target, (".npz",))
-    with _step("grow"), _progress("growing hair") as progress:
-        _, curves = grow_scene(scene, progress)
-    save(curves, target)
-    click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {target}")
+    _check_writable_suffix(target, _curve_suffixes())
+    if Path(target).suffix.lower() == ".npz":
+        with _step("grow"), _progress("growing hair") as progress:
+            _, curves = grow_scene(scene, progress)
+        save(curves, target)
+        hairs, points = curves.curve_count, curves.point_count
+    else:
+        tally = [0, 0]
+        with _step("grow and save"), _progress("growing hair") as progress:
+            save(_grown_chunks(groom_scene(scene), progress, tally), target)
+        hairs, points = tally
+    click.echo(f"{hairs:,} hairs, {points:,} points → {target}")
+
+
+def _grown_chunks(groom: Groom, progress: Callable[[int, int], None], tally: list[int],
+                  ) -> Iterator[HairCurves]:  # fmt: skip
+    """The groom's hairs chunk by chunk, reporting progress and adding up (hairs, points)
+    in ``tally``; one empty chunk for a count of 0, so the file is still written."""
+    from .groom.generator import CHUNK
+
+    total = groom.params.count
+    for i, chunk in enumerate(groom.chunks(CHUNK) if total else [groom.generate(count=0)]):
+        tally[0] += chunk.curve_count
+        tally[1] += chunk.point_count
+        yield chunk
+        progress(min((i + 1) * CHUNK, total), total)
+
+
+@main.command()
+@click.argument("source", metavar="IN", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
+              help="Output file; its extension picks the format (.npz, .hair, .tfx, .obj,"
+              " .pbrt, .txt, …).")
+def export(source: str, out: str) -> None:
+    """Convert a curves file to another format, e.g. hair.npz -o hair.hair.
+
+    Any extension `follicle info` reads (.npz, .hair, .tfx, .obj, .txt, …) to any that
+    `follicle grow -o` writes; README § Formats says what each format keeps.
+    """
+    from .io.dispatch import load_curves, save
+
+    _check_writable_suffix(out, _curve_suffixes())
+    curves = load_curves(source)
+    save(curves, out)
+    click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {out}")
+
+
+def _curve_suffixes() -> tuple[str, ...]:
+    """The extensions curves can be written to: .npz first, then the others sorted."""
+    from .io.dispatch import WRITERS
+
+    return (".npz", *sorted(set(WRITERS) - {".npz"}))
 
 
 MOTIONS = ("none", "turn", "nod", "shake")  # follicle.sim.motion.MOTIONS (not imported: slow)

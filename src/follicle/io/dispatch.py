@@ -13,19 +13,34 @@ from pathlib import Path
 
 from ..curves import HairCurves
 from ..errors import FormatError
+from .cyhair import load_cyhair, save_cyhair
+from .mitsuba import load_mitsuba, save_mitsuba
 from .npz import load_npz, save_npz
+from .obj import load_obj, save_obj
+from .pbrt import save_pbrt
+from .rib import save_rib
 from .stream import Curves, as_chunks
+from .tfx import load_tfx, save_tfx
+from .usd import load_usd, save_usd
 
 __all__ = ["save", "load_curves", "WRITERS", "READERS"]
 
 WRITERS: dict[str, Callable[..., Path]] = {".npz": save_npz}
 READERS: dict[str, Callable[..., HairCurves]] = {".npz": load_npz}
+# hair formats; ".txt" is a Mitsuba 3 bsplinecurve file, ".pbrt" is written only
+WRITERS.update({".hair": save_cyhair, ".tfx": save_tfx, ".obj": save_obj, ".pbrt": save_pbrt,
+                ".txt": save_mitsuba})
+READERS.update({".hair": load_cyhair, ".tfx": load_tfx, ".obj": load_obj, ".txt": load_mitsuba})
+# USD (".usd" is crate, like ".usdc") and RenderMan RIB (written only)
+_USD = (".usd", ".usda", ".usdc", ".usdz")
+WRITERS.update({**dict.fromkeys(_USD, save_usd), ".rib": save_rib})
+READERS.update(dict.fromkeys(_USD, load_usd))
 
 
 def _suffix(path: str | os.PathLike[str], table: dict, verb: str) -> str:
     suffix = Path(path).suffix.lower()
     if suffix not in table:
-        allowed = ", ".join(sorted(table))
+        allowed = ", ".join(sorted(table, key=lambda s: (s != ".npz", s)))  # native first
         shown = suffix or "no extension"
         raise FormatError(f"{path}: cannot {verb} '{shown}' files; use {allowed}")
     return suffix

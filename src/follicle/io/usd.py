@@ -1,0 +1,589 @@
+"""USD hair: ``UsdGeomBasisCurves`` written and read with Pixar's ``pxr`` (usd-core).
+
+Writing (``.usda``, ``.usdc``, ``.usdz``; ``.usd`` is crate, like ``.usdc``): the stage has
+``upAxis = "Y"``, ``metersPerUnit = 1`` and ``defaultPrim = "Groom"``. ``/Groom`` is an Xform,
+``/Groom/Hair`` a Scope holding one BasisCurves prim per chunk of the stream,
+``/Groom/Hair/chunk_0000``, ``chunk_0001``, … (always, even for a single chunk), and the
+optional guides are the BasisCurves ``/Groom/Guides``.
+
+Every prim is ``type = "cubic"``, ``basis = "catmullRom"``, ``wrap = "pinned"``: the curve
+passes through every stored vertex, root to tip, with no phantom points in the file (USD
+adds P[-1] = 2·P[0] − P[1] and P[n] = 2·P[n−1] − P[n−2] when it evaluates; follicle's own
+spline repeats the end vertex instead, so the first and last segments differ slightly in
+parametrisation, never in the vertices they pass through). Attributes:
+
+- ``points``, ``curveVertexCounts``, ``extent`` (the curves' Bézier hulls padded by half
+  the widest width, so it bounds the smooth curves, not only their vertices);
+- ``widths`` (diameters, metres) and ``normals``, vertex interpolation (normals make
+  renderers draw flat ribbons facing them: pass ``normals=False`` for round tubes);
+- ``primvars:displayColor`` (``color``) and ``primvars:displayOpacity`` (``opacity``), vertex;
+- every other ``point_data`` array as a vertex primvar and every ``curve_data`` array as a
+  uniform one under its own name (``root_uv`` float2, ``hair_id`` int64, ``strand_id``,
+  ``strand_uv``, ``root_triangle``, ``root_bary``, ``group``, …) when its dtype and shape
+  map to a USD type (float/double/half with 1–4 components, int with 1–4, int64, uint,
+  uint64, uchar, bool); others are skipped with a warning.
+
+The stream is written with bounded memory: each chunk goes to a crate layer that is saved
+after it, and crate saves append, releasing the chunk's arrays (a text layer would hold
+everything until its one save). ``.usda`` is exported from that temporary crate (USD
+maps the crate while it writes, so file-backed memory grows to about its size) and
+``.usdz`` copies it block by block into a Zip32 package. The same curves give the same
+bytes.
+
+Reading takes every BasisCurves prim of the stage, any type, basis and wrap, and keeps
+the points each curve passes through; see :func:`load_usd`.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import struct
+import tempfile
+import zlib
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
+
+from ..curves import HairCurves
+from ..errors import FormatError, InputError
+from .atomic import atomic_path
+from .stream import Curves, as_chunks
+
+if TYPE_CHECKING:
+    from ..sim.cache import SimCache
+
+__all__ = ["save_usd", "save_usd_cache", "load_usd", "HAIR_PATH", "GUIDES_PATH"]
+
+log = logging.getLogger("follicle")
+
+GROOM_PATH = "/Groom"
+HAIR_PATH = "/Groom/Hair"
+GUIDES_PATH = "/Groom/Guides"
+
+# point_data / curve_data name -> USD attribute written by the schema, not as a primvar
+_SPECIAL = {"width": "widths", "normal": "normals", "color": "displayColor",
+            "opacity": "displayOpacity"}  # fmt: skip
+_RESERVED = set(_SPECIAL.values())
+
+
+def _type_table() -> dict[tuple[str, int], Sdf.ValueTypeName]:
+    """(numpy dtype str, components) -> USD array value type."""
+    names = Sdf.ValueTypeNames
+    table = {}
+    for code, base in (("<f4", "Float"), ("<f8", "Double"), ("<f2", "Half"), ("<i4", "Int")):
+        for k in (1, 2, 3, 4):
+            table[(code, k)] = getattr(names, f"{base}{k if k > 1 else ''}Array")
+    table.update({("<i8", 1): names.Int64Array, ("<u4", 1): names.UIntArray,
+                  ("<u8", 1): names.UInt64Array, ("|u1", 1): names.UCharArray,
+                  ("|b1", 1): names.BoolArray})  # fmt: skip
+    return table
+
+
+_TYPES = _type_table()
+
+
+def _primvar_value(arr: np.ndarray) -> tuple[Sdf.ValueTypeName, object] | None:
+    """(USD type, Vt array) of ``arr`` (P or C rows of 1-4 components), or None when USD
+    has no such type. Small integers widen to int32 / uint32."""
+    if arr.ndim not in (1, 2):
+        return None
+    if arr.dtype.kind in "iu" and arr.dtype.itemsize < 4 and arr.dtype != np.uint8:
+        arr = arr.astype(np.int32 if arr.dtype.kind == "i" else np.uint32)
+    arr = np.ascontiguousarray(arr, dtype=arr.dtype.newbyteorder("<"))
+    type_name = _TYPES.get((arr.dtype.str, 1 if arr.ndim == 1 else arr.shape[1]))
+    if type_name is None:
+        return None
+    return type_name, type_name.type.pythonClass.FromNumpy(arr)
+
+
+# ------------------------------------------------------------------ writing
+def _extent(points: np.ndarray, offsets: np.ndarray, widths: np.ndarray | None) -> Vt.Vec3fArray:
+    """Bounds of pinned Catmull-Rom curves: each segment lies in the hull of its Bézier
+    points P_i ± m_i / 3 (m_i the vertex tangent, phantom ends as USD defines them)."""
+    m = np.empty_like(points)
+    np.subtract(points[2:], points[:-2], out=m[1:-1])
+    m[1:-1] *= 0.5
+    starts, ends = offsets[:-1], offsets[1:] - 1
+    m[starts] = points[starts + 1] - points[starts]
+    m[ends] = points[ends] - points[ends - 1]
+    np.abs(m, out=m)
+    m /= 3.0
+    pad = 0.5 * float(widths.max()) if widths is not None and widths.size else 0.0
+    lo = np.subtract(points, m).min(axis=0) - pad
+    hi = np.add(points, m, out=m).max(axis=0) + pad
+    return Vt.Vec3fArray([Gf.Vec3f(*lo.tolist()), Gf.Vec3f(*hi.tolist())])
+
+
+def _column(curves: HairCurves, key: str, comps: int) -> np.ndarray | None:
+    """``point_data[key]`` as float32 of ``comps`` components a vertex, or None if absent."""
+    values = curves.point_data.get(key)
+    if values is None:
+        return None
+    shape = (curves.point_count,) if comps == 1 else (curves.point_count, comps)
+    if values.shape != shape:
+        raise InputError(f"point_data['{key}']: expected shape {shape}, got {values.shape}")
+    return values.astype(np.float32)
+
+
+def _define_curves(stage: Usd.Stage, path: str, curves: HairCurves, normals: bool) -> None:
+    """One pinned Catmull-Rom BasisCurves prim at ``path`` holding ``curves``."""
+    prim = UsdGeom.BasisCurves.Define(stage, path)
+    prim.CreateTypeAttr(UsdGeom.Tokens.cubic)
+    prim.CreateBasisAttr(UsdGeom.Tokens.catmullRom)
+    prim.CreateWrapAttr(UsdGeom.Tokens.pinned)
+    prim.CreateCurveVertexCountsAttr(Vt.IntArray.FromNumpy(curves.counts.astype(np.int32)))
+    prim.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(curves.points))
+    vertex, uniform = UsdGeom.Tokens.vertex, UsdGeom.Tokens.uniform
+    width = _column(curves, "width", 1)
+    if width is not None:
+        prim.CreateWidthsAttr(Vt.FloatArray.FromNumpy(width))
+        prim.SetWidthsInterpolation(vertex)
+    normal = _column(curves, "normal", 3) if normals else None
+    if normal is not None:
+        prim.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(normal))
+        prim.SetNormalsInterpolation(vertex)
+    color, opacity = _column(curves, "color", 3), _column(curves, "opacity", 1)
+    if color is not None:
+        prim.CreateDisplayColorPrimvar(vertex).Set(Vt.Vec3fArray.FromNumpy(color))
+    if opacity is not None:
+        prim.CreateDisplayOpacityPrimvar(vertex).Set(Vt.FloatArray.FromNumpy(opacity))
+    if curves.point_count:
+        prim.CreateExtentAttr(_extent(curves.points, curves.offsets, width))
+    api = UsdGeom.PrimvarsAPI(prim)
+    written: set[str] = set()
+    pd = curves.point_data
+    for data, interpolation in ((pd, vertex), (curves.curve_data, uniform)):
+        for name, arr in sorted(data.items()):
+            if data is pd and name in _SPECIAL:
+                continue
+            value = _primvar_value(arr)
+            if name in _RESERVED or name in written or value is None \
+                    or not Sdf.Path.IsValidNamespacedIdentifier(name):  # fmt: skip
+                log.warning("USD: %s '%s' (%s %s) not written: reserved or repeated name,"
+                            " or no USD type for it", "point_data" if data is pd
+                            else "curve_data", name, arr.dtype, arr.shape)  # fmt: skip
+                continue
+            api.CreatePrimvar(name, value[0], interpolation).Set(value[1])
+            written.add(name)
+
+
+def _new_stage(path: Path) -> Usd.Stage:
+    """A crate stage at ``path`` with follicle's metadata and /Groom, /Groom/Hair."""
+    args = {"format": "usdc"} if path.suffix.lower() == ".usd" else {}
+    stage = Usd.Stage.Open(Sdf.Layer.CreateNew(str(path), args))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, GROOM_PATH).GetPrim())
+    UsdGeom.Scope.Define(stage, HAIR_PATH)
+    return stage
+
+
+def _as_guides(guides: object) -> HairCurves:
+    curves = getattr(guides, "curves", guides)  # a Guides object or its HairCurves
+    if not isinstance(curves, HairCurves):
+        raise InputError(f"guides: expected HairCurves or Guides, got {type(guides).__name__}")
+    return curves
+
+
+def _write_crate(chunks: Iterator[HairCurves], crate: Path, guides: HairCurves | None,
+                 normals: bool) -> None:  # fmt: skip
+    stage = _new_stage(crate)
+    layer = stage.GetRootLayer()
+    if guides is not None:
+        _define_curves(stage, GUIDES_PATH, guides, normals)
+    for i, chunk in enumerate(chunks):
+        _define_curves(stage, f"{HAIR_PATH}/chunk_{i:04d}", chunk, normals)
+        layer.Save()  # crate appends the chunk and lets go of its arrays
+    layer.Save()
+
+
+def _finish(target: Path, tmp: Path, write_crate: Callable[[Path], None]) -> None:
+    """Write through ``write_crate(crate_path)`` into ``tmp`` in ``target``'s format."""
+    suffix = target.suffix.lower()
+    if suffix in (".usdc", ".usd"):
+        write_crate(tmp)
+        return
+    with tempfile.TemporaryDirectory(prefix="follicle-usd-") as folder:
+        crate = Path(folder) / f"{target.stem}.usdc"
+        write_crate(crate)
+        if suffix == ".usda":
+            if not Sdf.Layer.FindOrOpen(str(crate)).Export(str(tmp)):
+                raise FormatError(f"{target}: USD could not write the .usda text")
+            return
+        _package(crate, tmp, target)
+
+
+def _package(crate: Path, usdz: Path, target: Path) -> None:
+    """Write ``usdz`` holding ``crate`` as USDZ asks: a Zip32 archive, the member stored
+    uncompressed with its data 64-byte aligned. Copied in blocks, with a fixed timestamp
+    (USD's own ZipFileWriter stamps the time and maps the whole file into memory)."""
+    size = crate.stat().st_size
+    if size >= 2**32 - 2**16:
+        raise FormatError(
+            f"{target}: {size / 2**30:.1f} GiB of curves is over the 4 GiB a .usdz can hold"
+            " (USDZ is Zip32); write .usdc instead"
+        )
+    name = crate.name.encode()
+    pad = -(30 + len(name) + 4) % 64
+    extra = struct.pack("<HH", 0x1986, pad) + bytes(pad)  # USD's alignment padding field
+    crc = 0
+    with open(usdz, "wb") as out:
+        out.write(bytes(30 + len(name) + len(extra)))  # local header, written last
+        with open(crate, "rb") as src:
+            while block := src.read(1 << 20):
+                crc = zlib.crc32(block, crc)
+                out.write(block)
+        # version 2.0, no flags, stored, 1980-01-01 00:00 (DOS date 0x21), crc, sizes
+        common = struct.pack("<HHHHHIIIHH", 20, 0, 0, 0, 0x21, crc, size, size, len(name),
+                             len(extra))  # fmt: skip
+        central = out.tell()
+        out.write(b"PK\x01\x02" + struct.pack("<H", 20) + common
+                  + struct.pack("<HHHII", 0, 0, 0, 0, 0) + name + extra)  # fmt: skip
+        directory = out.tell() - central
+        out.write(b"PK\x05\x06" + struct.pack("<HHHHIIH", 0, 0, 1, 1, directory, central, 0))
+        out.seek(0)
+        out.write(b"PK\x03\x04" + common + name + extra)
+
+
+def _check_suffix(path: str | os.PathLike[str]) -> Path:
+    target = Path(path)
+    if target.suffix.lower() not in (".usd", ".usda", ".usdc", ".usdz"):
+        raise FormatError(f"{target}: a USD file must end in .usd, .usda, .usdc or .usdz")
+    return target
+
+
+def save_usd(
+    curves: Curves,
+    path: str | os.PathLike[str],
+    guides: HairCurves | None = None,
+    normals: bool = True,
+) -> Path:
+    """Write ``curves`` (HairCurves or a stream of chunks) as pinned Catmull-Rom
+    BasisCurves, one prim per chunk under ``/Groom/Hair``, and ``guides`` (HairCurves or
+    Guides) as ``/Groom/Guides``; atomically, in the format the extension names."""
+    target = _check_suffix(path)
+    guide_curves = None if guides is None else _as_guides(guides)
+    chunks = as_chunks(curves)
+    with atomic_path(target) as tmp:
+        _finish(target, tmp, lambda crate: _write_crate(chunks, crate, guide_curves, normals))
+    return target
+
+
+# ------------------------------------------------------------------ animation cache
+def _frames(frames: Iterable[HairCurves] | SimCache) -> tuple[Iterable[HairCurves], float | None]:
+    """Frames to write and the fps they carry (a SimCache's guide strands per frame)."""
+    positions = getattr(frames, "positions", None)
+    if isinstance(positions, np.ndarray) and positions.ndim == 4:
+        return (HairCurves.from_array(p) for p in positions), float(frames.fps)
+    if isinstance(frames, HairCurves) or not isinstance(frames, Iterable):
+        raise InputError(
+            f"frames: expected an iterable of HairCurves or a SimCache, got {type(frames).__name__}"
+        )
+    return frames, None
+
+
+def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: int) -> None:
+    stage = _new_stage(crate)
+    stage.SetTimeCodesPerSecond(fps)
+    stage.SetFramesPerSecond(fps)
+    layer = stage.GetRootLayer()
+    path = f"{HAIR_PATH}/chunk_0000"
+    first = None
+    for f, frame in enumerate(frames):
+        if not isinstance(frame, HairCurves):
+            raise InputError(f"frames: frame {f} is a {type(frame).__name__}, not HairCurves")
+        if first is None:
+            first = frame
+            _define_curves(stage, path, frame, True)
+            prim = UsdGeom.BasisCurves.Get(stage, path)
+            # topology and primvars stay as frame 0 has them; these are sampled per frame
+            sampled = [prim.GetPointsAttr(), prim.GetExtentAttr(), prim.GetNormalsAttr()]
+            for attr in sampled:
+                attr.Clear()
+        elif not np.array_equal(frame.offsets, first.offsets):
+            raise InputError(
+                f"frames: frame {f} has {frame.curve_count} curves / {frame.point_count} points"
+                f" laid out differently from frame 0 ({first.curve_count} / {first.point_count});"
+                " every frame must share the first frame's topology"
+            )
+        time = Usd.TimeCode(start + f)
+        sampled[0].Set(Vt.Vec3fArray.FromNumpy(frame.points), time)
+        if frame.point_count:
+            width = first.point_data.get("width")
+            sampled[1].Set(_extent(frame.points, frame.offsets, width), time)
+        if "normal" in first.point_data and "normal" in frame.point_data:
+            normal = frame.point_data["normal"].astype(np.float32)
+            sampled[2].Set(Vt.Vec3fArray.FromNumpy(normal), time)
+        layer.Save()  # crate appends this frame's samples
+    if first is None:
+        raise InputError("frames: the frame stream is empty; nothing to write")
+    stage.SetStartTimeCode(start)
+    stage.SetEndTimeCode(start + f)
+    layer.Save()
+
+
+def save_usd_cache(
+    frames: Iterable[HairCurves] | SimCache,
+    path: str | os.PathLike[str],
+    fps: float | None = None,
+    start: int = 0,
+) -> Path:
+    """Write an animation: frame ``f`` of ``frames`` is time code ``start + f`` of one
+    BasisCurves prim ``/Groom/Hair/chunk_0000``, whose topology and primvars come from
+    frame 0 and whose ``points`` and ``extent`` are sampled per frame.
+
+    ``fps`` (default 24, or a SimCache's own) sets ``timeCodesPerSecond``. A SimCache
+    writes its guide strands; for hair, write ``groom.follow(cache.positions[f])`` after
+    ``groom.mesh.set_pose(transform=cache.transforms[f])`` for each frame f.
+    """
+    target = _check_suffix(path)
+    stream, cache_fps = _frames(frames)
+    rate = fps if fps is not None else cache_fps if cache_fps is not None else 24.0
+    real = (int, float, np.integer, np.floating)
+    if isinstance(rate, bool) or not isinstance(rate, real) or not 0 < rate < np.inf:
+        raise InputError(f"fps: expected a finite number > 0, got {rate!r}")
+    if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
+        raise InputError(f"start: expected a whole number (first time code), got {start!r}")
+    with atomic_path(target) as tmp:
+        _finish(target, tmp, lambda crate: _write_cache(stream, crate, float(rate), int(start)))
+    return target
+
+
+# ------------------------------------------------------------------ reading
+_VSTEP = {"bezier": 3, "bspline": 1, "catmullRom": 1}
+
+
+def _rule(kind: str, basis: str, wrap: str, counts: np.ndarray, where: str) -> str:
+    """How a prim's control vertices map to the points its curves pass through."""
+    if wrap == "periodic":
+        raise FormatError(f"{where}: periodic (closed) curves are not hair; not read")
+    if kind == "linear":
+        low, rule = 2, "all"
+    elif basis not in _VSTEP:
+        raise FormatError(f"{where}: unknown basis '{basis}' (bezier, bspline or catmullRom)")
+    elif wrap == "pinned" and basis != "bezier":
+        low, rule = 2, "all" if basis == "catmullRom" else "pinned-knots"
+    else:
+        low, rule = 4, {"bezier": "bezier", "bspline": "knots", "catmullRom": "inner"}[basis]
+    bad = (counts < low) | (((counts - 4) % 3 != 0) if rule == "bezier" else False)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise FormatError(
+            f"{where}: curve {i} has {int(counts[i])} vertices, invalid for {kind} {basis}"
+            f" {wrap} curves"
+        )
+    return rule
+
+
+def _out_counts(rule: str, counts: np.ndarray) -> np.ndarray:
+    if rule in ("inner", "knots"):
+        return counts - 2
+    if rule == "bezier":
+        return (counts - 1) // 3 + 1
+    return counts
+
+
+def _through(values: np.ndarray, counts: np.ndarray, rule: str) -> np.ndarray:
+    """Per-control-vertex ``values`` at the points the curves pass through."""
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    if rule == "all":
+        return values
+    if rule == "pinned-knots":  # add USD's phantom ends, then as nonperiodic
+        starts, ends = offsets[:-1], offsets[1:] - 1
+        first, last = values[starts], values[ends]
+        if np.issubdtype(values.dtype, np.floating):
+            first, last = 2 * first - values[starts + 1], 2 * last - values[ends - 1]
+        at = np.arange(len(values)) + np.repeat(2 * np.arange(len(counts)) + 1, counts)
+        padded = np.empty((len(values) + 2 * len(counts),) + values.shape[1:], values.dtype)
+        padded[at], padded[starts + 2 * np.arange(len(counts))] = values, first
+        padded[ends + 2 * np.arange(len(counts)) + 2] = last
+        return _through(padded, counts + 2, "knots")
+    local = np.arange(len(values)) - np.repeat(offsets[:-1], counts)
+    if rule == "bezier":
+        return values[local % 3 == 0]
+    inner = np.flatnonzero((local > 0) & (local < np.repeat(counts, counts) - 1))
+    if rule == "inner" or not np.issubdtype(values.dtype, np.floating):
+        return values[inner]
+    # uniform cubic B-spline at its knots: (P[j-1] + 4 P[j] + P[j+1]) / 6
+    return ((values[inner - 1] + 4 * values[inner] + values[inner + 1]) / 6).astype(values.dtype)
+
+
+def _array(value: object) -> np.ndarray | None:
+    arr = None if value is None else np.asarray(value)
+    return arr if arr is not None and arr.dtype.kind in "fiub" else None
+
+
+class _Prim:
+    """A BasisCurves prim read as HairCurves: its topology, then its primvars mapped to
+    the points its curves pass through."""
+
+    def __init__(self, prim: Usd.Prim, time: Usd.TimeCode, source: str) -> None:
+        self.schema = UsdGeom.BasisCurves(prim)
+        self.time = time
+        self.where = f"{source}: {prim.GetPath()}"
+        counts = _array(self.schema.GetCurveVertexCountsAttr().Get(time))
+        points = _array(self.schema.GetPointsAttr().Get(time))
+        if counts is None or points is None:
+            raise FormatError(f"{self.where}: no points or curveVertexCounts")
+        self.counts = counts.astype(np.int64)
+        if int(self.counts.sum()) != len(points):
+            raise FormatError(
+                f"{self.where}: curveVertexCounts sum to {int(self.counts.sum())} but there are"
+                f" {len(points)} points"
+            )
+        self.rule = _rule(self.schema.GetTypeAttr().Get(), self.schema.GetBasisAttr().Get(),
+                          self.schema.GetWrapAttr().Get(), self.counts, self.where)  # fmt: skip
+        self.out = _out_counts(self.rule, self.counts)
+        self.points = _through(points.astype(np.float32), self.counts, self.rule)
+
+    def _check(self, name: str, values: np.ndarray, interpolation: str) -> None:
+        sizes = {"constant": 1, "uniform": len(self.counts), "vertex": int(self.counts.sum()),
+                 "varying": int(self.out.sum()), "faceVarying": int(self.out.sum())}  # fmt: skip
+        if interpolation not in sizes or len(values) != sizes[interpolation]:
+            raise FormatError(
+                f"{self.where}: {name} has {len(values)} values; {interpolation} interpolation"
+                f" needs {sizes.get(interpolation, 'a known interpolation')}"
+            )
+
+    def per_point(self, name: str, values: np.ndarray, interpolation: str) -> np.ndarray:
+        """``values`` of any interpolation as one row per output point."""
+        self._check(name, values, interpolation)
+        if interpolation == "vertex":
+            return _through(values, self.counts, self.rule)
+        if interpolation in ("constant", "uniform"):
+            return np.repeat(values, self.out if interpolation == "uniform" else len(self.points),
+                             axis=0)  # fmt: skip
+        return values
+
+    def _widths_normals(self, point_data: dict[str, np.ndarray]) -> None:
+        api = UsdGeom.PrimvarsAPI(self.schema)
+        for key, name, attr, interpolation in (
+            ("width", "widths", self.schema.GetWidthsAttr(), self.schema.GetWidthsInterpolation()),
+            ("normal", "normals", self.schema.GetNormalsAttr(),
+             self.schema.GetNormalsInterpolation()),
+        ):  # fmt: skip
+            if api.HasPrimvar(name):  # primvars:widths / primvars:normals win over the attribute
+                primvar = api.GetPrimvar(name)
+                value = primvar.ComputeFlattened(self.time)
+                interpolation = primvar.GetInterpolation()
+            else:
+                value = attr.Get(self.time) if attr.HasAuthoredValue() else None
+            arr = _array(value)
+            if arr is not None:
+                point_data[key] = self.per_point(name, arr.astype(np.float32), interpolation)
+
+    def read(self) -> HairCurves:
+        point_data: dict[str, np.ndarray] = {}
+        curve_data: dict[str, np.ndarray] = {}
+        self._widths_normals(point_data)
+        for primvar in UsdGeom.PrimvarsAPI(self.schema).GetPrimvarsWithAuthoredValues():
+            name, interpolation = primvar.GetPrimvarName(), primvar.GetInterpolation()
+            arr = _array(primvar.ComputeFlattened(self.time))
+            if name in ("widths", "normals") or arr is None or interpolation == "constant" \
+                    and name not in ("displayColor", "displayOpacity"):  # fmt: skip
+                continue
+            if primvar.GetElementSize() > 1:
+                arr = arr.reshape(len(arr) // primvar.GetElementSize(), -1)
+            key = {"displayColor": "color", "displayOpacity": "opacity"}.get(name)
+            if key is not None:
+                point_data[key] = self.per_point(name, arr.astype(np.float32), interpolation)
+            elif interpolation == "uniform":
+                self._check(name, arr, interpolation)
+                curve_data[name] = arr
+            else:
+                point_data[name] = self.per_point(name, arr, interpolation)
+        offsets = np.concatenate([[0], np.cumsum(self.out)])
+        curves = HairCurves(self.points, offsets, point_data, curve_data)
+        return _to_follicle_space(curves, self.schema.GetPrim(), self.time)
+
+
+def _to_follicle_space(curves: HairCurves, prim: Usd.Prim, time: Usd.TimeCode) -> HairCurves:
+    """Apply the prim's local-to-world transform, the stage's metersPerUnit and a Z-up to
+    Y-up turn, so the curves are in follicle's metres, +Y up (no copy when all are 1)."""
+    stage = prim.GetStage()
+    m = np.array(UsdGeom.XformCache(time).GetLocalToWorldTransform(prim), dtype=np.float64)
+    m[:, :3] *= UsdGeom.GetStageMetersPerUnit(stage)
+    if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z:  # (x, y, z) -> (x, z, -y)
+        m = m @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], np.float64)
+    if np.allclose(m, np.eye(4), rtol=0, atol=1e-12):
+        return curves
+    linear = m[:3, :3]  # USD matrices act on row vectors: p' = p @ linear + m[3, :3]
+    pd = dict(curves.point_data)
+    if "width" in pd:
+        pd["width"] = (pd["width"] * abs(np.linalg.det(linear)) ** (1 / 3)).astype(np.float32)
+    if "normal" in pd:
+        n = pd["normal"].astype(np.float64) @ np.linalg.inv(linear).T
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+        pd["normal"] = n.astype(np.float32)
+    points = curves.points.astype(np.float64) @ linear + m[3, :3]
+    return HairCurves(points.astype(np.float32), curves.offsets, pd, curves.curve_data)
+
+
+def _open(path: Path) -> Usd.Stage:
+    if not path.is_file():
+        raise FormatError(f"{path}: no such file")
+    try:
+        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
+    except Tf.ErrorException as exc:
+        reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else "unreadable"
+        raise FormatError(f"{path}: not a readable USD file ({reason})") from None
+    if stage is None:
+        raise FormatError(f"{path}: not a readable USD file")
+    return stage
+
+
+def _join(parts: list[HairCurves], source: Path) -> HairCurves:
+    """Concatenate prims, keeping the attributes every prim has (with one row shape)."""
+    if len(parts) == 1:
+        return parts[0]
+
+    def common(get: Callable[[HairCurves], dict]) -> set[str]:
+        names = set.intersection(*(set(get(p)) for p in parts))
+        return {k for k in names if len({get(p)[k].shape[1:] for p in parts}) == 1}
+
+    pkeys = common(lambda p: p.point_data)
+    ckeys = common(lambda p: p.curve_data)
+    dropped = set().union(*(set(p.point_data) | set(p.curve_data) for p in parts)) - pkeys - ckeys
+    if dropped:
+        log.warning("%s: attributes not on every curves prim were dropped: %s", source,
+                    ", ".join(sorted(dropped)))  # fmt: skip
+    return HairCurves.concatenate([
+        HairCurves(p.points, p.offsets, {k: p.point_data[k] for k in pkeys},
+                   {k: p.curve_data[k] for k in ckeys})
+        for p in parts
+    ])  # fmt: skip
+
+
+def load_usd(
+    path: str | os.PathLike[str], time: float | None = None, guides: bool = False
+) -> HairCurves:
+    """Hair curves from every BasisCurves prim of a USD stage, joined in stage order.
+
+    Any type, basis and wrap: each curve becomes the points it passes through (linear
+    and pinned Catmull-Rom: every vertex; nonperiodic Catmull-Rom: all but the two end
+    vertices; Bézier: every third; B-spline: the curve at its knots). Widths, normals,
+    displayColor, displayOpacity and other numeric primvars of any interpolation come
+    back per point (``width``, ``normal``, ``color``, ``opacity``) or, uniform ones, per
+    curve; transforms, metersPerUnit and a Z up axis are applied. ``/Groom/Guides`` is
+    skipped unless it is the only curves prim, or ``guides=True`` reads only it.
+    ``time`` picks a time code (default: the default values, or else the first sample).
+    """
+    source = Path(path)
+    stage = _open(source)
+    when = Usd.TimeCode.EarliestTime() if time is None else Usd.TimeCode(float(time))
+    prims = [p for p in stage.Traverse() if p.IsA(UsdGeom.BasisCurves)]
+    guide_prims = [p for p in prims if p.GetPath().HasPrefix(Sdf.Path(GUIDES_PATH))]
+    hair = [p for p in prims if p not in guide_prims]
+    chosen = guide_prims if guides else hair or guide_prims
+    if not chosen:
+        what = f"no {GUIDES_PATH} prim" if guides else "no BasisCurves prims"
+        raise FormatError(f"{source}: {what}; is this a hair file?")
+    try:
+        parts = [_Prim(p, when, str(source)).read() for p in chosen]
+    except InputError as exc:
+        raise FormatError(f"{source}: {exc}") from None
+    return _join(parts, source)
