@@ -119,6 +119,29 @@ def test_head_turn_at_two_metres_per_second_stays_out_of_the_head():
     assert worst <= 0.0  # no vertex deeper than the surface (the margin is kept)
 
 
+@pytest.mark.parametrize("speed", [1.0, 4.0])
+def test_a_collider_sweeping_into_lagging_tips_pushes_them_out(speed):
+    # strands hang from y = 0; a ball on the head (it follows the head) waits beside the
+    # tips; the head moves towards them at ``speed`` m/s: the roots follow, the tips lag,
+    # and the ball reaches tips found clear of it a few substeps earlier. The solver must
+    # count the ball's own move against that clearance (without it: 10–40 mm deep).
+    n = 16
+    pts = np.zeros((5, n, 3))
+    pts[:, :, 1] = -np.linspace(0.0, 0.3, n)
+    pts[:, :, 2] = np.arange(5)[:, None] * 0.01
+    ball = ColliderParams(kind="sphere", centre=(-0.15, -0.27, 0.02), radius=0.06, follow=True)
+    sim = Simulator(HairCurves.from_array(pts),
+                    params=SimParams(colliders=[ball], collision_margin=0.002))  # fmt: skip
+    _run(sim, 0.5, rate=120)
+    for k in range(1, 30):
+        move = np.eye(4)
+        move[0, 3] = speed * k / 120
+        sim.set_pose(transform=move)
+        sim.step(1 / 120)
+        d = np.linalg.norm(sim.positions - (np.array(ball.centre) + move[:3, 3]), axis=2)
+        assert d.min() >= ball.radius + 0.002 - 1e-6, k
+
+
 def test_global_shape_keeps_a_standing_style_under_gravity():
     style = _strands(up=True, length=0.15)
     rest = Simulator(style).positions.copy()

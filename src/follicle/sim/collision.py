@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .sdf import sdf_distance, sdf_sample
+from .sdf import sdf_lookup
 
 __all__ = ["collide", "penetration", "clearance", "NO_SDF"]
 
@@ -43,8 +43,8 @@ def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel
             margin):  # fmt: skip
     """p moved out of every collider grown by ``margin``: (x, y, z, nx, ny, nz, hit,
     clearance). ``n`` is the last contact's outward normal. ``clearance`` is 0 after a
-    push, else the smallest gap between p and a grown collider (for the SDF, a gap in
-    interpolated distance: divided by √3 it bounds how far p may move before it can
+    push, else the smallest gap between p and a grown collider (for the SDF, the gap of
+    :func:`sdf_lookup`'s bound: divided by √3 it bounds how far p may move before it can
     touch, as each partial derivative of a trilinear interpolant of distances is at
     most 1). The skin SDF (grid ``sdf_values`` with :func:`sdf_sample`'s arguments) is
     skipped when the grid is empty.
@@ -68,15 +68,14 @@ def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel
             nx, ny, nz, hit, gap,
         )  # fmt: skip
     if sdf_values.size > 0:
-        d = sdf_distance(sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, px, py, pz)
-        if d < margin:  # near: the exact distance and the normal
-            d, gx, gy, gz = sdf_sample(sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, px, py,
-                                       pz)  # fmt: skip
-            if d < margin and (gx != 0.0 or gy != 0.0 or gz != 0.0):
-                depth = margin - d
-                px, py, pz = px + depth * gx, py + depth * gy, pz + depth * gz
-                nx, ny, nz, hit = gx, gy, gz, True
-        gap = min(gap, max(d - margin, 0.0))
+        # one lookup with the normal: the solver only asks for vertices that may touch
+        d, gx, gy, gz, bound = sdf_lookup(sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw,
+                                          px, py, pz)  # fmt: skip
+        if d < margin and (gx != 0.0 or gy != 0.0 or gz != 0.0):
+            depth = margin - d
+            px, py, pz = px + depth * gx, py + depth * gy, pz + depth * gz
+            nx, ny, nz, hit = gx, gy, gz, True
+        gap = min(gap, max(bound - margin, 0.0))
     return px, py, pz, nx, ny, nz, hit, 0.0 if hit else gap
 
 

@@ -51,7 +51,9 @@ from ..errors import InputError
 from ..frames import normalize
 from ..mesh.skin import closest_weights
 
-__all__ = ["SDF", "sdf_sample", "sdf_distance"]
+__all__ = ["SDF", "sdf_sample", "sdf_lookup"]
+
+_SQRT3 = math.sqrt(3.0)
 
 _CELLS_ALONG_LONGEST = 64  # default voxel size: the longest bounds axis / this
 _PAD_FRACTION = 0.05  # default padding: this × the bounds' diagonal …
@@ -342,30 +344,6 @@ def _grid_place(values, origin, inv_voxel, m, px, py, pz):
 
 
 @njit(cache=True, inline="always")
-def sdf_distance(values, origin, inv_voxel, local_from_world, px, py, pz):
-    """A lower bound on :func:`sdf_sample`'s distance, without its normal: the
-    trilinear distance inside the box, the distance to the box outside (|value| at the
-    nearest grid point not added). Cheap enough to test every particle every iteration;
-    only a particle this finds within reach needs :func:`sdf_sample`."""
-    ux, uy, uz, cx, cy, cz, ix, iy, iz = _grid_place(values, origin, inv_voxel,
-                                                     local_from_world, px, py, pz)  # fmt: skip
-    out2 = (ux - cx) ** 2 + (uy - cy) ** 2 + (uz - cz) ** 2
-    if out2 > 0.0:
-        return math.sqrt(out2) / inv_voxel
-    fx = cx - ix
-    fy = cy - iy
-    fz = cz - iz
-    v = values
-    c00 = v[ix, iy, iz] + (v[ix, iy, iz + 1] - v[ix, iy, iz]) * fz
-    c01 = v[ix, iy + 1, iz] + (v[ix, iy + 1, iz + 1] - v[ix, iy + 1, iz]) * fz
-    c10 = v[ix + 1, iy, iz] + (v[ix + 1, iy, iz + 1] - v[ix + 1, iy, iz]) * fz
-    c11 = v[ix + 1, iy + 1, iz] + (v[ix + 1, iy + 1, iz + 1] - v[ix + 1, iy + 1, iz]) * fz
-    c0 = c00 + (c01 - c00) * fy
-    c1 = c10 + (c11 - c10) * fy
-    return c0 + (c1 - c0) * fx
-
-
-@njit(cache=True, inline="always")
 def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
     """Signed distance and unit outward normal at the world point (px, py, pz).
 
@@ -378,6 +356,16 @@ def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
     box plus |value| at the nearest grid point, and that sum's gradient (never inside).
     Allocates nothing, so a solver kernel can call it per particle.
     """
+    d, nx, ny, nz, _ = sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz)
+    return d, nx, ny, nz
+
+
+@njit(cache=True, inline="always")
+def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz):
+    """:func:`sdf_sample` plus a bound b such that (b − m)/√3 is how far the point may
+    move before the sampled distance can fall to m ≥ 0 (inside the box d itself, whose
+    trilinear interpolant falls at most √3 per unit moved; outside a scaled-down d), so
+    a caller need not look a point up again before then: ``(d, nx, ny, nz, bound)``."""
     m = local_from_world
     ux, uy, uz, cx, cy, cz, ix, iy, iz = _grid_place(values, origin, inv_voxel, m, px, py, pz)
     fx = cx - ix
@@ -403,10 +391,14 @@ def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
     ey = uy - cy
     ez = uz - cz
     out2 = ex * ex + ey * ey + ez * ez
+    bound = d
     if out2 > 0.0:  # outside the box: |box distance| + |d|; clamped axes follow the box
         out = math.sqrt(out2)
         s = 1.0 if d >= 0.0 else -1.0
         d = out / inv_voxel + s * d
+        # that sum falls up to 1 + √3 per unit moved (box distance, then the value at the
+        # box's nearest point); the box distance alone falls at most 1
+        bound = max(out / inv_voxel, d * _SQRT3 / (1.0 + _SQRT3))
         gx = ex / out if ex != 0.0 else s * gx
         gy = ey / out if ey != 0.0 else s * gy
         gz = ez / out if ez != 0.0 else s * gz
@@ -419,7 +411,7 @@ def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
     wx = m[0, 0] * gx + m[1, 0] * gy + m[2, 0] * gz
     wy = m[0, 1] * gx + m[1, 1] * gy + m[2, 1] * gz
     wz = m[0, 2] * gx + m[1, 2] * gy + m[2, 2] * gz
-    return d, wx, wy, wz
+    return d, wx, wy, wz, bound
 
 
 @njit(cache=True, parallel=True)

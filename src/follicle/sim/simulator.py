@@ -43,6 +43,11 @@ def _orthonormal(tangent: np.ndarray, binormal: np.ndarray, normal: np.ndarray) 
     return np.ascontiguousarray(np.stack([t, b, n], axis=1), np.float64)
 
 
+def _corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The 8 corners (8, 3) of the box lo … hi."""
+    return np.array([[(lo, hi)[(c >> a) & 1][a] for a in range(3)] for c in range(8)])
+
+
 def _blend(a: np.ndarray, b: np.ndarray, f: float) -> np.ndarray:
     """The rigid transform a fraction ``f`` of the way from ``a`` to ``b`` (4×4): the
     translation blended linearly, the rotation along the shortest arc (slerp)."""
@@ -85,6 +90,8 @@ class Simulator:
         rest = roots[:, None] + np.einsum("snk,ska->sna", self.model.rest_local, frames)
         near = clearance(rest, *self._colliders(self._transform, self.sdf))
         self.solver = Solver(self.model, params, near)
+        self._reach = float(self.model.rest_length.sum(axis=1).max())  # longest strand, m
+        self._last_move: tuple | None = None  # (colliders' identity, transform) last substep
         self.reset()
 
     # ------------------------------------------------------------------ pose
@@ -134,6 +141,7 @@ class Simulator:
         self.state.x[:] = roots[:, None] + np.einsum("sac,snc->sna", turn, x)
         self.state.v[:] = np.einsum("sac,snc->sna", turn, self.state.v.astype(np.float64))
         self.state.roots, self.state.frames = roots, frames
+        self.state.clear[:] = -1.0  # moved: look every vertex up again
         self._state_transform = self._transform
 
     def reset(self) -> None:
@@ -141,7 +149,7 @@ class Simulator:
         roots, frames = self._pinned()
         local = self.model.rest_local.astype(np.float64)
         x = roots[:, None] + np.einsum("snk,ska->sna", local, frames)
-        self.state = State(x, np.zeros_like(x), 0.0, roots, frames)
+        self.state = State(x, np.zeros_like(x), 0.0, roots, frames, np.full(x.shape[:2], -1.0))
         self._state_transform = self._transform
         self._accumulator = 0.0
         self.solver.energy[:] = 0.0
@@ -161,6 +169,30 @@ class Simulator:
         return (np.array(spheres, np.float64).reshape(-1, 4),
                 np.array(capsules, np.float64).reshape(-1, 7),
                 NO_SDF if sdf is None else sdf.sample_args)  # fmt: skip
+
+    def _collider_move(self, transform: np.ndarray, sdf: SDF | None) -> float:
+        """How far any collider surface near the hair moved since the last substep (m): the
+        largest move, under the head's relative motion, of the corners of the hair's and
+        the SDF's boxes and of the sphere centres and capsule ends (a rigid motion's move
+        is convex in the point, so these extreme points bound it). inf when the collider
+        set changed (new parameters, a rebuilt SDF) or the state was replaced."""
+        key = (self.params, None if sdf is None else sdf.values, self.state.clear)
+        last, self._last_move = self._last_move, (key, transform)
+        if last is None or any(a is not b for a, b in zip(last[0], key, strict=True)):
+            return math.inf
+        relative = transform @ np.linalg.inv(last[1])
+        if np.array_equal(relative, np.eye(4)):
+            return 0.0
+        roots, reach = self.state.roots, self._reach
+        points = [_corners(roots.min(axis=0) - reach, roots.max(axis=0) + reach)]
+        if sdf is not None:
+            hi = sdf.origin + sdf.voxel * (np.array(sdf.values.shape) - 1)
+            local = _corners(sdf.origin, hi)
+            points.append(local @ sdf.transform[:3, :3].T + sdf.transform[:3, 3])
+        spheres, capsules, _ = self._colliders(last[1], None)
+        points += [spheres[:, :3], capsules[:, :3], capsules[:, 3:6]]
+        p = np.concatenate(points)
+        return float(np.linalg.norm(p @ relative[:3, :3].T + relative[:3, 3] - p, axis=1).max())
 
     def wind(self, time: float) -> np.ndarray:
         """The wind at ``time`` (s): [sim].wind × (1 + gust·g), g = ½ + Perlin noise of
@@ -192,7 +224,9 @@ class Simulator:
             transform = _blend(begin, finish, f)
             sdf = self._sdf_rest.with_transform(transform) if rigid_skin else self.sdf
             colliders = self._colliders(transform, sdf)
-            self.solver.substep(self.state, start, end, f, self.wind(self.state.time), colliders)
+            moved = self._collider_move(transform, sdf)
+            self.solver.substep(self.state, start, end, f, self.wind(self.state.time), colliders,
+                                moved)  # fmt: skip
             if volume:
                 apply_volume(self.state.x, self.state.v, h, p.volume_friction,
                              p.volume_repulsion, p.volume_blur, p.volume_resolution,

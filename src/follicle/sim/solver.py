@@ -86,12 +86,19 @@ def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_o
     reached a collider and is not looked up again."""
     if spheres.shape[0] == 0 and capsules.shape[0] == 0 and sdf_values.size == 0:
         return
+    far = np.empty(X.shape[2])
     for i in range(1, X.shape[0]):
-        for b in range(nb):
+        looks = -math.inf
+        for b in range(nb):  # branch-free, so it vectorises: which vertices may touch
             dx = X[i, 0, b] - ref[i, 0, b]
             dy = X[i, 1, b] - ref[i, 1, b]
             dz = X[i, 2, b] - ref[i, 2, b]
-            if W[i, b] == 0.0 or dx * dx + dy * dy + dz * dz < gap2[i, b]:
+            far[b] = (dx * dx + dy * dy + dz * dz - gap2[i, b]) * W[i, b]
+            looks = max(looks, far[b])
+        if looks < 0.0:  # (W ≥ 0: a pinned vertex gives 0, never looked up below)
+            continue
+        for b in range(nb):
+            if W[i, b] == 0.0 or far[b] < 0.0:
                 continue
             px, py, pz, nx, ny, nz, hit, gap = collide(
                 X[i, 0, b], X[i, 1, b], X[i, 2, b], spheres, capsules, sdf_values,
@@ -110,8 +117,8 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                     gravity, wind, turbulence, frequency, scroll, drag, k_stretch, k_bend,
                     bend_scale, attenuation, k_local, k_global, cos_limit, sin_limit,
                     dftl_damping, stretch_limit, limit_damping, spheres, capsules, sdf_values,
-                    sdf_origin, sdf_inv_voxel, sdf_lfw, margin, friction, energy,
-                    bad):  # fmt: skip
+                    sdf_origin, sdf_inv_voxel, sdf_lfw, margin, friction, clear, shift,
+                    energy, bad):  # fmt: skip
     strands, n = x.shape[0], x.shape[1]
     shape = k_local > 0.0 or k_global[1] > 0.0
     correct = dftl or stretch_limit >= 0.0  # 001 eq. 3.1 applies
@@ -128,8 +135,8 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
         contact = np.zeros((n, 3, BLOCK))
         target = np.empty((n, 3, BLOCK))
         rest_dir = np.empty((n, 3, BLOCK))
-        ref = np.empty((n, 3, BLOCK))
-        gap2 = np.full((n, BLOCK), -1.0)  # look every vertex up once
+        ref = np.empty((n, 3, BLOCK))  # where each vertex was last found clear …
+        gap2 = np.empty((n, BLOCK))  # … and how far (squared) it may move from there
         W = np.empty((n, BLOCK))
         L = np.zeros((n, BLOCK))
         R = np.empty((n, BLOCK))
@@ -146,10 +153,12 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                 W[i, b] = w[s, i]
                 R[i, b] = bend_rest[s, i]
                 M[i, b] = margin[s, i]
+                allow = clear[s, i] - shift  # the colliders' own move eats into it
+                gap2[i, b] = allow * allow if allow > 0.0 else -1.0
                 if i < n - 1:
                     L[i, b] = rest_length[s, i]
                 for a in range(3):
-                    X[i, a, b] = X0[i, a, b] = x[s, i, a]
+                    X[i, a, b] = X0[i, a, b] = ref[i, a, b] = x[s, i, a]
                     V0[i, a, b] = v[s, i, a]
             _pin(roots0, frames0, roots1, frames1, f, s, b, root, frame)
             sl, d = static_local[s], root_direction[s]
@@ -239,6 +248,12 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                 for a in range(3):
                     x[s, i, a] = src_x[i, a, b]
                     v[s, i, a] = src_v[i, a, b]
+                left = -1.0
+                if ok[b] and gap2[i, b] >= 0.0:  # the allowance left after this substep
+                    left = math.sqrt(gap2[i, b]) - math.sqrt(
+                        (X[i, 0, b] - ref[i, 0, b]) ** 2 + (X[i, 1, b] - ref[i, 1, b]) ** 2
+                        + (X[i, 2, b] - ref[i, 2, b]) ** 2)  # fmt: skip
+                clear[s, i] = left
             energy[s] = 0.5 * moved[b] if ok[b] else 0.0
             bad[s] = 0 if ok[b] else 1
 
@@ -295,10 +310,13 @@ class Solver:
 
     def substep(self, state: State, start: tuple[np.ndarray, np.ndarray],
                 end: tuple[np.ndarray, np.ndarray], f: float, wind: np.ndarray,
-                colliders: tuple[np.ndarray, np.ndarray, tuple]) -> None:  # fmt: skip
+                colliders: tuple[np.ndarray, np.ndarray, tuple],
+                moved: float = math.inf) -> None:  # fmt: skip
         """Advance ``state`` by one substep with the roots pinned a fraction ``f`` of the
         way from ``start`` to ``end`` (each (roots (S, 3), frames (S, 3, 3))), under
-        ``wind`` (3,) now, against ``colliders`` (spheres, capsules, SDF arguments)."""
+        ``wind`` (3,) now, against ``colliders`` (spheres, capsules, SDF arguments), whose
+        surfaces moved at most ``moved`` (m) since the last substep (inf: unknown, every
+        vertex is looked up again)."""
         p, m = self.params, self.model
         integration, noise, constraints = self._constants()
         scroll = np.asarray(p.wind_drift, np.float64) * state.time * p.wind_frequency
@@ -307,7 +325,7 @@ class Solver:
             state.x, state.v, m.inv_mass, m.rest_length, m.rest_local, m.bend_rest,
             m.static_local, m.root_direction, *start, *end, f, p.substep, *integration, wind,
             *noise, scroll, *constraints, spheres, capsules, *sdf, self._margin,
-            p.friction, self.energy, self._bad,
+            p.friction, state.clear, moved, self.energy, self._bad,
         )  # fmt: skip
         if self._bad.any():
             raise InputError(
