@@ -10,7 +10,7 @@ from follicle.curves import HairCurves
 from follicle.errors import InputError
 from follicle.render import Camera, Light, Renderer, render, save_png
 from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
-from follicle.render.strands import back_to_front, segment_indices
+from follicle.render.strands import back_to_front, segment_indices, strand_seeds
 from glmark import gl
 
 
@@ -72,6 +72,14 @@ def test_back_to_front_orders_segments_by_view_depth():
     segs = segment_indices(np.array([0, 2, 4]))
     ordered = back_to_front(segs, pts, FRONT)  # camera at +Z looking to -Z
     np.testing.assert_array_equal(ordered[:, 1], [2, 0])  # the far (z=-0.5) one first
+
+
+def test_strand_seeds_are_constant_per_curve_and_spread():
+    seeds = strand_seeds(np.array([0, 3, 5, 9]))
+    assert seeds.dtype == np.float32 and seeds.shape == (9,)
+    np.testing.assert_array_equal(seeds[:3], seeds[0])
+    np.testing.assert_array_equal(seeds[5:], seeds[5])
+    assert len(set(seeds.tolist())) == 3 and np.all((seeds >= 0) & (seeds < 1))
 
 
 @gl
@@ -345,8 +353,8 @@ def test_nothing_to_draw_raises():
         render(None)
     with pytest.raises(InputError, match="nothing to draw"):
         render(HairCurves(np.zeros((0, 3)), [0]))
-    with pytest.raises(InputError, match="allowed: kajiya-kay"):
-        render(None, sphere(), shading="marschner")
+    with pytest.raises(InputError, match="allowed: kajiya-kay, scheuermann, marschner"):
+        render(None, sphere(), shading="phong")
     with pytest.raises(InputError):
         render(np.zeros((4, 3)))  # not HairCurves
 

@@ -23,7 +23,8 @@ from .scene import RenderParams, Scene, scene_to_toml
 if TYPE_CHECKING:
     from .sim.cache import SimCache
 
-__all__ = ["groom_scene", "grow", "render_scene", "simulate_scene", "render_cache"]
+__all__ = ["groom_scene", "grow", "render_scene", "render_scene_mitsuba", "simulate_scene",
+           "render_cache"]
 
 Progress = Callable[[int, int], None]
 
@@ -71,6 +72,27 @@ def render_scene(
         subdivisions=params.subdivisions,
         background=(params.background_top, params.background_bottom),
         fov=params.fov,
+        shading_params=params.shading_params,
+        lights=params.light_list(),
+        shadows=params.shadows,
+    )
+
+
+def render_scene_mitsuba(
+    curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None,
+    spp: int = 64, seed: int = 0,
+) -> np.ndarray:  # fmt: skip
+    """Path-trace hair and mesh with Mitsuba 3 (the pbr extra) under a scene's [render]
+    size, camera, lights and background; writes PNG when ``out``."""
+    from .render.mitsuba import render_mitsuba
+
+    camera = None  # framed automatically on hair and mesh at params.fov
+    if params.eye is not None and params.target is not None:
+        camera = Camera(eye=params.eye, target=params.target, fov_y=params.fov)
+    return render_mitsuba(
+        curves, mesh=mesh, camera=camera, size=params.size, lights=params.light_list(),
+        spp=spp, out=out, seed=seed, fov=params.fov,
+        background=(params.background_top, params.background_bottom),
     )
 
 
@@ -169,7 +191,9 @@ def render_cache(
         for done, f in enumerate(frames, 1):
             curves = hair(f)
             image = renderer.draw(curves, groom.mesh, camera=camera, shading=params.shading,
-                                  subdivisions=params.subdivisions, fov=params.fov)
+                                  subdivisions=params.subdivisions, fov=params.fov,
+                                  shading_params=params.shading_params,
+                                  lights=params.light_list(), shadows=params.shadows)
             path = out / f"frame_{f:0{digits}d}.png"
             save_png(image, path)
             written.append(path)

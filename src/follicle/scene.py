@@ -31,6 +31,7 @@ __all__ = [
     "SimParams",
     "ColliderParams",
     "RenderParams",
+    "LightParams",
     "OutputParams",
     "load_scene",
     "parse_scene",
@@ -340,15 +341,48 @@ class SimParams(_Section):
         return self
 
 
+class LightParams(_Section):
+    """A light of the render: `[[render.lights]]` tables, in order; the first
+    directional one is the key light, the one that casts shadows."""
+
+    type: Literal["directional", "ambient"] = Field("directional", description="directional or"
+                                                    " ambient (uniform, from everywhere)")
+    direction: Vec3 = Field((0.0, 1.0, 0.0), description="towards the light (directional only)")
+    space: Literal["camera", "world"] = Field(
+        "camera", description="direction in camera space (x right, y up, z towards the viewer;"
+        " the light follows the camera) or world space",
+    )
+    color: RGB = Field((1.0, 1.0, 1.0), description="linear RGB")
+    intensity: float = Field(1.0, ge=0, le=1000, description="scales the colour")
+
+    @model_validator(mode="after")
+    def _has_direction(self) -> LightParams:
+        if self.type == "directional" and not any(self.direction):
+            raise ValueError("direction: a directional light needs a non-zero direction")
+        return self
+
+
 class RenderParams(_Section):
     """The offline OpenGL render."""
 
     size: tuple[Annotated[int, Field(ge=1, le=8192)], Annotated[int, Field(ge=1, le=8192)]] = (
         Field((960, 960), description="image width and height, pixels")
     )
-    shading: Literal["kajiya-kay"] = Field("kajiya-kay", description="hair shading model")
+    shading: Literal["kajiya-kay", "scheuermann", "marschner"] = Field(
+        "kajiya-kay", description="hair shading model"
+    )
+    shading_params: dict[str, float | tuple[float, float, float]] = Field(
+        default_factory=dict, description="the model's parameters, e.g. {specular = 0.3}"
+        " (README: Rendering)",
+    )
+    shadows: bool = Field(True, description="the key light casts hair and skin shadows")
+    lights: list[LightParams] = Field(
+        default_factory=list, description="[[render.lights]] tables; none: key, fill and rim"
+        " lights that follow the camera, and a little ambient",
+    )
     msaa: Literal[0, 1, 2, 4, 8, 16] = Field(4, description="multisample anti-aliasing samples")
-    subdivisions: int = Field(4, ge=1, le=16, description="Catmull-Rom steps per segment")
+    subdivisions: int = Field(4, ge=1, le=16, description="most Catmull-Rom steps per segment"
+                              " (fewer where it is short and straight on screen)")
     eye: Vec3 | None = Field(None, description="camera position; unset = framed automatically")
     target: Vec3 | None = Field(None, description="camera target; unset = framed automatically")
     fov: float = Field(30.0, gt=1, lt=170, description="vertical field of view, degrees")
@@ -360,6 +394,26 @@ class RenderParams(_Section):
         if (self.eye is None) != (self.target is None):
             raise ValueError("set both eye and target, or neither (automatic framing)")
         return self
+
+    @model_validator(mode="after")
+    def _shading_params_fit_the_model(self) -> RenderParams:
+        from .errors import InputError
+        from .render.options import parse_shading
+
+        try:
+            parse_shading(self.shading, self.shading_params)
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
+        return self
+
+    def light_list(self) -> list | None:
+        """The lights as :class:`follicle.render.Light` objects; None: the default rig."""
+        from .render.camera import Light
+
+        return [
+            Light(None if p.type == "ambient" else p.direction, p.color, p.intensity, p.space)
+            for p in self.lights
+        ] or None
 
 
 class OutputParams(_Section):

@@ -8,12 +8,14 @@ provides OpenGL 4.5 through EGL; on Debian/Ubuntu install ``libegl1`` and
 
 from __future__ import annotations
 
+import contextlib
 import os
 import threading
+from collections.abc import Iterator
 
 from ..errors import FollicleError
 
-__all__ = ["get_context", "GL_REQUIRED", "INSTALL_HINT"]
+__all__ = ["get_context", "use_context", "GL_REQUIRED", "INSTALL_HINT"]
 
 GL_REQUIRED = 330
 
@@ -26,6 +28,18 @@ INSTALL_HINT = (
 
 _lock = threading.Lock()
 _cached: dict[int, object] = {}  # pid -> moderngl.Context (a forked child needs its own)
+_borrowed: list[object] = []  # contexts lent by use_context, innermost last
+
+
+@contextlib.contextmanager
+def use_context(ctx: object) -> Iterator[object]:
+    """Within the block, :func:`get_context` returns ``ctx`` (e.g. an on-screen window's
+    moderngl context), so renderers made there draw on it instead of the headless one."""
+    _borrowed.append(ctx)
+    try:
+        yield ctx
+    finally:
+        _borrowed.remove(ctx)
 
 
 def get_context():
@@ -33,6 +47,8 @@ def get_context():
 
     Raises FollicleError, saying what to install, when EGL or OpenGL >= 3.3 is missing.
     """
+    if _borrowed:
+        return _borrowed[-1]
     pid = os.getpid()
     ctx = _cached.get(pid)
     if ctx is not None:

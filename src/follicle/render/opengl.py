@@ -1,20 +1,23 @@
-"""OpenGL hair renderer: Catmull-Rom smoothing and camera-facing ribbons in a geometry
-shader, Kajiya-Kay shading, a Lambert-shaded skin mesh and a gradient background
-(002 §5.2). Headless through EGL (Mesa llvmpipe on machines without a GPU).
+"""OpenGL hair renderer: Catmull-Rom smoothing and viewer-facing ribbons in a geometry
+shader (002 §5.2), three hair shading models, deep-opacity-map self-shadowing, weighted
+blended order-independent transparency, a Lambert-shaded skin mesh and a gradient
+background. Headless through EGL (Mesa llvmpipe on machines without a GPU).
 
-Lighting and blending happen in linear RGB in a half-float multisampled framebuffer;
-after the MSAA resolve the image is read back and encoded to 8-bit sRGB once
-(:func:`follicle.render.image.encode_srgb8`). Hair is drawn after the mesh, depth
-tested against it but without depth writes, segments sorted back to front, so every
-thin strand adds its coverage (an order-independent method comes with the full
-renderer).
+A frame is: the key light's shadow maps (:mod:`.shadows`); the opaque layer
+(background and skin, writing depth); the hair, depth tested against it but not
+writing depth, accumulated order-independently (McGuire & Bavoil 2013) into two float
+targets; a composite of the two. Everything is linear RGB in float framebuffers
+(multisampled with ``msaa``); the composite is read back once and encoded to 8-bit sRGB
+(:func:`follicle.render.image.encode_srgb8`). Hair thinner than a pixel is drawn as
+one-pixel lines whose opacity is scaled by the share of the pixels the hair covers, so
+it stays soft (analytic coverage), and is shaded once per Catmull-Rom step in the
+geometry shader; wider hair is drawn as ribbons shaded per fragment.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
-from importlib import resources
 
 import numpy as np
 
@@ -24,12 +27,13 @@ from .camera import Camera, Light, default_lights, frame_camera
 from .context import get_context
 from .image import encode_srgb8, save_png
 from .options import (
+    ANGLE_PARAMS,
     DEFAULT_HAIR_COLOR,
     DEFAULT_HAIR_WIDTH,
     DEFAULT_SKIN_COLOR,
     MAX_LIGHTS,
+    MAX_SHADOW_SIZE,
     MAX_SUBDIVISIONS,
-    SHADINGS,
     check_mesh,
     color3,
     parse_background,
@@ -37,47 +41,33 @@ from .options import (
     parse_size,
     point_attr,
 )
-from .strands import back_to_front, curve_param, segment_indices
+from .programs import get_program, set_uniforms, use_framebuffer
+from .shadows import UNITS as SHADOW_UNITS
+from .shadows import ShadowMaps, automatic_layer, light_projection
+from .strands import back_to_front, curve_param, segment_indices, strand_seeds
 
 __all__ = ["Renderer", "render"]
 
-_SHADER_FILES = {
-    "hair": ("hair_vs.glsl", "hair_gs.glsl", "hair_kajiya_kay_fs.glsl"),
-    "mesh": ("mesh_vs.glsl", None, "mesh_fs.glsl"),
-    "background": ("background_vs.glsl", None, "background_fs.glsl"),
-}
-_programs: dict[tuple[int, str], object] = {}
-
-
-def _source(name: str) -> str:
-    return resources.files("follicle.render").joinpath("shaders", name).read_text("utf-8")
-
-
-def _program(ctx, name: str):
-    """Compile (once per context) and return the named shader program."""
-    key = (id(ctx), name)
-    prog = _programs.get(key)
-    if prog is None:
-        vs, gs, fs = _SHADER_FILES[name]
-        prog = ctx.program(
-            vertex_shader=_source(vs),
-            geometry_shader=_source(gs) if gs else None,
-            fragment_shader=_source(fs),
-        )
-        _programs[key] = prog
-    return prog
+MAX_STEP_PX = 8.0  # longest Catmull-Rom step on screen: shading is interpolated along it
+_HAIR_LAYOUT = (("3f", "in_position"), ("1f", "in_width"), ("3f", "in_color"),
+                ("1f", "in_opacity"), ("1f", "in_t"), ("1f", "in_seed"))  # fmt: skip
+_MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"))
 
 
 def _scene_bounds(curves: HairCurves | None, mesh: object | None) -> tuple[np.ndarray, np.ndarray]:
     boxes = []
     if curves is not None and curves.point_count:
-        lo, hi = curves.bounds()
-        pad = float(np.max(curves.point_data["width"])) / 2 if "width" in curves.point_data else 0.0
-        boxes.append((lo - pad, hi + pad))
+        boxes.append(_hair_bounds(curves))
     if mesh is not None:
         lo, hi = mesh.bounds("current")  # type: ignore[attr-defined]
         boxes.append((np.asarray(lo, np.float64), np.asarray(hi, np.float64)))
     return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+
+
+def _hair_bounds(curves: HairCurves) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = curves.bounds()
+    pad = float(np.max(curves.point_data["width"])) / 2 if "width" in curves.point_data else 0.0
+    return lo - pad, hi + pad
 
 
 def _clip_range(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[float, float]:
@@ -96,8 +86,29 @@ def _clip_range(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[float, 
     return float(near), float(far)
 
 
+def _nearest_depth(camera: Camera, lo: np.ndarray, hi: np.ndarray, near: float) -> float:
+    """View depth of the nearest corner of the box [lo, hi], at least ``near``."""
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                        for z in (lo[2], hi[2])])  # fmt: skip
+    return max(float(np.min((corners - camera.eye) @ camera.basis()[2])), near)
+
+
+def _buffer_format(prog, vbo, layout) -> tuple:
+    """moderngl's (buffer, format, names...) for ``prog``: attributes it does not read
+    (dropped by the compiler) become padding."""
+    used = [(fmt, name) for fmt, name in layout if name in prog]
+    fmt = " ".join(f if name in prog else f"{4 * int(f[:-1])}x" for f, name in layout)
+    return (vbo, fmt, *(name for _, name in used))
+
+
 def _mat(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(m.T, dtype="f4").tobytes()
+
+
+def _check_int(value: object, name: str, lo: int, hi: int, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise InputError(f"{name}: expected {what} {lo}..{hi}, got {value!r}")
+    return int(value)
 
 
 class Renderer:
@@ -105,7 +116,8 @@ class Renderer:
 
     ``size`` is (width, height) in pixels; ``msaa`` the samples per pixel (0 or 1:
     none; capped to what the driver offers); ``background`` one linear RGB colour or
-    ``(top, bottom)`` for a vertical gradient. Reuse one renderer for many frames; call
+    ``(top, bottom)`` for a vertical gradient; ``shadow_size`` the texels per side of
+    the key light's shadow maps. Reuse one renderer for many frames; call
     :meth:`release` (or use it as a context manager) to free GPU memory early.
     """
 
@@ -114,41 +126,42 @@ class Renderer:
         size: Sequence[int] = (960, 960),
         msaa: int = 4,
         background: object = None,
+        shadow_size: int = 512,
     ) -> None:
         self.size = parse_size(size)
-        if isinstance(msaa, bool) or not isinstance(msaa, (int, np.integer)) or not 0 <= msaa <= 64:
-            raise InputError(f"msaa: expected samples per pixel 0..64 (0 or 1: off), got {msaa!r}")
+        msaa = _check_int(msaa, "msaa", 0, 64, "samples per pixel (0 or 1: off)")
+        shadow_size = _check_int(shadow_size, "shadow_size", 16, MAX_SHADOW_SIZE, "texels")
         self.background = parse_background(background)
         self.ctx = ctx = get_context()
-        samples = 0 if msaa <= 1 else min(int(msaa), int(ctx.max_samples))
+        samples = 0 if msaa <= 1 else min(msaa, int(ctx.max_samples))
         self.msaa = samples
         w, h = self.size
-        self._color = ctx.renderbuffer((w, h), 4, samples=samples, dtype="f2")
+        self._opaque = ctx.texture((w, h), 4, samples=samples, dtype="f2")
+        self._accum = ctx.texture((w, h), 4, samples=samples, dtype="f4")
+        self._weight = ctx.texture((w, h), 1, samples=samples, dtype="f4")
         self._depth = ctx.depth_renderbuffer((w, h), samples=samples)
-        self._fbo = ctx.framebuffer([self._color], self._depth)
-        if samples:
-            self._resolve_color = ctx.renderbuffer((w, h), 4, dtype="f2")
-            self._resolve = ctx.framebuffer([self._resolve_color])
-        else:
-            self._resolve_color, self._resolve = None, self._fbo
-        self._programs = {name: _program(ctx, name) for name in _SHADER_FILES}
-        self._bg_vao = ctx.vertex_array(self._programs["background"], [])
+        self._opaque_fbo = ctx.framebuffer([self._opaque], self._depth)
+        self._hair_fbo = ctx.framebuffer([self._accum, self._weight], self._depth)
+        self._out = ctx.renderbuffer((w, h), 4, dtype="f2")
+        self._out_fbo = ctx.framebuffer([self._out])
+        self._shadow = ShadowMaps(ctx, shadow_size)
+        self._strands: tuple | None = None
+        self._fullscreen = {
+            name: ctx.vertex_array(get_program(ctx, name), [])
+            for name in ("background", "composite_msaa" if samples else "composite")
+        }
 
     # ------------------------------------------------------------------ lifetime
     def release(self) -> None:
-        """Free the framebuffers (the shared context and programs stay)."""
-        for obj in (
-            self._bg_vao,
-            self._fbo,
-            self._resolve,
-            self._color,
-            self._depth,
-            self._resolve_color,
-        ):
-            if obj is not None:
-                obj.release()
-        self._bg_vao = self._fbo = self._resolve = None
-        self._color = self._depth = self._resolve_color = None
+        """Free the framebuffers and shadow maps (the shared context and programs stay)."""
+        if self._out_fbo is None:
+            return
+        for obj in (*self._fullscreen.values(), self._opaque_fbo, self._hair_fbo,
+                    self._out_fbo, self._opaque, self._accum, self._weight, self._depth,
+                    self._out):  # fmt: skip
+            obj.release()
+        self._shadow.release()
+        self._out_fbo = None
 
     def __enter__(self) -> Renderer:
         return self
@@ -171,6 +184,8 @@ class Renderer:
         hair_opacity: float = 1.0,
         skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
         fov: float = 35.0,
+        shadows: bool = True,
+        oit: bool = True,
     ) -> np.ndarray:
         """Render one frame; returns (H, W, 4) uint8, top row first, sRGB, alpha 255.
 
@@ -178,25 +193,28 @@ class Renderer:
         ``width``/``color``/``opacity`` of the curves win over ``hair_width`` (diameter,
         metres), ``hair_color`` (linear RGB) and ``hair_opacity``. ``camera`` None frames
         hair and mesh with :func:`frame_camera` at ``fov`` degrees (vertical); ``lights``
-        None uses :func:`default_lights`.
-        ``subdivisions`` (1..16) is the Catmull-Rom samples per segment.
+        None uses :func:`default_lights`. ``shading`` is ``kajiya-kay``,
+        ``scheuermann`` or ``marschner``, tuned by ``shading_params``
+        (:data:`follicle.render.options.MODEL_PARAMS`). ``shadows``: the first
+        directional light casts hair and skin shadows (deep opacity maps). ``oit``
+        False blends the hair "over" the opaque layer, segments sorted back to front on
+        the CPU (the foundation's method; thin and wide segments sorted separately).
+        ``subdivisions`` (1..16) is the most Catmull-Rom steps per segment; fewer are
+        taken where a segment is short and straight on screen.
         """
-        if self._fbo is None:
+        if self._out_fbo is None:
             raise InputError("Renderer: already released")
         params = parse_shading(shading, shading_params)
         if curves is not None and not isinstance(curves, HairCurves):
             raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
-        if (
-            isinstance(subdivisions, bool)
-            or not isinstance(subdivisions, (int, np.integer))
-            or not (1 <= subdivisions <= MAX_SUBDIVISIONS)
-        ):
-            raise InputError(
-                f"subdivisions: expected an integer in 1..{MAX_SUBDIVISIONS}, got {subdivisions!r}"
-            )
+        subdivisions = _check_int(subdivisions, "subdivisions", 1, MAX_SUBDIVISIONS, "an integer")
+        for flag, name in ((shadows, "shadows"), (oit, "oit")):
+            if not isinstance(flag, (bool, np.bool_)):
+                raise InputError(f"{name}: expected true or false, got {flag!r}")
         has_hair = curves is not None and curves.curve_count > 0
         mesh_arrays = check_mesh(mesh) if mesh is not None else None
-        if not has_hair and (mesh_arrays is None or len(mesh_arrays[1]) == 0):
+        has_mesh = mesh_arrays is not None and len(mesh_arrays[1]) > 0
+        if not has_hair and not has_mesh:
             raise InputError(
                 "render: nothing to draw; give non-empty curves and/or a mesh with faces"
             )
@@ -217,145 +235,218 @@ class Renderer:
             raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
         near, far = _clip_range(camera, lo, hi)
         view_proj = camera.projection_matrix(w / h, near, far) @ camera.view_matrix()
-        light_uniforms = _light_uniforms(default_lights() if lights is None else lights, camera)
+        n_dir, dirs, rads, ambient = _light_uniforms(
+            default_lights() if lights is None else lights, camera
+        )
         right, _, forward = camera.basis()
+        model = {
+            f"p_{k}": (np.radians(v) if k in ANGLE_PARAMS else v) for k, v in params.items()
+        }
+        frame = {
+            **model,
+            "n_lights": n_dir,
+            "light_dir": dirs.tobytes(),
+            "light_radiance": rads.tobytes(),
+            "ambient": tuple(ambient),
+            "root_occlusion": params["root_occlusion"],
+            "roundness": params["roundness"],
+            "shadow_density": params["shadow_density"],
+            "shadows": False,
+            **SHADOW_UNITS,  # distinct units even when unused: their sampler types differ
+        }
+        light = None
+        if shadows and n_dir > 0:
+            key = dirs[0].astype(np.float64)
+            light = (key, *light_projection(key, lo, hi, self._shadow.size))
+        hair_gs = {"subdivisions": subdivisions}
 
         ctx = self.ctx
-        self._fbo.use()
-        ctx.viewport = (0, 0, w, h)
-        self._fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
-
-        # background: a full-screen triangle, no depth
-        ctx.disable(ctx.DEPTH_TEST | ctx.BLEND | ctx.CULL_FACE)
-        bg = self._programs["background"]
-        bg["top"].value = tuple(self.background[0])
-        bg["bottom"].value = tuple(self.background[1])
-        self._bg_vao.render(mode=ctx.TRIANGLES, vertices=3)
-
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.depth_func = "<"
-        released = []
+        released: list = []
         try:
-            if mesh_arrays is not None and len(mesh_arrays[1]):
-                released += self._draw_mesh(
-                    mesh_arrays, camera, view_proj, light_uniforms, skin_color, params
-                )
+            hair_vaos, skin_vaos = {}, None
             if has_hair:
-                ctx.enable(ctx.BLEND)
-                ctx.blend_func = (
-                    ctx.SRC_ALPHA,
-                    ctx.ONE_MINUS_SRC_ALPHA,
-                    ctx.ONE,
-                    ctx.ONE_MINUS_SRC_ALPHA,
+                hair_vaos = self._hair_arrays(
+                    curves, shading, camera, None if light is None else light[2], hair_color,
+                    float(hair_width), float(hair_opacity), oit, released,
                 )
-                self._fbo.depth_mask = False  # strands accumulate coverage, back to front
-                released += self._draw_hair(
-                    curves,
-                    camera,
-                    view_proj,
-                    light_uniforms,
-                    params,
-                    int(subdivisions),
-                    right,
-                    forward,
-                    hair_color,
-                    float(hair_width),
-                    float(hair_opacity),
-                )
-            if self.msaa:
-                ctx.copy_framebuffer(self._resolve, self._fbo)
-            raw = self._resolve.read(components=4, dtype="f2")
+            if has_mesh:
+                skin_vaos = self._mesh_arrays(mesh_arrays, released)
+            if light is not None:
+                hair_lo, hair_hi = _hair_bounds(curves) if has_hair else (lo, hi)
+                layer = params["shadow_layer"] or automatic_layer(hair_lo, hair_hi)
+                frame.update(self._shadow.render(
+                    light, layer, hair_vaos, hair_gs,
+                    skin_vaos["mesh_depth"] if skin_vaos else None,
+                ))  # fmt: skip
+            self._shadow.bind()
+            view = {
+                "view_proj": _mat(view_proj),
+                "eye": (*camera.eye, 1.0),
+                "view_forward": tuple(forward),
+                "view_right": tuple(right),
+                "pixel_scale": camera.pixel_scale(h),
+                "max_step_px": MAX_STEP_PX,
+                "viewport": (float(w), float(h)),
+                "line_stretch": self.msaa == 0,  # multisampled lines are 1-pixel rectangles
+                "oit_depth": _nearest_depth(camera, lo, hi, near),
+                "oit_sharpness": params["oit_sharpness"] if oit else 0.0,
+            }
+            use_framebuffer(self._hair_fbo)
+            self._hair_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)  # and the shared depth
+            self._draw_opaque(skin_vaos, {**frame, **view}, skin_color, params["skin_wrap"])
+            self._draw_hair(hair_vaos.get("colour", []), {**frame, **view, **hair_gs}, oit)
+            self._composite()
+            raw = self._out_fbo.read(components=4, dtype="f2")
         finally:
             for obj in released:
                 obj.release()
             ctx.disable(ctx.BLEND | ctx.DEPTH_TEST)
-            self._fbo.depth_mask = True
+            ctx.blend_equation = ctx.FUNC_ADD
         linear = np.frombuffer(raw, dtype=np.float16).reshape(h, w, 4)[::-1]
         image = encode_srgb8(linear)
         image[..., 3] = 255  # the background is opaque
         return image
 
-    def _draw_mesh(self, arrays, camera, view_proj, light_uniforms, skin_color, params) -> list:
-        ctx = self.ctx
-        vertices, faces, normals = arrays
-        prog = self._programs["mesh"]
-        data = np.empty((len(vertices), 6), dtype="f4")
-        data[:, :3], data[:, 3:] = vertices, normals
-        vbo = ctx.buffer(data.tobytes())
-        ibo = ctx.buffer(np.ascontiguousarray(faces, dtype="u4").tobytes())
-        vao = ctx.vertex_array(
-            prog,
-            [(vbo, "3f 3f", "in_position", "in_normal")],
-            index_buffer=ibo,
-            index_element_size=4,
-        )
-        prog["view_proj"].write(_mat(view_proj))
-        prog["eye"].value = tuple(camera.eye)
-        prog["skin_color"].value = tuple(skin_color)
-        prog["wrap"].value = float(params["skin_wrap"])
-        _set_lights(prog, light_uniforms)
-        vao.render(mode=ctx.TRIANGLES)
-        return [vao, vbo, ibo]
+    def _hair_arrays(
+        self, curves, shading, camera, light_texel, hair_color, hair_width, hair_opacity, oit,
+        released,
+    ) -> dict[str, list]:  # fmt: skip
+        """Upload the hair once; the vertex arrays that draw it, by pass (``colour``,
+        ``hair_depth``, ``hair_opacity``; the last two only with a ``light_texel`` size).
 
-    def _draw_hair(
-        self,
-        curves,
-        camera,
-        view_proj,
-        light_uniforms,
-        params,
-        subdivisions,
-        right,
-        forward,
-        hair_color,
-        hair_width,
-        hair_opacity,
-    ) -> list:
+        Segments thinner than a pixel (texel) at both ends go to the line programs
+        (``_thin``, the colour shaded per Catmull-Rom step), the others to the ribbon
+        programs (shaded per fragment).
+        """
         ctx = self.ctx
         n = curves.point_count
         pd = curves.point_data
-        # one interleaved upload per frame: position, width, colour, opacity, t
-        data = np.empty((n, 9), dtype="f4")
+        segments, t, seeds = self._strand_tables(curves.offsets)
+        data = np.empty((n, 10), dtype="f4")  # position, width, colour, opacity, t, seed
         data[:, 0:3] = curves.points
         data[:, 3] = point_attr(pd, "width", (n,), hair_width)
         data[:, 4:7] = point_attr(pd, "color", (n, 3), hair_color)
         data[:, 7] = point_attr(pd, "opacity", (n,), hair_opacity)
-        data[:, 8] = curve_param(curves.offsets, n)
+        data[:, 8], data[:, 9] = t, seeds
+        depth = (curves.points - camera.eye.astype("f4")) @ camera.basis()[2].astype("f4")
+        pixel = camera.pixel_scale(self.size[1]) * np.maximum(depth, 1e-9)
+        vbo = ctx.buffer(data)
+        released.append(vbo)
+        buffers: dict[int, tuple] = {}  # one index buffer per distinct segment list
+
+        def split(pixel_size) -> tuple[np.ndarray, np.ndarray]:
+            width = data[:, 3] / pixel_size
+            thin = np.maximum(width[segments[:, 1]], width[segments[:, 2]]) < 1.0
+            if thin.all():
+                return segments, segments[:0]
+            return segments[thin], segments[~thin]
+
+        def arrays(names, segs) -> list:
+            if not len(segs):
+                return []
+            if id(segs) not in buffers:  # the entry keeps segs alive: ids stay unique
+                buffers[id(segs)] = (segs, ctx.buffer(np.ascontiguousarray(segs)))
+                released.append(buffers[id(segs)][1])
+            ibo = buffers[id(segs)][1]
+            out = []
+            for name in names:
+                prog = get_program(ctx, name)
+                out.append(ctx.vertex_array(prog, [_buffer_format(prog, vbo, _HAIR_LAYOUT)],
+                                            index_buffer=ibo, index_element_size=4))
+                released.append(out[-1])
+            return out  # fmt: skip
+
+        thin, wide = split(pixel)
+        if not oit:
+            thin, wide = (back_to_front(s, curves.points, camera) for s in (thin, wide))
+        colour = arrays([f"hair_thin:{shading}"], thin) + arrays([f"hair:{shading}"], wide)
+        vaos = {"colour": colour}
+        if light_texel is not None:
+            thin, wide = split(light_texel)
+            pair = arrays(["hair_depth_thin", "hair_opacity_thin"], thin)
+            pair += arrays(["hair_depth", "hair_opacity"], wide)
+            vaos["hair_depth"], vaos["hair_opacity"] = pair[0::2], pair[1::2]
+        return vaos
+
+    def _strand_tables(self, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Segment indices, curve parameter and seeds of ``offsets``; kept for the next
+        frame, which usually has the same curves."""
+        cached = self._strands
+        if cached is None or not np.array_equal(cached[0], offsets):
+            n = int(offsets[-1])
+            cached = (np.array(offsets), segment_indices(offsets), curve_param(offsets, n),
+                      strand_seeds(offsets))  # fmt: skip
+            self._strands = cached
+        return cached[1:]
+
+    def _mesh_arrays(self, arrays, released):
+        ctx = self.ctx
+        vertices, faces, normals = arrays
+        data = np.empty((len(vertices), 6), dtype="f4")
+        data[:, :3], data[:, 3:] = vertices, normals
         vbo = ctx.buffer(data.tobytes())
-        segments = back_to_front(segment_indices(curves.offsets), curves.points, camera)
-        ibo = ctx.buffer(segments.tobytes())
-        prog = self._programs["hair"]
-        vao = ctx.vertex_array(
-            prog,
-            [(vbo, "3f 1f 3f 1f 1f", "in_position", "in_width", "in_color", "in_opacity", "in_t")],
-            index_buffer=ibo,
-            index_element_size=4,
-        )
-        prog["view_proj"].write(_mat(view_proj))
-        prog["eye"].value = tuple(camera.eye)
-        prog["cam_forward"].value = tuple(forward)
-        prog["cam_right"].value = tuple(right)
-        prog["subdivisions"].value = subdivisions
-        prog["pixel_scale"].value = camera.pixel_scale(self.size[1])
-        prog["min_width_px"].value = float(params["min_width_px"])
-        prog["k_diffuse"].value = float(params["diffuse"])
-        prog["k_specular"].value = float(params["specular"])
-        prog["shininess"].value = float(params["shininess"])
-        prog["specular_color"].value = tuple(params["specular_color"])
-        prog["k_specular2"].value = float(params["specular2"])
-        prog["shininess2"].value = float(params["shininess2"])
-        prog["shift"].value = float(params["shift"])
-        prog["shift2"].value = float(params["shift2"])
-        prog["root_occlusion"].value = float(params["root_occlusion"])
-        prog["roundness"].value = float(params["roundness"])
-        _set_lights(prog, light_uniforms)
-        vao.render(mode=ctx.LINES_ADJACENCY)
-        return [vao, vbo, ibo]
+        ibo = ctx.buffer(np.ascontiguousarray(faces, dtype="u4").tobytes())
+        released += [vbo, ibo]
+        vaos = {}
+        for name in ("mesh", "mesh_depth"):
+            prog = get_program(ctx, name)
+            vaos[name] = ctx.vertex_array(
+                prog, [_buffer_format(prog, vbo, _MESH_LAYOUT)], index_buffer=ibo,
+                index_element_size=4,
+            )  # fmt: skip
+            released.append(vaos[name])
+        return vaos
+
+    def _draw_opaque(self, skin_vaos, uniforms, skin_color, wrap) -> None:
+        """Background (a full-screen triangle, no depth), then the skin."""
+        ctx = self.ctx
+        use_framebuffer(self._opaque_fbo)
+        ctx.disable(ctx.DEPTH_TEST | ctx.BLEND | ctx.CULL_FACE)
+        bg = self._fullscreen["background"]
+        set_uniforms(bg.program, {"top": tuple(self.background[0]),
+                                  "bottom": tuple(self.background[1])})  # fmt: skip
+        bg.render(mode=ctx.TRIANGLES, vertices=3)
+        if skin_vaos is not None:
+            ctx.enable(ctx.DEPTH_TEST)
+            ctx.depth_func = "<"
+            vao = skin_vaos["mesh"]
+            set_uniforms(vao.program, {**uniforms, "skin_color": tuple(skin_color), "wrap": wrap})
+            vao.render(mode=ctx.TRIANGLES)
+
+    def _draw_hair(self, vaos, uniforms, oit) -> None:
+        """Weighted blended OIT: colour·α·w and α·w summed, Π(1 - α) in the alpha; or,
+        without ``oit``, "over" the opaque layer (w = 1: the colour is premultiplied)."""
+        ctx = self.ctx
+        fbo = self._hair_fbo if oit else self._opaque_fbo
+        use_framebuffer(fbo)
+        fbo.depth_mask = False
+        ctx.enable(ctx.DEPTH_TEST | ctx.BLEND)
+        ctx.depth_func = "<"
+        if oit:
+            ctx.blend_func = ctx.ONE, ctx.ONE, ctx.ZERO, ctx.ONE_MINUS_SRC_ALPHA
+        else:
+            ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA
+        for vao in vaos:
+            set_uniforms(vao.program, uniforms)
+            vao.render(mode=ctx.LINES_ADJACENCY)
+        fbo.depth_mask = True
+
+    def _composite(self) -> None:
+        ctx = self.ctx
+        ctx.disable(ctx.DEPTH_TEST | ctx.BLEND)
+        use_framebuffer(self._out_fbo)
+        vao = self._fullscreen["composite_msaa" if self.msaa else "composite"]
+        for unit, tex in enumerate((self._opaque, self._accum, self._weight)):
+            tex.use(unit)
+        set_uniforms(vao.program, {"opaque": 0, "accum": 1, "weight": 2, "samples": self.msaa})
+        vao.render(mode=ctx.TRIANGLES, vertices=3)
 
 
 def _light_uniforms(
     lights: Sequence[Light], camera: Camera
 ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """(directional count, directions, radiances, ambient); the first directional light
+    is the key, the one that casts shadows."""
     directions, radiances = [], []
     ambient = np.zeros(3)
     for light in lights:
@@ -376,14 +467,6 @@ def _light_uniforms(
     return len(directions), dirs, rads, ambient
 
 
-def _set_lights(prog, uniforms) -> None:
-    count, dirs, rads, ambient = uniforms
-    prog["n_lights"].value = count
-    prog["ambient"].value = tuple(ambient)
-    prog["light_dir"].write(dirs.tobytes())
-    prog["light_radiance"].write(rads.tobytes())
-
-
 def render(
     curves: HairCurves | None,
     mesh: object | None = None,
@@ -401,17 +484,19 @@ def render(
     hair_opacity: float = 1.0,
     skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
     fov: float = 35.0,
+    shadows: bool = True,
+    shadow_size: int = 512,
+    oit: bool = True,
 ) -> np.ndarray:
     """Render hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
 
     ``camera`` None frames the union of hair and mesh bounds at ``fov`` degrees
-    (vertical). When ``out`` is given
-    the image is also written there as PNG (atomically). See :class:`Renderer`.
+    (vertical). When ``out`` is given the image is also written there as PNG
+    (atomically). See :class:`Renderer` and :meth:`Renderer.draw`.
     """
-    if shading not in SHADINGS:
-        raise InputError(f"shading: unknown model {shading!r}; allowed: {', '.join(SHADINGS)}")
-    with Renderer(size=size, msaa=msaa, background=background) as renderer:
-        image = renderer.draw(
+    parse_shading(shading, shading_params)  # fail before creating framebuffers
+    with Renderer(size=size, msaa=msaa, background=background, shadow_size=shadow_size) as r:
+        image = r.draw(
             curves,
             mesh,
             camera=camera,
@@ -424,6 +509,8 @@ def render(
             hair_opacity=hair_opacity,
             skin_color=skin_color,
             fov=fov,
+            shadows=shadows,
+            oit=oit,
         )
     if out is not None:
         save_png(image, out)

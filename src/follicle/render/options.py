@@ -17,7 +17,11 @@ __all__ = [
     "DEFAULT_HAIR_WIDTH",
     "DEFAULT_SKIN_COLOR",
     "DEFAULT_BACKGROUND",
-    "DEFAULT_SHADING_PARAMS",
+    "COMMON_PARAMS",
+    "MODEL_PARAMS",
+    "ANGLE_PARAMS",
+    "MAX_SHADOW_SIZE",
+    "shading_params_for",
     "color3",
     "parse_background",
     "parse_size",
@@ -26,30 +30,71 @@ __all__ = [
     "point_attr",
 ]
 
-SHADINGS = ("kajiya-kay",)
+SHADINGS = ("kajiya-kay", "scheuermann", "marschner")
 MAX_SUBDIVISIONS = 16
 MAX_LIGHTS = 8
 MAX_SIZE = 8192
+MAX_SHADOW_SIZE = 4096
 
 DEFAULT_HAIR_COLOR = (0.16, 0.09, 0.045)  # linear RGB, a mid brown
 DEFAULT_HAIR_WIDTH = 80e-6  # diameter, metres
 DEFAULT_SKIN_COLOR = (0.42, 0.25, 0.18)  # linear RGB
 DEFAULT_BACKGROUND = ((0.09, 0.095, 0.11), (0.012, 0.012, 0.016))  # (top, bottom), linear
 
-DEFAULT_SHADING_PARAMS: dict[str, object] = {
-    "diffuse": 0.6,  # K_d, eq. 3.8
-    "specular": 0.22,  # K_s, eq. 3.9, primary (white) highlight
-    "shininess": 80.0,  # p, eq. 3.9
-    "specular_color": (1.0, 0.97, 0.92),
-    "specular2": 0.35,  # secondary highlight, tinted by the hair colour
-    "shininess2": 20.0,
-    "shift": -0.08,  # tangent shifts along the fibre normal (Scheuermann)
-    "shift2": 0.12,
-    "root_occlusion": 0.65,  # darkening towards the root, 0 .. 1
-    "roundness": 0.35,  # darkening towards the ribbon edges, 0 .. 1
-    "min_width_px": 1.0,  # thinner hair is widened to this many pixels and faded
-    "skin_wrap": 0.1,  # wrap-around term of the skin's Lambert shading
+# name: (default, low, high, meaning); a tuple default is a linear RGB colour.
+# Lobe shifts follow Marschner et al. 2003: a lobe "towards the root" peaks where the
+# half vector leans towards the root (θh < 0, α < 0, or a positive tangent shift along
+# the ribbon normal); on a head seen from the light's side that puts the band nearer the
+# tips. The primary (R) lobe goes towards the root, the tinted one (TRT) towards the tip.
+Spec = tuple[object, float, float, str]
+COMMON_PARAMS: dict[str, Spec] = {
+    "root_occlusion": (0.65, 0.0, 1.0, "darkening towards the root, 0 .. 1"),
+    "roundness": (0.35, 0.0, 1.0, "darkening towards the ribbon edges (hair over 1 px wide)"),
+    "skin_wrap": (0.1, 0.0, 1.0, "wrap-around term of the skin's Lambert shading"),
+    "shadow_density": (0.7, 0.0, 100.0, "κ of the hair shadow transmittance exp(−κ·opacity)"),
+    "shadow_layer": (0.0, 0.0, 10.0, "deep opacity map layer thickness, m; 0: the hair's"
+                     " bounding-box diagonal / 100"),
+    "oit_sharpness": (40.0, 0.0, 1000.0, "OIT weight exp(−k·Δdepth/depth): how much nearer"
+                      " hair outweighs farther"),
 }
+MODEL_PARAMS: dict[str, dict[str, Spec]] = {
+    "kajiya-kay": {
+        "diffuse": (0.6, 0.0, 10.0, "K_d, eq. 3.8"),
+        "specular": (0.4, 0.0, 10.0, "K_s, eq. 3.9: the primary (white) highlight"),
+        "shininess": (120.0, 0.1, 10000.0, "p, eq. 3.9"),
+        "specular_color": ((1.0, 0.97, 0.92), 0.0, 100.0, "primary highlight colour"),
+        "specular2": (0.5, 0.0, 10.0, "second highlight, tinted by the hair (0: off)"),
+        "shininess2": (30.0, 0.1, 10000.0, "second highlight exponent"),
+        "shift": (0.08, -1.0, 1.0, "primary tangent shift along the ribbon normal"
+                  " (> 0: the lobe tilts towards the root)"),
+        "shift2": (-0.12, -1.0, 1.0, "second highlight tangent shift"),
+    },
+    "scheuermann": {
+        "diffuse": (0.6, 0.0, 10.0, "K_d of max(0, 0.75 N·L + 0.25) (001 Alg. 6)"),
+        "specular": (0.5, 0.0, 10.0, "primary (white) highlight"),
+        "shininess": (128.0, 0.1, 10000.0, "primary exponent (Alg. 6: 128)"),
+        "specular_color": ((1.0, 0.97, 0.92), 0.0, 100.0, "primary highlight colour"),
+        "specular2": (1.0, 0.0, 10.0, "secondary highlight, tinted by the hair colour"),
+        "shininess2": (48.0, 0.1, 10000.0, "secondary exponent (Alg. 6: 90)"),
+        "shift": (0.1, -1.0, 1.0, "primary tangent shift along the ribbon normal"
+                  " (> 0: lobe towards the root)"),
+        "shift2": (-0.12, -1.0, 1.0, "secondary tangent shift (< 0: towards the tip)"),
+        "shift_noise": (0.3, 0.0, 2.0, "± noise added to both shifts along each strand"),
+        "sparkle": (0.6, 0.0, 1.0, "how much noise masks the secondary highlight"),
+        "noise_frequency": (12.0, 0.0, 1000.0, "noise cycles per hair length"),
+    },
+    "marschner": {
+        "alpha": (-7.0, -30.0, 30.0, "R lobe shift α, degrees (TT: −α/2, TRT: −3α/2)"),
+        "beta": (5.0, 0.5, 45.0, "R lobe width β, degrees (TT: β/2, TRT: 2β)"),
+        "r": (2.0, 0.0, 100.0, "R (surface reflection) strength (1: a smooth fibre's Fresnel)"),
+        "tt": (1.0, 0.0, 100.0, "TT (transmission) strength"),
+        "trt": (3.0, 0.0, 100.0, "TRT (internal reflection) strength"),
+        "tt_width": (25.0, 1.0, 180.0, "azimuthal width of the TT lobe around φ = π, degrees"),
+        "eta": (1.55, 1.0, 3.0, "refractive index of the fibre"),
+        "diffuse": (0.6, 0.0, 10.0, "sin(T, L) term standing in for multiple scattering"),
+    },
+}
+ANGLE_PARAMS = ("alpha", "beta", "tt_width")  # degrees in, radians to the shaders
 
 
 def color3(value: object, name: str) -> np.ndarray:
@@ -90,30 +135,34 @@ def parse_size(size: object) -> tuple[int, int]:
     return out[0], out[1]
 
 
-def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str, object]:
+def shading_params_for(shading: str) -> dict[str, Spec]:
+    """The parameters model ``shading`` accepts: its own and the common ones."""
     if shading not in SHADINGS:
         raise InputError(f"shading: unknown model {shading!r}; allowed: {', '.join(SHADINGS)}")
-    merged = dict(DEFAULT_SHADING_PARAMS)
+    return {**MODEL_PARAMS[shading], **COMMON_PARAMS}
+
+
+def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str, object]:
+    """Defaults of model ``shading`` updated by ``params``, each checked against its range."""
+    specs = shading_params_for(shading)
+    merged = {key: spec[0] for key, spec in specs.items()}
     for key, value in (params or {}).items():
-        if key not in DEFAULT_SHADING_PARAMS:
+        if key not in specs:
             raise InputError(
-                f"shading_params: unknown key {key!r}; allowed: {', '.join(DEFAULT_SHADING_PARAMS)}"
+                f"shading_params: unknown key {key!r} for shading {shading!r};"
+                f" allowed: {', '.join(specs)}"
             )
-        if key == "specular_color":
-            merged[key] = tuple(color3(value, "shading_params['specular_color']"))
-        else:
-            try:
-                merged[key] = float(value)  # type: ignore[arg-type]
-            except (TypeError, ValueError):
-                raise InputError(
-                    f"shading_params[{key!r}]: expected a number, got {value!r}"
-                ) from None
-            if not np.isfinite(merged[key]):
-                raise InputError(f"shading_params[{key!r}]: must be finite, got {value!r}")
-    if merged["shininess"] <= 0 or merged["shininess2"] <= 0:
-        raise InputError("shading_params: shininess and shininess2 must be positive")
-    if merged["min_width_px"] <= 0:
-        raise InputError("shading_params['min_width_px']: must be positive")
+        default, lo, hi, _ = specs[key]
+        if isinstance(default, tuple):
+            merged[key] = tuple(color3(value, f"shading_params[{key!r}]"))
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise InputError(f"shading_params[{key!r}]: expected a number, got {value!r}")
+        if not lo <= float(value) <= hi:
+            raise InputError(
+                f"shading_params[{key!r}]: must be in [{lo:g}, {hi:g}], got {value!r}"
+            )
+        merged[key] = float(value)
     return merged
 
 

@@ -1,4 +1,5 @@
-"""Strand geometry for the GPU: lines-adjacency segment indices, draw order, curve parameter."""
+"""Strand data for the GPU: lines-adjacency segment indices, draw order, curve parameter,
+strand seeds."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import numpy as np
 
 from .camera import Camera
 
-__all__ = ["segment_indices", "back_to_front", "curve_param"]
+__all__ = ["segment_indices", "back_to_front", "curve_param", "strand_seeds"]
 
 
 def segment_indices(offsets: np.ndarray) -> np.ndarray:
@@ -35,8 +36,8 @@ def segment_indices(offsets: np.ndarray) -> np.ndarray:
 def back_to_front(segments: np.ndarray, points: np.ndarray, camera: Camera) -> np.ndarray:
     """Segments ordered farthest first by the view depth of their middle.
 
-    Hair is blended without writing depth, so every thin, partly covering strand
-    adds to the coverage; drawing back to front keeps the nearer strands on top.
+    For ``oit=False``: hair blended "over" without writing depth must be drawn back to
+    front to keep the nearer strands on top.
     """
     middle = 0.5 * (points[segments[:, 1]] + points[segments[:, 2]])
     depth = middle.astype(np.float64) @ (camera.basis()[2])
@@ -49,3 +50,11 @@ def curve_param(offsets: np.ndarray, n_points: int) -> np.ndarray:
     starts = np.repeat(offsets[:-1], counts)
     denom = np.repeat(np.maximum(counts - 1, 1), counts)
     return ((np.arange(n_points, dtype=np.int64) - starts) / denom).astype(np.float32)
+
+
+def strand_seeds(offsets: np.ndarray) -> np.ndarray:
+    """Per vertex, a number in [0, 1) fixed per curve (the golden-ratio sequence over the
+    curve index): neighbouring strands get well-spread noise in the shaders."""
+    counts = np.diff(np.asarray(offsets, dtype=np.int64))
+    seeds = np.modf(np.arange(len(counts), dtype=np.float64) * 0.6180339887498949)[0]
+    return np.repeat(seeds.astype(np.float32), counts)

@@ -1,4 +1,3 @@
-#version 330 core
 in float v_y;
 out vec4 frag_color;
 uniform vec3 top;     // linear RGB

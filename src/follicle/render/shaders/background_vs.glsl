@@ -1,4 +1,3 @@
-#version 330 core
 // One triangle covering the screen, from gl_VertexID alone.
 out float v_y;  // 0 at the bottom edge, 1 at the top
 void main() {

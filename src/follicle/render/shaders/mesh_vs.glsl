@@ -1,4 +1,3 @@
-#version 330 core
 in vec3 in_position;
 in vec3 in_normal;
 out vec3 v_position;

@@ -1,0 +1,264 @@
+"""A path-traced reference still with Mitsuba 3, seen and lit like the OpenGL render.
+
+The same camera (or the same automatic framing), the same lights, skin colour and
+background gradient as :func:`follicle.render.render`, so the two images can be laid
+side by side. The hair is Mitsuba's ``bsplinecurve`` shape, loaded from the curve file
+:func:`follicle.io.mitsuba.save_mitsuba` writes (round tubes through every vertex,
+radius = width / 2), with the ``hair`` BSDF (Chiang et al. 2016). Its absorption σ_a is
+derived from the hair colour per curve segment (:func:`absorption_from_color`) and
+handed to the BSDF as a texture over the shape's ``v`` coordinate, which runs over the
+segments of all curves in file order, so every hair keeps its own colour and its
+root-to-tip gradient. The skin is a two-sided diffuse mesh.
+
+Lights: a directional light of radiance L becomes a ``directional`` emitter of
+irradiance π·L, so a white Lambertian surface facing it is as bright as the GL skin
+shading makes it (GL: ρ·L·cos θ; Mitsuba: ρ/π·E·cos θ); the ambient lights add up to
+one ``constant`` environment of that radiance. Emitters are hidden from the camera:
+the image is rendered with alpha and composited, in linear RGB, onto the GL
+renderer's background gradient, then encoded to 8-bit sRGB like the GL image.
+
+Variant ``scalar_rgb`` (multi-threaded CPU): it needs no kernel compilation, and its
+image blocks, with a box pixel filter, make the result reproducible (the same seed gives
+the same bytes). ``llvm_ad_rgb`` aborted in LLVM's code generator on the development
+machine, so it is not used. Loading this module does not import Mitsuba; rendering
+does, and sets its variant.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import InputError
+from ..io.mitsuba import save_mitsuba
+from .camera import Camera, Light, default_lights, frame_camera
+from .image import encode_srgb8, save_png
+from .opengl import _scene_bounds
+from .options import (
+    DEFAULT_HAIR_COLOR,
+    DEFAULT_HAIR_WIDTH,
+    DEFAULT_SKIN_COLOR,
+    check_mesh,
+    color3,
+    parse_background,
+    parse_size,
+    point_attr,
+)
+
+__all__ = ["render_mitsuba", "absorption_from_color", "VARIANT", "MAX_DEPTH"]
+
+VARIANT = "scalar_rgb"
+MAX_DEPTH = 24  # path length: light hair needs many bounces (Russian roulette after 5)
+MAX_SPP = 1 << 16
+AZIMUTHAL_ROUGHNESS = 0.3  # β_n, the hair plugin's default (as is longitudinal 0.3)
+
+
+def absorption_from_color(color: object, beta_n: float = AZIMUTHAL_ROUGHNESS) -> np.ndarray:
+    """σ_a (relative to the fibre radius) giving a hair about ``color`` (linear RGB) under
+    multiple scattering, Chiang et al. 2016 §4.2:
+    σ_a = (ln C / (5.969 − 0.215β_n + 2.532β_n² − 10.73β_n³ + 5.574β_n⁴ + 0.245β_n⁵))².
+
+    C is clipped to [1e-4, 1]: white hair absorbs nothing, black gets a finite σ_a.
+    """
+    c = np.clip(np.asarray(color, dtype=np.float64), 1e-4, 1.0)
+    b = float(beta_n)
+    poly = 5.969 - 0.215 * b + 2.532 * b**2 - 10.73 * b**3 + 5.574 * b**4 + 0.245 * b**5
+    return (np.log(c) / poly) ** 2
+
+
+def _mitsuba():
+    """The ``mitsuba`` module set to :data:`VARIANT`."""
+    try:
+        import mitsuba as mi
+    except ImportError:
+        raise InputError(
+            "the Mitsuba renderer is not installed; install the pbr extra:"
+            " pip install 'follicle[pbr]'"
+        ) from None
+    if VARIANT not in mi.variants():
+        raise InputError(f"mitsuba {mi.__version__} lacks the {VARIANT} variant")
+    mi.set_variant(VARIANT)
+    return mi
+
+
+def _whole(value: object, name: str, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise InputError(f"{name}: expected a whole number in {lo}..{hi}, got {value!r}")
+    return int(value)
+
+
+def _segment_absorption(curves: HairCurves, hair_color: np.ndarray) -> np.ndarray:
+    """σ_a per curve segment (S, 3), float32, in the order of the curve file's segments:
+    curve by curve, root to tip, each the mean colour of its two vertices."""
+    color = point_attr(curves.point_data, "color", (curves.point_count, 3), hair_color)
+    last = np.zeros(curves.point_count, dtype=bool)
+    last[curves.offsets[1:] - 1] = True
+    starts = np.flatnonzero(~last)
+    mean = 0.5 * (color[starts].astype(np.float64) + color[starts + 1])
+    return absorption_from_color(mean).astype(np.float32)
+
+
+def _hair_shape(mi, curves: HairCurves, hair_color, hair_width, folder: Path) -> dict:
+    width = point_attr(curves.point_data, "width", (curves.point_count,), hair_width)
+    path = save_mitsuba(
+        iter([HairCurves(curves.points, curves.offsets, {"width": width})]),
+        folder / "hair.txt",
+    )
+    sigma = _segment_absorption(curves, hair_color)
+    return {
+        "type": "bsplinecurve",
+        "filename": str(path),
+        "bsdf": {
+            "type": "hair",
+            "azimuthal_roughness": AZIMUTHAL_ROUGHNESS,
+            "sigma_a": {
+                "type": "bitmap",
+                # one texel per segment, down the image: v = (segment + t) / S picks row
+                "bitmap": mi.Bitmap(np.ascontiguousarray(sigma[:, None, :])),
+                "raw": True,
+                "filter_type": "nearest",
+                "wrap_mode": "clamp",
+            },
+        },
+    }
+
+
+def _skin_shape(mi, arrays, skin_color: np.ndarray):
+    vertices, faces, normals = arrays
+    bsdf = mi.load_dict({"type": "twosided", "bsdf": {
+        "type": "diffuse", "reflectance": {"type": "rgb", "value": skin_color.tolist()}}})
+    props = mi.Properties()
+    props["bsdf"] = bsdf
+    mesh = mi.Mesh("skin", len(vertices), len(faces), props, has_vertex_normals=True)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = np.ascontiguousarray(vertices, np.float32).ravel()
+    params["vertex_normals"] = np.ascontiguousarray(normals, np.float32).ravel()
+    params["faces"] = np.ascontiguousarray(faces, np.uint32).ravel()
+    params.update()
+    return mesh
+
+
+def _emitters(lights: Sequence[Light], camera: Camera) -> dict:
+    out: dict[str, dict] = {}
+    ambient = np.zeros(3)
+    for i, light in enumerate(lights):
+        if not isinstance(light, Light):
+            raise InputError(f"lights: expected Light objects, got {type(light).__name__}")
+        if light.is_ambient:
+            ambient += light.radiance
+            continue
+        out[f"light_{i}"] = {
+            "type": "directional",
+            "direction": (-light.world_direction(camera)).tolist(),
+            "irradiance": {"type": "rgb", "value": (math.pi * light.radiance).tolist()},
+            "sampling_weight": _luminance(light.radiance),
+        }
+    if np.any(ambient > 0):
+        out["ambient"] = {"type": "constant", "sampling_weight": _luminance(ambient),
+                          "radiance": {"type": "rgb", "value": ambient.tolist()}}
+    return out
+
+
+def _luminance(rgb: np.ndarray) -> float:
+    """Rec. 709 luminance: each emitter is picked for next-event estimation in proportion
+    to the irradiance it gives (π·L both for a directional light and an environment), so
+    a dim fill light does not take as many samples as the key."""
+    return max(float(rgb @ (0.2126, 0.7152, 0.0722)), 1e-6)
+
+
+def _sensor(mi, camera: Camera, size: tuple[int, int], spp: int, seed: int) -> dict:
+    _, up, _ = camera.basis()
+    near, far = camera.clip_range()
+    return {
+        "type": "perspective",
+        "fov": camera.fov_y,
+        "fov_axis": "y",
+        "near_clip": near,
+        "far_clip": far,
+        "to_world": mi.ScalarTransform4f().look_at(
+            origin=camera.eye.tolist(), target=camera.target.tolist(), up=up.tolist()
+        ),
+        "film": {"type": "hdrfilm", "width": size[0], "height": size[1],
+                 "pixel_format": "rgba", "rfilter": {"type": "box"}},
+        "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
+    }
+
+
+def _gradient(background, height: int) -> np.ndarray:
+    """The GL background per row (H, 1, 3): ``top`` at the top edge, ``bottom`` below."""
+    top, bottom = background
+    y = 1.0 - (np.arange(height) + 0.5) / height
+    return (bottom + (top - bottom) * y[:, None])[:, None, :]
+
+
+def render_mitsuba(
+    curves: HairCurves | None,
+    mesh: object | None = None,
+    camera: Camera | None = None,
+    size: Sequence[int] = (960, 960),
+    lights: Sequence[Light] | None = None,
+    spp: int = 64,
+    out: str | os.PathLike[str] | None = None,
+    seed: int = 0,
+    background: object = None,
+    hair_color: Sequence[float] = DEFAULT_HAIR_COLOR,
+    hair_width: float = DEFAULT_HAIR_WIDTH,
+    skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
+    fov: float = 35.0,
+) -> np.ndarray:
+    """Path-trace hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
+
+    Arguments mean what they mean for :func:`follicle.render.render`: ``camera`` None
+    frames hair and mesh at ``fov`` degrees; ``lights`` None is
+    :func:`default_lights`; per-vertex ``color``/``width`` win over ``hair_color``
+    (linear RGB) and ``hair_width`` (diameter, metres); per-vertex opacity is not used
+    (fibres are opaque, light passes through them as the BSDF says). ``spp`` samples
+    per pixel; the same ``seed`` gives the same image. ``out``: also write PNG there.
+    """
+    if curves is not None and not isinstance(curves, HairCurves):
+        raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
+    w, h = parse_size(size)
+    spp = _whole(spp, "spp", 1, MAX_SPP)
+    seed = _whole(seed, "seed", 0, 2**32 - 1)
+    has_hair = curves is not None and curves.curve_count > 0
+    mesh_arrays = check_mesh(mesh) if mesh is not None else None
+    has_mesh = mesh_arrays is not None and len(mesh_arrays[1]) > 0
+    if not has_hair and not has_mesh:
+        raise InputError("render: nothing to draw; give non-empty curves and/or a mesh with faces")
+    hair_color = color3(hair_color, "hair_color")
+    skin_color = color3(skin_color, "skin_color")
+    if not (np.isfinite(hair_width) and hair_width > 0):
+        raise InputError(f"hair_width: must be a positive diameter in metres, got {hair_width!r}")
+    background = parse_background(background)
+    if camera is None:
+        lo, hi = _scene_bounds(curves if has_hair else None, mesh)
+        camera = frame_camera(lo, hi, fov_y=fov, aspect=w / h)
+    elif not isinstance(camera, Camera):
+        raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
+    mi = _mitsuba()
+    scene: dict[str, object] = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": MAX_DEPTH, "hide_emitters": True},
+        "sensor": _sensor(mi, camera, (w, h), spp, seed),
+        **_emitters(default_lights() if lights is None else lights, camera),
+    }
+    with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
+        if has_hair:
+            scene["hair"] = _hair_shape(mi, curves, hair_color, hair_width, Path(folder))
+        if has_mesh:
+            scene["skin"] = _skin_shape(mi, mesh_arrays, skin_color)
+        rgba = np.array(mi.render(mi.load_dict(scene), seed=seed, spp=spp), dtype=np.float64)
+    alpha = np.clip(rgba[..., 3:], 0.0, 1.0)
+    linear = np.empty((h, w, 4))
+    linear[..., :3] = rgba[..., :3] + (1.0 - alpha) * _gradient(background, h)
+    linear[..., 3] = 1.0
+    image = encode_srgb8(linear)
+    if out is not None:
+        save_png(image, out)
+    return image

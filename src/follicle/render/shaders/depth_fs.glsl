@@ -1,0 +1,3 @@
+// Depth only (the skin seen from the key light).
+void main() {
+}
