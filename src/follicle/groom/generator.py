@@ -294,6 +294,14 @@ class Groom:
         for a in range(start, start + count, int(chunk_size)):
             yield self.generate(min(int(chunk_size), start + count - a), a, time)
 
+    def roots(self, count: int | None = None, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Roots (triangle int32, barycentric float32 (n, 2)) of hair ids [start, start +
+        count), as :meth:`generate` samples them: :meth:`generate_at` of any subset of
+        them, with their ids, grows exactly those hairs of :meth:`generate`."""
+        count = self.params.count if count is None else count
+        self._check_range(count, start)
+        return self.sampler.sample(count, self.params.seed, "random", start)
+
     def generate_at(
         self, triangles: np.ndarray, bary: np.ndarray, ids: np.ndarray | None = None,
         time: float = 0.0,
@@ -341,7 +349,7 @@ class Groom:
         """Roots, groups, weights and clumps of ids [start, stop), computed once."""
         key = (start, stop)
         if key not in self._layouts:
-            tri, bary = self.sampler.sample(stop - start, self.params.seed, "random", start)
+            tri, bary = self.roots(stop - start, start)
             ids = np.arange(start, stop, dtype=np.int64)
             self._layouts[key] = self._make_layout(tri, bary, ids)
         return self._layouts[key]

@@ -20,7 +20,8 @@ values (RISpec: Σ(nsegs + 1)), so every varying variable is the hair's own per-
 
 Numbers are printed like C's ``%.7g`` (7 significant digits; the same curves give the same
 bytes) by a compiled kernel, a block at a time. :func:`save_rib_motion` writes deformation
-motion blur: ``MotionBegin [t0 t1 …]`` with one ``Curves`` per time sample.
+motion blur: ``MotionBegin [t0 t1 …]`` with one ``Curves`` per time sample;
+:func:`write_block` the attribute block alone (a RenderMan procedural's reply).
 """
 
 from __future__ import annotations
@@ -41,10 +42,10 @@ from ..errors import InputError
 from .atomic import atomic_path
 from .stream import Curves, as_chunks
 
-__all__ = ["save_rib", "save_rib_motion", "format_floats"]
+__all__ = ["save_rib", "save_rib_motion", "write_block", "format_floats"]
 
-_HEADER = (b'##RenderMan RIB\nversion 3.04\nAttributeBegin\n'
-           b'  Basis "catmull-rom" 1 "catmull-rom" 1\n')
+_VERSION = b"##RenderMan RIB\nversion 3.04\n"
+_BEGIN = b'AttributeBegin\n  Basis "catmull-rom" 1 "catmull-rom" 1\n'
 _FOOTER = b"AttributeEnd\n"
 _BLOCK = 1 << 20  # numbers formatted at a time
 _INT32_MAX = 2**31 - 1
@@ -242,14 +243,21 @@ def save_rib(curves: Curves, path: str | os.PathLike[str], normals: bool = True)
     ``Curves`` request per non-empty chunk, atomically."""
     target = Path(path)
     with atomic_path(target) as tmp, open(tmp, "wb") as fh:
-        fh.write(_HEADER)
-        start = 0
-        for chunk in as_chunks(curves):
-            if chunk.curve_count:
-                _curves(fh, chunk, start, normals)
-            start += chunk.curve_count
-        fh.write(_FOOTER)
+        fh.write(_VERSION)
+        write_block(fh, curves, normals)
     return target
+
+
+def write_block(fh: BinaryIO, curves: Curves, normals: bool = True) -> None:
+    """The ``AttributeBegin`` … ``AttributeEnd`` block of :func:`save_rib` (no file header),
+    e.g. the reply of a RenderMan procedural: the basis, one ``Curves`` per non-empty chunk."""
+    fh.write(_BEGIN)
+    start = 0
+    for chunk in as_chunks(curves):
+        if chunk.curve_count:
+            _curves(fh, chunk, start, normals)
+        start += chunk.curve_count
+    fh.write(_FOOTER)
 
 
 def save_rib_motion(
@@ -284,7 +292,7 @@ def save_rib_motion(
         raise InputError("samples: the curves are empty; nothing to write")
     target = Path(path)
     with atomic_path(target) as tmp, open(tmp, "wb") as fh:
-        fh.write(_HEADER)
+        fh.write(_VERSION + _BEGIN)
         fh.write(b"  MotionBegin [")
         fh.write(format_floats(stamps, len(stamps)))
         fh.write(b"]\n")
