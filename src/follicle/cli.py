@@ -1,4 +1,4 @@
-"""The ``follicle`` command: demo, grow, export, simulate, render, info.
+"""The ``follicle`` command: demo, grow, export, export-rib, simulate, render, view, info.
 
 Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
 traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from .curves import HairCurves
     from .groom.generator import Groom
     from .scene import Scene
+    from .sim.cache import SimCache
 
     M = TypeVar("M", bound=BaseModel)
 
@@ -173,6 +174,31 @@ def export(source: str, out: str) -> None:
     click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {out}")
 
 
+@main.command("export-rib")
+@click.argument("scene_path", metavar="SCENE", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
+              help="Output .rib; the frame file is written beside it (.follicle.z).")
+@click.option("--voxels", type=int, default=8, show_default=True,
+              help="Voxel cells along the rest mesh's longest side (cubic cells, 1–256).")
+@click.option("--count", type=int, default=None, help="Override [groom].count.")
+@click.option("--seed", type=int, default=None, help="Override [groom].seed.")
+def export_rib(scene_path: str, out: str, voxels: int, count: int | None,
+               seed: int | None) -> None:
+    """Write a RenderMan RIB that grows the scene's hair at render time: one
+    `Procedural "RunProgram"` per voxel, run by follicle-procedural (README § Formats)."""
+    from .io.procedural import export_rib as export
+    from .scene import load_scene
+
+    scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
+    _check_writable_suffix(out, (".rib",))
+    with _step("grow and bound"), _progress("bounding voxels") as progress:
+        done = export(scene, out, voxels, progress=progress)
+    sizes = [p.stat().st_size for p in (done.rib, done.frame)]
+    click.echo(f"{sum(done.roots):,} hairs in {len(done.voxels)} voxels"
+               f" ({'×'.join(map(str, done.grid.dims))} grid) → {done.rib} ({sizes[0]:,} bytes)"
+               f" + {done.frame} ({sizes[1]:,} bytes)")
+
+
 def _curve_suffixes() -> tuple[str, ...]:
     """The extensions curves can be written to: .npz first, then the others sorted."""
     from .io.dispatch import WRITERS
@@ -240,34 +266,45 @@ def simulate(scene_path: str, out: str | None, frames: int, fps: float, motion: 
 @click.argument("source", metavar="SCENE|CURVES|CACHE", type=click.Path(dir_okay=False))
 @click.option("-o", "--out", type=click.Path(), default=None,
               help="Output PNG; default [output].image of the scene, or CURVES with .png. For a"
-              " CACHE, a folder of frame_0000.png, …; default CACHE's name + _frames.")
+              " CACHE, a folder of frame_0000.png, … or an .mp4 video; default CACHE's name +"
+              " _frames.")
 @click.option("--mesh", "mesh_path", default=None,
               help="Mesh to draw under a curves file (e.g. builtin:head).")
 @click.option("--size", type=(int, int), default=None, help="Image width and height.")
-@click.option("--shading", type=click.Choice(["kajiya-kay"]), default=None, help="Hair shading.")
+@click.option("--engine", type=click.Choice(["opengl", "mitsuba"]), default=None,
+              help="opengl (default) or mitsuba: a path-traced reference still (pbr extra).")
+@click.option("--shading", type=click.Choice(["kajiya-kay", "scheuermann", "marschner"]),
+              default=None, help="Hair shading (opengl).")
 @click.option("--msaa", type=click.Choice(["0", "1", "2", "4", "8", "16"]), default=None,
-              help="Multisample anti-aliasing samples.")
+              help="Multisample anti-aliasing samples (opengl).")
+@click.option("--spp", type=int, default=None,
+              help="Samples per pixel (mitsuba; default 64).")
 @click.option("--count", type=int, default=None,
               help="Override [groom].count (a scene or a cache).")
 @click.option("--frames", "frame_range", default=None, metavar="START:STOP",
               help="A cache's frames to render, STOP excluded (0:24, 10:, or one frame: 5);"
               " default all.")
 def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int, int] | None,
-           shading: str | None, msaa: str | None, count: int | None,
-           frame_range: str | None) -> None:
+           engine: str | None, shading: str | None, msaa: str | None, spp: int | None,
+           count: int | None, frame_range: str | None) -> None:
     """Render a scene (grown on the fly) or a saved curves file to PNG, or each frame of a
-    simulation cache (`follicle simulate`) to a PNG sequence, seen through one camera.
-    An MP4 of the sequence is not written yet (coming with the rendering issue)."""
+    simulation cache (`follicle simulate`) to a PNG sequence or an MP4, seen through one
+    camera. `--engine mitsuba` path-traces a still with Mitsuba 3 instead."""
+    from .errors import InputError
     from .io.dispatch import load_curves
     from .mesh.load import load_mesh
     from .pipeline import grow as grow_scene
-    from .pipeline import render_scene
+    from .pipeline import render_scene, render_scene_mitsuba
     from .scene import Scene, load_scene
     from .sim.cache import is_cache
 
     overrides = {k: v for k, v in {"size": size, "shading": shading,
                                    "msaa": None if msaa is None else int(msaa)}.items()
                  if v is not None}
+    if engine == "mitsuba":
+        _not_for(source, "--engine mitsuba", shading=shading, msaa=msaa)
+    else:
+        _not_for(source, "--engine opengl", spp=spp)
     if Path(source).suffix.lower() == ".toml":
         scene = _with_overrides(load_scene(source), count=count)
         target = out or scene.resolve(scene.output.image)
@@ -279,6 +316,9 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
             mesh = load_mesh(mesh_path)
     elif is_cache(source):
         _not_for(source, "a simulation cache", mesh=mesh_path)
+        if engine == "mitsuba":
+            raise InputError(f"{source}: --engine mitsuba renders stills; a simulation cache"
+                             " renders with opengl")
         _render_cache(source, out, overrides, count, frame_range)
         return
     else:
@@ -290,13 +330,17 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
         mesh = load_mesh(mesh_path) if mesh_path else None
     params = _validated(scene.render, "render", overrides)
     with _step("render"):
-        render_scene(curves, mesh, params, out=target)
+        if engine == "mitsuba":
+            render_scene_mitsuba(curves, mesh, params, out=target, spp=64 if spp is None else spp)
+        else:
+            render_scene(curves, mesh, params, out=target)
     click.echo(f"→ {target}")
 
 
 def _render_cache(source: str, out: str | None, overrides: dict[str, object], count: int | None,
                   frame_range: str | None) -> None:  # fmt: skip
-    """`follicle render CACHE`: every (or --frames) frame to OUT/frame_0000.png, …"""
+    """`follicle render CACHE`: every (or --frames) frame to OUT/frame_0000.png, …, or to
+    the video OUT.mp4 (frames rendered to a temporary folder, then encoded)."""
     from .errors import InputError
     from .pipeline import render_cache
     from .sim.cache import load_cache
@@ -306,21 +350,49 @@ def _render_cache(source: str, out: str | None, overrides: dict[str, object], co
     scene = _with_overrides(cache.scene(), count=count)
     scene.render = _validated(scene.render, "render", overrides)
     target = Path(out) if out else Path(source).with_name(Path(source).stem + "_frames")
-    if target.suffix.lower() == ".png" or target.is_file():
+    video = target.suffix.lower() == ".mp4"
+    if not video and (target.suffix.lower() == ".png" or target.is_file()):
         raise InputError(
-            f"{target}: a simulation cache renders to a folder of frame_0000.png, …; give -o a"
-            " folder"
+            f"{target}: a simulation cache renders to a folder of frame_0000.png, … or to an"
+            " .mp4 video; give -o a folder or a .mp4 file"
         )
     start = time.perf_counter()
     with _step("render"), _progress("rendering frames") as progress:
-        paths = render_cache(cache, target, scene, frames, progress)
+        if video:
+            _cache_video(cache, target, scene, frames, progress)
+        else:
+            paths = render_cache(cache, target, scene, frames, progress)
     wall = time.perf_counter() - start
     w, h = scene.render.size
+    written = target if video else \
+        f"{paths[0]}{f' … {paths[-1].name}' if len(paths) > 1 else ''}"  # fmt: skip
     click.echo(
-        f"{len(paths)} frames ({frames.start}–{frames.stop - 1}) of {scene.groom.count:,} hairs,"
-        f" {w}×{h}, {wall:.2f} s ({len(paths) / wall:.1f} frames/s) →"
-        f" {paths[0]}{f' … {paths[-1].name}' if len(paths) > 1 else ''}"
+        f"{len(frames)} frames ({frames.start}–{frames.stop - 1}) of {scene.groom.count:,} hairs,"
+        f" {w}×{h}, {wall:.2f} s ({len(frames) / wall:.1f} frames/s) → {written}"
     )
+
+
+def _cache_video(cache: SimCache, target: Path, scene: Scene, frames: range,
+                 progress: Callable[[int, int], None]) -> None:  # fmt: skip
+    """Frames of ``cache`` as an H.264 MP4 at the cache's fps: rendered as PNGs into a
+    temporary folder (the renderer's own output path), then encoded one by one. The
+    rendering starts when the encoder asks for the first frame, after it has checked
+    the path, the fps and that ffmpeg is there."""
+    import tempfile
+
+    import numpy as np
+    from PIL import Image
+
+    from .pipeline import render_cache
+    from .render.video import write_mp4
+
+    def images(folder: str) -> Iterator[np.ndarray]:
+        for path in render_cache(cache, folder, scene, frames, progress):
+            with Image.open(path) as image:
+                yield np.asarray(image)
+
+    with tempfile.TemporaryDirectory(prefix="follicle-frames-") as folder:
+        write_mp4(images(folder), target, cache.fps)
 
 
 def _frame_range(text: str | None, count: int) -> range:
@@ -353,6 +425,42 @@ def _not_for(source: str, what: str, **options: object) -> None:
     given = [name for name, value in options.items() if value is not None]
     if given:
         raise InputError(f"{source}: --{given[0]} does not apply to {what}")
+
+
+@main.command()
+@click.argument("scene_path", metavar="[SCENE]", type=click.Path(dir_okay=False),
+                required=False)
+@click.option("--frames", type=int, default=None,
+              help="Run this many frames, then exit (default: until the window closes).")
+@click.option("--screenshot", type=click.Path(dir_okay=False), default=None,
+              help="Write the last frame's render to this PNG.")
+@click.option("--size", type=(int, int), default=(960, 540), show_default=True,
+              help="Render width and height.")
+@click.option("--fps", type=float, default=30.0, show_default=True,
+              help="Simulated frames per second (each frame steps 1/fps s).")
+@click.option("--count", type=int, default=None, help="Override [groom].count (displayed hairs).")
+@click.option("--offscreen", is_flag=True,
+              help="No window or panel: run the loop headless (needs --frames).")
+def view(scene_path: str | None, frames: int | None, screenshot: str | None,
+         size: tuple[int, int], fps: float, count: int | None, offscreen: bool) -> None:
+    """Live viewer: the scene's hair simulated and rendered in a window, with a parameter
+    panel (README § Viewer). Needs the view extra: pip install 'follicle[view]'."""
+    from .errors import InputError
+    from .scene import load_scene
+    from .view import view as run_viewer
+
+    if offscreen and frames is None:
+        raise InputError("--offscreen: give --frames N (there is no window to close)")
+    if screenshot is not None:
+        _check_writable_suffix(screenshot, (".png",))
+    scene = _with_overrides(load_scene(scene_path), count=count)
+    ctl = run_viewer(scene, frames, screenshot, size, fps, window=not offscreen)
+    w, h = size
+    s = ctl.stats()
+    click.echo(f"{ctl.frame} frames of {s['hairs']:,} hairs from {s['guides']:,} guides,"
+               f" {w}×{h}: {ctl.loop_fps:.2f} frames/s (last frame: step {s['step_ms']:.0f} ms,"
+               f" groom {s['groom_ms']:.0f} ms, render {s['render_ms']:.0f} ms)"
+               + (f" → {screenshot}" if screenshot else ""))
 
 
 @main.command()

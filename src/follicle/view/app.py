@@ -1,0 +1,88 @@
+"""``follicle.view``: the live viewer's loop, with a window or offscreen."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Sequence
+
+from ..errors import InputError
+from ..scene import Scene, load_scene
+from .controller import Controller
+
+__all__ = ["view"]
+
+
+def _check_frames(frames: int | None) -> None:
+    if frames is not None and (isinstance(frames, bool) or not isinstance(frames, int)
+                               or frames < 1):  # fmt: skip
+        raise InputError(f"frames: expected a whole number ≥ 1 or None, got {frames!r}")
+
+
+def view(
+    scene: Scene | str | os.PathLike[str] | None = None, frames: int | None = None,
+    screenshot: str | os.PathLike[str] | None = None, size: Sequence[int] = (960, 540),
+    fps: float = 30.0, window: bool = True, visible: bool = True,
+) -> Controller:  # fmt: skip
+    """Simulate and render ``scene`` live; returns the Controller when the loop ends.
+
+    ``frames`` None runs until the window closes (Esc), else that many frames. With
+    ``window`` False the loop runs offscreen (no display, no panel). ``screenshot``
+    writes the last frame's render as PNG. ``fps`` is the simulated frame rate (each
+    frame steps 1 / fps s); the overlay shows the rate actually reached.
+    """
+    _check_frames(frames)
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)  # a bad scene fails before a window opens
+    if not window:
+        ctl = Controller(scene, size, fps)
+        try:
+            _loop(ctl, frames, lambda image, rate: False)
+            if screenshot is not None:
+                ctl.screenshot(screenshot)
+        finally:
+            ctl.release()
+        return ctl
+    from ..render.context import use_context
+    from .panel import Panel
+    from .window import Window
+
+    win = Window(size, "follicle view", visible)
+    try:
+        with use_context(win.ctx):
+            ctl = Controller(scene, size, fps)
+            panel = Panel(win)
+            try:
+
+                def show(image, rate: float) -> bool:
+                    win.glfw.poll_events()
+                    quit_ = panel.frame(ctl, rate)
+                    win.show(image)
+                    panel.render()
+                    win.glfw.swap_buffers(win.handle)
+                    return quit_ or win.should_close()
+
+                _loop(ctl, frames, show)
+                if screenshot is not None:
+                    ctl.screenshot(screenshot)
+            finally:
+                panel.close()
+                ctl.release()
+    finally:
+        win.close()
+    return ctl
+
+
+def _loop(ctl: Controller, frames: int | None, show) -> None:
+    """Step, render and ``show(image, fps)`` (fps smoothed for the overlay) until
+    ``frames`` are done or ``show`` says stop; sets ``ctl.loop_fps``, the loop's mean."""
+    start = last = time.perf_counter()
+    rate, done = 0.0, 0
+    while frames is None or done < frames:
+        image = ctl.step_frame()
+        now = time.perf_counter()
+        current = 1.0 / max(now - last, 1e-9)
+        rate, last, done = (current if done == 0 else 0.9 * rate + 0.1 * current), now, done + 1
+        if show(image, rate):
+            break
+    ctl.loop_fps = done / max(time.perf_counter() - start, 1e-9)
