@@ -25,7 +25,7 @@ import numpy as np
 from ..arrays import all_finite
 from ..errors import FormatError
 
-__all__ = ["BinaryFile", "open_binary", "check_finite", "Spool"]
+__all__ = ["BinaryFile", "open_binary", "read_bytes", "check_finite", "Spool"]
 
 
 class BinaryFile:
@@ -91,6 +91,11 @@ class BinaryFile:
                 raise self.fail(f"{a} and {b} sections overlap (bytes {start}..{end})")
 
 
+def _cannot_read(p: Path, exc: OSError) -> FormatError:
+    reason = "no such file" if isinstance(exc, FileNotFoundError) else exc.strerror
+    return FormatError(f"{p}: {reason}")
+
+
 @contextmanager
 def open_binary(path: str | os.PathLike[str]) -> Iterator[BinaryFile]:
     """A :class:`BinaryFile` for ``path``; FormatError when it cannot be opened."""
@@ -98,10 +103,19 @@ def open_binary(path: str | os.PathLike[str]) -> Iterator[BinaryFile]:
     try:
         fh = open(p, "rb")
     except OSError as exc:
-        reason = "no such file" if isinstance(exc, FileNotFoundError) else exc.strerror
-        raise FormatError(f"{p}: {reason}") from None
+        raise _cannot_read(p, exc) from None
     with fh:
         yield BinaryFile(p, fh)
+
+
+def read_bytes(path: str | os.PathLike[str]) -> tuple[Path, np.ndarray]:
+    """The whole file as uint8 (for the text readers' compiled scanners); FormatError
+    naming the file when it cannot be read."""
+    p = Path(path)
+    try:
+        return p, np.fromfile(p, dtype=np.uint8)
+    except OSError as exc:
+        raise _cannot_read(p, exc) from None
 
 
 def check_finite(f: BinaryFile, field: str, arr: np.ndarray) -> np.ndarray:

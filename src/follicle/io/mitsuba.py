@@ -33,6 +33,7 @@ from ..curves import HairCurves
 from ..errors import FormatError
 from .atomic import atomic_path
 from .attributes import widths
+from .binary import read_bytes
 from .text import line_at, parse_number, write_values
 
 __all__ = ["save_mitsuba", "load_mitsuba", "to_bspline", "from_bspline"]
@@ -112,12 +113,7 @@ _ERRORS = {
 
 def load_mitsuba(path: str | os.PathLike[str]) -> HairCurves:
     """Read a Mitsuba curve file: the points its B-splines pass, with ``width``."""
-    p = Path(path)
-    try:
-        buf = np.fromfile(p, dtype=np.uint8)
-    except OSError as exc:
-        reason = "no such file" if isinstance(exc, FileNotFoundError) else exc.strerror
-        raise FormatError(f"{p}: {reason}") from None
+    p, buf = read_bytes(path)
     err, at, rows, curves = _scan(buf, False, np.empty((0, 4), np.float32),
                                   np.empty(0, np.int64))
     if not err:

@@ -24,6 +24,7 @@ from numba import njit
 from ..curves import HairCurves
 from ..errors import FormatError
 from .atomic import atomic_path
+from .binary import read_bytes
 from .text import join_continued, line_at, parse_number, write_values
 
 __all__ = ["save_obj", "load_obj"]
@@ -72,12 +73,7 @@ _ERRORS = {
 
 def load_obj(path: str | os.PathLike[str]) -> HairCurves:
     """Read the ``l`` polylines of an OBJ file as curves (positions only)."""
-    p = Path(path)
-    try:
-        raw = np.fromfile(p, dtype=np.uint8)
-    except OSError as exc:
-        reason = "no such file" if isinstance(exc, FileNotFoundError) else exc.strerror
-        raise FormatError(f"{p}: {reason}") from None
+    p, raw = read_bytes(path)
     buf, joined = join_continued(raw)
     err, at, nv, ni, nl = _scan(buf, False, np.empty((0, 3), np.float32),
                                 np.empty(0, np.int64), np.empty(0, np.int64), 0)
