@@ -153,3 +153,16 @@ def test_piped_output_has_no_progress_bar(tmp_path):
          str(tmp_path / "h.npz")], capture_output=True, text=True,
     )
     assert "grow in" in verbose.stderr
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".hair"])
+def test_an_output_path_the_system_refuses_is_one_line_exit_2(tmp_path, suffix):
+    scene = tmp_path / "s.toml"
+    scene.write_text("[groom]\ncount = 20\n")
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    target = blocker / f"hair{suffix}"  # its parent is a file: the OS refuses
+    result = CliRunner().invoke(main, ["grow", str(scene), "-o", str(target)])
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output and str(blocker) in result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file", "s.toml"]

@@ -36,15 +36,23 @@ _err = Console(stderr=True, highlight=False)
 
 
 class _Group(click.Group):
-    """Turns FollicleError into one clear line and exit code 2."""
+    """Turns FollicleError, and an operating-system refusal (a folder where a file should
+    go, no permission, a full disk), into one clear line and exit code 2."""
 
     def invoke(self, ctx: click.Context) -> object:
         try:
             return super().invoke(ctx)
         except FollicleError as exc:
-            for line in str(exc).splitlines():
-                _err.print(f"[bold red]error:[/] {escape(line)}", soft_wrap=True)
-            ctx.exit(2)
+            self._fail(ctx, str(exc))
+        except OSError as exc:
+            where = f"{exc.filename}: " if exc.filename else ""
+            self._fail(ctx, f"{where}{exc.strerror or exc}")
+
+    @staticmethod
+    def _fail(ctx: click.Context, message: str) -> None:
+        for line in message.splitlines():
+            _err.print(f"[bold red]error:[/] {escape(line)}", soft_wrap=True)
+        ctx.exit(2)
 
 
 @contextlib.contextmanager
