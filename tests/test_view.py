@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from PIL import Image
 
 from follicle.cli import main
-from follicle.errors import ConfigError
+from follicle.errors import ConfigError, InputError
 from follicle.scene import parse_scene
 from follicle.view import Controller, view
 from glmark import gl
@@ -118,6 +118,25 @@ def test_screenshot_has_hair_pixels(ctl, tmp_path):
     changed = np.abs(image[..., :3].astype(int) - bare[..., :3]).max(axis=2) > 16
     assert changed.sum() > 100  # the hair covers pixels the head and background alone do not
     assert ctl.stats()["render_ms"] > 0 and ctl.stats()["hairs"] == 1500
+
+
+def test_orbit_and_zoom_move_the_camera_about_its_target(ctl):
+    before = ctl.camera
+    target = np.asarray(before.target)
+    r = np.linalg.norm(np.asarray(before.eye) - target)
+    ctl.orbit(90.0, 0.0)
+    turned = np.asarray(ctl.camera.eye) - target
+    assert np.linalg.norm(turned) == pytest.approx(r)  # on the same sphere
+    was = np.asarray(before.eye) - target
+    assert turned[1] == pytest.approx(was[1])  # same height, turned a quarter about +y
+    assert np.dot(turned[[0, 2]], was[[0, 2]]) == pytest.approx(0.0, abs=1e-9 * r * r)
+    ctl.orbit(0.0, 200.0)  # over the top: stops 85° up
+    assert (np.asarray(ctl.camera.eye) - target)[1] == pytest.approx(r * np.sin(np.radians(85)))
+    ctl.zoom(0.5)
+    assert np.linalg.norm(np.asarray(ctl.camera.eye) - target) == pytest.approx(r / 2)
+    with pytest.raises(InputError, match="zoom"):
+        ctl.zoom(0.0)
+    ctl.camera = before
 
 
 def test_bad_parameters_name_the_field(ctl):

@@ -194,6 +194,32 @@ class Controller:
             self._renderer = None
 
     # ------------------------------------------------------------------ camera
+    def orbit(self, yaw: float = 0.0, pitch: float = 0.0) -> None:
+        """Swing the camera about its target: ``yaw`` degrees about +y, ``pitch`` up
+        (kept within 85° of level, so the view never flips over the pole)."""
+        c = self.camera
+        target = np.asarray(c.target, np.float64)
+        offset = np.asarray(c.eye, np.float64) - target
+        r = float(np.linalg.norm(offset))
+        azimuth = math.atan2(offset[0], offset[2]) + math.radians(yaw)
+        level = math.asin(min(max(offset[1] / r, -1.0), 1.0)) + math.radians(pitch)
+        level = min(max(level, -math.radians(85.0)), math.radians(85.0))
+        eye = target + r * np.array([math.cos(level) * math.sin(azimuth), math.sin(level),
+                                     math.cos(level) * math.cos(azimuth)])  # fmt: skip
+        self.camera = Camera(eye=eye, target=target, fov_y=c.fov_y)
+        self.image = None
+
+    def zoom(self, factor: float) -> None:
+        """Move the camera towards its target (``factor`` < 1) or away (> 1)."""
+        if isinstance(factor, bool) or not isinstance(factor, (int, float)) or not (
+                0 < factor < math.inf):  # fmt: skip
+            raise InputError(f"zoom: expected a finite factor > 0, got {factor!r}")
+        c = self.camera
+        target = np.asarray(c.target, np.float64)
+        eye = target + factor * (np.asarray(c.eye, np.float64) - target)
+        self.camera = Camera(eye=eye, target=target, up=c.up, fov_y=c.fov_y)
+        self.image = None
+
     def _frame_camera(self) -> Camera:
         """The scene's eye/target, else framed on the head and the reach of the guides."""
         r = self.scene.render

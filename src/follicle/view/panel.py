@@ -13,9 +13,12 @@ __all__ = ["Panel", "KEYS"]
 
 KEYS = (
     ("space", "play / pause"), ("S or .", "one step"), ("R", "reset"),
-    ("arrows", "turn / nod the head"), ("Esc", "quit"),
+    ("arrows", "turn / nod the head"), ("drag", "orbit the camera"), ("wheel", "zoom"),
+    ("Esc", "quit"),
 )  # fmt: skip
 TURN_SPEED = 90.0  # degrees per second while an arrow key is held
+ORBIT_SPEED = 0.3  # degrees per pixel dragged
+ZOOM_STEP = 0.9  # distance factor per wheel notch
 
 
 def _choices(section: str, key: str) -> list[str]:
@@ -88,7 +91,14 @@ class Panel:
 
     def _keys(self, ctl: Controller, fps: float) -> bool:
         imgui = self.imgui
-        if imgui.get_io().want_capture_keyboard:
+        io = imgui.get_io()
+        if not io.want_capture_mouse:  # the mouse is over the picture, not the panel
+            if imgui.is_mouse_dragging(imgui.MouseButton_.left):
+                dx, dy = io.mouse_delta.x, io.mouse_delta.y
+                ctl.orbit(-ORBIT_SPEED * dx, ORBIT_SPEED * dy)
+            if io.mouse_wheel:
+                ctl.zoom(ZOOM_STEP ** io.mouse_wheel)
+        if io.want_capture_keyboard:
             return False
         key = imgui.Key
         if imgui.is_key_pressed(key.space, False):
