@@ -1,7 +1,6 @@
 """RenderMan RIB: Catmull-Rom Curves with duplicated end vertices, counts per the RISpec."""
 
 import hashlib
-import re
 
 import numpy as np
 import pytest
@@ -13,8 +12,7 @@ from follicle import FormatError, HairCurves, InputError
 from follicle.io.rib import format_floats, save_rib, save_rib_motion
 from follicle.pipeline import groom_scene
 from follicle.scene import Scene
-
-COMPONENTS = {"width": 1, "Cs": 3, "Os": 3, "N": 3}
+from hairfiles import check_counts, close7, curves_requests, parse_rib, strip_ends
 
 
 @pytest.fixture(scope="module")
@@ -27,107 +25,43 @@ def hair(groom):
     return groom.generate(count=60)
 
 
-def _parse(path):
-    """The RIB as [request, args…] lists: strings unquoted, [...] arrays as lists."""
-    requests, array = [], None
-    lines = [line for line in path.read_text().splitlines() if not line.startswith("##")]
-    for token in re.findall(r'"[^"]*"|\[|\]|[^\s\[\]"]+', "\n".join(lines)):
-        if token == "[":
-            array = []
-        elif token == "]":
-            requests[-1].append(array)
-            array = None
-        elif array is not None:
-            array.append(token.strip('"'))
-        elif token[0].isalpha():  # a bare word: a request
-            requests.append([token])
-        else:
-            requests[-1].append(token.strip('"'))
-    return requests
-
-
-def _curves_requests(path):
-    """Each Curves request as (nverts, wrap, {token: float array})."""
-    out = []
-    for req in _parse(path):
-        if req[0] != "Curves":
-            continue
-        assert req[1] == "cubic"
-        nverts = np.array(req[2], dtype=np.int64)
-        params = {req[i]: np.array(req[i + 1], dtype=np.float64) for i in range(4, len(req), 2)}
-        out.append((nverts, req[3], params))
-    return out
-
-
-def _strip_ends(p, nverts):
-    """P of curves with duplicated end vertices, the duplicates checked and removed."""
-    p = p.reshape(-1, 3)
-    offs = np.concatenate([[0], np.cumsum(nverts)])
-    assert np.array_equal(p[offs[:-1]], p[offs[:-1] + 1])
-    assert np.array_equal(p[offs[1:] - 1], p[offs[1:] - 2])
-    keep = np.ones(len(p), bool)
-    keep[offs[:-1]] = keep[offs[1:] - 1] = False
-    return p[keep]
-
-
-def _check_counts(nverts, wrap, params, curves):
-    assert wrap == "nonperiodic"
-    nsegs = nverts - 3  # cubic nonperiodic, vstep 1: (nverts − 4) / 1 + 1
-    varying = int(np.sum(nsegs + 1))
-    assert params["P"].size == 3 * int(nverts.sum())
-    for token, comps in COMPONENTS.items():
-        if token in params:
-            assert params[token].size == comps * varying, token
-    c = len(nverts)
-    assert params["uniform float[2] hair_uv"].size == 2 * c
-    assert params["uniform float[2] strand_uv"].size == 2 * c
-    assert params["uniform int hair_index"].size == params["uniform int strand_index"].size == c
-    assert np.array_equal(nverts, curves.counts + 2) and varying == curves.point_count
-
-
-def _close(rib_values, values):
-    """Equal to 7 significant digits."""
-    values = np.asarray(values, np.float64).reshape(-1)
-    np.testing.assert_allclose(np.reshape(rib_values, -1), values, rtol=6e-7, atol=1e-30)
-
-
 def test_structure_counts_and_values(tmp_path, hair):
     path = follicle.save(hair, tmp_path / "hair.rib")
     text = path.read_text()
     assert text.startswith("##RenderMan RIB\nversion 3.04\nAttributeBegin\n")
     assert text.endswith("AttributeEnd\n")
-    reqs = [r[0] for r in _parse(path)]
+    reqs = [r[0] for r in parse_rib(path)]
     assert reqs == ["version", "AttributeBegin", "Basis", "Curves", "AttributeEnd"]
-    assert _parse(path)[2] == ["Basis", "catmull-rom", "1", "catmull-rom", "1"]
-    ((nverts, wrap, params),) = _curves_requests(path)
-    _check_counts(nverts, wrap, params, hair)
-    _close(_strip_ends(params["P"], nverts), hair.points)
+    assert parse_rib(path)[2] == ["Basis", "catmull-rom", "1", "catmull-rom", "1"]
+    ((nverts, wrap, params),) = curves_requests(path)
+    check_counts(nverts, wrap, params, hair)
+    close7(strip_ends(params["P"], nverts), hair.points)
     pd, cd = hair.point_data, hair.curve_data
-    _close(params["width"], pd["width"])
-    _close(params["Cs"], pd["color"])
-    _close(params["Os"], np.repeat(pd["opacity"], 3))
-    _close(params["N"], pd["normal"])
-    _close(params["uniform float[2] hair_uv"], cd["root_uv"])
-    _close(params["uniform float[2] strand_uv"], cd["strand_uv"])
+    close7(params["width"], pd["width"])
+    close7(params["Cs"], pd["color"])
+    close7(params["Os"], np.repeat(pd["opacity"], 3))
+    close7(params["N"], pd["normal"])
+    close7(params["uniform float[2] hair_uv"], cd["root_uv"])
+    close7(params["uniform float[2] strand_uv"], cd["strand_uv"])
     assert np.array_equal(params["uniform int hair_index"], cd["hair_id"])
     assert np.array_equal(params["uniform int strand_index"], cd["strand_id"])
 
 
-def test_chunks_become_curves_requests(tmp_path, groom):
+def test_chunks_becomecurves_requests(tmp_path, groom):
     chunks = list(groom.chunks(20, count=60))
     path = save_rib(iter(chunks), tmp_path / "hair.rib")
-    requests = _curves_requests(path)
+    requests = curves_requests(path)
     assert len(requests) == 3
     for (nverts, wrap, params), chunk in zip(requests, chunks, strict=True):
-        _check_counts(nverts, wrap, params, chunk)
-        _close(_strip_ends(params["P"], nverts), chunk.points)
+        check_counts(nverts, wrap, params, chunk)
+        close7(strip_ends(params["P"], nverts), chunk.points)
 
 
 def test_plain_curves_get_defaults(tmp_path):
     rng = np.random.default_rng(2)
     plain = HairCurves.from_polylines([rng.random((2, 3)), rng.random((5, 3))])
     path = save_rib([plain, plain[:0], plain], tmp_path / "plain.rib")  # empty chunk: skipped
-    requests = _curves_requests(path)
+    requests = curves_requests(path)
     assert len(requests) == 2
     nverts, _, params = requests[1]
     assert nverts.tolist() == [4, 7]
@@ -139,7 +73,7 @@ def test_plain_curves_get_defaults(tmp_path):
 
 def test_normals_can_be_left_out_and_bad_ids_are_refused(tmp_path, hair):
     path = save_rib(hair, tmp_path / "tubes.rib", normals=False)
-    assert "N" not in _curves_requests(path)[0][2]
+    assert "N" not in curves_requests(path)[0][2]
     big = HairCurves(hair.points, hair.offsets, curve_data={"hair_id": np.full(60, 2**40)})
     with pytest.raises(InputError, match="hair_id"):
         save_rib(big, tmp_path / "big.rib")
@@ -157,14 +91,14 @@ def test_same_curves_give_same_bytes(tmp_path, groom):
 def test_motion_block(tmp_path, hair):
     samples = [hair.with_points(hair.points + np.float32([0.01 * k, 0, 0])) for k in range(3)]
     path = save_rib_motion(samples, [0.0, 0.25, 0.5], tmp_path / "blur.rib")
-    reqs = _parse(path)
+    reqs = parse_rib(path)
     names = [r[0] for r in reqs]
     assert names == ["version", "AttributeBegin", "Basis", "MotionBegin", "Curves", "Curves",
                      "Curves", "MotionEnd", "AttributeEnd"]
     assert reqs[3][1] == ["0", "0.25", "0.5"]
-    for (nverts, wrap, params), sample in zip(_curves_requests(path), samples, strict=True):
-        _check_counts(nverts, wrap, params, sample)
-        _close(_strip_ends(params["P"], nverts), sample.points)
+    for (nverts, wrap, params), sample in zip(curves_requests(path), samples, strict=True):
+        check_counts(nverts, wrap, params, sample)
+        close7(strip_ends(params["P"], nverts), sample.points)
 
 
 @pytest.mark.parametrize(

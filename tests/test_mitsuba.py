@@ -17,6 +17,7 @@ from follicle.render.mitsuba import absorption_from_color, render_mitsuba
 from follicle.scene import Scene
 from glmark import gl
 
+# Mitsuba is the optional pbr extra; the test extra installs it, so CI runs these tests
 pytest.importorskip("mitsuba")
 
 SIZE = (64, 64)

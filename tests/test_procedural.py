@@ -21,7 +21,7 @@ from follicle.io.procedural_data import FrameData
 from follicle.io.rib import write_block
 from follicle.pipeline import groom_scene
 from follicle.scene import parse_scene
-from test_io_rib import _check_counts, _close, _curves_requests, _strip_ends
+from hairfiles import check_counts, close7, curves_requests, strip_ends
 
 SCENE = {"groom": {"count": 3000, "clump_count": 40, "kink_tip": 0.002, "frizz_tip": 0.002,
                    "hue_variation": 8.0, "cut": "builtin:parting"}}  # fmt: skip
@@ -67,12 +67,12 @@ def test_replies_are_the_rib_of_the_whole_groom(exported, procedural, tmp_path):
     for v in done.voxels:
         reply = procedural.reply(_request(done, v))
         (tmp_path / "voxel.rib").write_bytes(reply)
-        ((nverts, wrap, params),) = _curves_requests(tmp_path / "voxel.rib")
+        ((nverts, wrap, params),) = curves_requests(tmp_path / "voxel.rib")
         mine = params["uniform int hair_index"].astype(np.int64)
         part = whole[np.flatnonzero(np.isin(whole.curve_data["hair_id"], mine))]
-        _check_counts(nverts, wrap, params, part)
-        _close(_strip_ends(params["P"], nverts), part.points)
-        _close(params["Cs"], part.point_data["color"])
+        check_counts(nverts, wrap, params, part)
+        close7(strip_ends(params["P"], nverts), part.points)
+        close7(params["Cs"], part.point_data["color"])
         expected = io.BytesIO()
         write_block(expected, part)
         assert reply == expected.getvalue()  # the whole groom's RIB of these hairs, byte for byte
@@ -214,7 +214,7 @@ def test_random_request_streams_get_one_answer_a_line(lines):
 @pytest.mark.parametrize("command", [[str(PROCEDURAL)], [sys.executable, "-m",
                                                          "follicle.io.procedural"]])  # fmt: skip
 def test_the_program_speaks_runprogram(exported, procedural, command):
-    if not Path(command[0]).exists():
+    if not Path(command[0]).exists():  # the console script: CI installs it (pip install -e)
         pytest.skip("follicle-procedural is not installed: pip install -e .")
     done, _ = exported
     v = done.voxels[-1]

@@ -77,3 +77,12 @@ def test_eye_and_target_go_together():
         parse_scene({"render": {"eye": [0, 0, 1]}}, "s.toml")
     scene = parse_scene({"render": {"eye": [0, 0, 1], "target": [0, 0, 0]}})
     assert scene.render.target == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(("data", "allowed"), [
+    ({"render": {"lights": [{"bogus": 1}]}}, "type, direction, space, color, intensity"),
+    ({"sim": {"colliders": [{"bogus": 1}]}}, "kind, centre, a, b, radius, follow"),
+])  # fmt: skip
+def test_an_unknown_key_in_a_list_of_tables_lists_that_tables_keys(data, allowed):
+    with pytest.raises(ConfigError, match=f"unknown key; allowed keys: {allowed}$"):
+        parse_scene(data)

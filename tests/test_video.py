@@ -13,6 +13,7 @@ from follicle.scene import parse_scene
 from follicle.sim.cache import save_cache
 from glmark import gl
 
+# imageio-ffmpeg is the optional video extra; the test extra installs it, so CI runs these
 imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
 
 

@@ -348,7 +348,7 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
 def _render_cache(source: str, out: str | None, overrides: dict[str, object], count: int | None,
                   frame_range: str | None) -> None:  # fmt: skip
     """`follicle render CACHE`: every (or --frames) frame to OUT/frame_0000.png, …, or to
-    the video OUT.mp4 (frames rendered to a temporary folder, then encoded)."""
+    the video OUT.mp4 (frames encoded as they are rendered)."""
     from .errors import InputError
     from .pipeline import render_cache
     from .sim.cache import load_cache
@@ -382,25 +382,14 @@ def _render_cache(source: str, out: str | None, overrides: dict[str, object], co
 
 def _cache_video(cache: SimCache, target: Path, scene: Scene, frames: range,
                  progress: Callable[[int, int], None]) -> None:  # fmt: skip
-    """Frames of ``cache`` as an H.264 MP4 at the cache's fps: rendered as PNGs into a
-    temporary folder (the renderer's own output path), then encoded one by one. The
-    rendering starts when the encoder asks for the first frame, after it has checked
-    the path, the fps and that ffmpeg is there."""
-    import tempfile
-
-    import numpy as np
-    from PIL import Image
-
-    from .pipeline import render_cache
+    """Frames of ``cache`` as an H.264 MP4 at the cache's fps, handed to the encoder as
+    they are rendered. The rendering starts when the encoder asks for the first frame,
+    after it has checked the path, the fps and that ffmpeg is there."""
+    from .pipeline import render_frames
     from .render.video import write_mp4
 
-    def images(folder: str) -> Iterator[np.ndarray]:
-        for path in render_cache(cache, folder, scene, frames, progress):
-            with Image.open(path) as image:
-                yield np.asarray(image)
-
-    with tempfile.TemporaryDirectory(prefix="follicle-frames-") as folder:
-        write_mp4(images(folder), target, cache.fps)
+    images = (image for _, image in render_frames(cache, scene, frames, progress))
+    write_mp4(images, target, cache.fps)
 
 
 def _frame_range(text: str | None, count: int) -> range:

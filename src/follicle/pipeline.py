@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -54,17 +54,29 @@ def grow(
     return groom.mesh, groom.generate(progress=progress)
 
 
+def scene_camera(params: RenderParams) -> Camera | None:
+    """The camera of a scene's [render] ``eye``/``target``; None when either is unset
+    (the renderers then frame hair and mesh at ``params.fov``)."""
+    if params.eye is None or params.target is None:
+        return None
+    return Camera(eye=params.eye, target=params.target, fov_y=params.fov)
+
+
+def framed_camera(lo: np.ndarray, hi: np.ndarray, fov: float, aspect: float) -> Camera:
+    """:func:`~follicle.render.frame_camera` on the box [lo, hi], without its near/far, so
+    a camera kept over many frames has them fitted to each frame by the renderer."""
+    framed = frame_camera(lo, hi, fov_y=fov, aspect=aspect)
+    return Camera(eye=framed.eye, target=framed.target, up=framed.up, fov_y=fov)
+
+
 def render_scene(
     curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None
 ) -> np.ndarray:
     """Render hair and mesh with a scene's [render] settings; writes PNG when ``out``."""
-    camera = None  # framed automatically on hair and mesh at params.fov
-    if params.eye is not None and params.target is not None:
-        camera = Camera(eye=params.eye, target=params.target, fov_y=params.fov)
     return render(
         curves,
         mesh=mesh,
-        camera=camera,
+        camera=scene_camera(params),
         size=params.size,
         shading=params.shading,
         out=out,
@@ -86,12 +98,9 @@ def render_scene_mitsuba(
     size, camera, lights and background; writes PNG when ``out``."""
     from .render.mitsuba import render_mitsuba
 
-    camera = None  # framed automatically on hair and mesh at params.fov
-    if params.eye is not None and params.target is not None:
-        camera = Camera(eye=params.eye, target=params.target, fov_y=params.fov)
     return render_mitsuba(
-        curves, mesh=mesh, camera=camera, size=params.size, lights=params.light_list(),
-        spp=spp, out=out, seed=seed, fov=params.fov,
+        curves, mesh=mesh, camera=scene_camera(params), size=params.size,
+        lights=params.light_list(), spp=spp, out=out, seed=seed, fov=params.fov,
         background=(params.background_top, params.background_bottom),
     )
 
@@ -138,8 +147,9 @@ def _sequence_camera(cache: SimCache, groom: Groom, first: HairCurves, params: R
                      ) -> Camera:  # fmt: skip
     """One camera for every frame of ``cache``: the scene's eye/target, else framed on
     frame 0's hair and the head and guides of all frames (no jumps, nothing leaves view)."""
-    if params.eye is not None and params.target is not None:
-        return Camera(eye=params.eye, target=params.target, fov_y=params.fov)
+    fixed = scene_camera(params)
+    if fixed is not None:
+        return fixed
     boxes = [first.bounds()] if first.point_count else []
     pts = cache.positions.reshape(-1, 3)
     boxes.append((pts.min(axis=0).astype(np.float64), pts.max(axis=0).astype(np.float64)))
@@ -149,21 +159,10 @@ def _sequence_camera(cache: SimCache, groom: Groom, first: HairCurves, params: R
     lo = np.min([b[0] for b in boxes], axis=0)
     hi = np.max([b[1] for b in boxes], axis=0)
     w, h = params.size
-    framed = frame_camera(lo, hi, fov_y=params.fov, aspect=w / h)
-    # no near/far: the renderer fits them to each frame
-    return Camera(eye=framed.eye, target=framed.target, up=framed.up, fov_y=params.fov)
+    return framed_camera(lo, hi, params.fov, w / h)
 
 
-def render_cache(
-    cache: SimCache, out_dir: str | os.PathLike[str], scene: Scene | None = None,
-    frames: range | None = None, progress: Progress | None = None,
-) -> list[Path]:  # fmt: skip
-    """Render frames of a simulation cache to ``out_dir/frame_0000.png``, … (atomically).
-
-    ``scene`` (default: the cache's own) sets the hair and [render]; ``frames`` (default
-    all) picks cache frames; files are named by cache frame, so ranges add up to one
-    sequence seen through one camera.
-    """
+def _check_frames(cache: SimCache, frames: range | None) -> range:
     count = cache.frame_count
     frames = range(count) if frames is None else frames
     if not isinstance(frames, range) or frames.step != 1 or len(frames) == 0 \
@@ -172,6 +171,18 @@ def render_cache(
             f"frames: expected a non-empty range within 0..{count - 1} (the cache has"
             f" {count} frames), got {frames!r}"
         )
+    return frames
+
+
+def render_frames(
+    cache: SimCache, scene: Scene | None = None, frames: range | None = None,
+    progress: Progress | None = None,
+) -> Iterator[tuple[int, np.ndarray]]:  # fmt: skip
+    """Render frames of a simulation cache one by one: yields (cache frame, (H, W, 4)
+    uint8 sRGB image), all seen through one camera. ``scene`` (default: the cache's own)
+    sets the hair and [render]; ``frames`` (default all) picks cache frames. Nothing is
+    set up before the first frame is asked for."""
+    frames = _check_frames(cache, frames)
     scene = cache.scene() if scene is None else scene
     params = scene.render
     groom = groom_scene(scene)
@@ -182,10 +193,6 @@ def render_cache(
 
     first = hair(0)  # frames the camera; grown again when drawn, after the poses moved
     camera = _sequence_camera(cache, groom, first, params)  # poses the mesh on every frame
-    digits = max(4, len(str(count - 1)))
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
     background = (params.background_top, params.background_bottom)
     with Renderer(size=params.size, msaa=params.msaa, background=background) as renderer:
         for done, f in enumerate(frames, 1):
@@ -194,9 +201,28 @@ def render_cache(
                                   subdivisions=params.subdivisions, fov=params.fov,
                                   shading_params=params.shading_params,
                                   lights=params.light_list(), shadows=params.shadows)
-            path = out / f"frame_{f:0{digits}d}.png"
-            save_png(image, path)
-            written.append(path)
+            yield f, image
             if progress is not None:
                 progress(done, len(frames))
+
+
+def render_cache(
+    cache: SimCache, out_dir: str | os.PathLike[str], scene: Scene | None = None,
+    frames: range | None = None, progress: Progress | None = None,
+) -> list[Path]:  # fmt: skip
+    """Render frames of a simulation cache to ``out_dir/frame_0000.png``, … (atomically).
+
+    ``scene`` (default: the cache's own) sets the hair and [render]; ``frames`` (default
+    all) picks cache frames; files are named by cache frame, so ranges add up to one
+    sequence seen through one camera (:func:`render_frames`).
+    """
+    frames = _check_frames(cache, frames)
+    digits = max(4, len(str(cache.frame_count - 1)))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for f, image in render_frames(cache, scene, frames, progress):
+        path = out / f"frame_{f:0{digits}d}.png"
+        save_png(image, path)
+        written.append(path)
     return written

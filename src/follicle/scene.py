@@ -12,7 +12,7 @@ import math
 import os
 import sys
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, PlainValidator, ValidationError, model_validator
 
@@ -463,13 +463,18 @@ def _format_errors(source: str, err: ValidationError) -> str:
 
 
 def _allowed_keys(loc: list[str]) -> str:
+    """The keys of the table at ``loc`` (its last step the unknown key), following
+    sections, nested tables and list entries such as ``[[render.lights]]``."""
     model: type[BaseModel] = Scene
     for step in loc[:-1]:
+        if step.isdigit():  # an entry of a list of tables: its model is the list's
+            continue
         field = model.model_fields.get(step)
-        if field is None or not isinstance(field.annotation, type):
+        kinds = (field.annotation, *get_args(field.annotation)) if field else ()
+        tables = [k for k in kinds if isinstance(k, type) and issubclass(k, BaseModel)]
+        if not tables:
             break
-        if issubclass(field.annotation, BaseModel):
-            model = field.annotation
+        model = tables[0]
     return ", ".join(k for k, f in model.model_fields.items() if not f.exclude)
 
 

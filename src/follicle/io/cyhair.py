@@ -71,14 +71,14 @@ def save_cyhair(chunks: Iterator[HairCurves], path: str | os.PathLike[str]) -> P
             if points > _U32:
                 raise InputError(f"curves: {points:,} points; cyHair counts them in a uint32")
             spool.write("segments", (counts - 1).astype("<u2"))
-            spool.write("points", chunk.points.astype("<f4"))
+            spool.write("points", np.asarray(chunk.points, "<f4"))
             if flags & THICKNESS:
-                spool.write("thickness", chunk.point_data["width"].astype("<f4"))
+                spool.write("thickness", np.asarray(chunk.point_data["width"], "<f4"))
             if flags & TRANSPARENCY:
                 opacity = chunk.point_data["opacity"].astype(np.float64)
                 spool.write("transparency", (1.0 - opacity).astype("<f4"))
             if flags & COLORS:
-                spool.write("colors", chunk.point_data["color"].astype("<f4"))
+                spool.write("colors", np.asarray(chunk.point_data["color"], "<f4"))
         flags |= 0 if uniform else SEGMENTS
         header = HEADER.pack(MAGIC, hairs, points, flags, max(first_count - 1, 0) if uniform
                              else 0, DEFAULT_WIDTH, 0.0, *DEFAULT_COLOR, b"follicle")

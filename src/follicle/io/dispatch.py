@@ -21,6 +21,7 @@ from .pbrt import save_pbrt
 from .rib import save_rib
 from .stream import Curves, as_chunks
 from .tfx import load_tfx, save_tfx
+from .usd import SUFFIXES as USD_SUFFIXES
 from .usd import load_usd, save_usd
 
 __all__ = ["save", "load_curves", "WRITERS", "READERS"]
@@ -32,9 +33,8 @@ WRITERS.update({".hair": save_cyhair, ".tfx": save_tfx, ".obj": save_obj, ".pbrt
                 ".txt": save_mitsuba})
 READERS.update({".hair": load_cyhair, ".tfx": load_tfx, ".obj": load_obj, ".txt": load_mitsuba})
 # USD (".usd" is crate, like ".usdc") and RenderMan RIB (written only)
-_USD = (".usd", ".usda", ".usdc", ".usdz")
-WRITERS.update({**dict.fromkeys(_USD, save_usd), ".rib": save_rib})
-READERS.update(dict.fromkeys(_USD, load_usd))
+WRITERS.update({**dict.fromkeys(USD_SUFFIXES, save_usd), ".rib": save_rib})
+READERS.update(dict.fromkeys(USD_SUFFIXES, load_usd))
 
 
 def _suffix(path: str | os.PathLike[str], table: dict, verb: str) -> str:

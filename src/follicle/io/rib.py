@@ -40,7 +40,9 @@ from numba import njit, prange
 from ..curves import HairCurves
 from ..errors import InputError
 from .atomic import atomic_path
+from .attributes import DEFAULT_WIDTH
 from .stream import Curves, as_chunks
+from .text import write_values
 
 __all__ = ["save_rib", "save_rib_motion", "write_block", "format_floats"]
 
@@ -49,7 +51,6 @@ _BEGIN = b'AttributeBegin\n  Basis "catmull-rom" 1 "catmull-rom" 1\n'
 _FOOTER = b"AttributeEnd\n"
 _BLOCK = 1 << 20  # numbers formatted at a time
 _INT32_MAX = 2**31 - 1
-_DEFAULT_WIDTH = 1e-4  # metres, as "constantwidth" when the hair has no widths
 _POW10 = np.array([float(f"1e{k}") for k in range(-64, 65)])  # correctly rounded 10^k
 _LOG10_2 = math.log10(2.0)
 
@@ -169,7 +170,10 @@ def format_floats(values: np.ndarray, per_line: int = 12) -> bytes:
 
 
 def _write_ints(fh: BinaryIO, values: np.ndarray) -> None:
-    fh.write(" ".join(map(str, np.asarray(values).tolist())).encode())
+    """Whole numbers (1-D, non-empty) on one line, a blank between them."""
+    ends = np.zeros(len(values), dtype=np.uint8)
+    ends[-1] = 1
+    write_values(fh, values, ends, (b" ", b""))
 
 
 # ------------------------------------------------------------------ Curves requests
@@ -208,7 +212,7 @@ def _curves(fh: BinaryIO, curves: HairCurves, first_index: int, normals: bool) -
     fh.write(b']\n    "nonperiodic"\n    "P" [')
     _write_floats(fh, _with_end_copies(curves.points, offs), 12)
     if "width" not in pd:  # RenderMan's own default width is 1 unit: a metre
-        fh.write(f']\n    "constantwidth" [{_DEFAULT_WIDTH:g}'.encode())
+        fh.write(f']\n    "constantwidth" [{DEFAULT_WIDTH:g}'.encode())
     varying = [("width", "width", 1), ("color", "Cs", 3), ("opacity", "Os", 1)]
     if normals:
         varying.append(("normal", "N", 3))

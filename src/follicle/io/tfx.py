@@ -152,9 +152,10 @@ def resample_fixed(curves: HairCurves, n: int, attrs: dict[str, np.ndarray],
         rows = _vertex_rows(curves.offsets, which)
         sub_offsets = np.zeros(len(which) + 1, dtype=np.int64)
         np.cumsum(curves.counts[which], out=sub_offsets[1:])
-        a, b, w = _arc_stencil(curves.points[rows].astype(np.float64), sub_offsets, n)
-        for dst, v in [(pos, curves.points[rows])] + [(out[k], f[rows]) for k, f in flat.items()]:
-            vv = v.astype(np.float64)
+        pts = curves.points[rows].astype(np.float64)
+        a, b, w = _arc_stencil(pts, sub_offsets, n)
+        for dst, v in [(pos, pts)] + [(out[k], f[rows]) for k, f in flat.items()]:
+            vv = v.astype(np.float64, copy=False)
             dst[which] = ((1.0 - w)[:, None] * vv[a] + w[:, None] * vv[b]).reshape(
                 len(which), n, -1)
     return pos, out

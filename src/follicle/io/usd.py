@@ -56,13 +56,14 @@ from .stream import Curves, as_chunks
 if TYPE_CHECKING:
     from ..sim.cache import SimCache
 
-__all__ = ["save_usd", "save_usd_cache", "load_usd", "HAIR_PATH", "GUIDES_PATH"]
+__all__ = ["save_usd", "save_usd_cache", "load_usd", "HAIR_PATH", "GUIDES_PATH", "SUFFIXES"]
 
 log = logging.getLogger("follicle")
 
 GROOM_PATH = "/Groom"
 HAIR_PATH = "/Groom/Hair"
 GUIDES_PATH = "/Groom/Guides"
+SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")  # ".usd" is written as crate
 
 # point_data / curve_data name -> USD attribute written by the schema, not as a primvar
 _SPECIAL = {"width": "widths", "normal": "normals", "color": "displayColor",
@@ -126,7 +127,7 @@ def _column(curves: HairCurves, key: str, comps: int) -> np.ndarray | None:
     shape = (curves.point_count,) if comps == 1 else (curves.point_count, comps)
     if values.shape != shape:
         raise InputError(f"point_data['{key}']: expected shape {shape}, got {values.shape}")
-    return values.astype(np.float32)
+    return np.asarray(values, dtype=np.float32)  # FromNumpy copies: no copy of our own
 
 
 def _define_curves(stage: Usd.Stage, path: str, curves: HairCurves, normals: bool) -> None:
@@ -251,7 +252,7 @@ def _package(crate: Path, usdz: Path, target: Path) -> None:
 
 def _check_suffix(path: str | os.PathLike[str]) -> Path:
     target = Path(path)
-    if target.suffix.lower() not in (".usd", ".usda", ".usdc", ".usdz"):
+    if target.suffix.lower() not in SUFFIXES:
         raise FormatError(f"{target}: a USD file must end in .usd, .usda, .usdc or .usdz")
     return target
 
@@ -316,7 +317,7 @@ def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: i
             width = first.point_data.get("width")
             sampled[1].Set(_extent(frame.points, frame.offsets, width), time)
         if "normal" in first.point_data and "normal" in frame.point_data:
-            normal = frame.point_data["normal"].astype(np.float32)
+            normal = np.asarray(frame.point_data["normal"], dtype=np.float32)
             sampled[2].Set(Vt.Vec3fArray.FromNumpy(normal), time)
         layer.Save()  # crate appends this frame's samples
     if first is None:

@@ -15,10 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
 
-__all__ = ["Camera", "Light", "default_lights", "frame_camera"]
+__all__ = ["Camera", "Light", "default_lights", "frame_camera", "hair_bounds", "scene_bounds"]
 
 
 def _vec3(value: object, name: str) -> np.ndarray:
@@ -190,6 +191,27 @@ def frame_camera(
     near = max(0.5 * (dist - radius), 1e-3 * dist)
     far = dist + 2.0 * radius
     return Camera(centre + back * dist, centre, up=tuple(up), fov_y=fov_y, near=near, far=far)
+
+
+def hair_bounds(curves: HairCurves) -> tuple[np.ndarray, np.ndarray]:
+    """Bounding box of the curves' points, grown by half the widest ``width``."""
+    lo, hi = curves.bounds()
+    pad = float(np.max(curves.point_data["width"])) / 2 if "width" in curves.point_data else 0.0
+    return lo - pad, hi + pad
+
+
+def scene_bounds(
+    curves: HairCurves | None, mesh: object | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bounding box of the hair (:func:`hair_bounds`, when it has points) and the mesh's
+    current pose: what :func:`frame_camera` frames when a renderer gets no camera."""
+    boxes = []
+    if curves is not None and curves.point_count:
+        boxes.append(hair_bounds(curves))
+    if mesh is not None:
+        lo, hi = mesh.bounds("current")  # type: ignore[attr-defined]
+        boxes.append((np.asarray(lo, np.float64), np.asarray(hi, np.float64)))
+    return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
 
 
 @dataclass(eq=False)

@@ -37,9 +37,8 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..io.mitsuba import save_mitsuba
-from .camera import Camera, Light, default_lights, frame_camera
+from .camera import Camera, Light, default_lights, frame_camera, scene_bounds
 from .image import encode_srgb8, save_png
-from .opengl import _scene_bounds
 from .options import (
     DEFAULT_HAIR_COLOR,
     DEFAULT_HAIR_WIDTH,
@@ -237,7 +236,7 @@ def render_mitsuba(
         raise InputError(f"hair_width: must be a positive diameter in metres, got {hair_width!r}")
     background = parse_background(background)
     if camera is None:
-        lo, hi = _scene_bounds(curves if has_hair else None, mesh)
+        lo, hi = scene_bounds(curves if has_hair else None, mesh)
         camera = frame_camera(lo, hi, fov_y=fov, aspect=w / h)
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
-from .camera import Camera, Light, default_lights, frame_camera
+from .camera import Camera, Light, default_lights, frame_camera, hair_bounds, scene_bounds
 from .context import get_context
 from .image import encode_srgb8, save_png
 from .options import (
@@ -52,22 +52,6 @@ MAX_STEP_PX = 8.0  # longest Catmull-Rom step on screen: shading is interpolated
 _HAIR_LAYOUT = (("3f", "in_position"), ("1f", "in_width"), ("3f", "in_color"),
                 ("1f", "in_opacity"), ("1f", "in_t"), ("1f", "in_seed"))  # fmt: skip
 _MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"))
-
-
-def _scene_bounds(curves: HairCurves | None, mesh: object | None) -> tuple[np.ndarray, np.ndarray]:
-    boxes = []
-    if curves is not None and curves.point_count:
-        boxes.append(_hair_bounds(curves))
-    if mesh is not None:
-        lo, hi = mesh.bounds("current")  # type: ignore[attr-defined]
-        boxes.append((np.asarray(lo, np.float64), np.asarray(hi, np.float64)))
-    return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
-
-
-def _hair_bounds(curves: HairCurves) -> tuple[np.ndarray, np.ndarray]:
-    lo, hi = curves.bounds()
-    pad = float(np.max(curves.point_data["width"])) / 2 if "width" in curves.point_data else 0.0
-    return lo - pad, hi + pad
 
 
 def _clip_range(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[float, float]:
@@ -228,7 +212,7 @@ class Renderer:
             raise InputError(f"hair_opacity: must be in [0, 1], got {hair_opacity!r}")
 
         w, h = self.size
-        lo, hi = _scene_bounds(curves if has_hair else None, mesh)
+        lo, hi = scene_bounds(curves if has_hair else None, mesh)
         if camera is None:
             camera = frame_camera(lo, hi, fov_y=fov, aspect=w / h)
         elif not isinstance(camera, Camera):
@@ -272,7 +256,7 @@ class Renderer:
             if has_mesh:
                 skin_vaos = self._mesh_arrays(mesh_arrays, released)
             if light is not None:
-                hair_lo, hair_hi = _hair_bounds(curves) if has_hair else (lo, hi)
+                hair_lo, hair_hi = hair_bounds(curves) if has_hair else (lo, hi)
                 layer = params["shadow_layer"] or automatic_layer(hair_lo, hair_hi)
                 frame.update(self._shadow.render(
                     light, layer, hair_vaos, hair_gs,

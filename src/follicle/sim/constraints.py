@@ -55,10 +55,7 @@ def distance_pass(X, W, L, k, row, nb):
     for parity in range(2):
         for i in range(parity, X.shape[0] - 1, 2):
             for b in range(nb):  # the move along the segment, per unit inverse mass
-                dx = X[i + 1, 0, b] - X[i, 0, b]
-                dy = X[i + 1, 1, b] - X[i, 1, b]
-                dz = X[i + 1, 2, b] - X[i, 2, b]
-                length = math.sqrt(dx * dx + dy * dy + dz * dz)
+                dx, dy, dz, length = _segment(X, i + 1, b)
                 total = W[i, b] + W[i + 1, b]
                 c = 0.0
                 if total > 0.0 and length > _TINY:

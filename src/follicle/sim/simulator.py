@@ -91,7 +91,7 @@ class Simulator:
         near = clearance(rest, *self._colliders(self._transform, self.sdf))
         self.solver = Solver(self.model, params, near)
         self._reach = float(self.model.rest_length.sum(axis=1).max())  # longest strand, m
-        self._last_move: tuple | None = None  # (colliders' identity, transform) last substep
+        self._last_move: tuple | None = None  # (identity, transform, colliders) last substep
         self.reset()
 
     # ------------------------------------------------------------------ pose
@@ -170,14 +170,15 @@ class Simulator:
                 np.array(capsules, np.float64).reshape(-1, 7),
                 NO_SDF if sdf is None else sdf.sample_args)  # fmt: skip
 
-    def _collider_move(self, transform: np.ndarray, sdf: SDF | None) -> float:
+    def _collider_move(self, transform: np.ndarray, sdf: SDF | None, colliders: tuple) -> float:
         """How far any collider surface near the hair moved since the last substep (m): the
         largest move, under the head's relative motion, of the corners of the hair's and
         the SDF's boxes and of the sphere centres and capsule ends (a rigid motion's move
         is convex in the point, so these extreme points bound it). inf when the collider
-        set changed (new parameters, a rebuilt SDF) or the state was replaced."""
+        set changed (new parameters, a rebuilt SDF) or the state was replaced.
+        ``colliders``: this substep's :meth:`_colliders`, kept for the next one."""
         key = (self.params, None if sdf is None else sdf.values, self.state.clear)
-        last, self._last_move = self._last_move, (key, transform)
+        last, self._last_move = self._last_move, (key, transform, colliders)
         if last is None or any(a is not b for a, b in zip(last[0], key, strict=True)):
             return math.inf
         relative = transform @ np.linalg.inv(last[1])
@@ -189,7 +190,7 @@ class Simulator:
             hi = sdf.origin + sdf.voxel * (np.array(sdf.values.shape) - 1)
             local = _corners(sdf.origin, hi)
             points.append(local @ sdf.transform[:3, :3].T + sdf.transform[:3, 3])
-        spheres, capsules, _ = self._colliders(last[1], None)
+        spheres, capsules, _ = last[2]  # the colliders at the last substep's transform
         points += [spheres[:, :3], capsules[:, :3], capsules[:, 3:6]]
         p = np.concatenate(points)
         return float(np.linalg.norm(p @ relative[:3, :3].T + relative[:3, 3] - p, axis=1).max())
@@ -224,7 +225,7 @@ class Simulator:
             transform = _blend(begin, finish, f)
             sdf = self._sdf_rest.with_transform(transform) if rigid_skin else self.sdf
             colliders = self._colliders(transform, sdf)
-            moved = self._collider_move(transform, sdf)
+            moved = self._collider_move(transform, sdf, colliders)
             self.solver.substep(self.state, start, end, f, self.wind(self.state.time), colliders,
                                 moved)  # fmt: skip
             if volume:

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
-from ..pipeline import groom_scene
-from ..render import Camera, Renderer, frame_camera, save_png
+from ..pipeline import framed_camera, groom_scene, scene_camera
+from ..render import Camera, Renderer, save_png
 from ..scene import Scene, load_scene
 from ..sim.motion import head_motion, motion_pivot
 from ..sim.simulator import Simulator
@@ -223,10 +223,10 @@ class Controller:
     def _frame_camera(self) -> Camera:
         """The scene's eye/target, else framed on the head and the reach of the guides."""
         r = self.scene.render
-        if r.eye is not None and r.target is not None:
-            return Camera(eye=r.eye, target=r.target, fov_y=r.fov)
+        fixed = scene_camera(r)
+        if fixed is not None:
+            return fixed
         lo, hi = (np.asarray(b, np.float64) for b in self.mesh.bounds("rest"))
         x = self.sim.positions.reshape(-1, 3)
         lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
-        framed = frame_camera(lo, hi, fov_y=r.fov, aspect=self.size[0] / self.size[1])
-        return Camera(eye=framed.eye, target=framed.target, up=framed.up, fov_y=r.fov)
+        return framed_camera(lo, hi, r.fov, self.size[0] / self.size[1])
