@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 from importlib.util import find_spec
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,9 +16,10 @@ from click.testing import CliRunner
 from PIL import Image
 
 from follicle.cli import main
-from follicle.errors import ConfigError, InputError
-from follicle.scene import parse_scene
+from follicle.errors import ConfigError, FormatError, InputError
+from follicle.scene import load_scene, parse_scene
 from follicle.view import Controller, view
+from follicle.view.controller import Show
 from glmark import gl
 
 SCENE = """\
@@ -139,6 +141,188 @@ def test_orbit_and_zoom_move_the_camera_about_its_target(ctl):
     ctl.camera = before
 
 
+def test_save_scene_reads_back_with_paths_for_the_new_folder(tmp_path):
+    src = tmp_path / "src"
+    src.mkdir()
+    Image.fromarray(np.full((4, 4, 3), 200, np.uint8)).save(src / "tint.png")
+    (src / "scene.toml").write_text('[guides]\npath = "builtin:long"\n[groom]\ncount = 200\n'
+                                    'root_color = {texture = "tint.png"}\n')  # fmt: skip
+    c = Controller(src / "scene.toml", size=(64, 36))
+    c.set_param("sim", "damping", 2.5)
+    c.set_param("groom", "frizz_tip", 0.004)
+    c.set_light(0, "intensity", 2.0)
+    c.gust()  # viewer-only: not part of the scene
+    out = c.save_scene(tmp_path / "elsewhere" / "deep" / "saved.toml")
+    assert c.source == src / "scene.toml"  # the panel's default save path
+    back = load_scene(out)
+    assert back.sim == c.scene.sim and back.render == c.scene.render
+    assert back.sim.damping == 2.5 and back.sim.wind == (0.0, 0.0, 0.0)
+    assert back.groom.frizz_tip == 0.004 and back.render.lights[0].intensity == 2.0
+    texture = back.groom.root_color["texture"]
+    assert texture == "../../src/tint.png"  # relative to the new file's folder
+    assert Path(back.resolve(texture)).resolve() == (src / "tint.png").resolve()
+    assert back.guides.path == "builtin:long" and back.mesh.path == "builtin:head"
+    assert [p.name for p in out.parent.iterdir()] == ["saved.toml"]  # no temporary left
+    with pytest.raises(FormatError, match="must end in .toml"):
+        c.save_scene(tmp_path / "scene.txt")
+
+
+@gl
+def test_recording_writes_each_frame(ctl, tmp_path):
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")  # the test extra installs it
+    ctl.reset()
+    path = tmp_path / "clip.mp4"
+    ctl.start_recording(path)
+    for _ in range(5):
+        ctl.step_frame()
+    assert ctl.recording == 5 and not path.exists()  # a temporary file until stopped
+    assert ctl.stop_recording() == path and ctl.recording is None
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    assert meta["size"] == (160, 90) and meta["fps"] == 30.0 and len(list(reader)) == 5
+    ctl.start_recording(tmp_path / "empty.mp4")
+    with pytest.raises(InputError, match="no frames"):
+        ctl.stop_recording()
+    assert [p.name for p in tmp_path.iterdir()] == ["clip.mp4"]
+
+
+def orange(image):
+    return image[..., 0].astype(int) - image[..., 2] > 100
+
+
+@gl
+def test_show_toggles_hairs_mesh_and_guides(ctl):
+    ctl.reset()
+    ctl.step()
+    try:
+        full = ctl.draw().copy()
+        ctl.set_show("hairs", False)
+        ctl.set_show("mesh", False)
+        empty = ctl.draw().copy()
+        assert (empty == empty[:, :1]).all()  # the background alone: one colour per row
+        assert np.abs(empty[[0, -1], 0].astype(int) - full[[0, -1], 0]).max() <= 1
+        ctl.set_show("guides", True)
+        assert ctl.drawn_curves().curve_count == ctl.sim.model.strands
+        guides = ctl.draw().copy()
+        assert orange(guides).sum() > 50 and not orange(full).any()
+        assert np.abs(guides[:, :10].astype(int) - empty[:, :10]).max() <= 1  # background
+        ctl.set_show("hairs", True)
+        assert ctl.drawn_curves().curve_count == 1500 + ctl.sim.model.strands
+        ctl.set_show("mesh", True)
+        head = np.abs(ctl.draw().astype(int) - guides).max(axis=2) > 16
+        assert head.sum() > 200
+        with pytest.raises(InputError, match="unknown layer 'head'"):
+            ctl.set_show("head", True)
+    finally:
+        ctl.show = Show()
+
+
+@gl
+def test_volume_overlay_tints_the_hair(ctl):
+    ctl.reset()
+    ctl.step()
+    try:
+        plain = ctl.draw().copy()
+        ctl.set_show("hairs", False)
+        bare = ctl.draw().copy()
+        ctl.set_show("hairs", True)
+        ctl.set_show("volume", True)
+        heat = ctl.draw().copy()
+    finally:
+        ctl.show = Show()
+    hair = np.abs(plain.astype(int) - bare).max(axis=2) > 16
+    tinted = np.abs(heat.astype(int) - plain).max(axis=2) > 8
+    assert hair.sum() > 100 and (tinted & hair).sum() > 0.8 * hair.sum()
+    assert not tinted[:10, :10].any() and not tinted[-10:, -10:].any()  # background corners
+    assert (heat[tinted, 0] >= plain[tinted, 0]).all()  # a warm tint
+
+
+def test_gust_blows_the_hair_and_passes(ctl):
+    ctl.set_param("sim", "wind", (0.0, 0.0, 0.0))
+    moved = {}
+    for gust in (False, True):
+        ctl.reset()
+        rest = ctl.sim.positions[:, -1].copy()
+        if gust:
+            ctl.gust(strength=30.0, duration=0.3)
+        for _ in range(6):
+            ctl.step()
+        moved[gust] = float(np.linalg.norm(ctl.sim.positions[:, -1] - rest, axis=1).mean())
+    assert moved[True] > moved[False] + 5e-3
+    for _ in range(4):  # past 0.3 s
+        ctl.step()
+    assert ctl.gusts == [] and ctl.scene.sim.wind == (0.0, 0.0, 0.0)
+    assert not ctl.sim.wind(ctl.sim.state.time).any()
+    with pytest.raises(InputError, match="duration"):
+        ctl.gust(duration=0.0)
+
+
+def test_hair_limit_grows_the_first_hairs(ctl):
+    ctl.reset()
+    every = ctl.hair()
+    ctl.hair_limit = 100
+    try:
+        assert ctl.drawn_curves().curve_count == 100 and ctl.scene.groom.count == 1500
+        assert np.array_equal(ctl.hair().points, every[:100].points)
+        with pytest.raises(InputError, match="hair_limit"):
+            ctl.hair_limit = -1
+    finally:
+        ctl.hair_limit = None
+    assert ctl.hair().curve_count == 1500
+
+
+@gl
+def test_resize_renders_at_the_new_size(ctl):
+    before = ctl.camera
+    try:
+        ctl.resize(45, 90)  # narrow: the framing moves back to keep the hair in view
+        assert ctl.draw().shape == (90, 45, 4)
+        assert ctl.camera.distance > before.distance
+        np.testing.assert_allclose(ctl.camera.basis()[2], before.basis()[2])
+        ctl.resize(160, 90)
+        assert ctl.camera.distance == pytest.approx(before.distance)
+        assert ctl.draw().shape == (90, 160, 4)
+        with pytest.raises(InputError, match="size"):
+            ctl.resize(0, 90)
+    finally:
+        ctl.resize(160, 90)
+        ctl.camera = before
+
+
+@gl
+def test_fast_quality_and_lights(ctl):
+    ctl.reset()
+    full = ctl.draw().copy()
+    fine = {"msaa": 4, "shadows": True, "subdivisions": 8}
+    cheap = {"msaa": 0, "shadows": False, "subdivisions": 1}
+    try:
+        for key, value in fine.items():
+            ctl.set_param("render", key, value)
+        fine_image = ctl.draw().copy()
+        ctl.quality = "fast"
+        fast = ctl.draw().copy()
+        assert np.abs(fast.astype(int) - fine_image).max() > 16
+        ctl.quality = "full"
+        for key, value in cheap.items():
+            ctl.set_param("render", key, value)
+        assert np.array_equal(ctl.draw(), fast)  # fast: the cheapest [render] settings
+        with pytest.raises(InputError, match="quality"):
+            ctl.quality = "best"
+    finally:
+        ctl.quality = "full"
+        for key, value in {**cheap, "subdivisions": 4}.items():
+            ctl.set_param("render", key, value)
+    assert len(ctl.lights()) == 4 and ctl.scene.render.lights == []  # the default rig
+    ctl.set_light(0, "intensity", 3.0)
+    try:
+        brighter = ctl.draw()
+        assert brighter[..., :3].mean() > full[..., :3].mean() + 1
+        with pytest.raises(ConfigError, match=r"\[render\]\.lights\.0\.intensity"):
+            ctl.set_light(0, "intensity", -1.0)
+    finally:
+        ctl.set_param("render", "lights", [])
+
+
 def test_bad_parameters_name_the_field(ctl):
     with pytest.raises(ConfigError, match=r"\[sim\]\.gravty: unknown parameter"):
         ctl.set_param("sim", "gravty", (0, 0, 0))
@@ -203,3 +387,40 @@ def test_window_runs_frames_and_exits(tmp_path):
     assert "4 frames of 1,500 hairs" in done.stdout
     image = np.asarray(Image.open(out))
     assert image.shape == (90, 160, 4) and image[..., :3].std() > 5
+
+
+RESIZE = """\
+import sys, time
+from follicle.render.context import use_context
+from follicle.view import Controller
+from follicle.view.window import Window
+win = Window((160, 90), visible=False)
+glfw = win.glfw
+with use_context(win.ctx):
+    ctl = Controller(sys.argv[1], size=(160, 90))
+    glfw.set_window_size(win.handle, 200, 120)
+    for _ in range(100):  # the resize arrives as an event
+        glfw.poll_events()
+        if win.framebuffer_size() != (160, 90):
+            break
+        time.sleep(0.02)
+    ctl.resize(*win.framebuffer_size())  # what the viewer's loop does each frame
+    win.show(ctl.draw())
+    print(glfw.get_window_attrib(win.handle, glfw.RESIZABLE), ctl.image.shape)
+    ctl.release()
+win.close()
+"""
+
+
+@pytest.mark.skipif(
+    not os.environ.get("CI") and (_display_command() is None or not find_spec("imgui_bundle")),
+    reason="no display and no Xvfb (apt-get install xvfb), or no view extra",
+)
+def test_window_is_resizable_and_the_render_follows(tmp_path):
+    (tmp_path / "scene.toml").write_text(SCENE)
+    command = [*(_display_command() or []), sys.executable, "-c", RESIZE,
+               str(tmp_path / "scene.toml")]  # fmt: skip
+    env = {**os.environ, "NUMBA_NUM_THREADS": os.environ.get("NUMBA_NUM_THREADS", "1")}
+    done = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[-2] == "1 (120, 200, 4)"

@@ -438,8 +438,11 @@ def _not_for(source: str, what: str, **options: object) -> None:
 @click.option("--count", type=int, default=None, help="Override [groom].count (displayed hairs).")
 @click.option("--offscreen", is_flag=True,
               help="No window or panel: run the loop headless (needs --frames).")
+@click.option("--quality", type=click.Choice(["full", "fast"]), default="full", show_default=True,
+              help="fast: no MSAA, no shadows, one curve step per segment.")
 def view(scene_path: str | None, frames: int | None, screenshot: str | None,
-         size: tuple[int, int], fps: float, count: int | None, offscreen: bool) -> None:
+         size: tuple[int, int], fps: float, count: int | None, offscreen: bool,
+         quality: str) -> None:
     """Live viewer: the scene's hair simulated and rendered in a window, with a parameter
     panel (README § Viewer). Needs the view extra: pip install 'follicle[view]'."""
     from .errors import InputError
@@ -451,7 +454,8 @@ def view(scene_path: str | None, frames: int | None, screenshot: str | None,
     if screenshot is not None:
         _check_writable_suffix(screenshot, (".png",))
     scene = _with_overrides(load_scene(scene_path), count=count)
-    ctl = run_viewer(scene, frames, screenshot, size, fps, window=not offscreen)
+    ctl = run_viewer(scene, frames, screenshot, size, fps, window=not offscreen,
+                     quality=quality, source=scene_path)
     w, h = size
     s = ctl.stats()
     click.echo(f"{ctl.frame} frames of {s['hairs']:,} hairs from {s['guides']:,} guides,"

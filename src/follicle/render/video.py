@@ -9,9 +9,10 @@ target and renamed when complete.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
-from collections.abc import Iterable
+from collections.abc import Generator, Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ import numpy as np
 from ..errors import FormatError, InputError
 from ..io.atomic import atomic_path
 
-__all__ = ["write_mp4"]
+__all__ = ["Mp4Writer", "write_mp4"]
 
 
 def _ffmpeg():
@@ -55,6 +56,109 @@ def _rgb(frame: object, index: int, size: tuple[int, ...] | None) -> np.ndarray:
     return np.ascontiguousarray(_even(arr[..., :3]))
 
 
+def _mp4_path(path: str | os.PathLike[str]) -> Path:
+    target = Path(path)
+    if target.suffix.lower() != ".mp4":
+        raise FormatError(f"{target}: a video must end in .mp4")
+    return target
+
+
+def _check_fps(fps: object) -> float:
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) \
+            or not 0 < fps < math.inf:  # fmt: skip
+        raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
+    return float(fps)
+
+
+class Mp4Writer:
+    """An H.264 MP4 at ``path`` written frame by frame (:meth:`write`), for frames that
+    come one at a time (a live viewer). :meth:`close` finishes the file; :meth:`abort`
+    (or leaving a ``with`` block by an exception) drops it. Until :meth:`close` the
+    video is a temporary file beside ``path``; nothing is left at or beside ``path``
+    when there are no frames, a frame is bad, or the file cannot be written.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], fps: float) -> None:
+        self.path = _mp4_path(path)
+        self.fps = _check_fps(fps)
+        self._ffmpeg = _ffmpeg()
+        self.frames = 0  # frames written so far
+        self._size: tuple[int, ...] | None = None  # frame 0's (H, W)
+        self._encoder = None  # started by the first frame, which fixes the size
+
+    def __enter__(self) -> Mp4Writer:
+        return self
+
+    def __exit__(self, kind: object, *exc: object) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+
+    def write(self, frame: np.ndarray) -> None:
+        """Encode ``frame`` ((H, W, 3|4) uint8 sRGB, alpha dropped; every frame the size
+        of the first). A bad frame raises InputError and drops the video."""
+        try:
+            rgb = _rgb(frame, self.frames, self._size)
+        except InputError:
+            self.abort()
+            raise
+        with self._failing():
+            if self._encoder is None:
+                self._size = np.asarray(frame).shape[:2]
+                self._encoder = self._encode(rgb)
+                next(self._encoder)
+            else:
+                self._encoder.send(rgb)
+        self.frames += 1
+
+    def close(self) -> Path:
+        """Finish the video and move it to ``path``; returns ``path``. InputError when
+        no frame was written (nothing is left at ``path``)."""
+        if self._encoder is None:
+            raise InputError(f"{self.path}: no frames to write")
+        encoder, self._encoder = self._encoder, None
+        with self._failing():
+            try:
+                encoder.send(None)
+            except StopIteration:
+                pass
+        return self.path
+
+    def abort(self) -> None:
+        """Stop encoding and remove the unfinished video."""
+        encoder, self._encoder = self._encoder, None
+        if encoder is not None:
+            encoder.close()
+
+    @contextlib.contextmanager
+    def _failing(self) -> Iterator[None]:
+        """An operating-system or ffmpeg failure: the video dropped, one FormatError."""
+        try:
+            yield
+        except (OSError, RuntimeError) as exc:
+            self.abort()
+            raise FormatError(f"{self.path}: cannot write the video: {exc}") from None
+
+    def _encode(self, first: np.ndarray) -> Generator[None, np.ndarray | None, None]:
+        """Encode ``first``, then each frame sent, into a temporary file renamed onto
+        the path when None is sent; closed early (:meth:`abort`), it is removed."""
+        h, w = first.shape[:2]
+        with atomic_path(self.path) as tmp:
+            writer = self._ffmpeg.write_frames(
+                str(tmp), (w, h), fps=self.fps, codec="libx264", pix_fmt_in="rgb24",
+                pix_fmt_out="yuv420p", macro_block_size=1, ffmpeg_log_level="error",
+            )  # fmt: skip
+            writer.send(None)
+            try:
+                frame = first
+                while frame is not None:
+                    writer.send(frame)
+                    frame = yield
+            finally:
+                writer.close()
+
+
 def write_mp4(
     frames: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float
 ) -> Path:
@@ -63,34 +167,7 @@ def write_mp4(
     Returns the path written. Nothing is left at ``path`` (or beside it) when a frame
     is bad, there are none, or the file cannot be written.
     """
-    target = Path(path)
-    if target.suffix.lower() != ".mp4":
-        raise FormatError(f"{target}: a video must end in .mp4")
-    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) \
-            or not 0 < fps < math.inf:  # fmt: skip
-        raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
-    ffmpeg = _ffmpeg()
-    it = iter(frames)
-    try:
-        raw = np.asarray(next(it))
-    except StopIteration:
-        raise InputError(f"{target}: no frames to write") from None
-    first = _rgb(raw, 0, None)
-    size = raw.shape[:2]
-    h, w = first.shape[:2]
-    try:
-        with atomic_path(target) as tmp:
-            writer = ffmpeg.write_frames(
-                str(tmp), (w, h), fps=float(fps), codec="libx264", pix_fmt_in="rgb24",
-                pix_fmt_out="yuv420p", macro_block_size=1, ffmpeg_log_level="error",
-            )  # fmt: skip
-            writer.send(None)
-            try:
-                writer.send(first)
-                for i, frame in enumerate(it, 1):
-                    writer.send(_rgb(frame, i, size))
-            finally:
-                writer.close()
-    except (OSError, RuntimeError) as exc:
-        raise FormatError(f"{target}: cannot write the video: {exc}") from None
-    return target
+    with Mp4Writer(path, fps) as video:
+        for frame in frames:
+            video.write(frame)
+    return video.path

@@ -22,24 +22,28 @@ def _check_frames(frames: int | None) -> None:
 def view(
     scene: Scene | str | os.PathLike[str] | None = None, frames: int | None = None,
     screenshot: str | os.PathLike[str] | None = None, size: Sequence[int] = (960, 540),
-    fps: float = 30.0, window: bool = True, visible: bool = True,
+    fps: float = 30.0, window: bool = True, visible: bool = True, quality: str = "full",
+    source: str | os.PathLike[str] | None = None,
 ) -> Controller:  # fmt: skip
     """Simulate and render ``scene`` live; returns the Controller when the loop ends.
 
     ``frames`` None runs until the window closes (Esc), else that many frames. With
     ``window`` False the loop runs offscreen (no display, no panel). ``screenshot``
     writes the last frame's render as PNG. ``fps`` is the simulated frame rate (each
-    frame steps 1 / fps s); the overlay shows the rate actually reached.
+    frame steps 1 / fps s); the overlay shows the rate actually reached. ``quality``
+    is the Controller's ("full" or "fast"); ``source``, the scene's file (when
+    ``scene`` is a path, that path), is where the panel saves the scene by default. A
+    recording still on when the loop ends is finished.
     """
     _check_frames(frames)
     if not isinstance(scene, Scene):
+        source = scene if source is None else source
         scene = load_scene(scene)  # a bad scene fails before a window opens
     if not window:
-        ctl = Controller(scene, size, fps)
+        ctl = Controller(scene, size, fps, quality, source)
         try:
             _loop(ctl, frames, lambda image, rate: False)
-            if screenshot is not None:
-                ctl.screenshot(screenshot)
+            _finish(ctl, screenshot)
         finally:
             ctl.release()
         return ctl
@@ -50,8 +54,8 @@ def view(
     win = Window(size, "follicle view", visible)
     try:
         with use_context(win.ctx):
-            ctl = Controller(scene, size, fps)
-            panel = Panel(win)
+            ctl = Controller(scene, size, fps, quality, source)
+            panel = Panel(win, ctl)
             try:
 
                 def show(image, rate: float) -> bool:
@@ -60,17 +64,26 @@ def view(
                     win.show(image)
                     panel.render()
                     win.glfw.swap_buffers(win.handle)
+                    if all(win.framebuffer_size()):  # (0, 0) while minimised
+                        ctl.resize(*win.framebuffer_size())
                     return quit_ or win.should_close()
 
                 _loop(ctl, frames, show)
-                if screenshot is not None:
-                    ctl.screenshot(screenshot)
+                _finish(ctl, screenshot)
             finally:
                 panel.close()
                 ctl.release()
     finally:
         win.close()
     return ctl
+
+
+def _finish(ctl: Controller, screenshot: str | os.PathLike[str] | None) -> None:
+    """The end of a loop: a recording still on is finished, the screenshot written."""
+    if ctl.recording is not None:
+        ctl.stop_recording()
+    if screenshot is not None:
+        ctl.screenshot(screenshot)
 
 
 def _loop(ctl: Controller, frames: int | None, show) -> None:

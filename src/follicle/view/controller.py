@@ -7,22 +7,56 @@ import math
 import os
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import FollicleError, InputError
 from ..pipeline import framed_camera, groom_scene, scene_camera
-from ..render import Camera, Renderer, save_png
+from ..render import Camera, Light, Renderer, default_lights, save_png
+from ..render.options import parse_size
+from ..render.video import Mp4Writer
 from ..scene import Scene, load_scene
 from ..sim.motion import head_motion, motion_pivot
-from ..sim.simulator import Simulator
 from .controls import check_key, updated
+from .gust import Gust, GustySimulator
+from .overlay import background, drawable, guide_curves, volume_overlay
+from .scenefile import save_scene
 
-__all__ = ["Controller"]
+__all__ = ["Controller", "Show", "QUALITIES"]
 
 REBUILD_SIM = ("vertices", "skin_collision", "skin_voxel", "colliders", "substep")
+QUALITIES = ("full", "fast")  # fast: no MSAA, no shadows, one Catmull-Rom step per segment
+DEFAULT_SCENE_FILE = "follicle_view.toml"  # where the scene is saved when not read from a file
+
+
+@dataclass
+class Show:
+    """What the viewer draws: the simulated guides (orange), the displayed hairs, the
+    head mesh, and the solver's hair density as a heat overlay."""
+
+    guides: bool = False
+    hairs: bool = True
+    mesh: bool = True
+    volume: bool = False
+
+
+def _positive(value: object, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+            0 < value < math.inf):  # fmt: skip
+        raise InputError(f"{name}: expected a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def _light_table(light: Light) -> dict[str, object]:
+    """A light of the default rig as a [[render.lights]] table."""
+    table = {"type": "ambient" if light.is_ambient else "directional", "space": light.space,
+             "color": tuple(light.color), "intensity": light.intensity}  # fmt: skip
+    if not light.is_ambient:
+        table["direction"] = tuple(light.direction)
+    return table
 
 
 def _turn(yaw: float, pitch: float, pivot: np.ndarray) -> np.ndarray:
@@ -43,27 +77,39 @@ class Controller:
     Each :meth:`step_frame` advances the simulation by ``1 / fps`` seconds (when
     playing), poses the head (the scene's ``[sim].motion``, repeated, times the manual
     turn of :meth:`turn_head`), grows the displayed hair from the guides and renders it.
-    :meth:`set_param` changes a ``[sim]``, ``[groom]`` or ``[render]`` key live.
+    :meth:`set_param` changes a ``[sim]``, ``[groom]`` or ``[render]`` key live;
+    :meth:`save_scene` writes the scene as edited. ``quality`` "fast" renders with the
+    renderer's cheapest settings; ``source`` is the scene file (given a path, that
+    path), the default of :meth:`save_scene`.
     """
 
     def __init__(
         self, scene: Scene | str | os.PathLike[str] | None = None,
-        size: Sequence[int] = (960, 540), fps: float = 30.0,
+        size: Sequence[int] = (960, 540), fps: float = 30.0, quality: str = "full",
+        source: str | os.PathLike[str] | None = None,
     ) -> None:  # fmt: skip
         if not isinstance(scene, Scene):
+            source = scene if source is None else source
             scene = load_scene(scene)
-        if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not 0 < fps < math.inf:
-            raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
+        fps = _positive(fps, "fps")
         self.scene = scene
-        self.size = (int(size[0]), int(size[1]))
+        self.source = None if source is None else Path(source)
+        self.size = parse_size(size)
         self.dt = 1.0 / fps
+        self.show = Show()
+        self.gusts: list[Gust] = []  # the sim's wind bursts, dropped once over
+        self._video: Mp4Writer | None = None
+        self._hair_limit: int | None = None
+        self._renderer: Renderer | None = None
+        self._quality = "full"
+        self.quality = quality
         self.groom = groom_scene(scene)
         self.mesh = self.groom.mesh
         p = scene.sim
         self.pivot = np.asarray(
             p.motion_pivot if p.motion_pivot is not None else motion_pivot(self.mesh), np.float64
         )
-        self.sim = Simulator(self.groom.guides, params=p)
+        self.sim = GustySimulator(self.groom.guides, p, self.gusts)
         self.playing = True
         self.time = 0.0
         self.frame = 0
@@ -73,7 +119,6 @@ class Controller:
         self.timings = {"step": 0.0, "groom": 0.0, "render": 0.0, "frame": 0.0}
         self.loop_fps = 0.0  # frames per second of the last :func:`follicle.view` loop
         self.camera = self._frame_camera()
-        self._renderer: Renderer | None = None
 
     # ------------------------------------------------------------------ parameters
     def set_param(self, section: str, key: str, value: object) -> None:
@@ -85,7 +130,7 @@ class Controller:
         setattr(self.scene, section, new)
         if section == "sim":
             if key in REBUILD_SIM:
-                self.sim = Simulator(self.groom.guides, params=new)
+                self.sim = GustySimulator(self.groom.guides, new, self.gusts)
                 self.reset()
             else:
                 self.sim.params = self.sim.solver.params = new
@@ -93,7 +138,7 @@ class Controller:
             self.groom.params = new
             self.curves = self.image = None
         elif key in ("size", "msaa", "background_top", "background_bottom"):
-            self.release()  # a new renderer on the next draw
+            self._drop_renderer()  # a new renderer on the next draw
         elif key in ("eye", "target", "fov"):
             self.camera = self._frame_camera()
         self.image = None
@@ -102,6 +147,84 @@ class Controller:
         """The current value of ``[section].key``."""
         check_key(section, key)
         return getattr(getattr(self.scene, section), key)
+
+    def lights(self) -> list[dict[str, object]]:
+        """The ``[[render.lights]]`` as tables; the default rig's when the scene has none."""
+        r = self.scene.render
+        if r.lights:
+            return [light.model_dump() for light in r.lights]
+        return [_light_table(light) for light in default_lights()]
+
+    def set_light(self, index: int, key: str, value: object) -> None:
+        """Set ``key`` (intensity, color, direction, ...) of light ``index`` of
+        :meth:`lights`; the first change to the default rig makes it the scene's
+        ``[[render.lights]]``. ConfigError names a bad key or value."""
+        tables = self.lights()
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(tables):
+            raise InputError(f"light: expected an index in 0..{len(tables) - 1}, got {index!r}")
+        tables[index] = {**tables[index], key: value}
+        self.set_param("render", "lights", tables)
+
+    def save_scene(self, path: str | os.PathLike[str] | None = None) -> Path:
+        """Write the scene as edited to the TOML file ``path`` (default: :attr:`source`,
+        else ``follicle_view.toml``), atomically, its file paths relative to the new
+        file's folder; :func:`~follicle.scene.load_scene` reads it back to this scene.
+        Viewer-only state (gusts, what is shown, the hair limit, quality) is not saved."""
+        default = self.source if self.source is not None else Path(DEFAULT_SCENE_FILE)
+        return save_scene(self.scene, default if path is None else path)
+
+    # ------------------------------------------------------------------ view settings
+    def set_show(self, name: str, value: bool) -> None:
+        """Show or hide ``name``: guides, hairs, mesh or volume (:class:`Show`)."""
+        names = [f.name for f in fields(Show)]
+        if name not in names:
+            raise InputError(f"show: unknown layer {name!r}; use one of {', '.join(names)}")
+        if not isinstance(value, bool):
+            raise InputError(f"show.{name}: expected true or false, got {value!r}")
+        setattr(self.show, name, value)
+        self.image = None
+
+    @property
+    def hair_limit(self) -> int | None:
+        """Grow and draw only the first N hairs of the groom (None: all [groom].count)."""
+        return self._hair_limit
+
+    @hair_limit.setter
+    def hair_limit(self, limit: int | None) -> None:
+        if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int)
+                                  or limit < 0):  # fmt: skip
+            raise InputError(f"hair_limit: expected a whole number ≥ 0 or None, got {limit!r}")
+        self._hair_limit = limit
+        self.curves = self.image = None
+
+    @property
+    def quality(self) -> str:
+        """"full": the scene's [render] settings; "fast": no MSAA, no shadows and one
+        Catmull-Rom step per segment, the renderer's cheapest settings, for speed."""
+        return self._quality
+
+    @quality.setter
+    def quality(self, quality: str) -> None:
+        if quality not in QUALITIES:
+            raise InputError(f"quality: expected one of {', '.join(QUALITIES)}, got {quality!r}")
+        if quality != self._quality:
+            self._drop_renderer()  # MSAA is the renderer's own
+        self._quality = quality
+        self.image = None
+
+    def resize(self, width: int, height: int) -> None:
+        """Render at ``width`` × ``height`` pixels from the next draw (a window resized):
+        the camera keeps its direction and moves as the automatic framing does for the
+        new aspect. An unfinished recording is finished first (a video has one size)."""
+        size = parse_size((width, height))
+        if size == self.size:
+            return
+        if self._video is not None:
+            self.stop_recording()
+        before = self._frame_camera()
+        self.size = size
+        self._drop_renderer()
+        self.zoom(self._frame_camera().distance / before.distance)
 
     # ------------------------------------------------------------------ actions
     def toggle_play(self) -> None:
@@ -115,8 +238,9 @@ class Controller:
         self.pitch = min(max(self.pitch + pitch, -60.0), 60.0)
 
     def reset(self) -> None:
-        """Time 0, head upright, hair at rest."""
+        """Time 0, head upright, hair at rest, no gusts."""
         self.time, self.frame, self.yaw, self.pitch = 0.0, 0, 0.0, 0.0
+        self.gusts.clear()
         self.sim.set_pose(transform=np.eye(4))
         self.sim.reset()
         self.curves = self.image = None
@@ -136,41 +260,108 @@ class Controller:
         self.frame += 1
         self.sim.set_pose(transform=self.head_transform(self.time))
         self.sim.step(self.dt)
+        now = self.sim.state.time
+        self.gusts[:] = [g for g in self.gusts if not g.over(now)]
         self.timings["step"] = time.perf_counter() - start
         self.curves = self.image = None
 
+    def gust(self, strength: float = 10.0, duration: float = 1.0) -> None:
+        """A burst of wind from now: ``strength`` m/s² at its peak (like [sim].wind), along
+        the [sim] wind, or the camera's view when there is none; it rises and falls
+        smoothly over ``duration`` s of simulated time, on top of the [sim] wind, whose
+        parameters stay as they are."""
+        strength, duration = _positive(strength, "strength"), _positive(duration, "duration")
+        wind = np.asarray(self.scene.sim.wind, np.float64)
+        along = wind if wind.any() else self.camera.basis()[2]
+        vector = strength * along / np.linalg.norm(along)
+        self.gusts.append(Gust(self.sim.state.time, duration, vector))
+
     def hair(self) -> HairCurves:
-        """The displayed hair, grown from the simulated guides on the current pose."""
+        """The displayed hair, grown from the simulated guides on the current pose (the
+        first :attr:`hair_limit` hairs when set)."""
         if self.curves is None:
             start = time.perf_counter()
-            self.curves = self.groom.follow(self.sim, time=self.time)
+            count = self.scene.groom.count
+            count = count if self._hair_limit is None else min(count, self._hair_limit)
+            self.curves = self.groom.follow(self.sim, count=count, time=self.time)
             self.timings["groom"] = time.perf_counter() - start
         return self.curves
+
+    def drawn_curves(self) -> HairCurves | None:
+        """The curves drawn, as :attr:`show` says: the hairs, the guides (wide, orange),
+        both, or None."""
+        parts = [self.hair()] if self.show.hairs and self.hair().curve_count else []
+        if self.show.guides:
+            parts.append(guide_curves(self.sim.positions))
+        if len(parts) == 2:
+            return HairCurves.concatenate([drawable(part) for part in parts])
+        return parts[0] if parts else None
 
     def draw(self) -> np.ndarray:
         """Render the current state: (H, W, 4) uint8, top row first."""
         r = self.scene.render
-        curves = self.hair()
+        curves = self.drawn_curves()
+        mesh = self.mesh if self.show.mesh else None
         start = time.perf_counter()
-        if self._renderer is None:
-            background = (r.background_top, r.background_bottom)
-            self._renderer = Renderer(size=self.size, msaa=r.msaa, background=background)
-        self.image = self._renderer.draw(
-            curves if curves.curve_count else None, self.mesh, camera=self.camera,
-            lights=r.light_list(), shading=r.shading, subdivisions=r.subdivisions,
-            shading_params=r.shading_params, shadows=r.shadows,
-        )  # fmt: skip
+        if curves is None and mesh is None:
+            image = background(self.size, r.background_top, r.background_bottom)
+        else:
+            image = self._render(curves, mesh)
+        if self.show.volume:
+            image = volume_overlay(image, self.sim.positions, self.camera, self.scene.sim)
+        self.image = image
         self.timings["render"] = time.perf_counter() - start
-        return self.image
+        return image
+
+    def _render(self, curves: HairCurves | None, mesh: object | None) -> np.ndarray:
+        """The renderer's picture, with the [render] settings or :attr:`quality` fast's."""
+        r = self.scene.render
+        fast = self._quality == "fast"
+        if self._renderer is None:
+            self._renderer = Renderer(size=self.size, msaa=0 if fast else r.msaa,
+                                      background=(r.background_top, r.background_bottom))
+        return self._renderer.draw(
+            curves, mesh, camera=self.camera, lights=r.light_list(), shading=r.shading,
+            subdivisions=1 if fast else r.subdivisions, shading_params=r.shading_params,
+            shadows=r.shadows and not fast,
+        )  # fmt: skip
 
     def step_frame(self) -> np.ndarray:
-        """One frame of the viewer: a step when playing, then the render."""
+        """One frame of the viewer: a step when playing, then the render, recorded when
+        :meth:`start_recording` is on."""
         start = time.perf_counter()
         if self.playing:
             self.step()
         image = self.draw()
+        if self._video is not None:
+            try:
+                self._video.write(image)
+            except FollicleError:
+                self._video = None  # the writer has dropped its file
+                raise
         self.timings["frame"] = time.perf_counter() - start
         return image
+
+    # ------------------------------------------------------------------ recording
+    def start_recording(self, path: str | os.PathLike[str]) -> None:
+        """Record every frame :meth:`step_frame` renders from now into the H.264 MP4
+        ``path``, at the simulated frame rate, until :meth:`stop_recording`."""
+        if self._video is not None:
+            raise InputError(f"already recording to {self._video.path}; stop that first")
+        self._video = Mp4Writer(path, 1.0 / self.dt)
+
+    def stop_recording(self) -> Path:
+        """Finish the recording and return its path. InputError when none is on, or it
+        has no frames (then nothing is left at the path)."""
+        video, self._video = self._video, None
+        if video is None:
+            raise InputError("not recording: start_recording(path) first")
+        return video.close()
+
+    @property
+    def recording(self) -> int | None:
+        """Frames recorded so far; None when not recording."""
+        return None if self._video is None else self._video.frames
 
     def screenshot(self, path: str | os.PathLike[str]) -> Path:
         """Write the current frame as a PNG (rendered again if anything changed since)."""
@@ -188,7 +379,14 @@ class Controller:
         }  # fmt: skip
 
     def release(self) -> None:
-        """Free the renderer (a new one is made on the next draw)."""
+        """Free the renderer (a new one is made on the next draw) and drop an unfinished
+        recording (its file removed): the end of a viewer session."""
+        if self._video is not None:
+            self._video.abort()
+            self._video = None
+        self._drop_renderer()
+
+    def _drop_renderer(self) -> None:
         if self._renderer is not None:
             self._renderer.release()
             self._renderer = None

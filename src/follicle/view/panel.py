@@ -4,21 +4,24 @@ its actions; everything it does is reachable from Python without it."""
 from __future__ import annotations
 
 import typing
+from collections.abc import Callable
+from dataclasses import fields
 
 from ..errors import FollicleError
-from .controller import Controller
+from .controller import DEFAULT_SCENE_FILE, QUALITIES, Controller, Show
 from .controls import CONTROLS, SECTIONS, Control
 
 __all__ = ["Panel", "KEYS"]
 
 KEYS = (
-    ("space", "play / pause"), ("S or .", "one step"), ("R", "reset"),
-    ("arrows", "turn / nod the head"), ("drag", "orbit the camera"), ("wheel", "zoom"),
-    ("Esc", "quit"),
+    ("space", "play / pause"), ("S or .", "one step"), ("R", "reset"), ("G", "gust"),
+    ("V", "record / stop"), ("arrows", "turn / nod the head"), ("drag", "orbit the camera"),
+    ("wheel", "zoom"), ("Esc", "quit"),
 )  # fmt: skip
 TURN_SPEED = 90.0  # degrees per second while an arrow key is held
 ORBIT_SPEED = 0.3  # degrees per pixel dragged
 ZOOM_STEP = 0.9  # distance factor per wheel notch
+DEFAULT_VIDEO_FILE = "follicle_view.mp4"
 
 
 def _choices(section: str, key: str) -> list[str]:
@@ -28,7 +31,7 @@ def _choices(section: str, key: str) -> list[str]:
 class Panel:
     """ImGui on ``window`` (a :class:`~follicle.view.window.Window`), drawn each frame."""
 
-    def __init__(self, window: object) -> None:
+    def __init__(self, window: object, ctl: Controller) -> None:
         from imgui_bundle import imgui
 
         self.imgui = imgui
@@ -36,7 +39,10 @@ class Panel:
         imgui.get_io().set_ini_filename("")  # no imgui.ini beside the user's files
         imgui.backends.glfw_init_for_opengl(window.address, True)
         imgui.backends.opengl3_init("#version 330")
-        self.message = ""
+        self.message = ""  # the last action's error, in red
+        self.note = ""  # the last file written
+        self.scene_path = str(ctl.source if ctl.source is not None else DEFAULT_SCENE_FILE)
+        self.video_path = DEFAULT_VIDEO_FILE
 
     def frame(self, ctl: Controller, fps: float) -> bool:
         """Build this frame's panel and act on keys; True when the user asked to quit."""
@@ -57,12 +63,22 @@ class Panel:
         imgui.same_line()
         if imgui.button("reset"):
             ctl.reset()
+        imgui.same_line()
+        if imgui.button("gust"):
+            self._act(ctl.gust)
         if self.message:
             imgui.text_colored((1.0, 0.4, 0.3, 1.0), self.message)
+        if self.note:
+            imgui.text_disabled(self.note)
+        self._files(ctl)
+        if imgui.collapsing_header("view"):
+            self._view(ctl)
         for section, controls in CONTROLS.items():
             if imgui.collapsing_header(f"[{section}]"):
                 for control in controls:
                     self._widget(ctl, section, control)
+        if imgui.collapsing_header("[[render.lights]]"):
+            self._lights(ctl)
         imgui.text_disabled("  ".join(f"{k}: {what}" for k, what in KEYS))
         imgui.end()
         imgui.render()
@@ -107,6 +123,10 @@ class Panel:
             ctl.step()
         if imgui.is_key_pressed(key.r, False):
             ctl.reset()
+        if imgui.is_key_pressed(key.g, False):
+            self._act(ctl.gust)
+        if imgui.is_key_pressed(key.v, False):
+            self._act(self._toggle_recording, ctl)
         turn = TURN_SPEED / max(fps, 1.0)
         yaw = imgui.is_key_down(key.left_arrow) - imgui.is_key_down(key.right_arrow)
         pitch = imgui.is_key_down(key.down_arrow) - imgui.is_key_down(key.up_arrow)
@@ -137,8 +157,71 @@ class Panel:
         else:  # colour
             changed, new = imgui.color_edit3(label, list(value), imgui.ColorEditFlags_.float)
         if changed:
-            try:
-                ctl.set_param(section, c.key, tuple(new) if isinstance(new, list) else new)
-                self.message = ""
-            except FollicleError as exc:
-                self.message = str(exc)
+            self._act(ctl.set_param, section, c.key, tuple(new) if isinstance(new, list) else new)
+
+    def _act(self, action: Callable[..., object], *args: object) -> None:
+        """Run a Controller action; its error (a bad value, an unwritable file) shows in
+        the panel instead of ending the viewer."""
+        try:
+            action(*args)
+            self.message = ""
+        except (FollicleError, OSError) as exc:
+            self.message = str(exc)
+
+    def _toggle_recording(self, ctl: Controller) -> None:
+        if ctl.recording is None:
+            ctl.start_recording(self.video_path)
+        else:
+            self.note = f"recorded {ctl.stop_recording()}"
+
+    def _save(self, ctl: Controller) -> None:
+        self.note = f"saved {ctl.save_scene(self.scene_path)}"
+
+    def _files(self, ctl: Controller) -> None:
+        """The scene file to save to and the clip to record, each with its button."""
+        imgui = self.imgui
+        _, self.scene_path = imgui.input_text("##scene path", self.scene_path)
+        imgui.same_line()
+        if imgui.button("save scene"):
+            self._act(self._save, ctl)
+        _, self.video_path = imgui.input_text("##video path", self.video_path)
+        imgui.same_line()
+        frames = ctl.recording
+        if imgui.button("record" if frames is None else f"stop ({frames} frames)"):
+            self._act(self._toggle_recording, ctl)
+
+    def _view(self, ctl: Controller) -> None:
+        """What is shown, the displayed-hair limit and the render quality."""
+        imgui = self.imgui
+        for i, f in enumerate(fields(Show)):
+            if i:
+                imgui.same_line()
+            changed, on = imgui.checkbox(f.name, getattr(ctl.show, f.name))
+            if changed:
+                ctl.set_show(f.name, on)
+        count = ctl.scene.groom.count
+        limit = count if ctl.hair_limit is None else min(ctl.hair_limit, count)
+        changed, limit = imgui.slider_int("hair limit", limit, 0, count)
+        if changed:
+            ctl.hair_limit = None if limit >= count else limit
+        changed, i = imgui.combo("quality", QUALITIES.index(ctl.quality), list(QUALITIES))
+        if changed:
+            ctl.quality = QUALITIES[i]
+
+    def _lights(self, ctl: Controller) -> None:
+        """Intensity, colour and (directional) direction of each light."""
+        imgui = self.imgui
+        for i, light in enumerate(ctl.lights()):
+            imgui.text(f"light {i}: {light['type']}, {light['space']} space")
+            changed, v = imgui.slider_float(f"intensity##light{i}", light["intensity"], 0.0, 5.0)
+            if changed:
+                self._act(ctl.set_light, i, "intensity", v)
+            changed, v = imgui.color_edit3(f"colour##light{i}", list(light["color"]),
+                                           imgui.ColorEditFlags_.float)  # fmt: skip
+            if changed:
+                self._act(ctl.set_light, i, "color", tuple(v))
+            if light["type"] == "directional":
+                changed, v = imgui.slider_float3(f"direction##light{i}", list(light["direction"]),
+                                                 -1.0, 1.0)  # fmt: skip
+                if changed:
+                    self._act(ctl.set_light, i, "direction", tuple(v))

@@ -50,7 +50,7 @@ def glfw_module():
 
 
 class Window:
-    """A fixed-size window of ``size`` pixels; ``visible`` False keeps it off screen
+    """A resizable window, first ``size`` pixels; ``visible`` False keeps it off screen
     (still a real window and context: what tests and ``--frames`` runs use)."""
 
     def __init__(self, size: Sequence[int], title: str = "follicle", visible: bool = True) -> None:
@@ -62,7 +62,7 @@ class Window:
         for hint, value in (
             (glfw.CONTEXT_VERSION_MAJOR, 3), (glfw.CONTEXT_VERSION_MINOR, 3),
             (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE), (glfw.OPENGL_FORWARD_COMPAT, True),
-            (glfw.RESIZABLE, False), (glfw.VISIBLE, bool(visible)),
+            (glfw.RESIZABLE, True), (glfw.VISIBLE, bool(visible)),
         ):  # fmt: skip
             glfw.window_hint(hint, value)
         self.handle = glfw.create_window(int(size[0]), int(size[1]), title, None, None)
@@ -82,6 +82,11 @@ class Window:
         """The GLFWwindow pointer, for ImGui's GLFW backend."""
         return ctypes.cast(self.handle, ctypes.c_void_p).value
 
+    def framebuffer_size(self) -> tuple[int, int]:
+        """The window's drawable size in pixels now ((0, 0) while minimised)."""
+        w, h = self.glfw.get_framebuffer_size(self.handle)
+        return int(w), int(h)
+
     def should_close(self) -> bool:
         return bool(self.glfw.window_should_close(self.handle))
 
@@ -95,7 +100,7 @@ class Window:
             self._texture = ctx.texture((w, h), 4)
         self._texture.write(np.ascontiguousarray(image))
         ctx.screen.use()
-        ctx.viewport = (0, 0, *self.glfw.get_framebuffer_size(self.handle))
+        ctx.viewport = (0, 0, *self.framebuffer_size())
         ctx.disable(ctx.DEPTH_TEST | ctx.BLEND)
         self._texture.use(0)
         self._vao.render(vertices=3)
