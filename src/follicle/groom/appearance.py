@@ -24,12 +24,12 @@ _VARIATION = purpose_id("color variation")  # numbers 0, 1, 2: hue, saturation, 
 
 
 # --------------------------------------------------------------------------- kernel
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _clamp01(x):
     return min(max(x, 0.0), 1.0)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _shifted_hsv(r, g, b, dh, ds, dv):
     """000 §2.2.6: RGB to HSV minus the shifts; s, v clamped to [0, 1] (hue wraps later)."""
     h, s, v = rgb_to_hsv1(r, g, b)
@@ -41,7 +41,7 @@ def _shifted_hsv(r, g, b, dh, ds, dv):
 ENDS = 10
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _ends_kernel(ids, seed, root_rgb, tip_rgb, hue_var, sat_var, val_var, mutant_fraction,
                  mutant_rgb, root_w, tip_w, root_op, tip_op, ends):  # fmt: skip
     """Fill ``ends`` (n, ENDS) for hairs ``ids``; inputs have n rows or one shared row."""
@@ -81,7 +81,7 @@ def vertex_look(e, t):
     return r, g, b, u * e[6] + t * e[7], u * e[8] + t * e[9]
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _look_kernel(ends, t, color, width, opacity):
     nv = t.shape[1]
     for i in prange(ends.shape[0]):

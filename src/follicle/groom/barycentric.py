@@ -98,7 +98,7 @@ def _dot(p, i, q, j):
     return p[i, 0] * q[j, 0] + p[i, 1] * q[j, 1] + p[i, 2] * q[j, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _in_circle(i0, i1, i2, d, p, n):
     """Is guide d inside the circumcircle of {i0 < i1 < i2}, all four projected on one plane?
 
@@ -154,7 +154,7 @@ def _in_circle(i0, i1, i2, d, p, n):
     return parity * det * orient > 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _shape(i0, i1, i2, p, n, spacing):
     """Shape tests of triangle {i0 < i1 < i2}: (ok, flipped, unit normal, circumcentre, r²).
 
@@ -192,7 +192,7 @@ def _shape(i0, i1, i2, p, n, spacing):
     return True, flipped, ux, uy, uz, ox + p[i0, 0], oy + p[i0, 1], oz + p[i0, 2], r2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _accept(i0, i1, i2, p, n, near, spacing):
     """Is triangle {i0 < i1 < i2} kept? Returns (kept, flipped).
 
@@ -231,7 +231,7 @@ def _listed(near, u, g):
     return False
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _propose_kernel(rows, changed, p, n, near, spacing, out, count):
     """Kept triangles of each guide c = rows[i] and two of its neighbours into out[i].
 
@@ -271,7 +271,7 @@ def _propose_kernel(rows, changed, p, n, near, spacing, out, count):
         count[i] = slot
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _fill_neighbours(near, rows, idx, n, active, k):
     """near[rows[i]] = the first k[i] active neighbours in idx[i] facing the guide's way."""
     for i in range(rows.shape[0]):
@@ -368,7 +368,7 @@ def _peel(p: np.ndarray, tris: np.ndarray, spacing: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- grid
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _bin_boxes(lo, hi, origin, cell, dims):
     """CSR (ptr, items) of the boxes [lo, hi] (N, 3) overlapping each grid cell."""
     m = lo.shape[0]
@@ -449,7 +449,7 @@ def _write(out_idx, out_w, h, tris, t, g, b0, b1, b2):
     out_w[h, 2] = b2 / total
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _weights_kernel(order, q, qn, origin, cell, dims, tri_ptr, tri_items, loose_ptr,
                     loose_items, p, hit2, tris, tv, tc, tn, out_idx, out_w):
     """Fast path: q (H, 3) on a guide without triangles, or projected along its normal qn
@@ -493,7 +493,7 @@ def _weights_kernel(order, q, qn, origin, cell, dims, tri_ptr, tri_items, loose_
             out_idx[h, 0] = -1
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _search_kernel(rows, q, qn, nearest, dist2, gn, has_tri, hit2, tris, tv, tc, tn, adj,
                    vt_ptr, vt_idx, out_idx, out_w):
     """Slow path for hairs ``rows``: start at the triangles around the nearest guide facing

@@ -37,7 +37,7 @@ def assign_clumps(
     return out
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _clump_kernel(local, centre, which, root, tangent, binormal, normal, a_root, a_tip,
                   profile, noise, ids, seed, t):  # fmt: skip
     n = local.shape[1]

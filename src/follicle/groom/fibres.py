@@ -57,7 +57,7 @@ def _concentric(u0, u1):
     return r * np.cos(theta), r * np.sin(theta)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _fibres_kernel(local, ids, seed, count, s_root, s_centre, s_tip, twist, aspect, offset,
                    randomize, out, uv):
     n, nv = local.shape[0], local.shape[1]

@@ -21,7 +21,7 @@ __all__ = ["cut_plan", "cut_in_place", "finish", "pack"]
 _ROOT_TANGENT = np.array([1.0, 0.0, 0.0])  # local +x: the first curve normal N_0 (§2.2.8)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _plan_kernel(tcut, n_total, need):
     for h in range(tcut.shape[0]):
         s, u = cut_locate(tcut[h], n_total - 1)
@@ -41,7 +41,7 @@ def cut_plan(tcut: np.ndarray, n_total: int) -> np.ndarray:
     return need
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _cut_kernel(p, tcut, n_total, length, t_end):
     n = p.shape[1]
     for h in prange(p.shape[0]):
@@ -95,7 +95,7 @@ def _similar(q, i, j, m, threshold):
     return ax * bx + ay * by + az * bz > threshold
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _keep_kernel(p, length, threshold, keep):
     n = p.shape[1]
     for h in prange(p.shape[0]):
@@ -147,7 +147,7 @@ def finish(p: np.ndarray, length: np.ndarray, skip_threshold: float | None) -> n
 _BLOCK = 128  # curves per scratch buffer in the pack kernel
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _pack_kernel(p, length, keep, rows, origin, tangent, binormal, normal, start, first,
                  ends, t_end, n_total, out_p, out_n, out_c, out_w, out_o):  # fmt: skip
     m, n = p.shape[0], p.shape[1]
@@ -155,12 +155,12 @@ def _pack_kernel(p, length, keep, rows, origin, tangent, binormal, normal, start
     for blk in prange((m + _BLOCK - 1) // _BLOCK):
         tan = np.empty((n, 3))
         nor = np.empty((n, 3))
-        bi = np.empty((n, 3))
+        bi = np.empty((0, 3))  # normals only
         for h in range(blk * _BLOCK, min(m, (blk + 1) * _BLOCK)):
             if not keep[h, 0]:
                 continue
             L = length[h]
-            polyline_frames(p[h, :L], first, tan[:L], nor[:L], bi[:L])
+            polyline_frames(p[h, :L], first, tan[:L], nor[:L], bi)
             r = rows[h]
             k = start[h]
             for i in range(L):

@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import logging
 import os
+import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..arrays import empty_touched
 from ..curves import HairCurves
 from ..errors import InputError
 from ..mesh.displacement import displace
@@ -30,6 +32,7 @@ from ..mesh.skin import SkinMesh, SurfacePoints
 from ..mesh.texture import Texture
 from ..rng import uniforms
 from ..scene import GroomParams
+from ..threads import chained, ordered_map, workers
 from .appearance import hair_ends
 from .barycentric import GuideTriangulation
 from .clump import assign_clumps, clump
@@ -45,7 +48,7 @@ __all__ = ["Groom", "resolve_density", "load_texture"]
 
 log = logging.getLogger("follicle")
 
-CHUNK = 65536
+CHUNK = 32768
 BUILTIN_TEXTURES = {"builtin:scalp": scalp_texture, "builtin:parting": parting_texture}
 # the output arrays: name -> (dtype, shape per vertex or per curve)
 _POINT_FIELDS = {"points": (np.float32, (3,)), "normal": (np.float32, (3,)),
@@ -146,6 +149,25 @@ class _Bucket:
     ends: np.ndarray  # (m, ENDS) colour, width, opacity at root and tip
 
 
+class _Shaped:
+    """A chunk's hairs shaped and finished (buckets), its skin frames on the current pose,
+    and how many vertices and curves it adds to the output."""
+
+    def __init__(self, cur: SurfacePoints, buckets: list[_Bucket]) -> None:
+        self.cur = cur
+        self.buckets = buckets
+        self.counts = (
+            np.concatenate([b.keep.sum(axis=1) for b in buckets])
+            if buckets else np.zeros(0, np.int64)
+        )  # fmt: skip
+        self.vertices = int(self.counts.sum())
+        self.curves = int(np.count_nonzero(self.counts))
+
+    def after(self, at: tuple[int, int]) -> tuple[int, int]:
+        """Output (vertex, curve) position after this chunk, from ``at`` before it."""
+        return at[0] + self.vertices, at[1] + self.curves
+
+
 def _turned(frame: SurfacePoints, turn: np.ndarray) -> SurfacePoints:
     """``frame`` with tangent and binormal turned about the normal by (cos, sin) ``turn``."""
     c, s = turn[:, :1], turn[:, 1:]
@@ -154,7 +176,14 @@ def _turned(frame: SurfacePoints, turn: np.ndarray) -> SurfacePoints:
     return frame._replace(tangent=tangent, binormal=binormal)
 
 
-def _rows(value: np.ndarray, sel: np.ndarray) -> np.ndarray:
+def _run(rows: np.ndarray) -> np.ndarray | slice:
+    """Ascending distinct ``rows`` as a slice when they are one run, else as they are."""
+    if len(rows) and int(rows[-1]) - int(rows[0]) + 1 == len(rows):
+        return slice(int(rows[0]), int(rows[-1]) + 1)
+    return rows
+
+
+def _rows(value: np.ndarray, sel: np.ndarray | slice) -> np.ndarray:
     """Per-hair property rows ``sel``; a shared single row stays shared."""
     return value if len(value) == 1 else value[sel]
 
@@ -198,6 +227,7 @@ class Groom:
         self._weights_by_group: dict[int, object] = {}
         self._centre_roots: tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._centre_shapes: np.ndarray | None = None
+        self._lock = threading.RLock()
         self.params = params if params is not None else GroomParams()
 
     # ------------------------------------------------------------------ parameters
@@ -248,18 +278,18 @@ class Groom:
         count = self.params.count if count is None else count
         self._check_range(count, start)
         self._check_memory(count)
-        spans = [(a, min(a + CHUNK, start + count)) for a in range(start, start + count, CHUNK)]
+        spans = _spans(start, count)
+        layouts = ordered_map(lambda key: self._layout(*key), spans)
         # keep the layouts of this call only: repeating it (new pose, new properties)
         # reuses them, while memory stays bounded by one call's roots
-        self._layouts = {key: self._layout(*key) for key in spans}
-        layouts = list(self._layouts.values())
+        self._layouts = dict(zip(spans, layouts, strict=True))
         bound = sum(self._vertex_bound(lay) for lay in layouts)
         out = _allocate(bound, count * self.params.strand_count)
-        v = c = 0
-        for (_, b), lay in zip(spans, layouts, strict=True):
-            v, c = self._chunk(lay, time, out, v, c)
-            if progress is not None:
-                progress(b - start, count)
+        v, c = chained(
+            layouts, lambda lay: self._shape(lay, time), lambda at, shaped: shaped.after(at),
+            lambda lay, shaped, at: self._assemble(lay, shaped, out, *at), (0, 0),
+            None if progress is None else lambda k: progress(spans[k][1] - start, count),
+        )  # fmt: skip
         return _curves(out, v, c)
 
     def follow(
@@ -319,7 +349,9 @@ class Groom:
         lay = self._make_layout(tri, np.asarray(bary), ids.astype(np.int64))  # mesh validates
         bound = self._vertex_bound(lay)
         out = _allocate(bound, len(tri) * self.params.strand_count)
-        return _curves(out, *self._chunk(lay, time, out, 0, 0))
+        shaped = self._shape(lay, time)
+        self._assemble(lay, shaped, out, 0, 0)
+        return _curves(out, *shaped.after((0, 0)))
 
     # ------------------------------------------------------------------ checks
     @staticmethod
@@ -394,61 +426,72 @@ class Groom:
 
     def _group_guides(self, group: int) -> tuple[np.ndarray, object]:
         """A group's guide indices and their PointGrid (or triangulation), made once."""
-        if group not in self._weights_by_group:
-            label = self.guides.groups.label(group)
-            members = np.flatnonzero(self.guides.group == group)
-            if len(members) == 0:
-                raise InputError(
-                    f"interpolation group {label} has hairs but no guides; add guides in"
-                    " that colour's area or repaint the group texture"
-                )
-            want = {"idw": self.params.guide_samples, "barycentric": 3}.get(
-                self.params.interpolation, 1
+        with self._lock:  # chunks of one generate run on several threads
+            if group not in self._weights_by_group:
+                self._weights_by_group[group] = self._group_finder(group)
+            return self._weights_by_group[group]
+
+    def _group_finder(self, group: int) -> tuple[np.ndarray, object]:
+        label = self.guides.groups.label(group)
+        members = np.flatnonzero(self.guides.group == group)
+        if len(members) == 0:
+            raise InputError(
+                f"interpolation group {label} has hairs but no guides; add guides in"
+                " that colour's area or repaint the group texture"
             )
-            if len(members) < want:
-                log.warning(
-                    "interpolation group %s has %d guide(s), fewer than the %d its hairs"
-                    " blend (%s): they blend all of them", label, len(members), want,
-                    self.params.interpolation,
-                )  # fmt: skip
-            roots = self.guides.root_positions[members]
-            if self.params.interpolation == "barycentric":
-                finder = GuideTriangulation(roots, self.guides.normals[members])
-            else:
-                finder = PointGrid(roots)
-            self._weights_by_group[group] = (members, finder)
-        return self._weights_by_group[group]
+        want = {"idw": self.params.guide_samples, "barycentric": 3}.get(
+            self.params.interpolation, 1
+        )
+        if len(members) < want:
+            log.warning(
+                "interpolation group %s has %d guide(s), fewer than the %d its hairs"
+                " blend (%s): they blend all of them", label, len(members), want,
+                self.params.interpolation,
+            )  # fmt: skip
+        roots = self.guides.root_positions[members]
+        if self.params.interpolation == "barycentric":
+            return members, GuideTriangulation(roots, self.guides.normals[members])
+        return members, PointGrid(roots)
 
     def _centres(self) -> tuple[SurfacePoints, np.ndarray, np.ndarray]:
         """Clump centres: rest frames, groups and grown shapes in rest world space (C, N, 3).
 
         Their roots and weights stay with the layout; their shapes follow the properties.
         """
-        if self._centre_roots is None:
-            p = self.params
-            tri, bary = self.sampler.sample(p.clump_count, p.seed, "halton", _CENTRE_IDS)
-            rest = self.mesh.evaluate(tri, bary, pose="rest")
-            group = self.guides.groups.group_of(rest.uv)
-            index, weight = self._weights(rest, group)
-            rest = _turned(rest, self._turn(rest, index, weight))
-            self._centre_roots = (rest, group, index, weight)
-        rest, group, index, weight = self._centre_roots
-        if self._centre_shapes is None:
-            world = np.zeros((len(group), int(self._vertices.max()), 3))
-            props = self.properties.at(rest.uv)
-            ids = np.arange(_CENTRE_IDS, _CENTRE_IDS + len(group), dtype=np.int64)
-            for g in np.unique(group):
-                sel = np.flatnonzero(group == g)
-                n = int(self._vertices[g])
-                local = blend_guides(
-                    self.guides.local_shapes(n), index[sel], weight[sel], n,
-                    _rows(props["scale"], sel),
-                )  # fmt: skip
-                self._curl(local, props, sel, ids[sel], np.linspace(0.0, 1.0, n)[None])
-                frame = np.stack([rest.tangent[sel], rest.binormal[sel], rest.normal[sel]], 1)
-                world[sel, :n] = rest.position[sel, None] + np.einsum("hna,hab->hnb", local, frame)
-            self._centre_shapes = world
-        return rest, group, self._centre_shapes
+        with self._lock:  # chunks of one generate run on several threads
+            if self._centre_roots is None:
+                self._centre_roots = self._centre_layout()
+            if self._centre_shapes is None:
+                self._centre_shapes = self._centre_grown(*self._centre_roots)
+            return *self._centre_roots[:2], self._centre_shapes
+
+    def _centre_layout(self) -> tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray]:
+        """Clump centres' rest frames (turned to their guides), groups, guide weights."""
+        p = self.params
+        tri, bary = self.sampler.sample(p.clump_count, p.seed, "halton", _CENTRE_IDS)
+        rest = self.mesh.evaluate(tri, bary, pose="rest")
+        group = self.guides.groups.group_of(rest.uv)
+        index, weight = self._weights(rest, group)
+        return _turned(rest, self._turn(rest, index, weight)), group, index, weight
+
+    def _centre_grown(
+        self, rest: SurfacePoints, group: np.ndarray, index: np.ndarray, weight: np.ndarray
+    ) -> np.ndarray:
+        """Clump centres' shapes (C, N, 3) in rest world space: blended, scaled, curled."""
+        world = np.zeros((len(group), int(self._vertices.max()), 3))
+        props = self.properties.at(rest.uv)
+        ids = np.arange(_CENTRE_IDS, _CENTRE_IDS + len(group), dtype=np.int64)
+        for g in np.unique(group):
+            sel = np.flatnonzero(group == g)
+            n = int(self._vertices[g])
+            local = blend_guides(
+                self.guides.local_shapes(n), index[sel], weight[sel], n,
+                _rows(props["scale"], sel),
+            )  # fmt: skip
+            self._curl(local, props, sel, ids[sel], np.linspace(0.0, 1.0, n)[None])
+            frame = np.stack([rest.tangent[sel], rest.binormal[sel], rest.normal[sel]], 1)
+            world[sel, :n] = rest.position[sel, None] + np.einsum("hna,hab->hnb", local, frame)
+        return world
 
     # ------------------------------------------------------------------ shaping
     def _vertex_bound(self, lay: _Layout) -> int:
@@ -460,10 +503,8 @@ class Groom:
         )
         return need * self.params.strand_count
 
-    def _chunk(
-        self, lay: _Layout, time: float, out: dict[str, np.ndarray], v: int, c: int
-    ) -> tuple[int, int]:
-        """Grow the hairs of ``lay`` into ``out`` from vertex ``v``, curve ``c``; the new ends."""
+    def _shape(self, lay: _Layout, time: float) -> _Shaped:
+        """The hairs of ``lay`` grown and finished, with their skin frames on the current pose."""
         props = self.properties.at(lay.rest.uv)
         buckets = []
         for g in np.unique(lay.group):
@@ -473,13 +514,15 @@ class Groom:
             for n in np.unique(need[need >= 2]):
                 rows = sel[need == n]
                 buckets.append(self._bucket(lay, props, rows, n_total, int(n), time))
-        if self.displacement is None:
-            cur = self.mesh.evaluate(lay.triangles, lay.bary, pose="current")
-        else:
+        if self.displacement is not None:
             cur = displace(
                 self.mesh, lay.triangles, lay.bary, self.displacement, self.displacement_scale
             )
-        return self._assemble(lay, _turned(cur, lay.turn), buckets, out, v, c)
+        elif self.mesh.at_rest:
+            return _Shaped(lay.rest, buckets)  # the layout's frames, already turned
+        else:
+            cur = self.mesh.evaluate(lay.triangles, lay.bary, pose="current")
+        return _Shaped(_turned(cur, lay.turn), buckets)
 
     def _bucket(
         self, lay: _Layout, props: dict[str, np.ndarray], rows: np.ndarray, n_total: int,
@@ -487,33 +530,34 @@ class Groom:
     ) -> _Bucket:  # fmt: skip
         """Hairs ``rows`` (one group, ``n`` of ``n_total`` vertices needed) shaped, finished."""
         p = self.params
+        pick = _run(rows)  # one run of rows (the common case): gathers below are views
 
         def prop(name: str) -> np.ndarray:
-            return _rows(props[name], rows)
+            return _rows(props[name], pick)
 
-        ids = lay.ids[rows]
+        ids = lay.ids[pick]
         t = (np.arange(n) / (n_total - 1))[None]
         scale = prop("scale")
         if (props["random_scale"] > 0).any():
             xi = uniforms(p.seed, ids, "random scale", 1)[:, 0]
             scale = scale * (1.0 - prop("random_scale") * xi)
         rest = lay.rest
-        root = rest.position[rows]
-        frame = (rest.tangent[rows], rest.binormal[rows], rest.normal[rows])
-        index = lay.guide_index[rows]
+        root = rest.position[pick]
+        frame = (rest.tangent[pick], rest.binormal[pick], rest.normal[pick])
+        index = lay.guide_index[pick]
         if p.interpolation == "offset" and p.offset_mode == "translate":
             local = translate_guides(self.guides.rest_shapes(n_total), index[:, 0], frame, n, scale)
         else:
             local = blend_guides(
-                self.guides.local_shapes(n_total), index, lay.guide_weight[rows], n, scale
+                self.guides.local_shapes(n_total), index, lay.guide_weight[pick], n, scale
             )
             if p.interpolation == "offset" and p.offset_angle > 0:
                 tilt(local, p.seed, ids, p.offset_angle)
-        self._curl(local, props, rows, ids, t)
+        self._curl(local, props, pick, ids, t)
         if lay.clump is not None:
             centre = self._centres()[2]
             clump(
-                local, centre, lay.clump[rows], (root, *frame), prop("clump_root"),
+                local, centre, lay.clump[pick], (root, *frame), prop("clump_root"),
                 prop("clump_tip"), p.clump_profile, prop("clump_noise"), ids, p.seed, t,
             )  # fmt: skip
         if (props["frizz_root"] > 0).any() or (props["frizz_tip"] > 0).any():
@@ -530,7 +574,7 @@ class Groom:
         return self._finish(local, rows, ids, prop, n_total)
 
     def _curl(
-        self, local: np.ndarray, props: dict[str, np.ndarray], rows: np.ndarray,
+        self, local: np.ndarray, props: dict[str, np.ndarray], rows: np.ndarray | slice,
         ids: np.ndarray, t: np.ndarray,
     ) -> None:  # fmt: skip
         """001 §3.1.2 curl on ``local`` when any hair has a curl radius."""
@@ -579,15 +623,15 @@ class Groom:
         return _Bucket(rows, strand, strand_uv, local, n_total, length, keep, t_end, ends)
 
     def _assemble(
-        self, lay: _Layout, cur: SurfacePoints, buckets: list[_Bucket],
-        out: dict[str, np.ndarray], v: int, c: int,
-    ) -> tuple[int, int]:  # fmt: skip
-        """Buckets packed in (hair id, strand) order, placed on the current pose, into ``out``."""
+        self, lay: _Layout, shaped: _Shaped, out: dict[str, np.ndarray], v: int, c: int
+    ) -> None:
+        """Shaped hairs packed in (hair id, strand) order, placed on the current pose, into
+        ``out`` from vertex ``v`` and curve ``c`` on."""
+        buckets, cur, counts = shaped.buckets, shaped.cur, shaped.counts
         if not buckets:
-            return v, c
+            return
         strands = self.params.strand_count
         keys = np.concatenate([b.rows * strands + b.strand for b in buckets])
-        counts = np.concatenate([b.keep.sum(axis=1) for b in buckets])
         order = np.argsort(keys, kind="stable")
         ends = v + np.cumsum(counts[order])
         start = np.empty(len(keys), dtype=np.int64)
@@ -611,13 +655,23 @@ class Groom:
         out["strand_uv"][c:end] = np.concatenate([b.strand_uv for b in buckets])[kept]
         out["root_triangle"][c:end] = lay.triangles[rows]
         out["root_bary"][c:end] = lay.bary[rows]
-        return int(ends[-1]) if len(ends) else v, end
+
+
+def _spans(start: int, count: int) -> list[tuple[int, int]]:
+    """Id ranges of about CHUNK hairs covering [start, start + count), as many as a
+    multiple of the worker threads and of equal size, so the threads finish together."""
+    if count == 0:
+        return []
+    threads = workers(-(-count // CHUNK))
+    pieces = -(-count // (CHUNK * threads)) * threads
+    size = -(-count // pieces)
+    return [(a, min(a + size, start + count)) for a in range(start, start + count, size)]
 
 
 def _allocate(vertices: int, curves: int) -> dict[str, np.ndarray]:
-    """Output arrays for at most ``vertices`` vertices and ``curves`` curves."""
+    """Output arrays for at most ``vertices`` vertices and ``curves`` curves, paged in."""
     return {
-        k: np.empty((n, *shape), dtype)
+        k: empty_touched((n, *shape), dtype)
         for fields, n in ((_POINT_FIELDS, vertices), (_CURVE_FIELDS, curves))
         for k, (dtype, shape) in fields.items()
     }

@@ -169,7 +169,7 @@ class PointGrid:
 
 
 # ---------------------------------------------------------------------- build
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _build_lists(pts, starts, dims, lo, h):
     """Per cell, the points of its 3×3×3 block sorted by distance from the cell's centre.
 
@@ -328,7 +328,7 @@ def _unvisited_bound2(qx, qy, qz, cx, cy, cz, r, dims, lo, hi, h, eps):
     return b2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _shells(qx, qy, qz, cx, cy, cz, pts, index, starts, dims, lo, hi, h, eps, reach, worst,
             out_d, out_i, qi):  # fmt: skip
     """Search the shells of cells at Chebyshev distance 2 … reach around (cx, cy, cz).
@@ -380,7 +380,7 @@ def _shells(qx, qy, qz, cx, cy, cz, pts, index, starts, dims, lo, hi, h, eps, re
     return False
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _query_kernel(queries, pts, index, starts, list_starts, list_pos, list_dist, dims, lo, hi,
                   h, inv_h, eps, reach, list_max, out_d, out_i, hard):  # fmt: skip
     """Top-k rows from the grid; hard[q] = 1 marks rows left to the k-d tree."""
@@ -443,7 +443,7 @@ def _query_kernel(queries, pts, index, starts, list_starts, list_pos, list_dist,
             hard[qi] = 1
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _rank_kernel(queries, rows, points, cand, beyond, out_d, out_i, ok):
     """Top-k of each row's candidates (original indices) by distance², then index.
 

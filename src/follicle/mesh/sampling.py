@@ -72,7 +72,7 @@ def subtriangle_table(depth: int) -> np.ndarray:
     return table.astype(np.float32)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _level(g):
     """Subdivision depth of sub-triangle index g (0 for the whole triangle)."""
     level = 0
@@ -92,7 +92,7 @@ _RULE_POINTS = np.array([
 _RULE_WEIGHTS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0]) / 12.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _leaf_value(data, repeat, uvs, t, table, g):
     """Mean bilinear density over sub-triangle g of triangle t.
 
@@ -114,7 +114,7 @@ def _leaf_value(data, repeat, uvs, t, table, g):
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _merged_leaves(data, repeat, uvs, t, depth, table, scratch, out_sub, out_val, at):
     """Subdivide triangle t to ``depth``, merge equal siblings (Fig. 2.3), emit leaves.
 
@@ -154,7 +154,7 @@ def _merged_leaves(data, repeat, uvs, t, depth, table, scratch, out_sub, out_val
     return count
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _subdivide(data, repeat, uvs, depths, areas, table, counts, offsets, out_sub, out_val,
                out_parent, out_weight):
     """Count (``out_sub`` empty) or emit the merged leaves of every triangle."""
@@ -185,7 +185,7 @@ def _subdivide(data, repeat, uvs, depths, areas, table, counts, offsets, out_sub
                 out_weight[k] = out_val[k] * areas[t] / 4.0 ** _level(out_sub[k])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _build_grid(cdf, cells):
     """lo[k] = first i with cdf[i] > ceil(k·2³²/cells), k = 0 … cells (§2.1.6)."""
     lo = np.empty(cells + 1, dtype=np.int32)
@@ -199,7 +199,7 @@ def _build_grid(cdf, cells):
     return lo
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _sub_values(data, repeat, uvs, parents, subs, table):
     """Density value and depth of every stored sub-triangle (recomputed, not stored)."""
     values = np.empty(parents.shape[0], dtype=np.float64)
@@ -214,7 +214,7 @@ def _sub_values(data, repeat, uvs, parents, subs, table):
 _BATCH = 512  # samples per batch: the grid loads of a batch overlap in memory
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _sample_kernel(records, grid, table, seed, halton, start, tri, bary, index):
     """Samples start … start+n−1 into ``tri``, ``bary`` (and ``index`` when it is long).
 

@@ -133,6 +133,11 @@ class SkinMesh:
         self.vertices = self.rest_vertices
         self._drop_current()
 
+    @property
+    def at_rest(self) -> bool:
+        """True while the current pose is the rest pose (never set, or reset)."""
+        return self.vertices is self.rest_vertices
+
     def _drop_current(self) -> None:
         for key in [k for k in self._cache if k[1] == "current"]:
             del self._cache[key]
@@ -146,7 +151,7 @@ class SkinMesh:
 
     def _cached(self, what: str, pose: str, make) -> np.ndarray:
         self._verts(pose)  # validates pose
-        if self.vertices is self.rest_vertices:
+        if self.at_rest:
             pose = "rest"  # not posed: the current pose shares the rest pose's data
         key = (what, pose)
         if key not in self._cache:
@@ -441,7 +446,7 @@ def closest_weights(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     return va * inv, vb * inv, vc * inv
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _closest_kernel(q, verts, faces, qi, ti):
     """Best (triangle, u, v, squared distance) per query over candidate pairs (qi, ti).
 
@@ -472,7 +477,7 @@ def _closest_kernel(q, verts, faces, qi, ti):
     return best_t, best_u, best_v, best_d
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _evaluate_kernel(verts, normals, tangents, uvs, faces, tri, bary, position, normal, tangent,
                      binormal, uv):  # fmt: skip
     """Barycentric interpolation plus the root frame of 000 §2.2.3 for every sample."""

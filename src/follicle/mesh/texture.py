@@ -154,7 +154,7 @@ def _wrap(i, n, repeat):
     return min(max(i, 0), n - 1)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bilinear(data, repeat, u, v, c):
     """Channel ``c`` of (H, W, C) ``data`` at (u, v), bilinear; for use inside kernels."""
     h, w = data.shape[0], data.shape[1]
@@ -172,7 +172,7 @@ def bilinear(data, repeat, u, v, c):
     return top * (1.0 - fy) + bottom * fy
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _sample_kernel(data, repeat, uv):
     out = np.empty((uv.shape[0], data.shape[2]), dtype=np.float64)
     for n in range(uv.shape[0]):
