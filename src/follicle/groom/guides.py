@@ -13,6 +13,7 @@ import logging
 import os
 
 import numpy as np
+from numba import njit
 
 from ..curves import HairCurves
 from ..errors import InputError
@@ -25,21 +26,51 @@ _FAR = 0.01  # warn when a root is farther from the mesh than this share of its 
 __all__ = ["Guides", "load_guides", "resample_arclength"]
 
 
+@njit(cache=True, nogil=True)
+def _resample_kernel(points, offsets, s_new, out):
+    """Each curve at parameters ``s_new`` of its normalised arc length, as np.interp
+    computes it; returns the first zero-length curve, or −1."""
+    for c in range(offsets.shape[0] - 1):
+        a = offsets[c]
+        n = offsets[c + 1] - a
+        s = np.empty(n)
+        s[0] = 0.0
+        for i in range(1, n):
+            dx = points[a + i, 0] - points[a + i - 1, 0]
+            dy = points[a + i, 1] - points[a + i - 1, 1]
+            dz = points[a + i, 2] - points[a + i - 1, 2]
+            s[i] = s[i - 1] + np.sqrt(dx * dx + dy * dy + dz * dz)
+        total = s[n - 1]
+        if not total > 0.0:
+            return c
+        for i in range(n):
+            s[i] /= total
+        j = 0
+        for k in range(s_new.shape[0]):
+            x = s_new[k]
+            if x >= s[n - 1]:
+                for axis in range(3):
+                    out[c, k, axis] = points[a + n - 1, axis]
+                continue
+            while j + 1 < n and s[j + 1] <= x:
+                j += 1
+            for axis in range(3):
+                f0 = points[a + j, axis]
+                slope = (points[a + j + 1, axis] - f0) / (s[j + 1] - s[j])
+                out[c, k, axis] = slope * (x - s[j]) + f0
+    return -1
+
+
 def resample_arclength(curves: HairCurves, vertices: int) -> np.ndarray:
     """Every curve resampled to ``vertices`` points evenly spaced by arc length, (C, n, 3)."""
     if vertices < 2:
         raise InputError(f"vertices: need at least 2 per curve, got {vertices}")
     out = np.empty((curves.curve_count, vertices, 3), dtype=np.float64)
-    s_new = np.linspace(0.0, 1.0, vertices)
-    for i in range(curves.curve_count):
-        pts = curves.curve(i).astype(np.float64)
-        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        s = np.concatenate([[0.0], np.cumsum(seg)])
-        if s[-1] <= 0:
-            raise InputError(f"guide {i} has zero length; remove it or give it a shape")
-        s /= s[-1]
-        for axis in range(3):
-            out[i, :, axis] = np.interp(s_new, s, pts[:, axis])
+    points = np.ascontiguousarray(curves.points, dtype=np.float64)
+    offsets = np.ascontiguousarray(curves.offsets, dtype=np.int64)
+    bad = _resample_kernel(points, offsets, np.linspace(0.0, 1.0, vertices), out)
+    if bad >= 0:
+        raise InputError(f"guide {bad} has zero length; remove it or give it a shape")
     return out
 
 
