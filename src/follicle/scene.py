@@ -292,7 +292,10 @@ class SimParams(_Section):
     shape_local: Unit = Field(
         0.0, description="stiffness towards each segment's rest direction (local shape)"
     )
-    shape_global: Unit = Field(0.0, description="stiffness towards the skinned rest pose")
+    shape_global: Unit = Field(
+        0.05, description="stiffness towards the skinned rest pose (0.05 keeps a groom's"
+        " style under gravity and still lets it swing; 0 = hair falls freely)",
+    )
     shape_global_range: tuple[Unit, Unit] = Field(
         (0.0, 1.0), description="global shape: full up to the first, zero from the second"
         " (root-to-tip fractions)",
