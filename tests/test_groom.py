@@ -89,6 +89,29 @@ def test_growth_is_deterministic_and_chunk_independent(monkeypatch):
     assert not np.array_equal(a.points, c.points)
 
 
+def test_growth_is_the_same_on_one_thread_and_on_all(monkeypatch):
+    """Chunks grown side by side (follicle.threads) and one after another give the same
+    bytes, with clumps and a cut map (uneven chunks) and a progress report in order."""
+    import numba
+
+    import follicle.groom.generator as gen
+
+    monkeypatch.setattr(gen, "CHUNK", 50)
+    mesh = _plane()
+    guides = _upright_guides(mesh, [(0.2, 0.2), (0.8, 0.3), (0.5, 0.8), (0.3, 0.6)])
+    params = GroomParams(count=700, vertices=6, clump_count=20, cut=0.6, random_scale=0.3)
+    reports = []
+    together = Groom(mesh, guides, params).generate(progress=lambda d, n: reports.append(d))
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)  # this thread only: generate runs its chunks in order
+    try:
+        alone = Groom(mesh, guides, params).generate()
+    finally:
+        numba.set_num_threads(threads)
+    assert together == alone
+    assert reports == sorted(reports) and reports[-1] == 700 and len(reports) > 1
+
+
 def test_bad_groom_input():
     mesh = _plane()
     guides = _upright_guides(mesh, [(0.2, 0.2)])
