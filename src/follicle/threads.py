@@ -1,6 +1,6 @@
 """Chunks of work spread over threads, each running its numba kernels on one core.
 
-Many-chunk jobs (a million hairs in 64 k pieces) spend a good part of their time in
+Many-chunk jobs (a million hairs in 32 k pieces) spend a good part of their time in
 the NumPy and Python glue between kernels, which a ``prange`` inside each kernel does
 not spread over the cores. Running whole chunks side by side on as many threads as
 numba uses (every kernel they call releases the GIL: ``nogil=True``), each with

@@ -9,7 +9,9 @@ All shaping happens in rest-pose root-local frames. Roots, groups, interpolation
 weights and clump membership (the *layout*) are computed once per id range and kept
 (000 §2.3.6, Table 2.1): a new mesh pose only re-places the hairs, a property change
 regenerates them without re-sampling. Each hair is a pure function of (seed, hair id),
-so generating ids [0, N) at once equals concatenating any split of them, byte for byte.
+so generating ids [0, N) at once equals concatenating any split of them, byte for byte;
+that is also what lets the chunks of one call grow side by side on numba's threads
+(:mod:`follicle.threads`).
 """
 
 from __future__ import annotations
@@ -432,6 +434,7 @@ class Groom:
             return self._weights_by_group[group]
 
     def _group_finder(self, group: int) -> tuple[np.ndarray, object]:
+        """Make :meth:`_group_guides`' pair; an error when the group has no guides."""
         label = self.guides.groups.label(group)
         members = np.flatnonzero(self.guides.group == group)
         if len(members) == 0:
