@@ -19,6 +19,7 @@ from follicle.cli import main
 from follicle.errors import ConfigError, FormatError, InputError
 from follicle.scene import load_scene, parse_scene
 from follicle.view import Controller, view
+from follicle.view.app import _finish
 from follicle.view.controller import Show
 from glmark import gl
 
@@ -184,6 +185,12 @@ def test_recording_writes_each_frame(ctl, tmp_path):
     with pytest.raises(InputError, match="no frames"):
         ctl.stop_recording()
     assert [p.name for p in tmp_path.iterdir()] == ["clip.mp4"]
+    # the viewer ending right after record was pressed: no error, no file
+    ctl.start_recording(tmp_path / "late.mp4")
+    _finish(ctl, None)
+    assert ctl.recording == 0
+    ctl.release()
+    assert ctl.recording is None and [p.name for p in tmp_path.iterdir()] == ["clip.mp4"]
 
 
 def orange(image):

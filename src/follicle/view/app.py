@@ -79,8 +79,9 @@ def view(
 
 
 def _finish(ctl: Controller, screenshot: str | os.PathLike[str] | None) -> None:
-    """The end of a loop: a recording still on is finished, the screenshot written."""
-    if ctl.recording is not None:
+    """The end of a loop: a recording still on is finished (one begun with no frame
+    yet is dropped by ``release``), the screenshot written."""
+    if ctl.recording:
         ctl.stop_recording()
     if screenshot is not None:
         ctl.screenshot(screenshot)
