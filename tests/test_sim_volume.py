@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from follicle.errors import InputError
-from follicle.sim.volume import GridSpec, VolumeGrid, apply_volume, grid_for
+from follicle.sim.volume import GridSpec, VolumeGrid, _bounds, apply_volume, grid_for, volume_step
 
 # 5 × 5 × 5 vertices, h = 0.5, vertex (i, j, k) at 0.5·(i, j, k)
 SMALL = GridSpec(origin=np.zeros(3), voxel=0.5, shape=(5, 5, 5))
@@ -340,3 +340,22 @@ def test_many_particles_stay_finite():
     grid = apply_volume(x, v, dt=1 / 60, friction=0.1, repulsion=0.05)
     assert np.isfinite(v).all() and np.isfinite(grid.density).all()
     assert grid.density.sum() > 0
+
+
+@pytest.mark.parametrize("count", [1, 7, 50_000])
+def test_unchecked_step_equals_apply_volume(count):
+    """The simulator's volume_step (no input scans) gives apply_volume's bytes, and its
+    one-pass bounds fit the same grid as the points' numpy bounds."""
+    rng = np.random.default_rng(count)
+    x = rng.normal(0.0, 0.05, (count, 4, 3))
+    v0 = rng.normal(0.0, 0.3, (count, 4, 3))
+    free = np.ones((count, 4), dtype=np.bool_)
+    free[:, 0] = False
+    a, b = v0.copy(), v0.copy()
+    ga = apply_volume(x, a, 1 / 120, 0.2, 0.05, blur_passes=1, resolution=16)
+    gb = volume_step(x, b, free, 1 / 120, 0.2, 0.05, 1, 16)
+    assert a.tobytes() == b.tobytes() and not np.array_equal(a, v0)
+    assert ga.density.tobytes() == gb.density.tobytes()
+    lo, hi = _bounds(x.reshape(-1, 3))
+    np.testing.assert_array_equal(lo, x.reshape(-1, 3).min(axis=0))
+    np.testing.assert_array_equal(hi, x.reshape(-1, 3).max(axis=0))

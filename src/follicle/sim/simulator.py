@@ -26,7 +26,7 @@ from .model import Model
 from .sdf import SDF
 from .solver import Solver
 from .state import State
-from .volume import apply_volume
+from .volume import volume_step
 
 __all__ = ["Simulator"]
 
@@ -76,6 +76,7 @@ class Simulator:
         self.mesh = mesh
         self.params = params
         self.model = Model.build(guides, mesh, params.vertices)
+        self._free = self.model.inv_mass != 0  # particles the volume may move (not roots)
         self._transform = np.eye(4)
         self._accumulator = 0.0
         self._pinned_cache: tuple[np.ndarray, np.ndarray] | None = None
@@ -228,10 +229,9 @@ class Simulator:
             moved = self._collider_move(transform, sdf, colliders)
             self.solver.substep(self.state, start, end, f, self.wind(self.state.time), colliders,
                                 moved)  # fmt: skip
-            if volume:
-                apply_volume(self.state.x, self.state.v, h, p.volume_friction,
-                             p.volume_repulsion, p.volume_blur, p.volume_resolution,
-                             inv_mass=self.model.inv_mass)  # fmt: skip
+            if volume:  # the state is finite (the solver puts back a strand that is not)
+                volume_step(self.state.x, self.state.v, self._free, h, p.volume_friction,
+                            p.volume_repulsion, p.volume_blur, p.volume_resolution)
         self.state.roots, self.state.frames = end
         self._state_transform = finish
 

@@ -57,7 +57,7 @@ from numba import njit, prange
 from ..arrays import all_finite
 from ..errors import InputError
 
-__all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume"]
+__all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume", "volume_step"]
 
 _MAX_CELLS = 128**3  # cap on cells in a grid (2.1 M; 68 MB of int64 sums per thread)
 _MIN_VOXEL = 1e-6  # m; voxel size for a single point or a sub-micrometre cloud
@@ -106,9 +106,12 @@ def grid_for(
     _check_resolution(resolution, voxel_size)
     if isinstance(margin, bool) or not isinstance(margin, Integral) or margin < 1:
         raise InputError(f"margin: must be an integer >= 1 (voxels), got {margin!r}")
-    # per column: numpy's min(axis=0) over (M, 3) is ~50× slower than three strided scans
-    lo = np.array([pts[:, a].min() for a in range(3)], dtype=np.float64)
-    hi = np.array([pts[:, a].max() for a in range(3)], dtype=np.float64)
+    return _fitted(pts, resolution, voxel_size, margin)
+
+
+def _fitted(pts: np.ndarray, resolution: int, voxel_size: float | None, margin: int) -> GridSpec:
+    """:func:`grid_for` of validated (M, 3) points."""
+    lo, hi = _bounds(pts)
     extent = hi - lo
     h = float(voxel_size) if voxel_size is not None else max(extent.max() / resolution, _MIN_VOXEL)
     cells = _cells(extent, h, margin)
@@ -215,10 +218,24 @@ def apply_volume(
     repulsion = _number(repulsion, "repulsion", "a number >= 0", lambda a: a >= 0)
     free = _free_mask(inv_mass, xs.shape[:2])
     passes = _blur_passes(blur_passes)
-    grid = _splat_grid(xs, v, grid_for(xs, resolution, voxel_size, 1 + passes), passes)
-    h = grid.spec.voxel
-    _update(xs.reshape(-1, 3), v.reshape(-1, 3), free.reshape(-1), grid.flow, grid.spec.origin,
-            1 / h, friction, repulsion * h / dt)
+    _check_resolution(resolution, voxel_size)
+    return volume_step(xs, v, free, dt, friction, repulsion, passes, resolution, voxel_size)
+
+
+def volume_step(
+    x: np.ndarray, v: np.ndarray, free: np.ndarray, dt: float, friction: float,
+    repulsion: float, blur_passes: int, resolution: int, voxel_size: float | None = None,
+) -> VolumeGrid:  # fmt: skip
+    """:func:`apply_volume` without its checks, for a caller whose arrays are known
+    good (the simulator, every substep: scanning a million particles for NaN and
+    bounds in Python took a fifth of the volume's time): ``x``, ``v`` C-contiguous
+    (S, N, 3) finite, ``free`` (S, N) bool, the numbers in range."""
+    pts = x.reshape(-1, 3)
+    spec = _fitted(pts, resolution, voxel_size, 1 + blur_passes)
+    grid = _splat_grid(x, v, spec, blur_passes)
+    h = spec.voxel
+    _update(pts, v.reshape(-1, 3), free.reshape(-1), grid.flow, spec.origin, 1 / h, friction,
+            repulsion * h / dt)
     return grid
 
 
@@ -315,6 +332,32 @@ def _splat_grid(x: np.ndarray, v: np.ndarray, spec: GridSpec, blur_passes: int) 
 
 
 # --- kernels ---------------------------------------------------------------------------
+
+
+@njit(cache=True, parallel=True)
+def _bounds_kernel(pts, lo, hi):
+    """Per chunk of points, the smallest and largest coordinate on each axis."""
+    m = pts.shape[0]
+    for c in prange(lo.shape[0]):
+        a = c * m // lo.shape[0]
+        b = (c + 1) * m // lo.shape[0]
+        for ax in range(3):
+            lo[c, ax] = np.inf
+            hi[c, ax] = -np.inf
+        for p in range(a, b):
+            for ax in range(3):
+                value = pts[p, ax]
+                lo[c, ax] = min(lo[c, ax], value)
+                hi[c, ax] = max(hi[c, ax], value)
+
+
+def _bounds(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds (lo, hi) of finite (M, 3) points, M ≥ 1, as float64, in one parallel pass."""
+    chunks = max(1, min(64, len(pts) // 4096))
+    lo = np.empty((chunks, 3))
+    hi = np.empty((chunks, 3))
+    _bounds_kernel(pts, lo, hi)
+    return lo.min(axis=0), hi.max(axis=0)
 
 
 @njit(cache=True)
