@@ -354,8 +354,12 @@ def test_unchecked_step_equals_apply_volume(count):
     a, b = v0.copy(), v0.copy()
     ga = apply_volume(x, a, 1 / 120, 0.2, 0.05, blur_passes=1, resolution=16)
     gb = volume_step(x, b, free, 1 / 120, 0.2, 0.05, 1, 16)
-    assert a.tobytes() == b.tobytes() and not np.array_equal(a, v0)
+    assert a.tobytes() == b.tobytes()
     assert ga.density.tobytes() == gb.density.tobytes()
+    if count == 1:  # its 4 particles lie voxels apart: each meets only its own splat
+        np.testing.assert_allclose(a, v0, rtol=0, atol=1e-12)
+    else:
+        assert np.abs(a - v0).max() > 1e-3
     lo, hi = _bounds(x.reshape(-1, 3))
     np.testing.assert_array_equal(lo, x.reshape(-1, 3).min(axis=0))
     np.testing.assert_array_equal(hi, x.reshape(-1, 3).max(axis=0))

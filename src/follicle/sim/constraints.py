@@ -32,12 +32,14 @@ import math
 
 from numba import njit
 
+from ..arrays import FMA
+
 __all__ = ["distance_pass", "bend_pass", "follow_the_leader", "strain_limit", "cone_pass",
            "rest_pose", "local_shape_pass", "global_shape_pass"]  # fmt: skip
 
 _TINY = 1e-12  # segments shorter than this have no direction
 
-_jit = njit(cache=True, error_model="numpy")
+_jit = njit(cache=True, error_model="numpy", fastmath=FMA)
 
 
 @njit(cache=True, inline="always")
@@ -172,17 +174,17 @@ def cone_pass(X, cos_limit, sin_limit, first, nb):
 
 
 @_jit
-def rest_pose(root, frame, local, s0, target, rest_dir, nb):
+def rest_pose(root, frame, local, target, rest_dir, nb):
     """The rest shape skinned to the roots: ``target`` (N, 3, B) = root + frame ·
-    ``local[s0 + b]`` (rows tangent, binormal, normal of ``frame`` (3, 3, B)), and
+    ``local`` (N, 3, B) (rows tangent, binormal, normal of ``frame`` (3, 3, B)), and
     ``rest_dir`` (N, 3, B) its unit segments, row i the one ending at vertex i (zero when
     degenerate): what shape matching reads, made once per substep."""
-    for b in range(nb):
-        for i in range(target.shape[0]):
-            lx, ly, lz = local[s0 + b, i, 0], local[s0 + b, i, 1], local[s0 + b, i, 2]
-            for a in range(3):
-                target[i, a, b] = (root[a, b] + lx * frame[0, a, b] + ly * frame[1, a, b]
-                                   + lz * frame[2, a, b])  # fmt: skip
+    for i in range(target.shape[0]):
+        for a in range(3):
+            for b in range(nb):
+                target[i, a, b] = (root[a, b] + local[i, 0, b] * frame[0, a, b]
+                                   + local[i, 1, b] * frame[1, a, b]
+                                   + local[i, 2, b] * frame[2, a, b])  # fmt: skip
     for b in range(nb):
         rest_dir[0, 0, b] = rest_dir[0, 1, b] = rest_dir[0, 2, b] = 0.0
     for i in range(1, target.shape[0]):

@@ -18,6 +18,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..arrays import FMA
 from ..errors import InputError
 from .collision import collide
 from .constraints import (
@@ -77,7 +78,7 @@ def _pin(roots0, frames0, roots1, frames1, f, s, b, root, frame):
     frame[2, 0, b], frame[2, 1, b], frame[2, 2, b] = nx, ny, nz
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=FMA)
 def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
                   sdf_inv_voxel, sdf_lfw, M, nb):  # fmt: skip
     """Push the free vertices out of the colliders grown by their margins ``M`` (N, B);
@@ -87,6 +88,7 @@ def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_o
     if spheres.shape[0] == 0 and capsules.shape[0] == 0 and sdf_values.size == 0:
         return
     far = np.empty(X.shape[2])
+    todo = np.empty(X.shape[2], np.int64)
     for i in range(1, X.shape[0]):
         looks = -math.inf
         for b in range(nb):  # branch-free, so it vectorises: which vertices may touch
@@ -95,11 +97,14 @@ def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_o
             dz = X[i, 2, b] - ref[i, 2, b]
             far[b] = (dx * dx + dy * dy + dz * dz - gap2[i, b]) * W[i, b]
             looks = max(looks, far[b])
-        if looks < 0.0:  # (W ≥ 0: a pinned vertex gives 0, never looked up below)
+        if looks < 0.0:
             continue
+        count = 0  # the free vertices that may touch, listed without a branch …
         for b in range(nb):
-            if W[i, b] == 0.0 or far[b] < 0.0:
-                continue
+            todo[count] = b
+            count += (far[b] >= 0.0) & (W[i, b] > 0.0)
+        for q in range(count):  # … so the loop over them mispredicts no skip
+            b = todo[q]
             px, py, pz, nx, ny, nz, hit, gap = collide(
                 X[i, 0, b], X[i, 1, b], X[i, 2, b], spheres, capsules, sdf_values,
                 sdf_origin, sdf_inv_voxel, sdf_lfw, M[i, b],
@@ -111,7 +116,7 @@ def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_o
                 contact[i, 0, b], contact[i, 1, b], contact[i, 2, b] = nx, ny, nz
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
 def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, root_direction,
                     roots0, frames0, roots1, frames1, f, dt, damp, euler, dftl, iterations,
                     gravity, wind, turbulence, frequency, scroll, drag, k_stretch, k_bend,
@@ -137,10 +142,7 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
         rest_dir = np.empty((n, 3, BLOCK))
         ref = np.empty((n, 3, BLOCK))  # where each vertex was last found clear …
         gap2 = np.empty((n, BLOCK))  # … and how far (squared) it may move from there
-        W = np.empty((n, BLOCK))
-        L = np.zeros((n, BLOCK))
-        R = np.empty((n, BLOCK))
-        M = np.empty((n, BLOCK))
+        W, L, R, M = w[block], rest_length[block], bend_rest[block], margin[block]
         root = np.empty((3, BLOCK))
         frame = np.empty((3, 3, BLOCK))
         static = np.empty((3, BLOCK))
@@ -150,13 +152,8 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
         for b in range(nb):  # gather the block, vertex-major
             s = s0 + b
             for i in range(n):
-                W[i, b] = w[s, i]
-                R[i, b] = bend_rest[s, i]
-                M[i, b] = margin[s, i]
                 allow = clear[s, i] - shift  # the colliders' own move eats into it
                 gap2[i, b] = allow * allow if allow > 0.0 else -1.0
-                if i < n - 1:
-                    L[i, b] = rest_length[s, i]
                 for a in range(3):
                     X[i, a, b] = X0[i, a, b] = ref[i, a, b] = x[s, i, a]
                     V0[i, a, b] = v[s, i, a]
@@ -194,7 +191,7 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                     X[i, 1, b] += m * (vy * dt * damp + ay * dt * dt)
                     X[i, 2, b] += m * (vz * dt * damp + az * dt * dt)
         if shape:
-            rest_pose(root, frame, rest_local, s0, target, rest_dir, nb)
+            rest_pose(root, frame, rest_local[block], target, rest_dir, nb)
         for _ in range(iterations):
             if not dftl:
                 distance_pass(X, W, L, k_stretch, row, nb)
@@ -241,6 +238,14 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
             for a in range(3):
                 for b in range(nb):
                     ok[b] &= math.isfinite(X[i, a, b]) & math.isfinite(V[i, a, b])
+        for i in range(n):  # the allowance left after this substep (-1: unknown)
+            for b in range(nb):
+                dx = X[i, 0, b] - ref[i, 0, b]
+                dy = X[i, 1, b] - ref[i, 1, b]
+                dz = X[i, 2, b] - ref[i, 2, b]
+                g = gap2[i, b]
+                left = math.sqrt(max(g, 0.0)) - math.sqrt(dx * dx + dy * dy + dz * dz)
+                gap2[i, b] = left if g >= 0.0 else -1.0
         for b in range(nb):  # scatter back, or keep the old state where anything blew up
             s = s0 + b
             src_x, src_v = (X, V) if ok[b] else (X0, V0)
@@ -248,14 +253,21 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                 for a in range(3):
                     x[s, i, a] = src_x[i, a, b]
                     v[s, i, a] = src_v[i, a, b]
-                left = -1.0
-                if ok[b] and gap2[i, b] >= 0.0:  # the allowance left after this substep
-                    left = math.sqrt(gap2[i, b]) - math.sqrt(
-                        (X[i, 0, b] - ref[i, 0, b]) ** 2 + (X[i, 1, b] - ref[i, 1, b]) ** 2
-                        + (X[i, 2, b] - ref[i, 2, b]) ** 2)  # fmt: skip
-                clear[s, i] = left
+                clear[s, i] = gap2[i, b] if ok[b] else -1.0
             energy[s] = 0.5 * moved[b] if ok[b] else 0.0
             bad[s] = 0 if ok[b] else 1
+
+
+def _blocked(a: np.ndarray, vertices: int) -> np.ndarray:
+    """Per-vertex strand data (S, M, …), M ≤ ``vertices``, in the kernel's block layout
+    (blocks, N, …, BLOCK): strands innermost, padded with zeros (missing vertices and the
+    last block's missing strands), so a block reads its rows as contiguous vectors."""
+    s, m = a.shape[:2]
+    blocks = (s + BLOCK - 1) // BLOCK
+    out = np.zeros((blocks * BLOCK, vertices) + a.shape[2:], a.dtype)
+    out[:s, :m] = a
+    out = out.reshape((blocks, BLOCK) + out.shape[1:])
+    return np.ascontiguousarray(np.moveaxis(out, 1, -1))
 
 
 class Solver:
@@ -269,6 +281,9 @@ class Solver:
         self.model = model
         self.params = params
         self.rest_clearance = rest_clearance
+        n = model.vertices
+        self._static = tuple(_blocked(a, n) for a in (
+            model.inv_mass, model.rest_length, model.rest_local, model.bend_rest))  # fmt: skip
         self.energy = np.zeros(model.strands)  # ½ Σ |Δx / dt|² per strand, last substep
         self._bad = np.zeros(model.strands, np.uint8)
         self._for: object = None  # the params _constants were made for
@@ -304,7 +319,7 @@ class Solver:
                              p.collision_margin)  # fmt: skip
             if self.rest_clearance is not None:
                 np.minimum(margin, self.rest_clearance, out=margin)
-            self._margin = margin
+            self._margin = _blocked(margin, self.model.vertices)
             self._for = p
         return self._kept
 
@@ -322,10 +337,9 @@ class Solver:
         scroll = np.asarray(p.wind_drift, np.float64) * state.time * p.wind_frequency
         spheres, capsules, sdf = colliders
         _substep_kernel(
-            state.x, state.v, m.inv_mass, m.rest_length, m.rest_local, m.bend_rest,
-            m.static_local, m.root_direction, *start, *end, f, p.substep, *integration, wind,
-            *noise, scroll, *constraints, spheres, capsules, *sdf, self._margin,
-            p.friction, state.clear, moved, self.energy, self._bad,
+            state.x, state.v, *self._static, m.static_local, m.root_direction, *start, *end,
+            f, p.substep, *integration, wind, *noise, scroll, *constraints, spheres, capsules,
+            *sdf, self._margin, p.friction, state.clear, moved, self.energy, self._bad,
         )  # fmt: skip
         if self._bad.any():
             raise InputError(

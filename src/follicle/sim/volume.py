@@ -35,12 +35,12 @@ pile density up and push the outermost hair inwards; so blurring keeps the total
 Particles with inverse mass 0 (by default the root, index 0, of every strand) splat like
 the others, since they occupy space and carry the head's motion, but are never changed.
 
-Splatting is parallel and deterministic: every thread adds into its own grid of
-fixed-point integers (weights in units of 2⁻⁴⁰, momenta of 2⁻³⁶ m/s), and integer sums do
-not depend on their order, so the same input gives the same bytes with any number of
-threads and any split of the particles among them. (Fusing splat and update into the
-solver's kernel was measured: no faster, as both are bound by the grid arithmetic, not
-by reading the hair.)
+Splatting is parallel and deterministic: the particles are cut into a fixed number of
+consecutive parts (set by the grid's size, never by the thread count), each part adds
+its tent weights and momenta into its own float64 grid in particle order, and the parts'
+grids are summed in part order. So the same input gives the same bytes with any number of
+threads. (Fusing splat and update into the solver's kernel was measured: no faster, as
+both are bound by the grid arithmetic, not by reading the hair.)
 """
 
 from __future__ import annotations
@@ -50,11 +50,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from numbers import Integral, Real
 
-import numba
 import numpy as np
 from numba import njit, prange
 
-from ..arrays import all_finite
+from ..arrays import FMA, all_finite
 from ..errors import InputError
 
 __all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume", "volume_step"]
@@ -62,10 +61,8 @@ __all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume", "volume_step"]
 _MAX_CELLS = 128**3  # cap on cells in a grid (2.1 M; 68 MB of int64 sums per thread)
 _MIN_VOXEL = 1e-6  # m; voxel size for a single point or a sub-micrometre cloud
 _TINY_DENSITY = 1e-12  # D at or below this counts as empty: V = 0 there
-_FIX_W = 2.0**40  # fixed-point units per unit of splatted weight …
-_FIX_M = 2.0**36  # … and per m/s of splatted momentum
-_SPLAT_SPEED = 1.0e3  # m/s; faster particles splat this speed, so int64 sums cannot overflow
-_SPLAT_CHUNK = 4096  # particles per parallel chunk of the standalone splat
+_PARTS = 8  # particle parts splatted side by side, each into its own grid …
+_PART_BYTES = 64 * 2**20  # … as many as fit in this (at least one)
 
 
 @dataclass(frozen=True, eq=False)
@@ -322,9 +319,11 @@ def _splat_grid(x: np.ndarray, v: np.ndarray, spec: GridSpec, blur_passes: int) 
     """Splat validated (S, N, 3) float32 arrays onto ``spec`` and blur: the VolumeGrid."""
     if not isinstance(spec, GridSpec):
         raise InputError(f"spec: expected a GridSpec (see grid_for), got {type(spec).__name__}")
-    grids = np.zeros((numba.get_num_threads(), *spec.shape, 4), np.int64)
+    cells = int(np.prod(spec.shape))
+    parts = max(1, min(_PARTS, _PART_BYTES // (32 * cells), x.size // (3 * 4096)))
+    grids = np.zeros((parts, *spec.shape, 4))
     _splat(x.reshape(-1, 3), v.reshape(-1, 3), grids, spec.origin, 1 / spec.voxel)
-    sums = _fixed_sums(grids)
+    sums = _part_sums(grids)
     for _ in range(blur_passes):
         sums = _box_blur(sums)
     density, flow = _resolve(sums, spec.voxel)
@@ -410,28 +409,18 @@ def _cell(px, py, pz, origin, inv_h, nx, ny, nz):
 
 
 @njit(cache=True, inline="always")
-def _fixed(value, scale):
-    """``value`` in whole fixed-point units of 1/scale, rounded to nearest (so the
-    rounding errors of many particles cancel rather than add up)."""
-    return np.int64(math.floor(value * scale + 0.5))
-
-
-@njit(cache=True, inline="always")
 def _add(cell, w, vx, vy, vz):
-    cell[0] += _fixed(w, _FIX_W)
-    cell[1] += _fixed(w * vx, _FIX_M)
-    cell[2] += _fixed(w * vy, _FIX_M)
-    cell[3] += _fixed(w * vz, _FIX_M)
+    cell[0] += w
+    cell[1] += w * vx
+    cell[2] += w * vy
+    cell[3] += w * vz
 
 
 @njit(cache=True, inline="always")
 def _splat_point(grid, origin, inv_h, px, py, pz, vx, vy, vz):
-    """Add a particle's tent weight and momentum (eq. 3.2, 3.3) to the fixed-point sums
-    ``grid`` (nx, ny, nz, 4) int64; corners off the grid are left out."""
+    """Add a particle's tent weight and momentum (eq. 3.2, 3.3) to the sums ``grid``
+    (nx, ny, nz, 4); corners off the grid are left out."""
     nx, ny, nz = grid.shape[0], grid.shape[1], grid.shape[2]
-    vx = min(max(vx, -_SPLAT_SPEED), _SPLAT_SPEED)
-    vy = min(max(vy, -_SPLAT_SPEED), _SPLAT_SPEED)
-    vz = min(max(vz, -_SPLAT_SPEED), _SPLAT_SPEED)
     fx = (px - origin[0]) * inv_h
     fy = (py - origin[1]) * inv_h
     fz = (pz - origin[2]) * inv_h
@@ -452,30 +441,29 @@ def _splat_point(grid, origin, inv_h, px, py, pz, vx, vy, vz):
                 _add(grid[i, j, k], w, vx, vy, vz)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
 def _splat(x, v, grids, origin, inv_h):
-    """Splat particles (M, 3) into the per-thread fixed-point sums ``grids``
-    (T, nx, ny, nz, 4) of [w, w·vx, w·vy, w·vz] (eq. 3.2, numerator of 3.3)."""
-    m = x.shape[0]
-    for chunk in prange((m + _SPLAT_CHUNK - 1) // _SPLAT_CHUNK):
-        grid = grids[numba.get_thread_id()]
-        for p in range(chunk * _SPLAT_CHUNK, min((chunk + 1) * _SPLAT_CHUNK, m)):
+    """Splat particles (M, 3) into the sums ``grids`` (P, nx, ny, nz, 4) of [w, w·vx,
+    w·vy, w·vz] (eq. 3.2, numerator of 3.3): part k, the k-th of P consecutive runs of
+    particles, into grid k, in particle order."""
+    m, parts = x.shape[0], grids.shape[0]
+    for k in prange(parts):
+        grid = grids[k]
+        for p in range(k * m // parts, (k + 1) * m // parts):
             _splat_point(grid, origin, inv_h, x[p, 0], x[p, 1], x[p, 2], v[p, 0], v[p, 1],
                         v[p, 2])  # fmt: skip
 
 
 @njit(cache=True, parallel=True)
-def _fixed_sums(grids):
-    """The threads' fixed-point sums (T, nx, ny, nz, 4) added (exactly, as integers) and
-    converted to float64 (nx, ny, nz, 4)."""
-    t = grids.shape[0]
-    flat = grids.reshape(t, -1)
+def _part_sums(grids):
+    """The parts' sums (P, nx, ny, nz, 4) added in part order: (nx, ny, nz, 4)."""
+    flat = grids.reshape(grids.shape[0], -1)
     out = np.empty(flat.shape[1])
     for e in prange(flat.shape[1]):
-        total = np.int64(0)
-        for k in range(t):
+        total = 0.0
+        for k in range(flat.shape[0]):
             total += flat[k, e]
-        out[e] = total / (_FIX_W if e % 4 == 0 else _FIX_M)
+        out[e] = total
     return out.reshape(grids.shape[1:])
 
 
@@ -631,7 +619,7 @@ def _exchange(flow, origin, inv_h, px, py, pz, vx, vy, vz, friction, push):
     return vx, vy, vz
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
 def _update(x, v, free, flow, origin, inv_h, friction, push):
     """:func:`_exchange` for every free particle of ``x``, ``v`` (M, 3), in place."""
     for p in prange(x.shape[0]):
