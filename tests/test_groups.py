@@ -117,3 +117,27 @@ def test_guides_far_from_the_mesh_warn_with_the_distance(caplog):
     np.testing.assert_allclose(guides.root_positions[0], [0.5, 0.0, 0.5], atol=1e-9)
     with pytest.raises(InputError, match="vertex 1 is not finite"):  # NaN guides never load
         HairCurves.from_polylines([np.array([[0, 0, 0], [np.nan, 1, 0]])])
+
+
+def test_builtin_guides_on_the_builtin_head_part_by_default():
+    """Unset groups on the built-in head with built-in guides mean builtin:parting: the
+    hairs rooted on the mid-line then keep out of the skull; "none" turns groups off and
+    those hairs blend a left- and a right-combed guide into the head again."""
+    from follicle.pipeline import groom_scene
+    from follicle.scene import Scene
+    from follicle.sim.collision import clearance
+    from follicle.sim.sdf import SDF
+
+    def deepest(groups: str | None) -> tuple[int, float]:
+        groom = groom_scene(Scene(groom={"groups": groups}))
+        hair = groom.generate(count=6000)
+        sdf = SDF.from_mesh(groom.mesh.vertices, groom.mesh.faces)
+        x = hair.points.reshape(hair.curve_count, -1, 3)
+        depth = -clearance(x[:, 1:], np.zeros((0, 4)), np.zeros((0, 7)), sdf.sample_args)
+        return groom.guides.groups.count, float(depth.max())
+
+    groups, depth = deepest(None)
+    assert groups == 2 and depth < 0.006  # at most the SDF's voxel, on the parting
+    assert deepest("builtin:parting") == (groups, depth)
+    groups, depth = deepest("none")
+    assert groups <= 1 and depth > 0.03  # through the skull

@@ -99,7 +99,7 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
     from .pipeline import grow, render_scene
     from .scene import parse_scene
 
-    groom: dict[str, object] = {"groups": "builtin:parting"}  # the guides part in the middle
+    groom: dict[str, object] = {}
     if count is not None:
         groom["count"] = count
     scene = parse_scene({"guides": {"path": guides}, "groom": groom,

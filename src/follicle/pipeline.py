@@ -33,8 +33,12 @@ def groom_scene(scene: Scene) -> Groom:
     """The mesh, guides and groom parameters of ``scene``, ready to grow."""
     mesh = load_mesh(scene.resolve(scene.mesh.path))
     spec = scene.groom.groups
+    if spec is None and scene.mesh.path == "builtin:head" and scene.guides.path.startswith(
+            "builtin:"):  # fmt: skip
+        spec = "builtin:parting"  # the built-in guides part at the head's mid-plane
     groups = InterpolationGroups(
-        load_texture(spec, scene.resolve) if spec else None, scene.groom.group_vertices
+        None if spec in (None, "none") else load_texture(spec, scene.resolve),
+        scene.groom.group_vertices,
     )
     guides = load_guides(scene.resolve(scene.guides.path), mesh, groups=groups)
     density = resolve_density(mesh, scene.groom.density, scene.resolve)

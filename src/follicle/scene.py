@@ -142,8 +142,9 @@ class GroomParams(_Section):
     )
     groups: str | None = Field(
         None,
-        description="interpolation groups: an image (one group per colour) or builtin:parting;"
-        " a hair takes guides of its own group only",
+        description="interpolation groups: an image (one group per colour), builtin:parting"
+        " or none; a hair takes guides of its own group only; unset = builtin:parting for"
+        " built-in guides on the built-in head (they part at its mid-plane), none elsewhere",
     )
     group_vertices: dict[str, Annotated[int, Field(ge=2, le=256)]] = Field(
         default_factory=dict,
