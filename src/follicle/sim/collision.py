@@ -70,7 +70,7 @@ def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel
     if sdf_values.size > 0:
         # one lookup with the normal: the solver only asks for vertices that may touch
         d, gx, gy, gz, bound = sdf_lookup(sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw,
-                                          px, py, pz)  # fmt: skip
+                                          px, py, pz, margin)  # fmt: skip
         if d < margin and (gx != 0.0 or gy != 0.0 or gz != 0.0):
             depth = margin - d
             px, py, pz = px + depth * gx, py + depth * gy, pz + depth * gz

@@ -356,16 +356,19 @@ def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
     box plus |value| at the nearest grid point, and that sum's gradient (never inside).
     Allocates nothing, so a solver kernel can call it per particle.
     """
-    d, nx, ny, nz, _ = sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz)
+    d, nx, ny, nz, _ = sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz,
+                                  math.inf)  # fmt: skip
     return d, nx, ny, nz
 
 
 @njit(cache=True, inline="always")
-def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz):
+def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz, below):
     """:func:`sdf_sample` plus a bound b such that (b − m)/√3 is how far the point may
     move before the sampled distance can fall to m ≥ 0 (inside the box d itself, whose
     trilinear interpolant falls at most √3 per unit moved; outside a scaled-down d), so
-    a caller need not look a point up again before then: ``(d, nx, ny, nz, bound)``."""
+    a caller need not look a point up again before then: ``(d, nx, ny, nz, bound)``.
+    The normal is worked out only where d < ``below`` (elsewhere 0, 0, 0): a collision
+    test needs it only for points it pushes, most lookups find the point clear."""
     m = local_from_world
     ux, uy, uz, cx, cy, cz, ix, iy, iz = _grid_place(values, origin, inv_voxel, m, px, py, pz)
     fx = cx - ix
@@ -382,23 +385,26 @@ def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz):
     c11 = v[ix + 1, iy + 1, iz] + dz11 * fz
     c0 = c00 + (c01 - c00) * fy  # … then y …
     c1 = c10 + (c11 - c10) * fy
-    d = c0 + (c1 - c0) * fx  # … then x
-    # the interpolant's derivatives per voxel, then per unit length
-    gx = (c1 - c0) * inv_voxel
-    gy = ((1.0 - fx) * (c01 - c00) + fx * (c11 - c10)) * inv_voxel
-    gz = ((1.0 - fx) * (dz00 + (dz01 - dz00) * fy) + fx * (dz10 + (dz11 - dz10) * fy)) * inv_voxel
+    inside = c0 + (c1 - c0) * fx  # … then x
+    d = bound = inside
     ex = ux - cx
     ey = uy - cy
     ez = uz - cz
     out2 = ex * ex + ey * ey + ez * ez
-    bound = d
+    out = math.sqrt(out2)
+    s = 1.0 if inside >= 0.0 else -1.0
     if out2 > 0.0:  # outside the box: |box distance| + |d|; clamped axes follow the box
-        out = math.sqrt(out2)
-        s = 1.0 if d >= 0.0 else -1.0
-        d = out / inv_voxel + s * d
+        d = out / inv_voxel + s * inside
         # that sum falls up to 1 + √3 per unit moved (box distance, then the value at the
         # box's nearest point); the box distance alone falls at most 1
         bound = max(out / inv_voxel, d * _SQRT3 / (1.0 + _SQRT3))
+    if d >= below:
+        return d, 0.0, 0.0, 0.0, bound
+    # the interpolant's derivatives per voxel, then per unit length
+    gx = (c1 - c0) * inv_voxel
+    gy = ((1.0 - fx) * (c01 - c00) + fx * (c11 - c10)) * inv_voxel
+    gz = ((1.0 - fx) * (dz00 + (dz01 - dz00) * fy) + fx * (dz10 + (dz11 - dz10) * fy)) * inv_voxel
+    if out2 > 0.0:
         gx = ex / out if ex != 0.0 else s * gx
         gy = ey / out if ey != 0.0 else s * gy
         gz = ez / out if ez != 0.0 else s * gz
