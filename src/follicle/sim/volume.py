@@ -36,7 +36,8 @@ Particles with inverse mass 0 (by default the root, index 0, of every strand) sp
 the others, since they occupy space and carry the head's motion, but are never changed.
 
 Splatting is parallel and deterministic: the particles are cut into a fixed number of
-consecutive parts (set by the grid's size, never by the thread count), each part adds
+consecutive parts (set by their count and the grid's size, never by the thread count:
+at most 8, at least 4,096 particles each, 64 MiB of grids in all), each part adds
 its tent weights and momenta into its own float64 grid in particle order, and the parts'
 grids are summed in part order. So the same input gives the same bytes with any number of
 threads. (Fusing splat and update into the solver's kernel was measured: no faster, as
@@ -62,7 +63,8 @@ _MAX_CELLS = 128**3  # cap on cells in a grid (2.1 M; 68 MB of int64 sums per th
 _MIN_VOXEL = 1e-6  # m; voxel size for a single point or a sub-micrometre cloud
 _TINY_DENSITY = 1e-12  # D at or below this counts as empty: V = 0 there
 _PARTS = 8  # particle parts splatted side by side, each into its own grid …
-_PART_BYTES = 64 * 2**20  # … as many as fit in this (at least one)
+_PART_BYTES = 64 * 2**20  # … as many as fit in this (at least one) …
+_PART_MIN = 4096  # … each of at least this many particles
 
 
 @dataclass(frozen=True, eq=False)
@@ -320,7 +322,7 @@ def _splat_grid(x: np.ndarray, v: np.ndarray, spec: GridSpec, blur_passes: int) 
     if not isinstance(spec, GridSpec):
         raise InputError(f"spec: expected a GridSpec (see grid_for), got {type(spec).__name__}")
     cells = int(np.prod(spec.shape))
-    parts = max(1, min(_PARTS, _PART_BYTES // (32 * cells), x.size // (3 * 4096)))
+    parts = max(1, min(_PARTS, _PART_BYTES // (32 * cells), x.size // (3 * _PART_MIN)))
     grids = np.zeros((parts, *spec.shape, 4))
     _splat(x.reshape(-1, 3), v.reshape(-1, 3), grids, spec.origin, 1 / spec.voxel)
     sums = _part_sums(grids)
