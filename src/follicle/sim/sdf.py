@@ -391,9 +391,10 @@ def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz, below):
     ey = uy - cy
     ez = uz - cz
     out2 = ex * ex + ey * ey + ez * ez
-    out = math.sqrt(out2)
+    out = 0.0
     s = 1.0 if inside >= 0.0 else -1.0
     if out2 > 0.0:  # outside the box: |box distance| + |d|; clamped axes follow the box
+        out = math.sqrt(out2)
         d = out / inv_voxel + s * inside
         # that sum falls up to 1 + √3 per unit moved (box distance, then the value at the
         # box's nearest point); the box distance alone falls at most 1
