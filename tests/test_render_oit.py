@@ -9,6 +9,7 @@ import pytest
 from follicle.curves import HairCurves
 from follicle.render import Camera, Light, opengl, render
 from follicle.render.image import srgb_to_linear
+from follicle.render.strands import vertex_tangents
 from glmark import gl
 
 FRONT = Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0), fov_y=35.0)
@@ -23,7 +24,7 @@ WHITE_FLAT = dict(
 MEAN_LIMIT, MAX_LIMIT = 0.1, 2
 
 
-def crossing_strands(count: int = 2000, seed: int = 1) -> HairCurves:
+def crossing_strands(count: int = 2000, seed: int = 1, width: float = 4e-3) -> HairCurves:
     """Random, overlapping, half-transparent strands of random colours."""
     rng = np.random.default_rng(seed)
     start = rng.uniform(-0.1, 0.1, (count, 3))
@@ -32,7 +33,7 @@ def crossing_strands(count: int = 2000, seed: int = 1) -> HairCurves:
     pts = start[:, None] + np.linspace(0.0, 0.12, 8)[None, :, None] * d[:, None]
     n = count * 8
     return HairCurves.from_array(pts, point_data={
-        "width": np.full(n, 4e-3), "opacity": np.full(n, 0.8),
+        "width": np.full(n, width), "opacity": np.full(n, 0.8),
         "color": np.repeat(rng.uniform(0, 1, (count, 3)), 8, axis=0)})  # fmt: skip
 
 
@@ -122,3 +123,36 @@ def test_sub_pixel_coverage_holds_at_any_angle(degrees, msaa):
     img = render(curves, **{**WHITE_FLAT, "msaa": msaa})
     box = srgb_to_linear(img[70:131, 70:131, 0] / 255.0)
     assert box.mean() == pytest.approx(0.3 / 4.0, rel=0.08), box.mean()
+
+
+def test_vertex_tangents_are_the_geometry_shaders_step_tangents():
+    pts = np.array([[0, 0, 0], [1, 0, 0], [3, 0, 0], [3, 2, 0],  # a curve of 4
+                    [5, 5, 5],  # a lone vertex
+                    [0, 0, 0], [1, 0, 0], [0, 0, 0]], float)  # a hairpin: P2 − P0 = 0 at P1
+    got = vertex_tangents(pts, np.array([0, 4, 5, 8]))
+    want = [[0.5, 0, 0], [1.5, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 0],
+            [0.5, 0, 0], [-1, 0, 0], [-0.5, 0, 0]]  # fmt: skip
+    np.testing.assert_allclose(got, want, atol=1e-7)
+    assert got.dtype == np.float32
+
+
+@gl
+@pytest.mark.parametrize("shading", ["kajiya-kay", "marschner"])
+def test_one_step_lines_without_a_geometry_shader_draw_its_picture(shading, monkeypatch):
+    """At subdivisions 1 thin hair skips the geometry shader: the same primitives, and
+    the picture of the geometry shader's lines to within one level."""
+    thin = crossing_strands(800, width=3e-4)
+    pictures, drawn = [], []
+    for plain in (1, 0):  # 0: through the geometry shader
+        monkeypatch.setattr(opengl, "PLAIN_LINES", plain)
+        with opengl.Renderer(size=(160, 160), msaa=0, background=(0.1, 0.1, 0.1)) as r:
+            query = r.ctx.query(primitives=True)
+            with query:
+                pictures.append(r.draw(thin, subdivisions=1, shading=shading,
+                                       shadows=False).astype(int))  # fmt: skip
+            drawn.append(query.primitives)
+    segments = thin.point_count - thin.curve_count  # + the background and composite triangles
+    assert drawn[0] == drawn[1] == segments + 2
+    difference = np.abs(pictures[0] - pictures[1])
+    assert (pictures[0][..., :3] > 40).mean() > 0.05  # hair drawn
+    assert difference.max() <= 1 and difference.mean() < 0.01, difference.mean()

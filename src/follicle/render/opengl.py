@@ -11,7 +11,9 @@ targets; a composite of the two. Everything is linear RGB in float framebuffers
 (:func:`follicle.render.image.encode_srgb8`). Hair thinner than a pixel is drawn as
 one-pixel lines whose opacity is scaled by the share of the pixels the hair covers, so
 it stays soft (analytic coverage), and is shaded once per Catmull-Rom step in the
-geometry shader; wider hair is drawn as ribbons shaded per fragment.
+geometry shader (at one step a segment, ``subdivisions`` 1, the same lines go without
+a geometry shader, shaded per vertex: llvmpipe runs geometry shaders on one thread);
+wider hair is drawn as ribbons shaded per fragment.
 """
 
 from __future__ import annotations
@@ -44,11 +46,14 @@ from .options import (
 from .programs import get_program, set_uniforms, use_framebuffer
 from .shadows import UNITS as SHADOW_UNITS
 from .shadows import ShadowMaps, automatic_layer, light_projection
-from .strands import back_to_front, curve_param, segment_indices, strand_seeds
+from .strands import back_to_front, curve_param, segment_indices, strand_seeds, vertex_tangents
 
 __all__ = ["Renderer", "render"]
 
 MAX_STEP_PX = 8.0  # longest Catmull-Rom step on screen: shading is interpolated along it
+# at up to this many subdivisions thin hair is drawn as plain lines shaded per vertex,
+# without the geometry shader (the same picture: it would take one step a segment)
+PLAIN_LINES = 1
 _HAIR_LAYOUT = (("3f", "in_position"), ("1f", "in_width"), ("3f", "in_color"),
                 ("1f", "in_opacity"), ("1f", "in_t"), ("1f", "in_seed"))  # fmt: skip
 _MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"))
@@ -251,7 +256,7 @@ class Renderer:
             if has_hair:
                 hair_vaos = self._hair_arrays(
                     curves, shading, camera, None if light is None else light[2], hair_color,
-                    float(hair_width), float(hair_opacity), oit, released,
+                    float(hair_width), float(hair_opacity), oit, subdivisions, released,
                 )
             if has_mesh:
                 skin_vaos = self._mesh_arrays(mesh_arrays, released)
@@ -293,14 +298,16 @@ class Renderer:
 
     def _hair_arrays(
         self, curves, shading, camera, light_texel, hair_color, hair_width, hair_opacity, oit,
-        released,
+        subdivisions, released,
     ) -> dict[str, list]:  # fmt: skip
-        """Upload the hair once; the vertex arrays that draw it, by pass (``colour``,
-        ``hair_depth``, ``hair_opacity``; the last two only with a ``light_texel`` size).
+        """Upload the hair once; the vertex arrays that draw it, by pass (``colour``:
+        (vertex array, primitive) pairs; ``hair_depth``, ``hair_opacity``, drawn as lines
+        with adjacency, only with a ``light_texel`` size).
 
         Segments thinner than a pixel (texel) at both ends go to the line programs
-        (``_thin``, the colour shaded per Catmull-Rom step), the others to the ribbon
-        programs (shaded per fragment).
+        (``_thin``, the colour shaded per Catmull-Rom step; at one step a segment,
+        ``hair_line``: plain lines shaded per vertex, no geometry shader), the others
+        to the ribbon programs (shaded per fragment).
         """
         ctx = self.ctx
         n = curves.point_count
@@ -325,7 +332,7 @@ class Renderer:
                 return segments, segments[:0]
             return segments[thin], segments[~thin]
 
-        def arrays(names, segs) -> list:
+        def arrays(names, segs, extra=()) -> list:
             if not len(segs):
                 return []
             if id(segs) not in buffers:  # the entry keeps segs alive: ids stay unique
@@ -335,7 +342,8 @@ class Renderer:
             out = []
             for name in names:
                 prog = get_program(ctx, name)
-                out.append(ctx.vertex_array(prog, [_buffer_format(prog, vbo, _HAIR_LAYOUT)],
+                out.append(ctx.vertex_array(prog, [_buffer_format(prog, vbo, _HAIR_LAYOUT),
+                                                   *extra],
                                             index_buffer=ibo, index_element_size=4))
                 released.append(out[-1])
             return out  # fmt: skip
@@ -343,8 +351,15 @@ class Renderer:
         thin, wide = split(pixel)
         if not oit:
             thin, wide = (back_to_front(s, curves.points, camera) for s in (thin, wide))
-        colour = arrays([f"hair_thin:{shading}"], thin) + arrays([f"hair:{shading}"], wide)
-        vaos = {"colour": colour}
+        if subdivisions <= PLAIN_LINES and len(thin):  # the geometry shader would add nothing
+            tangents = ctx.buffer(vertex_tangents(curves.points, curves.offsets))
+            released.append(tangents)
+            lines = [(vao, ctx.LINES) for vao in arrays(
+                [f"hair_line:{shading}"], thin[:, 1:3], [(tangents, "3f", "in_tangent")])]
+        else:
+            lines = [(vao, ctx.LINES_ADJACENCY) for vao in arrays([f"hair_thin:{shading}"], thin)]
+        ribbons = [(vao, ctx.LINES_ADJACENCY) for vao in arrays([f"hair:{shading}"], wide)]
+        vaos = {"colour": lines + ribbons}
         if light_texel is not None:
             thin, wide = split(light_texel)
             pair = arrays(["hair_depth_thin", "hair_opacity_thin"], thin)
@@ -410,9 +425,9 @@ class Renderer:
             ctx.blend_func = ctx.ONE, ctx.ONE, ctx.ZERO, ctx.ONE_MINUS_SRC_ALPHA
         else:
             ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA
-        for vao in vaos:
+        for vao, primitive in vaos:
             set_uniforms(vao.program, uniforms)
-            vao.render(mode=ctx.LINES_ADJACENCY)
+            vao.render(mode=primitive)
         fbo.depth_mask = True
 
     def _composite(self) -> None:

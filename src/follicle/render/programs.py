@@ -4,7 +4,8 @@ per context) and the little GL state the passes set.
 Every stage is ``#version 330 core``, its ``#define`` lines, then the named files in
 order: the hair shading models are plain functions (``hair_shade``) in files of their
 own, compiled into the hair geometry shader (hair thinner than a pixel, drawn as lines
-and shaded per Catmull-Rom step) or the hair fragment shader (ribbons, shaded per
+and shaded per Catmull-Rom step), the line vertex shader (the same lines at one step a
+segment, without a geometry shader) or the hair fragment shader (ribbons, shaded per
 fragment).
 """
 
@@ -45,25 +46,27 @@ def _sources(name: str) -> tuple[str, str | None, str]:
     kind = kind.removesuffix("_thin")
     lines = ("LINES",) if thin else ()
     hair_vs = _stage((), ["hair_vs.glsl"])
+    step = ["hair_varyings.glsl", "hair_step.glsl"]  # a point facing the viewer
+    shaded_fs = _stage(("SHADED", *_FS_IN), ["hair_varyings.glsl", "hair_fs.glsl"])
+    if kind == "hair_line":  # thin hair at one step a segment, shaded per vertex
+        return (_stage(("SHADE", "LINES", *_GS_OUT),
+                       [*_hair_shading(model), *step, "hair_line_vs.glsl"]),
+                None, shaded_fs)  # fmt: skip
     if kind == "hair":  # the colour pass of model `model`
         shading = _hair_shading(model)
         if thin:  # shaded per Catmull-Rom step, in the geometry shader
-            return (
-                hair_vs,
-                _stage(("SHADE", *lines, *_GS_OUT),
-                       [*shading, "hair_varyings.glsl", "hair_gs.glsl"]),
-                _stage(("SHADED", *_FS_IN), ["hair_varyings.glsl", "hair_fs.glsl"]),
-            )  # fmt: skip
+            return (hair_vs, _stage(("SHADE", *lines, *_GS_OUT),
+                                    [*shading, *step, "hair_gs.glsl"]), shaded_fs)  # fmt: skip
         return (
             hair_vs,
-            _stage(_GS_OUT, ["hair_varyings.glsl", "hair_gs.glsl"]),
+            _stage(_GS_OUT, [*step, "hair_gs.glsl"]),
             _stage(_FS_IN, [*shading, "hair_varyings.glsl", "hair_fs.glsl"]),
         )
     if kind in ("hair_depth", "hair_opacity"):  # the deep opacity map passes
         depth = ("DEPTH",) if kind == "hair_depth" else ()
         return (
             hair_vs,
-            _stage((*lines, *_GS_OUT), ["hair_varyings.glsl", "hair_gs.glsl"]),
+            _stage((*lines, *_GS_OUT), [*step, "hair_gs.glsl"]),
             _stage((*depth, *_FS_IN), ["hair_varyings.glsl", "hair_shadow_fs.glsl"]),
         )
     fullscreen = _stage((), ["background_vs.glsl"])
@@ -78,7 +81,8 @@ def _sources(name: str) -> tuple[str, str | None, str]:
 
 def get_program(ctx, name: str):
     """Program ``name`` for ``ctx``: ``hair:<model>``, ``hair_depth``, ``hair_opacity``
-    (ribbons; each also as ``..._thin``: lines for hair thinner than a pixel), ``mesh``,
+    (ribbons; each also as ``..._thin``: lines for hair thinner than a pixel),
+    ``hair_line:<model>`` (thin hair at one step a segment, no geometry shader), ``mesh``,
     ``mesh_depth``, ``background``, ``composite`` or ``composite_msaa``."""
     key = (id(ctx), name)
     prog = _cache.get(key)

@@ -1,5 +1,5 @@
 """Strand data for the GPU: lines-adjacency segment indices, draw order, curve parameter,
-strand seeds."""
+strand seeds, vertex tangents."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 
 from .camera import Camera
 
-__all__ = ["segment_indices", "back_to_front", "curve_param", "strand_seeds"]
+__all__ = ["segment_indices", "back_to_front", "curve_param", "strand_seeds", "vertex_tangents"]
 
 
 def segment_indices(offsets: np.ndarray) -> np.ndarray:
@@ -58,3 +58,29 @@ def strand_seeds(offsets: np.ndarray) -> np.ndarray:
     counts = np.diff(np.asarray(offsets, dtype=np.int64))
     seeds = np.modf(np.arange(len(counts), dtype=np.float64) * 0.6180339887498949)[0]
     return np.repeat(seeds.astype(np.float32), counts)
+
+
+def vertex_tangents(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Per vertex (N, 3) float32, the tangent the geometry shader gives a Catmull-Rom step
+    there: (P_{i+1} − P_{i−1}) / 2, a curve's end points their own neighbours; where
+    that vanishes (a hairpin), the difference to the next vertex (the previous at a tip)."""
+    p = np.asarray(points, dtype=np.float32)
+    offsets = np.asarray(offsets, dtype=np.int64)
+    out = np.empty_like(p)
+    if len(p) < 2:
+        out[:] = 0.0
+        return out
+    out[1:-1] = 0.5 * (p[2:] - p[:-2])
+    first, last = offsets[:-1], offsets[1:] - 1
+    keep = first <= last  # curves with vertices
+    first, last = first[keep], last[keep]
+    out[first] = 0.5 * (p[np.minimum(first + 1, last)] - p[first])
+    out[last] = 0.5 * (p[last] - p[np.maximum(last - 1, first)])
+    flat = np.flatnonzero(np.einsum("ij,ij->i", out, out) < 1e-24)
+    if len(flat):
+        ahead = np.minimum(flat + 1, len(p) - 1)
+        curve = np.searchsorted(offsets, flat, side="right") - 1
+        ahead = np.where(flat < offsets[curve + 1] - 1, ahead, flat)
+        behind = np.where(ahead == flat, np.maximum(flat - 1, offsets[curve]), flat)
+        out[flat] = p[ahead] - p[behind]
+    return out

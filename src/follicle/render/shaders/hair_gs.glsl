@@ -5,7 +5,8 @@
 // line strip instead, its opacity scaled by the share of the pixels the hair covers
 // (half the primitives of a ribbon: llvmpipe is bound by the primitives it sets up).
 // A segment gets as many steps as its on-screen length and bend need, at most
-// `subdivisions`. With SHADE the hair is shaded here, once per step, not per fragment.
+// `subdivisions`. What each step gets (its side, coverage and, with SHADE, its shade)
+// is hair_step.glsl's.
 #define MAX_SUBDIVISIONS 16
 layout(lines_adjacency) in;
 #ifdef LINES
@@ -23,22 +24,10 @@ in VS_OUT {
     float seed;
 } gs_in[];
 
-
-uniform mat4 view_proj;
-uniform vec4 eye;            // w = 1: camera position; w = 0: unit direction to the viewer
-uniform vec3 view_forward;
-uniform vec3 view_right;
-uniform float pixel_scale;   // world size of a pixel: per metre of depth (w = 1), or flat
 uniform int subdivisions;    // most Catmull-Rom steps per segment
 uniform float max_step_px;   // longest step in pixels (shading is interpolated along it)
-uniform vec2 viewport;       // pixels
-uniform bool line_stretch;   // aliased lines: one fragment per pixel along the major axis
 
 const float CHORD_TOLERANCE_PX = 0.25;  // largest gap between spline and steps, pixels
-
-float pixel_size(vec3 p) {
-    return eye.w > 0.5 ? pixel_scale * max(dot(p - eye.xyz, view_forward), 1e-9) : pixel_scale;
-}
 
 void main() {
     vec3 p0 = gs_in[0].position;
@@ -75,57 +64,10 @@ void main() {
         if (dot(tan, tan) < 1e-24) tan = chord;
         tan = dot(tan, tan) > 0.0 ? normalize(tan) : view_forward;
 
-        float width = mix(gs_in[1].width, gs_in[2].width, u);
-        float opacity = mix(gs_in[1].opacity, gs_in[2].opacity, u);
-        vec3 color = mix(gs_in[1].color, gs_in[2].color, u);
-        float t = mix(gs_in[1].t, gs_in[2].t, u);
-
-        // facing the viewer: offset along tangent x view direction (002 §5.2.2)
-        vec3 to_eye = eye.w > 0.5 ? eye.xyz - pos : eye.xyz;
-        vec3 side = cross(tan, to_eye);
-        float side_len = length(side);
-        side = side_len > 1e-12 * dot(to_eye, to_eye) ? side / side_len : view_right;
-
-        float px = pixel_size(pos);
-        float width_px = width / px;
-#ifdef LINES
-        // a line one pixel wide: its fragments carry the hair's coverage. Aliased, it
-        // has one fragment per pixel along its major axis, each standing for
-        // length / max(|dx|, |dy|) of it.
-        float cover = width_px;
-        if (line_stretch) {
-            vec4 a_clip = view_proj * vec4(pos, 1.0);
-            vec4 b_clip = view_proj * vec4(pos + tan * px, 1.0);
-            vec2 d = (b_clip.xy / b_clip.w - a_clip.xy / a_clip.w) * viewport;
-            float len = length(d);
-            cover *= len > 1e-9 ? len / max(abs(d.x), abs(d.y)) : 1.0;
-        }
-        opacity *= min(cover, 1.0);
-#else
-        // at least one pixel wide on screen; the lost coverage goes into alpha
-        float drawn = width;
-        if (width_px < 1.0) {
-            opacity *= width_px;
-            drawn = px;
-        }
-        vec3 offset = side * (0.5 * drawn);
-#endif
-
-        gs_out.tangent = tan;
-        gs_out.side = side;
-        gs_out.color = color;
-        gs_out.opacity = opacity;
-        gs_out.t = t;
-        gs_out.seed = gs_in[1].seed;
-        gs_out.width = width;
-        gs_out.shade = vec3(0.0);
-#ifdef SHADE
-        vec3 E = normalize(to_eye);
-        vec3 N = normalize(cross(side, tan));  // faces the eye
-        if (dot(N, E) < 0.0) N = -N;
-        // across a ribbon v^2 averages 1/3
-        gs_out.shade = hair_radiance(pos, tan, N, E, color, t, gs_in[1].seed, width, 1.0 / 3.0);
-#endif
+        vec3 offset = hair_step(pos, tan, mix(gs_in[1].width, gs_in[2].width, u),
+                                mix(gs_in[1].opacity, gs_in[2].opacity, u),
+                                mix(gs_in[1].color, gs_in[2].color, u),
+                                mix(gs_in[1].t, gs_in[2].t, u), gs_in[1].seed);
 #ifdef LINES
         gs_out.position = pos;
         gs_out.v = 0.0;
