@@ -11,9 +11,10 @@ has finished).
 Need: the primitives (line segments and triangles) follicle's geometry shaders emit for
 one frame of each workload, counted by a ``GL_PRIMITIVES_GENERATED`` query over the
 frame's passes (the two deep-opacity shadow passes and the colour pass); and the least
-any renderer of that frame must draw: with shadows, our colour pass (the workload's
-subdivisions, which we already take adaptively, fewer where a segment is short on
-screen) plus one shadow pass drawing each hair segment once; without, each hair
+any renderer of that frame must draw: with shadows, our frame without them (the colour
+pass at the workload's subdivisions, which we already take adaptively, fewer where a
+segment is short on screen, plus the skin's triangles and two full-screen triangles)
+and one shadow pass drawing each hair segment once; without, each hair
 segment once. The workloads are those of
 ``benchmarks/render.py`` (the default groom, 16 vertices per hair, on the built-in
 head, 5 Catmull-Rom subdivisions taken adaptively, 1280×720) and of the viewer's
@@ -114,8 +115,8 @@ def primitives(draw: Callable[[], object]) -> int:
 
 def render_needs(counts: list[int]) -> list[tuple[str, int, int, float]]:
     """(workload, primitives of our frame, the least any frame needs, target s) for the
-    render benchmark's frames: the least is our colour pass (the issue's subdivisions)
-    plus one shadow pass drawing each hair segment once."""
+    render benchmark's frames: the least is our frame without shadows (colour pass, skin,
+    full-screen triangles) plus one shadow pass drawing each hair segment once."""
     scene = Scene()
     scene.groom.vertices = 16
     groom = groom_scene(scene)

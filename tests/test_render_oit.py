@@ -143,7 +143,7 @@ def test_one_step_lines_without_a_geometry_shader_draw_its_picture(shading, monk
     the picture of the geometry shader's lines to within one level."""
     thin = crossing_strands(800, width=3e-4)
     pictures, drawn = [], []
-    for plain in (1, 0):  # 0: through the geometry shader
+    for plain in (True, False):  # False: through the geometry shader
         monkeypatch.setattr(opengl, "PLAIN_LINES", plain)
         with opengl.Renderer(size=(160, 160), msaa=0, background=(0.1, 0.1, 0.1)) as r:
             query = r.ctx.query(primitives=True)

@@ -51,9 +51,9 @@ from .strands import back_to_front, curve_param, segment_indices, strand_seeds, 
 __all__ = ["Renderer", "render"]
 
 MAX_STEP_PX = 8.0  # longest Catmull-Rom step on screen: shading is interpolated along it
-# at up to this many subdivisions thin hair is drawn as plain lines shaded per vertex,
-# without the geometry shader (the same picture: it would take one step a segment)
-PLAIN_LINES = 1
+# at one step a segment thin hair is drawn as plain lines shaded per vertex, without
+# the geometry shader (the same picture; False: through it, as at more steps)
+PLAIN_LINES = True
 _HAIR_LAYOUT = (("3f", "in_position"), ("1f", "in_width"), ("3f", "in_color"),
                 ("1f", "in_opacity"), ("1f", "in_t"), ("1f", "in_seed"))  # fmt: skip
 _MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"))
@@ -351,7 +351,7 @@ class Renderer:
         thin, wide = split(pixel)
         if not oit:
             thin, wide = (back_to_front(s, curves.points, camera) for s in (thin, wide))
-        if subdivisions <= PLAIN_LINES and len(thin):  # the geometry shader would add nothing
+        if PLAIN_LINES and subdivisions == 1 and len(thin):  # the geometry shader adds nothing
             tangents = ctx.buffer(vertex_tangents(curves.points, curves.offsets))
             released.append(tangents)
             lines = [(vao, ctx.LINES) for vao in arrays(

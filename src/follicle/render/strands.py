@@ -67,9 +67,6 @@ def vertex_tangents(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     p = np.asarray(points, dtype=np.float32)
     offsets = np.asarray(offsets, dtype=np.int64)
     out = np.empty_like(p)
-    if len(p) < 2:
-        out[:] = 0.0
-        return out
     out[1:-1] = 0.5 * (p[2:] - p[:-2])
     first, last = offsets[:-1], offsets[1:] - 1
     keep = first <= last  # curves with vertices
@@ -78,9 +75,9 @@ def vertex_tangents(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     out[last] = 0.5 * (p[last] - p[np.maximum(last - 1, first)])
     flat = np.flatnonzero(np.einsum("ij,ij->i", out, out) < 1e-24)
     if len(flat):
-        ahead = np.minimum(flat + 1, len(p) - 1)
         curve = np.searchsorted(offsets, flat, side="right") - 1
-        ahead = np.where(flat < offsets[curve + 1] - 1, ahead, flat)
-        behind = np.where(ahead == flat, np.maximum(flat - 1, offsets[curve]), flat)
-        out[flat] = p[ahead] - p[behind]
+        tip = flat == offsets[curve + 1] - 1
+        ahead = p[np.minimum(flat + 1, len(p) - 1)] - p[flat]
+        behind = p[flat] - p[np.maximum(flat - 1, offsets[curve])]
+        out[flat] = np.where(tip[:, None], behind, ahead)
     return out
