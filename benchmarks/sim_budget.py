@@ -95,13 +95,12 @@ def _pass_ns(sim, repeat: int) -> dict[str, float]:
     take = slice(0, CACHED_BLOCKS * BLOCK)
     W, L, local, R = (a[:CACHED_BLOCKS] for a in solver._static)
     roots, frames = st.roots[take], st.frames[take]
-    rest = roots[:, None] + np.einsum("snk,ska->sna", sim.model.rest_local[take], frames)
     static = roots + np.einsum("sk,ska->sa", sim.model.static_local[take], frames)
-    target = _blocked(rest, n)
-    rest_dir = np.zeros_like(target)
-    for b in range(CACHED_BLOCKS):  # the unit rest segments, as the solver makes them
-        C.rest_pose(_blocked(roots, 3)[b], _blocked(frames, 3)[b], local[b], target[b],
-                    rest_dir[b], BLOCK)  # fmt: skip
+    target = np.empty((CACHED_BLOCKS, n, 3, BLOCK))
+    rest_dir = np.empty_like(target)
+    root_rows, frame_rows = _blocked(roots, 3), _blocked(frames, 3)
+    for b in range(CACHED_BLOCKS):  # the skinned rest pose, as the solver makes it
+        C.rest_pose(root_rows[b], frame_rows[b], local[b], target[b], rest_dir[b], BLOCK)
     p = sim.params
     _, _, (_, ks, kb, scale, att, kl, profile, *_) = solver._constants()
     args = (W, L, R, _blocked(static, 3), target, rest_dir, np.empty((3, BLOCK)),
