@@ -15,7 +15,7 @@ import importlib
 from typing import Any
 
 from .curves import HairCurves
-from .errors import ConfigError, FollicleError, FormatError, InputError
+from .errors import ConfigError, FollicleError, FormatError, InputError, SimulationError
 
 # Imported eagerly (it is light): the name ``render`` must stay the function even
 # after a submodule such as ``follicle.render.camera`` is imported.
@@ -42,7 +42,7 @@ _LAZY = {
 }
 
 __all__ = [
-    "HairCurves", "FollicleError", "InputError", "FormatError", "ConfigError",
+    "HairCurves", "FollicleError", "InputError", "FormatError", "ConfigError", "SimulationError",
     "Camera", "Light", "render", *_LAZY,
 ]
 

@@ -17,3 +17,8 @@ class FormatError(FollicleError):
 
 class ConfigError(FollicleError):
     """A scene file (TOML) has a syntax error, an unknown key or a bad value."""
+
+
+class SimulationError(FollicleError):
+    """A simulation left the range where it is meaningful (a non-finite or exploding
+    state) although every input was valid: a bug to report, or settings to soften."""

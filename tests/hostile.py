@@ -1,0 +1,210 @@
+"""Running follicle the way hostile input meets it: in a child process under the limits
+the README promises (2 GiB of address space, 30 s), and checking the one clean refusal.
+
+``run_cli`` runs the ``follicle`` command (piped, or under a pseudo-terminal with
+``tty=True``); ``run_api`` runs a Python snippet and reports the exception it ended in.
+``assert_cli_refused`` / ``assert_api_refused`` check what the README promises of bad
+input: exit 2 with one ``error:`` line naming the file or key (CLI), or a FollicleError
+subclass (Python), no traceback, within the limits, and no file left behind.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import pty
+import resource
+import select
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+MEMORY = 2 << 30  # bytes of address space a child may map (RLIMIT_AS)
+SECONDS = 30.0  # wall time a child may take
+FOLLICLE = [sys.executable, "-m", "follicle.cli"]
+
+
+@dataclass
+class Outcome:
+    """What a child process did: exit code (negative: killed by that signal), its output,
+    and how long it took; ``timed_out`` when it was killed at the time limit."""
+
+    rc: int
+    stdout: str
+    stderr: str
+    seconds: float
+    timed_out: bool
+
+
+def _limits(memory: int) -> None:  # runs in the child, before exec
+    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    os.setsid()  # its own process group, so a time-out kills every process it started
+
+
+def _env(extra: dict[str, str] | None) -> dict[str, str]:
+    env = {**os.environ, "PYTHONFAULTHANDLER": "0", "COLUMNS": "120", "TERM": "xterm-256color"}
+    env.pop("NO_COLOR", None)
+    return {**env, **(extra or {})}
+
+
+def _kill(proc: subprocess.Popen) -> None:
+    with __import__("contextlib").suppress(ProcessLookupError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+
+
+def run(argv: list[str], cwd: str | os.PathLike[str], *, tty: bool = False,
+        timeout: float = SECONDS, memory: int = MEMORY, stdin: bytes | None = None,
+        env: dict[str, str] | None = None) -> Outcome:
+    """Run ``argv`` under the limits. With ``tty`` its stdin, stdout and stderr are one
+    pseudo-terminal (what a person's terminal is) and ``stdout`` holds all it printed."""
+    start = time.perf_counter()
+    if not tty:
+        proc = subprocess.Popen(argv, cwd=cwd, env=_env(env), stdin=subprocess.PIPE,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                preexec_fn=lambda: _limits(memory))
+        try:
+            out, err = proc.communicate(stdin or b"", timeout=timeout)
+        except subprocess.TimeoutExpired:
+            _kill(proc)
+            out, err = proc.communicate()
+            return Outcome(proc.returncode, out.decode(errors="replace"),
+                           err.decode(errors="replace"), time.perf_counter() - start, True)
+        return Outcome(proc.returncode, out.decode(errors="replace"),
+                       err.decode(errors="replace"), time.perf_counter() - start, False)
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(argv, cwd=cwd, env=_env(env), stdin=slave, stdout=slave,
+                            stderr=slave, preexec_fn=lambda: _limits(memory), close_fds=True)
+    os.close(slave)
+    chunks: list[bytes] = []
+    timed_out = False
+    while True:
+        left = timeout - (time.perf_counter() - start)
+        if left <= 0:
+            timed_out = True
+            _kill(proc)
+            break
+        ready, _, _ = select.select([master], [], [], min(left, 0.5))
+        if ready:
+            try:
+                data = os.read(master, 65536)
+            except OSError:  # EIO: the child closed the terminal
+                break
+            if not data:
+                break
+            chunks.append(data)
+        elif proc.poll() is not None:
+            break
+    proc.wait()
+    os.close(master)
+    text = b"".join(chunks).decode(errors="replace")
+    return Outcome(proc.returncode, text, "", time.perf_counter() - start, timed_out)
+
+
+def run_cli(*args: object, cwd: str | os.PathLike[str], tty: bool = False,
+            timeout: float = SECONDS, memory: int = MEMORY,
+            env: dict[str, str] | None = None) -> Outcome:
+    """``follicle ARGS`` in a child process under the limits."""
+    return run([*FOLLICLE, *map(str, args)], cwd, tty=tty, timeout=timeout, memory=memory,
+               env=env)
+
+
+_API = """
+import json, sys, traceback
+import follicle
+from follicle.errors import FollicleError
+def _report(**kw):
+    sys.stdout.write("\\n@@" + json.dumps(kw) + "\\n")
+try:
+{body}
+except FollicleError as exc:
+    _report(kind="refused", error=type(exc).__name__,
+            bases=[c.__name__ for c in type(exc).__mro__], message=str(exc))
+except BaseException as exc:
+    _report(kind="crash", error=type(exc).__name__, message=str(exc),
+            traceback=traceback.format_exc())
+else:
+    _report(kind="ok", result=repr(globals().get("result"))[:2000])
+"""
+
+
+@dataclass
+class ApiOutcome:
+    """What a snippet of the Python API ended in: ``kind`` is ok, refused (a
+    FollicleError), crash (any other exception) or died (killed, or out of time)."""
+
+    kind: str
+    error: str
+    message: str
+    outcome: Outcome
+    detail: dict
+
+
+def run_api(code: str, cwd: str | os.PathLike[str], *, timeout: float = SECONDS,
+            memory: int = MEMORY) -> ApiOutcome:
+    """Run ``code`` (it may set ``result``) with ``follicle`` imported, in a child process
+    under the limits."""
+    body = textwrap.indent(textwrap.dedent(code).strip() or "pass", "    ")
+    out = run([sys.executable, "-c", _API.format(body=body)], cwd, timeout=timeout,
+              memory=memory)
+    for line in reversed(out.stdout.splitlines()):
+        if line.startswith("@@"):
+            detail = json.loads(line[2:])
+            return ApiOutcome(detail["kind"], detail.get("error", ""),
+                              detail.get("message", ""), out, detail)
+    why = "timed out" if out.timed_out else f"exit {out.rc}"
+    return ApiOutcome("died", why, out.stderr[-2000:], out, {})
+
+
+def files(folder: str | os.PathLike[str]) -> set[str]:
+    """Every path under ``folder`` (relative), hidden ones included."""
+    root = Path(folder)
+    return {str(p.relative_to(root)) for p in root.rglob("*")}
+
+
+def assert_cli_refused(out: Outcome, *names: str) -> str:
+    """The promise for bad input on the command line: exit 2, one ``error:`` line that
+    names each of ``names``, no traceback, within the limits. Returns the line."""
+    shown = f"rc={out.rc} timed_out={out.timed_out}\nstdout: {out.stdout[-3000:]}\n" \
+            f"stderr: {out.stderr[-3000:]}"  # fmt: skip
+    assert not out.timed_out, f"did not finish in {SECONDS} s\n{shown}"
+    assert out.rc == 2, shown
+    assert "Traceback" not in out.stderr + out.stdout, shown
+    lines = [line for line in out.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), shown
+    for name in names:
+        assert name in lines[0], f"{name!r} not named\n{shown}"
+    return lines[0]
+
+
+def assert_api_refused(res: ApiOutcome, *names: str, error: str = "FollicleError") -> str:
+    """The promise for bad input in Python: a FollicleError subclass (``error`` among its
+    bases) whose message names each of ``names``, within the limits. Returns the message."""
+    shown = f"{res.kind} {res.error}: {res.message}\n{res.detail.get('traceback', '')}" \
+            f"\n{res.outcome.stderr[-2000:]}"  # fmt: skip
+    assert res.kind == "refused", shown
+    assert error in res.detail["bases"], shown
+    for name in names:
+        assert name in res.message, f"{name!r} not named\n{shown}"
+    return res.message
+
+
+@functools.lru_cache(maxsize=None)
+def warm() -> None:
+    """Compile (and cache) numba's kernels once in a child with no time limit, so the
+    30 s limit of later children measures their work, not a first-run compilation."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "s.toml").write_text("[groom]\ncount = 50\n")
+        for args in (["grow", "s.toml", "-o", "h.npz"],
+                     ["simulate", "s.toml", "--frames", "2", "-o", "sim.npz"],
+                     ["render", "sim.npz", "-o", "f", "--size", "32", "32", "--count", "20"]):
+            out = run_cli(*args, cwd=tmp, timeout=900, memory=8 << 30)
+            assert out.rc == 0, out.stderr
