@@ -195,7 +195,7 @@ def assert_api_refused(res: ApiOutcome, *names: str, error: str = "FollicleError
     return res.message
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def warm() -> None:
     """Compile (and cache) numba's kernels once in a child with no time limit, so the
     30 s limit of later children measures their work, not a first-run compilation."""

@@ -17,7 +17,16 @@ from typing import TYPE_CHECKING, TypeVar
 import click
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    Progress,
+    ProgressColumn,
+    SpinnerColumn,
+    Task,
+    TextColumn,
+    TimeElapsedColumn,
+)
+from rich.text import Text
 
 from .errors import FollicleError
 
@@ -44,28 +53,65 @@ class _Group(click.Group):
             return super().invoke(ctx)
         except FollicleError as exc:
             self._fail(ctx, str(exc))
+        except click.UsageError as exc:  # a subcommand's options or arguments
+            hint = f" (see {exc.ctx.command_path} --help)" if exc.ctx else ""
+            self._fail(ctx, f"{exc.format_message()}{hint}")
         except OSError as exc:
             where = f"{exc.filename}: " if exc.filename else ""
             self._fail(ctx, f"{where}{exc.strerror or exc}")
 
     @staticmethod
     def _fail(ctx: click.Context, message: str) -> None:
-        for line in message.splitlines():
-            _err.print(f"[bold red]error:[/] {escape(line)}", soft_wrap=True)
+        """One line, whatever the message holds: control characters (a newline in a file
+        name) are shown escaped."""
+        line = message.translate(_ESCAPES)
+        _err.print(f"[bold red]error:[/] {escape(line)}", soft_wrap=True)
         ctx.exit(2)
+
+
+_ESCAPES = {c: repr(chr(c))[1:-1] for c in [*range(32), 127]}
+
+
+class _Count(ProgressColumn):
+    """``done/total``, or ``done`` alone while the total is not known yet."""
+
+    def render(self, task: Task) -> Text:
+        done = f"{task.completed:,.0f}"
+        return Text(done if task.total is None else f"{done}/{task.total:,.0f}")
+
+
+def _first_run() -> bool:
+    """True when numba has cached none of follicle's kernels yet (a fresh install): the
+    first commands then spend a minute or more compiling before any progress. Numba
+    caches under NUMBA_CACHE_DIR when set, else beside the sources, else per user."""
+    from numba.core.config import CACHE_DIR
+    from numba.misc.appdirs import AppDirs
+
+    roots = [Path(CACHE_DIR)] if CACHE_DIR else \
+        [Path(__file__).parent, Path(AppDirs("numba", appauthor=False).user_cache_dir)]
+    return not any(next(root.rglob("*.nbi"), None) for root in roots if root.is_dir())
 
 
 @contextlib.contextmanager
 def _progress(label: str) -> Iterator[Callable[[int, int], None]]:
-    """A progress callback (done, total): a rich bar on a terminal, silence when piped."""
+    """A progress callback (done, total): a rich bar on a terminal, silence when piped.
+
+    Before the first report the bar spins with the time elapsed, and on a first run it
+    says that follicle's kernels are being compiled (cached for later runs)."""
     if not _err.is_terminal:
         yield lambda done, total: None
         return
-    columns = (TextColumn(label), BarColumn(), TextColumn("{task.completed:,}/{task.total:,}"),
+    waiting = f"{label} (first run: compiling follicle's kernels, cached for later runs)" \
+        if _first_run() else label  # fmt: skip
+    columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), _Count(),
                TimeElapsedColumn())
     with Progress(*columns, console=_err, transient=True) as bar:
-        task = bar.add_task(label, total=None)
-        yield lambda done, total: bar.update(task, completed=done, total=total)
+        task = bar.add_task(waiting, total=None)
+
+        def report(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total, description=label)
+
+        yield report
 
 
 @contextlib.contextmanager
@@ -75,11 +121,39 @@ def _step(what: str) -> Iterator[None]:
     log.info("%s in %.2f s", what, time.perf_counter() - start)
 
 
+def _interrupted(signum: int, frame: object) -> None:
+    """Ctrl-C or SIGTERM: remove the outputs being written and end at once, exit 128 + the
+    signal's number. Exiting here, rather than raising KeyboardInterrupt, works also when
+    the signal lands inside numba's compiled code, where an exception cannot unwind."""
+    import os
+    import signal
+
+    from .io.atomic import remove_pending
+
+    remove_pending()
+    name = signal.Signals(signum).name
+    sys.stderr.write(f"\nerror: stopped by {name}; no output was written\n")
+    sys.stderr.flush()
+    os._exit(128 + signum)
+
+
+def _handle_signals() -> None:
+    """SIGINT and SIGTERM end a command alike (temporary outputs removed, exit 130 / 143),
+    and a file-size limit (SIGXFSZ) no longer kills the process: the write fails with
+    EFBIG, which ends in one line naming the file and exit 2, like a full disk."""
+    import signal
+
+    signal.signal(signal.SIGINT, _interrupted)
+    signal.signal(signal.SIGTERM, _interrupted)
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("-v", "--verbose", count=True, help="Log what happens (-vv for debug).")
 @click.version_option(package_name="follicle")
 def main(verbose: int) -> None:
     """follicle: grow, simulate and render hair and fur."""
+    _handle_signals()
     level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
     logging.basicConfig(level=level, format="%(name)s: %(message)s", stream=sys.stderr)
     logging.getLogger("follicle").setLevel(level)
@@ -107,15 +181,15 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
     out = Path(out_dir)
     with _step("grow"), _progress("growing hair") as progress:
         mesh, curves = grow(scene, progress)
-    with _step("save"):
+    with _step("save"), _progress("saving"):
         save(curves, out / "demo.npz")
-    with _step("render"):
+    with _step("render"), _progress("rendering"):
         render_scene(curves, mesh, scene.render, out=str(out / "demo.png"))
     click.echo(f"{curves.curve_count:,} hairs → {out / 'demo.png'}, {out / 'demo.npz'}")
 
 
 @main.command()
-@click.argument("scene_path", metavar="SCENE", type=click.Path(dir_okay=False))
+@click.argument("scene_path", metavar="SCENE", type=click.Path())
 @click.option("-o", "--out", type=click.Path(dir_okay=False), default=None,
               help="Output curves file: .npz, or .hair, .tfx, .obj, .pbrt, .txt (Mitsuba), …"
               " written chunk by chunk as the hair grows; default [output].curves of the"
@@ -164,7 +238,7 @@ def _grown_chunks(groom: Groom, progress: Callable[[int, int], None], tally: lis
 
 
 @main.command()
-@click.argument("source", metavar="IN", type=click.Path(dir_okay=False))
+@click.argument("source", metavar="IN", type=click.Path())
 @click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
               help="Output file; its extension picks the format (.npz, .hair, .tfx, .obj,"
               " .pbrt, .txt, …).")
@@ -175,15 +249,45 @@ def export(source: str, out: str) -> None:
     `follicle grow -o` writes; README § Formats says what each format keeps.
     """
     from .io.dispatch import load_curves, save
+    from .sim.cache import is_cache
 
     _check_writable_suffix(out, _curve_suffixes())
+    if is_cache(source):
+        _export_cache(source, out)
+        return
     curves = load_curves(source)
     save(curves, out)
     click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {out}")
 
 
+def _export_cache(source: str, out: str) -> None:
+    """`follicle export CACHE -o anim.usdc`: the simulated guides of every frame as one
+    animated USD curves prim (time code = frame, at the cache's fps)."""
+    from .errors import FormatError
+    from .io.usd import SUFFIXES, save_usd_cache
+    from .sim.cache import load_cache
+
+    if Path(out).suffix.lower() not in SUFFIXES:
+        raise FormatError(
+            f"{source}: a simulation cache exports to animated USD; give -o a"
+            f" {' / '.join(SUFFIXES)} file (`follicle render {source} -o frames/` draws it)"
+        )
+    cache = load_cache(source)
+    with _step("export"), _progress("writing frames") as progress:
+        def frames() -> Iterator[HairCurves]:
+            from .curves import HairCurves
+
+            for f, strands in enumerate(cache.positions):
+                yield HairCurves.from_array(strands)
+                progress(f + 1, cache.frame_count)
+
+        save_usd_cache(frames(), out, fps=cache.fps)
+    click.echo(f"{cache.frame_count} frames of {cache.strand_count:,} guides ×"
+               f" {cache.vertex_count} vertices at {cache.fps:g} fps → {out}")
+
+
 @main.command("export-rib")
-@click.argument("scene_path", metavar="SCENE", type=click.Path(dir_okay=False))
+@click.argument("scene_path", metavar="SCENE", type=click.Path())
 @click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
               help="Output .rib; the frame file is written beside it (.follicle.z).")
 @click.option("--voxels", type=int, default=8, show_default=True,
@@ -218,7 +322,7 @@ MOTIONS = ("none", "turn", "nod", "shake")  # follicle.sim.motion.MOTIONS (not i
 
 
 @main.command()
-@click.argument("scene_path", metavar="SCENE", type=click.Path(dir_okay=False))
+@click.argument("scene_path", metavar="SCENE", type=click.Path())
 @click.option("-o", "--out", type=click.Path(dir_okay=False), default=None,
               help="Output cache (.npz); default sim.npz in the scene's folder.")
 @click.option("--frames", type=int, default=48, show_default=True,
@@ -271,7 +375,7 @@ def simulate(scene_path: str, out: str | None, frames: int, fps: float, motion: 
 
 
 @main.command()
-@click.argument("source", metavar="SCENE|CURVES|CACHE", type=click.Path(dir_okay=False))
+@click.argument("source", metavar="SCENE|CURVES|CACHE", type=click.Path())
 @click.option("-o", "--out", type=click.Path(), default=None,
               help="Output PNG; default [output].image of the scene, or CURVES with .png. For a"
               " CACHE, a folder of frame_0000.png, … or an .mp4 video; default CACHE's name +"
@@ -339,9 +443,12 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
     params = _validated(scene.render, "render", overrides)
     with _step("render"):
         if engine == "mitsuba":
-            render_scene_mitsuba(curves, mesh, params, out=target, spp=64 if spp is None else spp)
+            with _progress("path tracing (%)") as progress:
+                render_scene_mitsuba(curves, mesh, params, out=target,
+                                     spp=64 if spp is None else spp, progress=progress)
         else:
-            render_scene(curves, mesh, params, out=target)
+            with _progress("rendering"):
+                render_scene(curves, mesh, params, out=target)
     click.echo(f"→ {target}")
 
 
@@ -425,7 +532,7 @@ def _not_for(source: str, what: str, **options: object) -> None:
 
 
 @main.command()
-@click.argument("scene_path", metavar="[SCENE]", type=click.Path(dir_okay=False),
+@click.argument("scene_path", metavar="[SCENE]", type=click.Path(),
                 required=False)
 @click.option("--frames", type=int, default=None,
               help="Run this many frames, then exit (default: until the window closes).")
@@ -465,13 +572,17 @@ def view(scene_path: str | None, frames: int | None, screenshot: str | None,
 
 
 @main.command()
-@click.argument("source", metavar="SCENE|CURVES", type=click.Path(dir_okay=False),
+@click.argument("source", metavar="SCENE|CURVES", type=click.Path(),
                 required=False)
 def info(source: str | None) -> None:
     """Print a scene with every default filled in, or describe a curves file."""
     from .io.dispatch import load_curves
     from .scene import load_scene, scene_to_toml
+    from .sim.cache import describe_cache, is_cache
 
+    if source is not None and is_cache(source):
+        click.echo(describe_cache(source))
+        return
     if source is not None and Path(source).suffix.lower() != ".toml":
         curves = load_curves(source)
         click.echo(repr(curves))

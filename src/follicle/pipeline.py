@@ -96,16 +96,17 @@ def render_scene(
 
 def render_scene_mitsuba(
     curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None,
-    spp: int = 64, seed: int = 0,
+    spp: int = 64, seed: int = 0, progress: Progress | None = None,
 ) -> np.ndarray:  # fmt: skip
     """Path-trace hair and mesh with Mitsuba 3 (the pbr extra) under a scene's [render]
-    size, camera, lights and background; writes PNG when ``out``."""
+    size, camera, lights and background; writes PNG when ``out``; ``progress(done, 100)``
+    hears the render's progress."""
     from .render.mitsuba import render_mitsuba
 
     return render_mitsuba(
         curves, mesh=mesh, camera=scene_camera(params), size=params.size,
         lights=params.light_list(), spp=spp, out=out, seed=seed, fov=params.fov,
-        background=(params.background_top, params.background_bottom),
+        background=(params.background_top, params.background_bottom), progress=progress,
     )
 
 
@@ -120,15 +121,22 @@ def simulate_scene(
     """
     from .sim.cache import SimCache
     from .sim.motion import head_motion, motion_pivot
-    from .sim.simulator import Simulator
+    from .sim.simulator import MAX_SUBSTEPS_PER_CALL, Simulator, substeps_per_step
 
     if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
         raise InputError(f"frames: expected a whole number ≥ 1, got {frames!r}")
     if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not 0 < fps < math.inf:
         raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
+    p = scene.sim
+    per_frame = substeps_per_step(1.0 / fps, p.substep)
+    if per_frame > MAX_SUBSTEPS_PER_CALL:  # refused now, not after growing the groom
+        raise InputError(
+            f"[sim].substep {p.substep:g} needs {per_frame:,} substeps per frame at {fps:g}"
+            f" fps; the cap is {MAX_SUBSTEPS_PER_CALL:,}: raise [sim].substep above"
+            f" {1.0 / (fps * MAX_SUBSTEPS_PER_CALL):.2g} s (or the frame rate)"
+        )
     text = scene_to_toml(scene, comments=False)  # fails now, not after the simulation
     groom = groom_scene(scene)
-    p = scene.sim
     pivot = p.motion_pivot if p.motion_pivot is not None else motion_pivot(groom.mesh)
     sim = Simulator(groom.guides, params=p)
     positions = np.empty((int(frames), *sim.positions.shape), dtype=np.float32)

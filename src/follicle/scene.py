@@ -14,9 +14,18 @@ import sys
 from pathlib import Path
 from typing import Annotated, Any, Literal, get_args
 
-from pydantic import BaseModel, ConfigDict, Field, PlainValidator, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PlainValidator,
+    ValidationError,
+    model_validator,
+)
 
 from .errors import ConfigError, FormatError
+from .io.inputs import input_file
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -36,18 +45,46 @@ __all__ = [
     "load_scene",
     "parse_scene",
     "scene_to_toml",
+    "MAX_SCENE_BYTES",
 ]
 
+# a scene file is a few kB; 1 MiB bounds the time tomllib (pure Python, ~3 s a MiB of
+# numbers here) can spend on a file given by mistake or malice
+MAX_SCENE_BYTES = 1 << 20
+
 Unit = Annotated[float, Field(ge=0.0, le=1.0)]
-RGB = tuple[Unit, Unit, Unit]
-Vec3 = tuple[float, float, float]
+# a vector component (a position in m, a frequency in 1/m, an acceleration in m/s²):
+# bounded like a mesh coordinate, so products of a few stay far from overflowing
+Component = Annotated[float, Field(ge=-1e6, le=1e6)]
+# strict sections want a tuple where TOML gives a list: the tuple takes a list, its
+# items stay strict (a number, not true or "1")
+RGB = Annotated[tuple[Unit, Unit, Unit], Field(strict=False)]
+Vec3 = Annotated[tuple[Component, Component, Component], Field(strict=False)]
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
+    """A scene table: unknown keys are errors and no number may be NaN or infinite."""
+
+    model_config = ConfigDict(
+        extra="forbid", validate_assignment=True, frozen=False, allow_inf_nan=False
+    )
 
 
-class MeshParams(_Section):
+class _StrictSection(_Section):
+    """A table whose values keep their TOML type: ``count = true`` or ``count = "10"`` is
+    an error, not 1 or 10 (a float key takes an integer, nothing else)."""
+
+    model_config = ConfigDict(strict=True)
+
+
+def _not_bool(v: object) -> object:
+    """``v`` unless it is a bool (a Literal of numbers would take true as 1)."""
+    if isinstance(v, bool):
+        raise ValueError(f"expected a number (got {str(v).lower()})")
+    return v
+
+
+class MeshParams(_StrictSection):
     """The skin the hair grows on."""
 
     path: str = Field("builtin:head", description="mesh file (OBJ/PLY/GLB/STL) or builtin:head")
@@ -59,16 +96,23 @@ class MeshParams(_Section):
     )
 
 
-class GuidesParams(_Section):
+class GuidesParams(_StrictSection):
     """The artist-made guide curves every hair is interpolated from."""
 
     path: str = Field("builtin:long", description="builtin:long|short|curly or a curves file")
 
 
+def _shown(x: object) -> str:
+    """``x`` as TOML shows a bool, else ``repr(x)`` cut to 60 characters: an error message
+    stays one short line whatever value (a megabyte string, a long list) it quotes."""
+    text = str(x).lower() if isinstance(x, bool) else repr(x)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _in_range(x: object, bounds: dict[str, float]) -> float:
     """``x`` as a float within ``bounds`` (pydantic-style ge/gt/le keys), else ValueError."""
     if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-        raise ValueError(f"expected a finite number (got {x!r})")
+        raise ValueError(f"expected a finite number (got {_shown(x)})")
     for key, sign, ok in (
         ("ge", "≥", x >= bounds.get("ge", -math.inf)),
         ("gt", ">", x > bounds.get("gt", -math.inf)),
@@ -83,7 +127,7 @@ def _prop_value(v: object, color: bool, bounds: dict[str, float]) -> float | tup
     if not color:
         return _in_range(v, bounds)
     if not isinstance(v, (list, tuple)) or len(v) != 3:
-        raise ValueError(f"expected an [r, g, b] list of 3 numbers (got {v!r})")
+        raise ValueError(f"expected an [r, g, b] list of 3 numbers (got {_shown(v)})")
     try:
         return tuple(_in_range(c, {"ge": 0.0, "le": 1.0}) for c in v)
     except ValueError as exc:
@@ -102,11 +146,13 @@ def _prop(color: bool = False, **bounds: float) -> Any:
         if isinstance(v, dict):
             unknown = sorted(set(v) - {"value", "texture", "wrap"})
             if unknown:
-                raise ValueError(f"unknown key(s) {unknown}; a table takes value, texture, wrap")
+                raise ValueError(
+                    f"unknown key(s) {_shown(unknown)}; a table takes value, texture, wrap"
+                )
             if not isinstance(v.get("texture"), str) or not v["texture"]:
                 raise ValueError("a table needs texture = \"image path or builtin:name\"")
             if v.get("wrap") not in (None, "repeat", "clamp"):
-                raise ValueError(f"wrap must be \"repeat\" or \"clamp\" (got {v['wrap']!r})")
+                raise ValueError(f"wrap must be \"repeat\" or \"clamp\" (got {_shown(v['wrap'])})")
             out = dict(v)
             out["value"] = _prop_value(v.get("value", (1.0,) * 3 if color else 1.0), color, bounds)
             return out
@@ -121,7 +167,7 @@ Fraction = _prop(ge=0.0, le=1.0)
 Color = _prop(color=True)
 
 
-class GroomParams(_Section):
+class GroomParams(_StrictSection):
     """How many hairs grow and how they look (000 §2.2).
 
     Properties marked "(map)" take a number, a texture path (value 1 × texture) or a
@@ -131,11 +177,11 @@ class GroomParams(_Section):
 
     count: int = Field(20000, ge=0, le=50_000_000, description="number of hairs")
     seed: int = Field(0, ge=0, lt=2**63, description="random seed")
-    density: str | Annotated[float, Field(gt=0)] | None = Field(
+    density: str | Annotated[float, Field(gt=0, le=1e6)] | None = Field(
         None,
-        description="root density: a number (uniform), an image path (PNG/JPEG/TIFF; 16-bit"
-        " and float TIFF for HDR) or builtin:scalp; unset = builtin:scalp on the built-in"
-        " head, uniform elsewhere",
+        description="root density: a number (uniform; at most 1e6), an image path"
+        " (PNG/JPEG/TIFF; 16-bit and float TIFF for HDR) or builtin:scalp; unset ="
+        " builtin:scalp on the built-in head, uniform elsewhere",
     )
     density_refine: int = Field(
         0, ge=0, le=4, description="extra subdivision levels below the density texel size"
@@ -229,7 +275,7 @@ class GroomParams(_Section):
     )
 
 
-class ColliderParams(_Section):
+class ColliderParams(_StrictSection):
     """A sphere (centre, radius) or capsule (a, b, radius) the hair cannot enter."""
 
     kind: Literal["sphere", "capsule"] = Field("sphere", description="sphere or capsule")
@@ -282,7 +328,8 @@ class SimParams(_Section):
     )
     bend_stiffness: Unit = Field(0.2, description="bending (002 eq. 5.6) stiffness")
     bend_scale: float = Field(
-        1.0, gt=0, le=10, description="bending rest distances × scale (> 1 stiffens)"
+        1.0, ge=0.5, le=10, description="bending rest distances × scale (> 1 stiffens; below"
+        " 0.5 the rest distances pull the strand into its root and fight inextensibility)",
     )
     bend_attenuation: float = Field(
         1.0, ge=0, le=100, description="bending weakens along the strand: k / (1 + att·(i−1))"
@@ -345,7 +392,7 @@ class SimParams(_Section):
         return self
 
 
-class LightParams(_Section):
+class LightParams(_StrictSection):
     """A light of the render: `[[render.lights]]` tables, in order; the first
     directional one is the key light, the one that casts shadows."""
 
@@ -366,16 +413,17 @@ class LightParams(_Section):
         return self
 
 
-class RenderParams(_Section):
+class RenderParams(_StrictSection):
     """The offline OpenGL render."""
 
-    size: tuple[Annotated[int, Field(ge=1, le=8192)], Annotated[int, Field(ge=1, le=8192)]] = (
-        Field((960, 960), description="image width and height, pixels")
-    )
+    size: Annotated[
+        tuple[Annotated[int, Field(ge=1, le=8192)], Annotated[int, Field(ge=1, le=8192)]],
+        Field(strict=False),
+    ] = Field((960, 960), description="image width and height, pixels")
     shading: Literal["kajiya-kay", "scheuermann", "marschner"] = Field(
         "kajiya-kay", description="hair shading model"
     )
-    shading_params: dict[str, float | tuple[float, float, float]] = Field(
+    shading_params: dict[str, float | Vec3] = Field(
         default_factory=dict, description="the model's parameters, e.g. {specular = 0.3}"
         " (README: Rendering)",
     )
@@ -384,7 +432,9 @@ class RenderParams(_Section):
         default_factory=list, description="[[render.lights]] tables; none: key, fill and rim"
         " lights that follow the camera, and a little ambient",
     )
-    msaa: Literal[0, 1, 2, 4, 8, 16] = Field(4, description="multisample anti-aliasing samples")
+    msaa: Annotated[Literal[0, 1, 2, 4, 8, 16], BeforeValidator(_not_bool)] = Field(
+        4, description="multisample anti-aliasing samples"
+    )
     subdivisions: int = Field(4, ge=1, le=16, description="most Catmull-Rom steps per segment"
                               " (fewer where it is short and straight on screen)")
     eye: Vec3 | None = Field(None, description="camera position; unset = framed automatically")
@@ -420,14 +470,14 @@ class RenderParams(_Section):
         ] or None
 
 
-class OutputParams(_Section):
+class OutputParams(_StrictSection):
     """Where `follicle grow` / `follicle render` write when no -o is given."""
 
     curves: str = Field("hair.npz", description="grown curves file")
     image: str = Field("hair.png", description="rendered image")
 
 
-class Scene(_Section):
+class Scene(_StrictSection):
     """A whole scene; every section optional."""
 
     mesh: MeshParams = Field(default_factory=MeshParams)
@@ -449,21 +499,25 @@ def _format_errors(source: str, err: ValidationError) -> str:
     by_place: dict[str, str] = {}
     for e in err.errors():
         loc = [str(p) for p in e["loc"] if not str(p).startswith(("function-", "tuple["))]
+        loc = [p if p.isprintable() else repr(p) for p in loc]  # a key "a\nb": one line
         # unions report a branch name ('str', 'float') as a location step: drop them
         loc = [p for p in loc if p not in {"str", "float", "int", "none", "constrained-float"}]
         section = f"[{loc[0]}]" if loc else "scene"
         key = ".".join(loc[1:]) if len(loc) > 1 else ""
         where = f"{section}{'.' + key if key else ''}"
-        if e["type"] == "extra_forbidden":
+        if e["type"] == "extra_forbidden" or loc == ["base_dir"]:  # the loader sets base_dir
             allowed = _allowed_keys(loc)
             by_place[where] = f"{source}: {where}: unknown key; allowed keys: {allowed}"
         elif where not in by_place or not e["type"].endswith("_type"):
             # a union reports each branch; a range message beats a type mismatch
             got = e.get("input")
-            shown = "" if isinstance(got, dict) or "(got" in e["msg"] else f" (got {got!r})"
+            shown = "" if isinstance(got, dict) or "(got" in e["msg"] else f" (got {_shown(got)})"
             msg = e["msg"].removeprefix("Value error, ")
             by_place[where] = f"{source}: {where}: {msg}{shown}"
-    return "\n".join(by_place.values())
+    # a union of a number and a list reports the value and an item of it: keep the value's
+    # one line, problems joined: the CLI promises one line
+    return "; ".join(line for where, line in by_place.items()
+                     if not any(where.startswith(other + ".") for other in by_place))
 
 
 def _allowed_keys(loc: list[str]) -> str:
@@ -494,19 +548,58 @@ def parse_scene(data: dict[str, Any], source: str = "scene", base_dir: Path | No
 
 
 def load_scene(path: str | os.PathLike[str] | None) -> Scene:
-    """Read and validate a scene TOML file (None gives the default scene)."""
+    """Read and validate a scene TOML file (None gives the default scene).
+
+    Only a regular file of at most :data:`MAX_SCENE_BYTES` is read (a FIFO, device or
+    folder is refused before opening it); anything the TOML parser cannot take (bad
+    syntax or UTF-8, nesting too deep for its recursion, an integer of thousands of
+    digits) is a ConfigError naming the file.
+    """
     if path is None:
         return Scene()
     p = Path(path)
-    if not p.is_file():
+    if not os.path.lexists(p):
         raise FormatError(f"{p}: no such scene file")
+    input_file(p, "scene file (TOML)")
     try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
+        with open(p, "rb") as fh:
+            raw = fh.read(MAX_SCENE_BYTES + 1)
+    except OSError as exc:
+        raise FormatError(f"{p}: cannot be read ({exc.strerror or exc})") from None
+    if len(raw) > MAX_SCENE_BYTES:
+        raise ConfigError(
+            f"{p}: larger than {MAX_SCENE_BYTES >> 20} MiB; a scene file is a short TOML text"
+        )
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{p}: not a UTF-8 text file (bad byte at offset {exc.start})") from None
+    return scene_from_toml(text, str(p), p.resolve().parent)
+
+
+def scene_from_toml(text: str, source: str, base_dir: Path | None = None) -> Scene:
+    """A scene from TOML text (a file's, or one stored in a cache or frame file); anything
+    the parser cannot take (bad syntax, nesting too deep for its recursion, an integer of
+    thousands of digits) is a ConfigError naming ``source``."""
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: TOML syntax error: {exc}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{p}: not a UTF-8 text file") from None
-    return parse_scene(data, str(p), p.resolve().parent)
+        raise ConfigError(f"{source}: TOML syntax error: {exc}") from None
+    except RecursionError:
+        raise ConfigError(
+            f"{source}: arrays or tables nested too deeply to parse; a scene nests a few levels"
+        ) from None
+    except (ValueError, MemoryError) as exc:  # e.g. an integer of more than 4300 digits
+        why = str(exc).split(";")[0] or type(exc).__name__  # not Python's set_int_max_str_digits
+        raise ConfigError(f"{source}: a TOML value is too large to read ({why})") from None
+    return parse_scene(data, source, base_dir)
+
+
+# a TOML basic string: backslash, quote and control characters escaped (\uXXXX), so any
+# text (a path with a newline or NUL, say) is one valid line that reads back the same
+_TOML_ESCAPES = str.maketrans(
+    {"\\": "\\\\", '"': '\\"', **{chr(c): f"\\u{c:04x}" for c in (*range(0x20), 0x7F)}}
+)
 
 
 def _toml_value(value: Any) -> str:
@@ -521,7 +614,9 @@ def _toml_value(value: Any) -> str:
             raise ConfigError(f"cannot write {value} to TOML")
         return repr(value)
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if any("\ud800" <= c <= "\udfff" for c in value):  # e.g. undecodable file-name bytes
+            raise ConfigError(f"cannot write {_shown(value)} to TOML: it is not valid Unicode")
+        return '"' + value.translate(_TOML_ESCAPES) + '"'
     if isinstance(value, (tuple, list)):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, dict):

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..arrays import all_finite
 from ..errors import FormatError
+from .inputs import input_file
 
 __all__ = ["BinaryFile", "open_binary", "read_bytes", "check_finite", "Spool"]
 
@@ -98,8 +99,9 @@ def _cannot_read(p: Path, exc: OSError) -> FormatError:
 
 @contextmanager
 def open_binary(path: str | os.PathLike[str]) -> Iterator[BinaryFile]:
-    """A :class:`BinaryFile` for ``path``; FormatError when it cannot be opened."""
-    p = Path(path)
+    """A :class:`BinaryFile` for ``path``; FormatError when it cannot be opened or is
+    not a regular file (a FIFO would block, a device never end)."""
+    p = input_file(path, "hair curves file")
     try:
         fh = open(p, "rb")
     except OSError as exc:
@@ -110,8 +112,8 @@ def open_binary(path: str | os.PathLike[str]) -> Iterator[BinaryFile]:
 
 def read_bytes(path: str | os.PathLike[str]) -> tuple[Path, np.ndarray]:
     """The whole file as uint8 (for the text readers' compiled scanners); FormatError
-    naming the file when it cannot be read."""
-    p = Path(path)
+    naming the file when it cannot be read or is not a regular file."""
+    p = input_file(path, "hair curves file")
     try:
         return p, np.fromfile(p, dtype=np.uint8)
     except OSError as exc:

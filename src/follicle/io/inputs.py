@@ -24,8 +24,9 @@ def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
         mode = p.stat().st_mode
     except FileNotFoundError:
         raise FormatError(f"{p}: no such file") from None
-    except OSError as exc:
-        raise FormatError(f"{p}: cannot be read ({exc.strerror or exc}); give a {what}") from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
+        reason = getattr(exc, "strerror", None) or exc
+        raise FormatError(f"{p!s:.200}: cannot be read ({reason}); give a {what}") from None
     if stat.S_ISDIR(mode):
         raise FormatError(f"{p}: is a folder; give a {what}")
     if not stat.S_ISREG(mode):

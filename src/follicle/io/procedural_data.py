@@ -19,21 +19,15 @@ import json
 import math
 import os
 import stat
-import sys
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError, FormatError, InputError
+from ..errors import FormatError, InputError
 from ..mesh.skin import SkinMesh
-from ..scene import Scene, parse_scene
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - exercised on Python 3.10 only
-    import tomli as tomllib
+from ..scene import Scene, scene_from_toml
 
 __all__ = ["VoxelGrid", "FrameData", "MAX_VOXELS"]
 
@@ -99,11 +93,7 @@ class FrameData:
 
     def scene(self, source: str = "frame file") -> Scene:
         """The stored scene, its relative paths resolved against ``base_dir``."""
-        try:
-            data = tomllib.loads(self.scene_toml)
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{source}: the stored scene has a TOML error: {exc}") from None
-        return parse_scene(data, source, Path(self.base_dir))
+        return scene_from_toml(self.scene_toml, f"{source} (stored scene)", Path(self.base_dir))
 
     def to_bytes(self) -> bytes:
         header = {

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FollicleError, FormatError, InputError
+from ..io.inputs import input_file
 from .head import builtin_head
 from .skin import SkinMesh
 
@@ -23,8 +24,10 @@ def load_mesh(path: str | os.PathLike[str]) -> SkinMesh:
     """Load ``path`` (OBJ/PLY/GLB/GLTF/STL/OFF) or ``"builtin:head"`` as a SkinMesh.
 
     The file is read with ``process=False`` (vertex order kept), triangulated, and
-    its per-vertex UVs kept when present. Unreadable files raise FormatError; bad
-    geometry (NaN vertices, no faces) raises InputError naming the file.
+    its per-vertex UVs kept when present. Unreadable files (and a FIFO, device or
+    folder, refused before opening) raise FormatError; bad geometry (NaN vertices, a
+    coordinate beyond ±:data:`~follicle.mesh.skin.MAX_COORDINATE`, no faces, only
+    zero-area faces) raises InputError naming the file.
     """
     text = os.fspath(path)
     if isinstance(text, str) and text.startswith(_BUILTIN_PREFIX):
@@ -40,8 +43,9 @@ def load_mesh(path: str | os.PathLike[str]) -> SkinMesh:
             f"mesh file '{p}' has extension '{p.suffix}'; supported: {', '.join(MESH_EXTENSIONS)}"
             f" (or {', '.join(_BUILTIN_PREFIX + k for k in BUILTIN_MESHES)})"
         )
-    if not p.is_file():
+    if not os.path.lexists(p):
         raise FormatError(f"mesh file '{p}' does not exist; check the path")
+    input_file(p, f"mesh file ({', '.join(MESH_EXTENSIONS)})")
 
     import trimesh
 

@@ -18,9 +18,13 @@ from ..errors import InputError
 from ..frames import normalize
 from .texture import Texture
 
-__all__ = ["SkinMesh", "SurfacePoints", "closest_weights"]
+__all__ = ["SkinMesh", "SurfacePoints", "closest_weights", "MAX_COORDINATE"]
 
 _POSES = ("rest", "current")
+# the largest |coordinate| of a mesh vertex, metres (a planet is 6.4e6 m): products of
+# coordinates (areas, normals, distances squared) then stay far inside float32 and the
+# relative tolerances of float64; a mesh at 1e38 would overflow them to inf or NaN
+MAX_COORDINATE = 1e6
 
 
 class SurfacePoints(NamedTuple):
@@ -38,6 +42,18 @@ def _finite_rows(arr: np.ndarray, what: str) -> None:
     if not ok.all():
         bad = int(np.argmax(~ok))
         raise InputError(f"{what} {bad} is not finite (NaN or inf); fix or remove it")
+
+
+def _checked_positions(verts: np.ndarray, what: str) -> None:
+    """InputError naming the first vertex that is not finite or beyond ±MAX_COORDINATE."""
+    _finite_rows(verts, what)
+    far = (np.abs(verts) > MAX_COORDINATE).any(axis=1)
+    if far.any():
+        bad = int(np.argmax(far))
+        raise InputError(
+            f"{what} {bad} = {verts[bad].tolist()} lies beyond the limit |coordinate| ≤"
+            f" {MAX_COORDINATE:g} m; scale the mesh to metres"
+        )
 
 
 class SkinMesh:
@@ -63,7 +79,7 @@ class SkinMesh:
             raise InputError(
                 f"{what}: vertices must have shape (V, 3) with V > 0, got {verts.shape}"
             )
-        _finite_rows(verts, f"{what}: vertex")
+        _checked_positions(verts, f"{what}: vertex")
         f = np.asarray(faces)
         if f.size == 0:
             raise InputError(f"{what} has no faces; give at least one triangle")
@@ -124,7 +140,7 @@ class SkinMesh:
                     f"{what}: pose vertices must have shape {self.rest_vertices.shape}"
                     f" (same as the rest pose), got {verts.shape}"
                 )
-            _finite_rows(verts, f"{what}: pose vertex")
+        _checked_positions(verts, f"{what}: pose vertex")  # a huge transform overflows too
         self.vertices = frozen(verts.copy())
         self._drop_current()
 

@@ -8,16 +8,23 @@ the first; texel ``(row i, column j)`` has its centre at ``u = (j + 0.5) / W``,
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
 from numba import njit
 
-from ..errors import FormatError, InputError
+from ..errors import FollicleError, FormatError, InputError
+from ..io.inputs import input_file
 
-__all__ = ["Texture", "WRAP_MODES"]
+__all__ = ["Texture", "WRAP_MODES", "MAX_TEXTURE_PIXELS"]
 
 WRAP_MODES = ("repeat", "clamp")
+# 8192 × 8192: the float32 copy of an RGBA texture that size is 1 GiB. Checked on the
+# header before any pixel is decoded; below pillow's own decompression-bomb warning
+# (89.5 M pixels), so an image this allows never trips pillow's checks.
+MAX_TEXTURE_SIDE = 8192
+MAX_TEXTURE_PIXELS = MAX_TEXTURE_SIDE * MAX_TEXTURE_SIDE
 
 _FORMATS = ("PNG", "JPEG", "TIFF")
 # pillow modes that keep TIFF samples wider than 8 bits: unsigned 16-bit grey, 32-bit float
@@ -82,23 +89,31 @@ class Texture:
         8-bit images (grey, grey + alpha, RGB, RGBA, palette) and 16-bit greyscale
         (PNG, TIFF) scale to [0, 1]; 32-bit float greyscale TIFF keeps its values (HDR,
         negative). Layouts pillow would narrow or misread (16-bit colour, signed or
-        32-bit integers, multi-channel float) raise FormatError instead of loading.
+        32-bit integers, multi-channel float) raise FormatError instead of loading, and
+        so does an image of more than :data:`MAX_TEXTURE_PIXELS` pixels (read from its
+        header, before decoding), a truncated one, or a FIFO, device or folder.
         """
-        from PIL import Image, UnidentifiedImageError
+        from PIL import Image
 
         p = Path(path)
-        if not p.is_file():
+        if not os.path.lexists(p):
             raise FormatError(f"texture file '{p}' does not exist or is not a file; check the path")
+        if p.is_dir():
+            raise FormatError(f"texture file '{p}' is a folder, not a file; give an image file")
+        input_file(p, "PNG, JPEG or TIFF image file")
         try:
-            with Image.open(p, formats=_FORMATS) as img:
-                _check_layout(img, p)
-                img.load()
-                arr = _image_array(img, p)
-        except Image.DecompressionBombError as exc:
-            raise FormatError(
-                f"texture file '{p}' is larger than pillow's safety limit ({exc}); downscale it"
-            ) from exc
-        except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", Image.DecompressionBombWarning)
+                with Image.open(p, formats=_FORMATS) as img:
+                    _check_size(img.size, p)
+                    _check_layout(img, p)
+                    img.load()
+                    arr = _image_array(img, p)
+        except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
+            raise FormatError(f"texture file '{p}': {str(exc).rstrip('.')}; {_TOO_LARGE}") from exc
+        except FollicleError:
+            raise
+        except Exception as exc:  # pillow raises many kinds on garbled or truncated files
             raise FormatError(
                 f"texture file '{p}' cannot be read as an image (got: {exc}); {_SUPPORTED}"
             ) from exc
@@ -179,6 +194,19 @@ def _sample_kernel(data, repeat, uv):
         for c in range(data.shape[2]):
             out[n, c] = bilinear(data, repeat, uv[n, 0], uv[n, 1], c)
     return out
+
+
+_TOO_LARGE = (
+    f"textures may have at most {MAX_TEXTURE_PIXELS:,} pixels ({MAX_TEXTURE_SIDE} ×"
+    f" {MAX_TEXTURE_SIDE}); downscale it"
+)
+
+
+def _check_size(size: tuple[int, int], path: Path) -> None:
+    """FormatError unless a ``(width, height)`` from an image header fits the limit."""
+    width, height = size
+    if width * height > MAX_TEXTURE_PIXELS:
+        raise FormatError(f"texture file '{path}' is {width} × {height} pixels; {_TOO_LARGE}")
 
 
 def _check_layout(img: object, path: Path) -> None:

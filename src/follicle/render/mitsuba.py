@@ -26,10 +26,11 @@ does, and sets its variant.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -84,6 +85,36 @@ def _mitsuba():
         raise InputError(f"mitsuba {mi.__version__} lacks the {VARIANT} variant")
     mi.set_variant(VARIANT)
     return mi
+
+
+@contextlib.contextmanager
+def _reporting(mi, progress: Callable[[int, int], None] | None) -> Iterator[None]:
+    """While rendering, Mitsuba's logger reports its progress to ``progress`` (in
+    per cent) and prints nothing: its own appender would draw a second bar."""
+    if progress is None:
+        yield
+        return
+
+    class Reporter(mi.Appender):
+        def append(self, level, text):  # log lines: the CLI's -v logging says enough
+            pass
+
+        def log_progress(self, fraction, name, formatted, eta, ptr=None):
+            progress(min(int(fraction * 100), 100), 100)
+
+    logger = mi.logger()
+    saved = [logger.appender(i) for i in range(logger.appender_count())]
+    level = logger.log_level()
+    logger.clear_appenders()
+    logger.add_appender(Reporter())
+    logger.set_log_level(mi.LogLevel.Info)  # progress is reported at the Info level
+    try:
+        yield
+    finally:
+        logger.clear_appenders()
+        for appender in saved:
+            logger.add_appender(appender)
+        logger.set_log_level(level)
 
 
 def _whole(value: object, name: str, lo: int, hi: int) -> int:
@@ -210,6 +241,7 @@ def render_mitsuba(
     hair_width: float = DEFAULT_HAIR_WIDTH,
     skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
     fov: float = 35.0,
+    progress: Callable[[int, int], None] | None = None,
 ) -> np.ndarray:
     """Path-trace hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
 
@@ -219,6 +251,7 @@ def render_mitsuba(
     (linear RGB) and ``hair_width`` (diameter, metres); per-vertex opacity is not used
     (fibres are opaque, light passes through them as the BSDF says). ``spp`` samples
     per pixel; the same ``seed`` gives the same image. ``out``: also write PNG there.
+    ``progress(done, 100)`` hears Mitsuba's own render progress, in per cent.
     """
     if curves is not None and not isinstance(curves, HairCurves):
         raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
@@ -252,7 +285,9 @@ def render_mitsuba(
             scene["hair"] = _hair_shape(mi, curves, hair_color, hair_width, Path(folder))
         if has_mesh:
             scene["skin"] = _skin_shape(mi, mesh_arrays, skin_color)
-        rgba = np.array(mi.render(mi.load_dict(scene), seed=seed, spp=spp), dtype=np.float64)
+        with _reporting(mi, progress):
+            rgba = np.array(mi.render(mi.load_dict(scene), seed=seed, spp=spp),
+                            dtype=np.float64)
     alpha = np.clip(rgba[..., 3:], 0.0, 1.0)
     linear = np.empty((h, w, 4))
     linear[..., :3] = rgba[..., :3] + (1.0 - alpha) * _gradient(background, h)

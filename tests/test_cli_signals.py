@@ -1,0 +1,55 @@
+"""Stopping the follicle command: SIGTERM is handled like Ctrl-C (the temporary output is
+removed, the exit code is 128 + the signal), and a file-size limit or a full disk is one line and
+exit 2, not a killed process, with nothing left behind."""
+
+import os
+import resource
+import signal
+import subprocess
+import time
+
+import pytest
+
+from hostile import FOLLICLE, Outcome, assert_cli_refused, files, warm
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _warm():
+    warm()
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize("suffix", [".hair", ".usdc"])
+def test_a_stopped_grow_leaves_no_file(tmp_path, signum, suffix):
+    (tmp_path / "s.toml").write_text("[groom]\ncount = 400000\n")
+    proc = subprocess.Popen([*FOLLICLE, "grow", "s.toml", "-o", f"big{suffix}"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while not any(name.startswith(".big") for name in os.listdir(tmp_path)):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "the temporary output never appeared"
+        time.sleep(0.05)
+    time.sleep(0.3)  # well inside the write
+    proc.send_signal(signum)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + signum, err.decode()
+    assert err.decode().strip() == f"error: stopped by {signum.name}; no output was written"
+    assert files(tmp_path) == {"s.toml"}
+
+
+def _file_size_limit(limit):
+    def set_limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    return set_limit
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".hair", ".tfx", ".usdc", ".usda", ".usdz"])
+def test_a_file_size_limit_is_one_line_and_exit_2(tmp_path, suffix):
+    (tmp_path / "s.toml").write_text("[groom]\ncount = 3000\n")
+    start = time.perf_counter()
+    proc = subprocess.run([*FOLLICLE, "grow", "s.toml", "-o", f"h{suffix}"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120,
+                          preexec_fn=_file_size_limit(200_000))
+    out = Outcome(proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - start, False)
+    assert_cli_refused(out, f"h{suffix}")
+    assert files(tmp_path) == {"s.toml"}

@@ -1,0 +1,72 @@
+"""The follicle command in a real terminal: every command under a pseudo-terminal (where
+progress bars draw) finishes with exit 0, draws its bar and prints its result line."""
+
+import pytest
+
+import follicle
+from hostile import run_cli, warm
+
+SCENE = '[groom]\ncount = 300\n[guides]\npath = "builtin:short"\n[render]\nsize = [96, 72]\n'
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    warm()
+    tmp = tmp_path_factory.mktemp("tty")
+    (tmp / "s.toml").write_text(SCENE)
+    return tmp
+
+
+def tty(folder, *args):
+    out = run_cli(*args, cwd=folder, tty=True, timeout=300)
+    assert not out.timed_out and out.rc == 0, out.stdout[-3000:]
+    assert "Traceback" not in out.stdout and "Error" not in out.stdout, out.stdout[-3000:]
+    return out.stdout
+
+
+# (arguments, what the bar says, what the result line says); in order: simulate makes the
+# cache that the cache commands read
+COMMANDS = [
+    (["demo", "--out", "demo", "--count", "400", "--size", "64", "64"], "growing hair",
+     "400 hairs → demo/demo.png"),
+    (["grow", "s.toml", "-o", "h.npz"], "growing hair", "300 hairs"),
+    (["grow", "s.toml", "-o", "h.hair"], "growing hair", "→ h.hair"),
+    (["render", "s.toml", "-o", "s.png"], "rendering", "→ s.png"),
+    (["render", "s.toml", "--engine", "mitsuba", "--spp", "2", "-o", "m.png"], "path tracing",
+     "→ m.png"),
+    (["simulate", "s.toml", "--frames", "3", "-o", "sim.npz"], "simulating",
+     "3 frames at 24 fps"),
+    (["render", "sim.npz", "-o", "frames", "--count", "50"], "rendering frames",
+     "3 frames (0–2)"),
+    (["render", "sim.npz", "-o", "sim.mp4", "--count", "50"], "rendering frames", "→ sim.mp4"),
+    (["export", "sim.npz", "-o", "sim.usda"], "writing frames", "3 frames of"),
+    (["export-rib", "s.toml", "-o", "f.rib", "--voxels", "2"], "bounding voxels", "→ f.rib"),
+]
+
+
+@pytest.mark.parametrize("args,bar,result", COMMANDS, ids=[" ".join(c[0][:2]) for c in COMMANDS])
+def test_every_command_draws_its_progress_on_a_terminal(folder, args, bar, result):
+    shown = tty(folder, *args)
+    assert bar in shown, shown[-2000:]
+    assert "\x1b[" in shown  # the bar is drawn with terminal control sequences
+    assert result in shown, shown[-2000:]
+
+
+def test_the_outputs_a_terminal_run_writes_are_whole(folder):
+    assert follicle.load_curves(folder / "h.npz").curve_count == 300
+    assert sorted(p.name for p in (folder / "frames").iterdir()) == [
+        f"frame_000{i}.png" for i in range(3)]
+    assert not [p for p in folder.rglob(".*") if p.is_file()]  # no temporary file left
+
+
+def test_a_first_run_says_it_is_compiling(folder, tmp_path):
+    """With an empty numba cache the bar says what the wait is from its first frame (the
+    run is stopped there: compiling everything again would take minutes)."""
+    (tmp_path / "s.toml").write_text(SCENE)
+    cache = tmp_path / "numba"
+    cache.mkdir()
+    out = run_cli("grow", "s.toml", "-o", "h.npz", cwd=tmp_path, tty=True, timeout=20,
+                  env={"NUMBA_CACHE_DIR": str(cache)})
+    assert "first run: compiling follicle's kernels" in out.stdout, out.stdout[-2000:]
+    warm_run = tty(folder, "grow", "s.toml", "-o", "again.npz")
+    assert "growing hair" in warm_run and "first run" not in warm_run
