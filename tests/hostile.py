@@ -195,6 +195,29 @@ def assert_api_refused(res: ApiOutcome, *names: str, error: str = "FollicleError
     return res.message
 
 
+def read_within(path: Path, read, slack: int) -> object:
+    """``read(path)``'s result, or the FormatError it raised, checking in this process
+    that it allocated at most 16 × the file's size + ``slack`` bytes (tracemalloc sees
+    numpy's arrays) and that a refusal is one line naming the file."""
+    import tracemalloc
+
+    from follicle.errors import FormatError
+
+    size = path.stat().st_size
+    tracemalloc.start()
+    try:
+        result = read(path)
+    except FormatError as exc:
+        result = exc
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    assert peak <= 16 * size + slack, f"allocated {peak} bytes reading {size}"
+    if isinstance(result, FormatError):
+        assert str(result).startswith(f"{path}: ") and "\n" not in str(result), str(result)
+    return result
+
+
 @functools.cache
 def warm() -> None:
     """Compile (and cache) numba's kernels once in a child with no time limit, so the

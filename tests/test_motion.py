@@ -239,10 +239,10 @@ def test_unreadable_files(tmp_path):
 
 def test_stored_scene_errors_name_the_cache(tmp_path):
     cache = load_cache(write(tmp_path / "s.npz", scene_toml=np.array("[groom\n")))
-    with pytest.raises(FormatError, match=r"s.npz \(stored scene\): TOML syntax error"):
+    with pytest.raises(FormatError, match="s.npz: stored scene: TOML syntax error"):
         cache.scene()
     cache = load_cache(write(tmp_path / "k.npz", scene_toml=np.array("[groom]\ncuont = 1\n")))
-    with pytest.raises(FormatError, match=r"k.npz \(stored scene\): \[groom\].cuont: unknown key"):
+    with pytest.raises(FormatError, match=r"k.npz: stored scene: \[groom\].cuont: unknown key"):
         cache.scene()
 
 

@@ -93,7 +93,7 @@ class FrameData:
 
     def scene(self, source: str = "frame file") -> Scene:
         """The stored scene, its relative paths resolved against ``base_dir``."""
-        return scene_from_toml(self.scene_toml, f"{source} (stored scene)", Path(self.base_dir))
+        return scene_from_toml(self.scene_toml, f"{source}: stored scene", Path(self.base_dir))
 
     def to_bytes(self) -> bytes:
         header = {

@@ -31,11 +31,16 @@ maps the crate while it writes, so file-backed memory grows to about its size) a
 bytes.
 
 Reading takes every BasisCurves prim of the stage, any type, basis and wrap, and keeps
-the points each curve passes through; see :func:`load_usd`.
+the points each curve passes through; see :func:`load_usd`. usd-core reads in a child
+process under memory and time limits after cheap checks of the file's container
+(:mod:`follicle.io.usd_guard`, :mod:`follicle.io.usd_stage`), so a hostile file is one
+FormatError, never a crash. A failed write (a full disk, a file-size limit) is one
+FormatError naming the output, with no temporary file left.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import struct
@@ -51,7 +56,10 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 from ..curves import HairCurves
 from ..errors import FormatError, InputError
 from .atomic import atomic_path
+from .inputs import input_file
 from .stream import Curves, as_chunks
+from .usd_guard import check_container, read_stage
+from .usd_stage import usd_error
 
 if TYPE_CHECKING:
     from ..sim.cache import SimCache
@@ -250,6 +258,21 @@ def _package(crate: Path, usdz: Path, target: Path) -> None:
         out.write(b"PK\x03\x04" + common + name + extra)
 
 
+@contextlib.contextmanager
+def _writing(target: Path) -> Iterator[None]:
+    """Turn usd-core's and the system's write failures (a full disk, a file-size limit,
+    no permission) into one FormatError naming ``target``."""
+    try:
+        yield
+    except Tf.ErrorException as exc:
+        why = usd_error(exc, first=True)  # the first error is the cause, the rest follow it
+        raise FormatError(f"{target}: usd-core could not write it ({why}); free disk space"
+                          " or write elsewhere") from None  # fmt: skip
+    except OSError as exc:
+        raise FormatError(f"{target}: could not write it ({exc.strerror or exc}); free disk"
+                          " space or write elsewhere") from None  # fmt: skip
+
+
 def _check_suffix(path: str | os.PathLike[str]) -> Path:
     target = Path(path)
     if target.suffix.lower() not in SUFFIXES:
@@ -269,7 +292,7 @@ def save_usd(
     target = _check_suffix(path)
     guide_curves = None if guides is None else _as_guides(guides)
     chunks = as_chunks(curves)
-    with atomic_path(target) as tmp:
+    with _writing(target), atomic_path(target) as tmp:
         _finish(target, tmp, lambda crate: _write_crate(chunks, crate, guide_curves, normals))
     return target
 
@@ -349,192 +372,19 @@ def save_usd_cache(
         raise InputError(f"fps: expected a finite number > 0, got {rate!r}")
     if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
         raise InputError(f"start: expected a whole number (first time code), got {start!r}")
-    with atomic_path(target) as tmp:
+    with _writing(target), atomic_path(target) as tmp:
         _finish(target, tmp, lambda crate: _write_cache(stream, crate, float(rate), int(start)))
     return target
 
 
 # ------------------------------------------------------------------ reading
-_VSTEP = {"bezier": 3, "bspline": 1, "catmullRom": 1}
-
-
-def _rule(kind: str, basis: str, wrap: str, counts: np.ndarray, where: str) -> str:
-    """How a prim's control vertices map to the points its curves pass through."""
-    if wrap == "periodic":
-        raise FormatError(f"{where}: periodic (closed) curves are not hair; not read")
-    if kind == "linear":
-        low, rule = 2, "all"
-    elif basis not in _VSTEP:
-        raise FormatError(f"{where}: unknown basis '{basis}' (bezier, bspline or catmullRom)")
-    elif wrap == "pinned" and basis != "bezier":
-        low, rule = 2, "all" if basis == "catmullRom" else "pinned-knots"
-    else:
-        low, rule = 4, {"bezier": "bezier", "bspline": "knots", "catmullRom": "inner"}[basis]
-    bad = (counts < low) | (((counts - 4) % 3 != 0) if rule == "bezier" else False)
-    if np.any(bad):
-        i = int(np.argmax(bad))
-        raise FormatError(
-            f"{where}: curve {i} has {int(counts[i])} vertices, invalid for {kind} {basis}"
-            f" {wrap} curves"
-        )
-    return rule
-
-
-def _out_counts(rule: str, counts: np.ndarray) -> np.ndarray:
-    if rule in ("inner", "knots"):
-        return counts - 2
-    if rule == "bezier":
-        return (counts - 1) // 3 + 1
-    return counts
-
-
-def _through(values: np.ndarray, counts: np.ndarray, rule: str) -> np.ndarray:
-    """Per-control-vertex ``values`` at the points the curves pass through."""
-    offsets = np.concatenate([[0], np.cumsum(counts)])
-    if rule == "all":
-        return values
-    if rule == "pinned-knots":  # add USD's phantom ends, then as nonperiodic
-        starts, ends = offsets[:-1], offsets[1:] - 1
-        first, last = values[starts], values[ends]
-        if np.issubdtype(values.dtype, np.floating):
-            first, last = 2 * first - values[starts + 1], 2 * last - values[ends - 1]
-        at = np.arange(len(values)) + np.repeat(2 * np.arange(len(counts)) + 1, counts)
-        padded = np.empty((len(values) + 2 * len(counts),) + values.shape[1:], values.dtype)
-        padded[at], padded[starts + 2 * np.arange(len(counts))] = values, first
-        padded[ends + 2 * np.arange(len(counts)) + 2] = last
-        return _through(padded, counts + 2, "knots")
-    local = np.arange(len(values)) - np.repeat(offsets[:-1], counts)
-    if rule == "bezier":
-        return values[local % 3 == 0]
-    inner = np.flatnonzero((local > 0) & (local < np.repeat(counts, counts) - 1))
-    if rule == "inner" or not np.issubdtype(values.dtype, np.floating):
-        return values[inner]
-    # uniform cubic B-spline at its knots: (P[j-1] + 4 P[j] + P[j+1]) / 6
-    return ((values[inner - 1] + 4 * values[inner] + values[inner + 1]) / 6).astype(values.dtype)
-
-
-def _array(value: object) -> np.ndarray | None:
-    arr = None if value is None else np.asarray(value)
-    return arr if arr is not None and arr.dtype.kind in "fiub" else None
-
-
-class _Prim:
-    """A BasisCurves prim read as HairCurves: its topology, then its primvars mapped to
-    the points its curves pass through."""
-
-    def __init__(self, prim: Usd.Prim, time: Usd.TimeCode, source: str) -> None:
-        self.schema = UsdGeom.BasisCurves(prim)
-        self.time = time
-        self.where = f"{source}: {prim.GetPath()}"
-        counts = _array(self.schema.GetCurveVertexCountsAttr().Get(time))
-        points = _array(self.schema.GetPointsAttr().Get(time))
-        if counts is None or points is None:
-            raise FormatError(f"{self.where}: no points or curveVertexCounts")
-        self.counts = counts.astype(np.int64)
-        if int(self.counts.sum()) != len(points):
-            raise FormatError(
-                f"{self.where}: curveVertexCounts sum to {int(self.counts.sum())} but there are"
-                f" {len(points)} points"
-            )
-        self.rule = _rule(self.schema.GetTypeAttr().Get(), self.schema.GetBasisAttr().Get(),
-                          self.schema.GetWrapAttr().Get(), self.counts, self.where)  # fmt: skip
-        self.out = _out_counts(self.rule, self.counts)
-        self.points = _through(points.astype(np.float32), self.counts, self.rule)
-
-    def _check(self, name: str, values: np.ndarray, interpolation: str) -> None:
-        sizes = {"constant": 1, "uniform": len(self.counts), "vertex": int(self.counts.sum()),
-                 "varying": int(self.out.sum()), "faceVarying": int(self.out.sum())}  # fmt: skip
-        if interpolation not in sizes or len(values) != sizes[interpolation]:
-            raise FormatError(
-                f"{self.where}: {name} has {len(values)} values; {interpolation} interpolation"
-                f" needs {sizes.get(interpolation, 'a known interpolation')}"
-            )
-
-    def per_point(self, name: str, values: np.ndarray, interpolation: str) -> np.ndarray:
-        """``values`` of any interpolation as one row per output point."""
-        self._check(name, values, interpolation)
-        if interpolation == "vertex":
-            return _through(values, self.counts, self.rule)
-        if interpolation in ("constant", "uniform"):
-            return np.repeat(values, self.out if interpolation == "uniform" else len(self.points),
-                             axis=0)  # fmt: skip
-        return values
-
-    def _widths_normals(self, point_data: dict[str, np.ndarray]) -> None:
-        api = UsdGeom.PrimvarsAPI(self.schema)
-        for key, name, attr, interpolation in (
-            ("width", "widths", self.schema.GetWidthsAttr(), self.schema.GetWidthsInterpolation()),
-            ("normal", "normals", self.schema.GetNormalsAttr(),
-             self.schema.GetNormalsInterpolation()),
-        ):  # fmt: skip
-            if api.HasPrimvar(name):  # primvars:widths / primvars:normals win over the attribute
-                primvar = api.GetPrimvar(name)
-                value = primvar.ComputeFlattened(self.time)
-                interpolation = primvar.GetInterpolation()
-            else:
-                value = attr.Get(self.time) if attr.HasAuthoredValue() else None
-            arr = _array(value)
-            if arr is not None:
-                point_data[key] = self.per_point(name, arr.astype(np.float32), interpolation)
-
-    def read(self) -> HairCurves:
-        point_data: dict[str, np.ndarray] = {}
-        curve_data: dict[str, np.ndarray] = {}
-        self._widths_normals(point_data)
-        for primvar in UsdGeom.PrimvarsAPI(self.schema).GetPrimvarsWithAuthoredValues():
-            name, interpolation = primvar.GetPrimvarName(), primvar.GetInterpolation()
-            arr = _array(primvar.ComputeFlattened(self.time))
-            if name in ("widths", "normals") or arr is None or interpolation == "constant" \
-                    and name not in ("displayColor", "displayOpacity"):  # fmt: skip
-                continue
-            if primvar.GetElementSize() > 1:
-                arr = arr.reshape(len(arr) // primvar.GetElementSize(), -1)
-            key = {"displayColor": "color", "displayOpacity": "opacity"}.get(name)
-            if key is not None:
-                point_data[key] = self.per_point(name, arr.astype(np.float32), interpolation)
-            elif interpolation == "uniform":
-                self._check(name, arr, interpolation)
-                curve_data[name] = arr
-            else:
-                point_data[name] = self.per_point(name, arr, interpolation)
-        offsets = np.concatenate([[0], np.cumsum(self.out)])
-        curves = HairCurves(self.points, offsets, point_data, curve_data)
-        return _to_follicle_space(curves, self.schema.GetPrim(), self.time)
-
-
-def _to_follicle_space(curves: HairCurves, prim: Usd.Prim, time: Usd.TimeCode) -> HairCurves:
-    """Apply the prim's local-to-world transform, the stage's metersPerUnit and a Z-up to
-    Y-up turn, so the curves are in follicle's metres, +Y up (no copy when all are 1)."""
-    stage = prim.GetStage()
-    m = np.array(UsdGeom.XformCache(time).GetLocalToWorldTransform(prim), dtype=np.float64)
-    m[:, :3] *= UsdGeom.GetStageMetersPerUnit(stage)
-    if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z:  # (x, y, z) -> (x, z, -y)
-        m = m @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], np.float64)
-    if np.allclose(m, np.eye(4), rtol=0, atol=1e-12):
-        return curves
-    linear = m[:3, :3]  # USD matrices act on row vectors: p' = p @ linear + m[3, :3]
-    pd = dict(curves.point_data)
-    if "width" in pd:
-        pd["width"] = (pd["width"] * abs(np.linalg.det(linear)) ** (1 / 3)).astype(np.float32)
-    if "normal" in pd:
-        n = pd["normal"].astype(np.float64) @ np.linalg.inv(linear).T
-        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-        pd["normal"] = n.astype(np.float32)
-    points = curves.points.astype(np.float64) @ linear + m[3, :3]
-    return HairCurves(points.astype(np.float32), curves.offsets, pd, curves.curve_data)
-
-
-def _open(path: Path) -> Usd.Stage:
-    if not path.is_file():
-        raise FormatError(f"{path}: no such file")
+def _part(prim: dict, source: Path) -> HairCurves:
+    """One prim's arrays from the child as HairCurves (FormatError if they are not)."""
     try:
-        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
-    except Tf.ErrorException as exc:
-        reason = str(exc).strip().splitlines()[-1] if str(exc).strip() else "unreadable"
-        raise FormatError(f"{path}: not a readable USD file ({reason})") from None
-    if stage is None:
-        raise FormatError(f"{path}: not a readable USD file")
-    return stage
+        return HairCurves(prim["points"], prim["offsets"], prim["point_data"],
+                          prim["curve_data"])  # fmt: skip
+    except InputError as exc:
+        raise FormatError(f"{prim['where']}: {exc}") from None
 
 
 def _join(parts: list[HairCurves], source: Path) -> HairCurves:
@@ -572,19 +422,12 @@ def load_usd(
     curve; transforms, metersPerUnit and a Z up axis are applied. ``/Groom/Guides`` is
     skipped unless it is the only curves prim, or ``guides=True`` reads only it.
     ``time`` picks a time code (default: the default values, or else the first sample).
+
+    usd-core reads the file in a child process under memory and time limits, after
+    cheap checks of its container (see :mod:`follicle.io.usd_guard`): anything wrong
+    with the file, or usd-core crashing on it, is a FormatError naming it. Half-float
+    primvars come back as float32.
     """
-    source = Path(path)
-    stage = _open(source)
-    when = Usd.TimeCode.EarliestTime() if time is None else Usd.TimeCode(float(time))
-    prims = [p for p in stage.Traverse() if p.IsA(UsdGeom.BasisCurves)]
-    guide_prims = [p for p in prims if p.GetPath().HasPrefix(Sdf.Path(GUIDES_PATH))]
-    hair = [p for p in prims if p not in guide_prims]
-    chosen = guide_prims if guides else hair or guide_prims
-    if not chosen:
-        what = f"no {GUIDES_PATH} prim" if guides else "no BasisCurves prims"
-        raise FormatError(f"{source}: {what}; is this a hair file?")
-    try:
-        parts = [_Prim(p, when, str(source)).read() for p in chosen]
-    except InputError as exc:
-        raise FormatError(f"{source}: {exc}") from None
-    return _join(parts, source)
+    source = input_file(path, "USD file (.usd, .usda, .usdc or .usdz)")
+    check_container(source)
+    return _join([_part(p, source) for p in read_stage(source, time, guides)], source)

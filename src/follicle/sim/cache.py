@@ -132,7 +132,7 @@ class SimCache:
         from ..scene import scene_from_toml
 
         try:
-            return scene_from_toml(self.scene_toml, f"{self.source} (stored scene)",
+            return scene_from_toml(self.scene_toml, f"{self.source}: stored scene",
                                    Path(self.base_dir))
         except ConfigError as exc:
             raise FormatError(f"{exc}; the cache is damaged: run `follicle simulate` again"

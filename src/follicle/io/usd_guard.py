@@ -1,0 +1,265 @@
+"""Opening a USD file that may be hostile: cheap container checks, then usd-core in a
+child process under limits.
+
+usd-core is C++ and trusts its input: a corrupt crate (``.usdc``) or package (``.usdz``)
+can make it crash (segfault) or map gigabytes, and a few kilobytes of ``.usda`` that
+reference each other many times over compose for ever. So :func:`read_stage`
+
+1. checks the container in Python, reading little: a ``.usda`` starts with ``#usda``
+   and is UTF-8; a crate starts with ``PXR-USDC`` and its table of contents and every
+   section lie inside the file; a ``.usdz`` is a zip whose members are stored
+   uncompressed, 64-byte aligned, the first one a USD layer (checked the same way);
+2. reads it with usd-core in a child process: :mod:`follicle.io.usd_stage` runs as a
+   script (``python -I``, numpy and pxr only, one usd-core thread) that stays up and
+   forks a fresh child per file; the child caps its address space at ``MEMORY_BASE +
+   MEMORY_PER_BYTE × file size`` (1.5 GiB + 16 × size; Python and pxr alone map 1.1
+   GB) and is killed after ``SECONDS_BASE + size / BYTES_PER_SECOND`` of wall time
+   (6 s + 1 s per 16 MB). Before composing anything it counts the prims composition
+   would make through references, payloads and sublayers (at most 100,000, repeats
+   counted) and refuses cycles;
+3. turns a refusal, a crash, the memory limit or the time limit into one FormatError
+   naming the file.
+
+Cost: the first read in a process starts the server (importing pxr: 0.5-1.5 s); each
+read then takes a fork and the read itself, about 50-100 ms for a small file. The
+arrays come back through an ``.npz`` in a temporary folder, loaded without pickle.
+"""
+
+from __future__ import annotations
+
+import codecs
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import zipfile
+from pathlib import Path
+from time import monotonic
+from typing import BinaryIO
+
+import numpy as np
+
+from ..errors import FormatError
+
+__all__ = ["check_container", "read_stage"]
+
+MEMORY_BASE = 3 << 29  # bytes of address space: Python and pxr take 1.1 GB opening a stage
+MEMORY_PER_BYTE = 16  # and this many bytes per byte of the file
+SECONDS_BASE = 6.0  # wall time for the child to start and read a small file
+BYTES_PER_SECOND = 16 << 20  # and one more second per this many bytes of the file
+CRATE_MAGIC = b"PXR-USDC"
+_SCRIPT = Path(__file__).with_name("usd_stage.py")
+_HINT = "is it a valid USD file?"
+
+
+# ------------------------------------------------------------------ container checks
+def _check_text(path: Path, data: bytes, size: int) -> None:
+    """A text layer: ``#usda`` first, UTF-8 throughout (read in blocks)."""
+    if not data.startswith(b"#usda"):
+        raise FormatError(f"{path}: a .usda layer must start with '#usda 1.0'; {_HINT}")
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    with open(path, "rb") as f:
+        done = 0
+        while block := f.read(1 << 20):
+            try:
+                decoder.decode(block, final=done + len(block) >= size)
+            except UnicodeDecodeError as exc:
+                raise FormatError(f"{path}: byte {done + exc.start} is not UTF-8; a .usda layer"
+                                  " must be UTF-8 text (save it as UTF-8)") from None
+            done += len(block)
+
+
+def _check_crate(path: Path, f: BinaryIO, start: int, size: int) -> None:
+    """A crate at ``start`` of ``size`` bytes of open file ``f``: magic, table of
+    contents and sections within it."""
+    f.seek(start)
+    head = f.read(24)
+    if len(head) < 24 or not head.startswith(CRATE_MAGIC):
+        raise FormatError(f"{path}: not a USD crate (no {CRATE_MAGIC.decode()} header); {_HINT}")
+    toc = int.from_bytes(head[16:24], "little", signed=True)
+    if not 24 <= toc <= size - 8:
+        raise FormatError(f"{path}: crate table of contents at byte {toc} lies outside the"
+                          f" {size}-byte file (truncated or corrupt); {_HINT}")  # fmt: skip
+    f.seek(start + toc)
+    count = int.from_bytes(f.read(8), "little")
+    if count > (size - toc - 8) // 32:
+        raise FormatError(f"{path}: crate lists {count} sections, more than fit in the file"
+                          f" (corrupt); {_HINT}")  # fmt: skip
+    table = np.frombuffer(f.read(32 * count), dtype=[("name", "S16"), ("at", "<i8"),
+                                                      ("size", "<i8")])  # fmt: skip
+    if len(table) < count or np.any((table["at"] < 24) | (table["size"] < 0)
+                                    | (table["at"] > size - table["size"])):  # fmt: skip
+        raise FormatError(f"{path}: a crate section lies outside the {size}-byte file"
+                          f" (truncated or corrupt); {_HINT}")  # fmt: skip
+
+
+def _check_usdz(path: Path, size: int) -> None:
+    """A USDZ package: a zip of stored, 64-byte aligned members, the first a USD layer."""
+    with open(path, "rb") as f:
+        try:
+            with zipfile.ZipFile(f) as z:
+                members = z.infolist()
+            starts = [_data_start(f, m) for m in members]
+        except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
+            raise FormatError(f"{path}: not a readable zip ({exc}); a .usdz is a zip package"
+                              " of USD layers") from None  # fmt: skip
+        if not members or not members[0].filename.lower().endswith((".usd", ".usda", ".usdc")):
+            raise FormatError(f"{path}: a .usdz package's first file must be a USD layer;"
+                              f" {_HINT}")  # fmt: skip
+        for member, start in zip(members, starts, strict=True):
+            if member.compress_type != zipfile.ZIP_STORED or start % 64:
+                raise FormatError(f"{path}: {member.filename!r} is compressed or not 64-byte"
+                                  " aligned; USDZ stores files uncompressed (usdzip makes one)")
+            if start + member.file_size > size:
+                raise FormatError(f"{path}: {member.filename!r} runs past the end of the package")
+        f.seek(starts[0])
+        if f.read(8) == CRATE_MAGIC:
+            _check_crate(path, f, starts[0], members[0].file_size)
+        elif members[0].filename.lower().endswith(".usdc"):
+            raise FormatError(f"{path}: {members[0].filename!r} is not a USD crate; {_HINT}")
+
+
+def _data_start(f: BinaryIO, member: zipfile.ZipInfo) -> int:
+    """Where ``member``'s data begins: after its local header and that header's fields."""
+    f.seek(member.header_offset)
+    local = f.read(30)
+    if len(local) < 30 or local[:4] != b"PK\x03\x04":
+        raise ValueError(f"no local header for {member.filename!r}")
+    name_len = int.from_bytes(local[26:28], "little")
+    extra_len = int.from_bytes(local[28:30], "little")
+    return member.header_offset + 30 + name_len + extra_len
+
+
+def check_container(path: Path) -> None:
+    """FormatError unless ``path`` looks like the USD its extension (or content) says,
+    checked without usd-core, reading only headers (and a .usda's bytes, for UTF-8)."""
+    try:
+        _check_container(path)
+    except OSError as exc:
+        raise FormatError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+
+
+def _check_container(path: Path) -> None:
+    size = path.stat().st_size
+    suffix = path.suffix.lower()
+    if suffix == ".usdz":
+        _check_usdz(path, size)
+        return
+    with open(path, "rb") as f:
+        head = f.read(8)
+        if head == CRATE_MAGIC and suffix != ".usda":
+            _check_crate(path, f, 0, size)
+        elif suffix == ".usda" or suffix == ".usd" and head.startswith(b"#usda"):
+            _check_text(path, head, size)
+        else:
+            text = " nor USD text (#usda)" if suffix == ".usd" else ""
+            raise FormatError(f"{path}: not a USD crate (no {CRATE_MAGIC.decode()} header)"
+                              f"{text}; {_HINT}")  # fmt: skip
+
+
+# ------------------------------------------------------------------ the child
+def limits(size: int) -> tuple[int, float]:
+    """(bytes of address space, seconds) the child may use for a file of ``size`` bytes."""
+    return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
+
+
+def _died(path: Path, reply: dict | None, stderr: Path, memory: int,
+          seconds: float) -> FormatError:  # fmt: skip
+    """The one line for a child that ended without a result."""
+    if reply is None:
+        why = "its reader process stopped"
+    elif reply["timed_out"]:
+        why = f"took more than {seconds:.0f} s"
+    elif reply["code"] < 0:
+        name = signal.Signals(-reply["code"]).name
+        why = f"crashed with {name}, or needed more than {memory / 2**30:.1f} GiB"
+    else:
+        text = stderr.read_text(errors="replace") if stderr.exists() else ""
+        last = text.strip().splitlines()[-1:] or ["no output"]
+        why = f"failed (exit {reply['code']}: {last[0][:200]}); or needed more than" \
+              f" {memory / 2**30:.1f} GiB"  # fmt: skip
+    return FormatError(f"{path}: usd-core could not read it ({why}); {_HINT}")
+
+
+class _Server:
+    """The long-lived ``usd_stage.py`` process that forks one child per read (started
+    on first use: ~0.5-1 s to import pxr, then milliseconds a read). It exits when this
+    process closes its stdin, i.e. when this process ends."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.proc: subprocess.Popen | None = None
+
+    def _start(self) -> subprocess.Popen:
+        if self.proc is None or self.proc.poll() is not None:
+            env = {**os.environ, "PXR_WORK_THREAD_LIMIT": "1", "OPENBLAS_NUM_THREADS": "1",
+                   "OMP_NUM_THREADS": "1", "MALLOC_ARENA_MAX": "2"}  # one thread: fork-safe
+            # unbuffered: select() then sees every reply line, none hides in a buffer
+            self.proc = subprocess.Popen([sys.executable, "-I", str(_SCRIPT)], env=env,
+                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                         stderr=subprocess.DEVNULL, bufsize=0)  # fmt: skip
+        return self.proc
+
+    def _stop(self) -> None:
+        if self.proc is not None:
+            self.proc.kill()
+            self.proc.wait()
+            self.proc = None
+
+    def _reply(self, proc: subprocess.Popen, seconds: float) -> dict | None:
+        """The server's next ``@@`` line, or None if it ends or goes quiet."""
+        deadline = monotonic() + seconds
+        while (left := deadline - monotonic()) > 0:
+            ready, _, _ = select.select([proc.stdout], [], [], left)
+            line = proc.stdout.readline() if ready else b""
+            if not line:
+                return None
+            if line.startswith(b"@@"):
+                return json.loads(line[2:])
+        return None
+
+    def ask(self, request: dict) -> dict | None:
+        """Send ``request``; the reply (``code``, ``timed_out``) or None if the server
+        failed twice (it is restarted once)."""
+        with self.lock:
+            for _ in range(2):
+                proc = self._start()
+                try:
+                    proc.stdin.write(json.dumps(request).encode() + b"\n")
+                    reply = self._reply(proc, request["seconds"] + 60)
+                except OSError:
+                    reply = None
+                if reply is not None:
+                    return reply
+                self._stop()
+            return None
+
+
+_SERVER = _Server()
+
+
+def read_stage(path: Path, time: float | None, guides: bool) -> list[dict]:
+    """The chosen BasisCurves prims of ``path``: dicts of ``where``, ``points``,
+    ``offsets``, ``point_data`` and ``curve_data`` arrays, read in a child process
+    (see the module); FormatError naming the file on any failure."""
+    memory, seconds = limits(path.stat().st_size)
+    with tempfile.TemporaryDirectory(prefix="follicle-usd-read-") as folder:
+        reply = _SERVER.ask({"source": os.path.abspath(path), "shown": str(path), "out": folder,
+                             "time": time, "guides": guides, "memory": memory,
+                             "seconds": seconds})  # fmt: skip
+        result_file = Path(folder, "result.json")
+        if reply is None or not result_file.exists():
+            raise _died(path, reply, Path(folder, "stderr.txt"), memory, seconds)
+        result = json.loads(result_file.read_text())
+        if "refused" in result:
+            raise FormatError(result["refused"])
+        with np.load(Path(folder, "arrays.npz"), allow_pickle=False) as arrays:
+            return [{"where": p["where"],
+                     "points": arrays[p["points"]], "offsets": arrays[p["offsets"]],
+                     "point_data": {k: arrays[v] for k, v in p["point_data"].items()},
+                     "curve_data": {k: arrays[v] for k, v in p["curve_data"].items()}}
+                    for p in result["prims"]]  # fmt: skip
