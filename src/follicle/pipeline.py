@@ -137,7 +137,7 @@ def simulate_scene(
         )
     text = scene_to_toml(scene, comments=False)  # fails now, not after the simulation
     groom = groom_scene(scene)
-    pivot = p.motion_pivot if p.motion_pivot is not None else motion_pivot(groom.mesh)
+    pivot = motion_pivot(groom.mesh, p.motion_pivot)
     sim = Simulator(groom.guides, params=p)
     positions = np.empty((int(frames), *sim.positions.shape), dtype=np.float32)
     transforms = np.empty((int(frames), 4, 4))

@@ -60,6 +60,11 @@ Component = Annotated[float, Field(ge=-1e6, le=1e6)]
 # items stay strict (a number, not true or "1")
 RGB = Annotated[tuple[Unit, Unit, Unit], Field(strict=False)]
 Vec3 = Annotated[tuple[Component, Component, Component], Field(strict=False)]
+# an acceleration on the hair (gravity, wind): beyond ±100 m/s² (10 g) the skin's
+# collisions and the strands' lengths fight and segments stretch (README: Dynamics)
+MAX_ACCELERATION = 100.0
+Accel = Annotated[float, Field(ge=-MAX_ACCELERATION, le=MAX_ACCELERATION)]
+Acceleration = Annotated[tuple[Accel, Accel, Accel], Field(strict=False)]
 
 
 class _Section(BaseModel):
@@ -288,7 +293,7 @@ class ColliderParams(_StrictSection):
     )
 
 
-class SimParams(_Section):
+class SimParams(_StrictSection):
     """Guide-strand dynamics (001 §3, 002 §5.1.2–5.1.3)."""
 
     solver: Literal["pbd", "dftl"] = Field(
@@ -297,15 +302,18 @@ class SimParams(_Section):
     integrator: Literal["verlet", "euler"] = Field(
         "verlet", description="Verlet (002 eq. 5.1) or semi-implicit Euler"
     )
-    substep: float = Field(1 / 120, gt=0, le=0.1, description="internal fixed time step, s")
+    substep: float = Field(1 / 120, gt=0, le=1 / 30, description="internal fixed time step, s"
+                           " (at most 1/30: longer steps let the skin sweep through the hair)")
     iterations: int = Field(8, ge=1, le=200, description="constraint iterations per substep")
     vertices: int | None = Field(
-        None, ge=2, le=1024, description="vertices per simulated strand; unset = the guides'"
+        None, ge=2, le=256, description="vertices per simulated strand; unset = the guides'"
     )
-    gravity: Vec3 = Field((0.0, -9.81, 0.0), description="gravity, m/s²")
+    gravity: Acceleration = Field((0.0, -9.81, 0.0), description="gravity, m/s² (each"
+                                  " component within ±100, about 10 g)")
     damping: float = Field(0.5, ge=0, le=100, description="velocity damping per second")
     drag: float = Field(0.0, ge=0, le=1000, description="air drag b of −b·v (002 eq. 5.3), 1/s")
-    wind: Vec3 = Field((0.0, 0.0, 0.0), description="wind acceleration w of 002 eq. 5.2, m/s²")
+    wind: Acceleration = Field((0.0, 0.0, 0.0), description="wind acceleration w of 002 eq."
+                               " 5.2, m/s² (each component within ±100)")
     wind_turbulence: float = Field(
         0.5, ge=0, le=10, description="noise added to the wind, relative to its strength"
     )
@@ -344,7 +352,7 @@ class SimParams(_Section):
         0.05, description="stiffness towards the skinned rest pose (0.05 keeps a groom's"
         " style under gravity and still lets it swing; 0 = hair falls freely)",
     )
-    shape_global_range: tuple[Unit, Unit] = Field(
+    shape_global_range: Annotated[tuple[Unit, Unit], Field(strict=False)] = Field(
         (0.0, 1.0), description="global shape: full up to the first, zero from the second"
         " (root-to-tip fractions)",
     )
@@ -389,6 +397,17 @@ class SimParams(_Section):
     def _range_ordered(self) -> SimParams:
         if self.shape_global_range[0] > self.shape_global_range[1]:
             raise ValueError("shape_global_range: the start must not exceed the end")
+        return self
+
+    @model_validator(mode="after")
+    def _wind_bounded(self) -> SimParams:
+        """Gusts and turbulence scale the wind: its peak, like gravity, stays ≤ 100 m/s²."""
+        peak = max(map(abs, self.wind)) * (1 + self.wind_gust) * (1 + self.wind_turbulence)
+        if peak > MAX_ACCELERATION:
+            raise ValueError(
+                f"wind × (1 + wind_gust) × (1 + wind_turbulence) peaks at {peak:.4g} m/s²; at"
+                f" most {MAX_ACCELERATION:g} (10 g): lower wind, wind_gust or wind_turbulence"
+            )
         return self
 
 

@@ -20,7 +20,8 @@ segment starting at each vertex.
   update of eq. 3.1.
 - strain limit: after PBD's iterations, no segment stays longer than (1 + limit) × rest.
 - cone (001 §3.3.3): a segment may turn away from the previous one by at most the
-  bend limit; beyond it, it is put on the cone, keeping its length.
+  bend limit; beyond it, it is put on the cone at its rest length. Root to tip, each
+  segment hangs from its parent's new place.
 - shape matching: local (each segment towards its rest direction in the frame of the
   previous segment, so curls and partings keep their form) and global (each vertex
   towards the skinned rest pose, by a root-to-tip profile).
@@ -143,34 +144,44 @@ def _put_row(X, i, row, corr, nb):
 
 
 @_jit
-def cone_pass(X, cos_limit, sin_limit, first, nb):
+def cone_pass(X, L, cos_limit, sin_limit, first, nb):
     """Limit each segment's turn from the previous one (the first from the unit root
-    direction ``first`` (3, B)) to the cone of half-angle acos(cos_limit), keeping
-    lengths."""
+    direction ``first`` (3, B)) to the cone of half-angle acos(cos_limit) (001 §3.3.3).
+
+    Root to tip like follow-the-leader (001 §3.1.1): each segment keeps the vector it had
+    before the pass, hung from its parent's new place, and a segment outside the cone is
+    put on it at its rest length ``L``. So no segment gets longer and a vertex moves at
+    most by the turns above it: with any limit, down to 0 (a rigid straight strand at
+    rest lengths), the pass cannot stretch a strand or throw it away (reading lengths
+    from the moved parent did: a 1e-9° cone sent a curled strand 2 km off in one
+    substep)."""
     for b in range(nb):
         px, py, pz = first[0, b], first[1, b], first[2, b]
+        ox, oy, oz = X[0, 0, b], X[0, 1, b], X[0, 2, b]  # the parent before the pass
         for i in range(1, X.shape[0]):
-            dx, dy, dz, length = _segment(X, i, b)
-            if length < _TINY:
-                continue
-            ux, uy, uz = dx / length, dy / length, dz / length
-            c = ux * px + uy * py + uz * pz
-            if c < cos_limit:
-                # the cone's axis component plus the unit perpendicular in the plane of u, p
-                qx, qy, qz = ux - c * px, uy - c * py, uz - c * pz
-                q = math.sqrt(qx * qx + qy * qy + qz * qz)
-                if q < _TINY:  # straight back: any perpendicular will do
-                    qx, qy, qz = (1.0, 0.0, 0.0) if abs(px) < 0.9 else (0.0, 1.0, 0.0)
-                    d = qx * px + qy * py + qz * pz
-                    qx, qy, qz = qx - d * px, qy - d * py, qz - d * pz
+            dx, dy, dz = X[i, 0, b] - ox, X[i, 1, b] - oy, X[i, 2, b] - oz
+            ox, oy, oz = X[i, 0, b], X[i, 1, b], X[i, 2, b]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if length >= _TINY:
+                ux, uy, uz = dx / length, dy / length, dz / length
+                c = ux * px + uy * py + uz * pz
+                if c < cos_limit:
+                    # the cone's axis component plus the unit perpendicular in the plane of u, p
+                    qx, qy, qz = ux - c * px, uy - c * py, uz - c * pz
                     q = math.sqrt(qx * qx + qy * qy + qz * qz)
-                ux = cos_limit * px + sin_limit * qx / q
-                uy = cos_limit * py + sin_limit * qy / q
-                uz = cos_limit * pz + sin_limit * qz / q
-                X[i, 0, b] = X[i - 1, 0, b] + length * ux
-                X[i, 1, b] = X[i - 1, 1, b] + length * uy
-                X[i, 2, b] = X[i - 1, 2, b] + length * uz
-            px, py, pz = ux, uy, uz
+                    if q < _TINY:  # straight back: any perpendicular will do
+                        qx, qy, qz = (1.0, 0.0, 0.0) if abs(px) < 0.9 else (0.0, 1.0, 0.0)
+                        d = qx * px + qy * py + qz * pz
+                        qx, qy, qz = qx - d * px, qy - d * py, qz - d * pz
+                        q = math.sqrt(qx * qx + qy * qy + qz * qz)
+                    ux = cos_limit * px + sin_limit * qx / q
+                    uy = cos_limit * py + sin_limit * qy / q
+                    uz = cos_limit * pz + sin_limit * qz / q
+                    dx, dy, dz = L[i - 1, b] * ux, L[i - 1, b] * uy, L[i - 1, b] * uz
+                px, py, pz = ux, uy, uz
+            X[i, 0, b] = X[i - 1, 0, b] + dx
+            X[i, 1, b] = X[i - 1, 1, b] + dy
+            X[i, 2, b] = X[i - 1, 2, b] + dz
 
 
 @_jit

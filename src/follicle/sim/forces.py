@@ -1,9 +1,10 @@
-"""External accelerations on strand vertices (002 §5.1.2): gravity, wind, drag.
+"""External accelerations on strand vertices (002 §5.1.2): gravity and wind.
 
 Wind follows 002 eq. 5.2: F = |w × t| / |w| · w, strongest across a segment and zero
 along it (wind does not stretch a strand it blows along), with w made turbulent by
-``noise3`` scrolled through space over time. Drag is −b·v (eq. 5.3). Vertex masses are
-1, so forces are accelerations.
+``noise3`` scrolled through space over time. Vertex masses are 1, so forces are
+accelerations. Drag, −b·v (eq. 5.3), depends on the velocity being solved for, so the
+solver takes it implicitly (see :mod:`.solver`) rather than here.
 """
 
 from __future__ import annotations
@@ -18,17 +19,14 @@ __all__ = ["acceleration"]
 
 
 @njit(cache=True, inline="always")
-def acceleration(px, py, pz, tx, ty, tz, vx, vy, vz, gravity, wind, turbulence, frequency,
-                 scroll, drag):  # fmt: skip
-    """Acceleration at a vertex at p with unit tangent t and velocity v.
+def acceleration(px, py, pz, tx, ty, tz, gravity, wind, turbulence, frequency, scroll):
+    """Acceleration at a vertex at p with unit tangent t.
 
     ``gravity``, ``wind`` (3,) m/s²; ``turbulence`` ≥ 0 scales the noise part of the
     wind relative to |wind|; ``frequency`` 1/m; ``scroll`` (3,) the noise offset now
-    (wind drift × time, m); ``drag`` b in 1/s.
+    (wind drift × time, m).
     """
-    ax = gravity[0] - drag * vx
-    ay = gravity[1] - drag * vy
-    az = gravity[2] - drag * vz
+    ax, ay, az = gravity[0], gravity[1], gravity[2]
     strength = math.sqrt(wind[0] * wind[0] + wind[1] * wind[1] + wind[2] * wind[2])
     if strength > 0.0:
         wx, wy, wz = wind[0], wind[1], wind[2]

@@ -243,13 +243,15 @@ def _grid(
     def counts(h: float) -> np.ndarray:
         pad = max(_PAD_FRACTION * float(np.linalg.norm(hi - lo)), _PAD_MIN_VOXELS * h)
         span = hi - lo + 2.0 * (pad if padding is None else padding)
-        return np.maximum(np.ceil(span / h).astype(np.int64), 1) + 1
+        with np.errstate(over="ignore"):  # a tiny h: too many cells, not an overflow
+            cells = np.minimum(np.ceil(span / h), 2.0**40)
+        return np.maximum(cells.astype(np.int64), 1) + 1
 
     dims = counts(voxel)
-    total = int(np.prod(dims))
+    total = math.prod(int(d) for d in dims)  # Python ints: a tiny voxel overflows int64
     if total > _MAX_VERTICES:
         fit = float(f"{voxel * (total / _MAX_VERTICES) ** (1.0 / 3.0):.3g}")
-        while int(np.prod(counts(fit))) > _MAX_VERTICES:  # the smallest 3-digit size that fits
+        while math.prod(int(d) for d in counts(fit)) > _MAX_VERTICES:  # smallest 3 digits
             fit = float(f"{fit * 1.01:.3g}")
         raise InputError(
             f"voxel_size: {voxel:.4g} gives a {dims[0]}×{dims[1]}×{dims[2]} grid ({total:,}"

@@ -5,20 +5,26 @@ accumulator, so behaviour does not depend on the caller's frame rate; the skin's
 pose (``set_pose``) is reached gradually over the step's substeps: the roots, and for a
 rigid transform the colliders and the skin's SDF too. After every substep the hair
 volume (``[sim].volume_*``) exchanges momentum between neighbouring strands.
+
+The public methods validate their arguments once and raise InputError, leaving the
+simulator as it was; a step whose state leaves the meaningful range (NaN, inf, strands
+flying apart) although every input was valid raises SimulationError, so no caller (nor
+a cache) ever gets NaN from a step that returned.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from ..arrays import rigid
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import InputError, SimulationError
 from ..groom.guides import Guides
-from ..mesh.skin import SkinMesh
+from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..noise import perlin
 from ..scene import SimParams
 from .collision import NO_SDF, clearance, penetration
@@ -28,7 +34,78 @@ from .solver import Solver
 from .state import State
 from .volume import volume_step
 
-__all__ = ["Simulator"]
+__all__ = ["MAX_SUBSTEPS_PER_CALL", "Simulator", "substeps_per_step"]
+
+MAX_SUBSTEPS_PER_CALL = 10_000  # substeps one step() may run (83 s at the default 1/120 s)
+EXPLODED = 10.0  # a vertex this many strand lengths from its root: the state blew up
+
+
+def substeps_per_step(dt: float, substep: float) -> int:
+    """How many substeps of ``substep`` s a step of ``dt`` s runs (at most; the remainder
+    carried between steps may add one). :meth:`Simulator.step` refuses a step that needs
+    more than MAX_SUBSTEPS_PER_CALL; callers that know their frame rate check up front."""
+    return math.ceil(dt / substep - 1e-9)
+
+
+def _seconds(dt: object) -> float:
+    """``dt`` as a finite float ≥ 0: any real number (Python, NumPy scalar or 0-d array),
+    not a bool, a string or an array of several values."""
+    value = dt
+    if isinstance(dt, np.ndarray) and dt.ndim == 0 and dt.dtype.kind in "iuf":
+        value = dt.item()
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise InputError(f"dt: expected a finite number of seconds, got {dt!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise InputError(f"dt: expected a finite number of seconds, got {x}")
+    if x < 0:
+        raise InputError(f"dt: must be ≥ 0 s, got {x:g}")
+    return x
+
+
+def _numbers(value: object, name: str) -> np.ndarray:
+    """``value`` as a float64 array, or InputError naming ``name``: strings, bools, complex
+    and objects that are not numbers are refused, not converted."""
+    if isinstance(value, (str, bytes)):
+        raise InputError(f"{name}: expected an array of numbers, got {type(value).__name__}")
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "iufO":
+            raise TypeError(raw.dtype)
+        return np.asarray(raw, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(
+            f"{name}: expected an array of real numbers, got {type(value).__name__}"
+        ) from None
+
+
+def _head_transform(transform: object) -> np.ndarray:
+    """``transform`` checked as the head's world-from-rest motion: a finite 4×4 matrix
+    [R t; 0 0 0 1] with R a rotation (RᵀR = I and det R = +1, so no scale, shear or
+    mirror: the skin's SDF, the roots' frames and the cache all move rigidly) and
+    |t| ≤ MAX_COORDINATE (a place a mesh may be)."""
+    m = _numbers(transform, "transform")
+    if m.shape != (4, 4):
+        hint = ("; put a 3×3 rotation R in [R t; 0 0 0 1]" if m.shape == (3, 3) else "")
+        raise InputError(f"transform: expected a 4×4 matrix, got shape {m.shape}{hint}")
+    if not np.isfinite(m).all():
+        raise InputError("transform: every entry must be finite, got NaN or inf")
+    with np.errstate(over="ignore", invalid="ignore"):  # huge entries: rigid() refuses them
+        det = float(np.linalg.det(m[:3, :3]))
+    if det <= 0.0:
+        what = "a mirror" if det < 0 else "singular"
+        raise InputError(
+            f"transform: {what} (det = {det:.3g}); the head moves by a rotation and a"
+            " translation (det = +1)"
+        )
+    world = np.array(rigid(m)[0])
+    move = float(np.abs(world[:3, 3]).max())
+    if move > MAX_COORDINATE:
+        raise InputError(
+            f"transform: translation {move:.3g} m lies beyond ±{MAX_COORDINATE:g} m (where a"
+            " mesh may be); give it in metres"
+        )
+    return world
 
 
 def _orthonormal(tangent: np.ndarray, binormal: np.ndarray, normal: np.ndarray) -> np.ndarray:
@@ -82,7 +159,11 @@ class Simulator:
         self._pinned_cache: tuple[np.ndarray, np.ndarray] | None = None
         self.sdf = None  # the skin's SDF on the current pose
         if mesh is not None and params.skin_collision:
-            self.sdf = SDF.from_mesh(mesh.vertices, mesh.faces, voxel_size=params.skin_voxel)
+            try:
+                self.sdf = SDF.from_mesh(mesh.vertices, mesh.faces,
+                                         voxel_size=params.skin_voxel)  # fmt: skip
+            except InputError as exc:  # the user's name for the voxel size
+                raise InputError(f"[sim].skin_voxel: {exc}") from None
             self._sdf_rest = self.sdf  # built on the pose rigid transforms are applied to
             if mesh.vertices is not mesh.rest_vertices:  # posed: rigid moves start from rest
                 self._sdf_rest = SDF.from_mesh(mesh.rest_vertices, mesh.faces,
@@ -113,26 +194,42 @@ class Simulator:
 
     def set_pose(self, transform: object | None = None, vertices: object | None = None) -> None:
         """Move the skin: a 4×4 rigid ``transform`` of the rest pose, or new mesh
-        ``vertices``. The roots get there over the next :meth:`step`."""
+        ``vertices``. The roots get there over the next :meth:`step`.
+
+        ``transform`` is [R t; 0 0 0 1] with R a proper rotation (no scale, shear or
+        mirror) and every |t| ≤ 1e6 m; ``vertices`` (V, 3) finite, the rest mesh's shape,
+        every coordinate within ±1e6 m. Anything else is an InputError naming the
+        argument, and the pose is left as it was."""
         if (transform is None) == (vertices is None):
             raise InputError("set_pose: give exactly one of transform= or vertices=")
-        self._pinned_cache = None
         if transform is not None:
-            self._transform = np.array(rigid(transform)[0])
-            if self.mesh is not None:
-                self.mesh.set_pose(transform=self._transform)
+            world = _head_transform(transform)
+            if self.mesh is not None:  # first: it refuses a pose that moves the mesh too far
+                self.mesh.set_pose(transform=world)
+            self._pinned_cache = None
+            self._transform = world
             if self.sdf is not None:
                 self.sdf = self._sdf_rest.with_transform(self._transform)
         elif self.mesh is None:
             raise InputError("set_pose: vertices= needs a mesh; without one give transform=")
         else:
-            self.mesh.set_pose(vertices=vertices)
+            verts = _numbers(vertices, "vertices")
+            rest = self.mesh.rest_vertices.shape
+            if verts.shape != rest:
+                raise InputError(f"vertices: expected shape {rest} (the rest mesh's), got"
+                                 f" {verts.shape}")  # fmt: skip
+            if not np.isfinite(verts).all():
+                bad = int(np.argmin(np.isfinite(verts).all(axis=1)))
+                raise InputError(f"vertices: vertex {bad} is not finite: {verts[bad].tolist()}")
+            self._pinned_cache = None
+            self.mesh.set_pose(vertices=verts)
             if self.sdf is not None:  # a deformed skin: a new field (its own frame)
                 self.sdf = SDF.from_mesh(self.mesh.vertices, self.mesh.faces,
                                          voxel_size=self.params.skin_voxel)  # fmt: skip
 
     def teleport(self, transform: object | None = None, vertices: object | None = None) -> None:
-        """Re-pose at once: every strand moves rigidly with its root frame (no explosion)."""
+        """Re-pose at once: every strand moves rigidly with its root frame (no explosion).
+        Takes what :meth:`set_pose` takes and refuses what it refuses (unmoved)."""
         old_roots, old_frames = self.state.roots, self.state.frames
         self.set_pose(transform, vertices)
         roots, frames = self._pinned()
@@ -204,16 +301,27 @@ class Simulator:
         return np.asarray(p.wind, np.float64) * (1.0 + p.wind_gust * g)
 
     def step(self, dt: float) -> None:
-        """Advance ``dt`` seconds: as many fixed substeps as fit, the rest carried over."""
-        if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt):
-            raise InputError(f"dt: expected a finite number of seconds, got {dt!r}")
-        if dt < 0:
-            raise InputError(f"dt: must be ≥ 0, got {dt}")
+        """Advance ``dt`` seconds: as many fixed substeps as fit, the rest carried over.
+
+        ``dt`` is any real number ≥ 0 (int, float, a NumPy scalar or 0-d array). One call
+        runs at most MAX_SUBSTEPS_PER_CALL (10,000) substeps of ``[sim].substep`` (83 s of
+        simulated time at the default 1/120 s): a longer step is an InputError, raised
+        before anything moves; call step in smaller pieces or raise ``[sim].substep``.
+        A state that blows up (NaN, inf, or a vertex ``EXPLODED`` strand lengths from its
+        root) raises SimulationError, naming the settings to soften.
+        """
+        dt = _seconds(dt)
         p = self.params
         h = p.substep
-        self._accumulator += dt
-        count = int(math.floor(self._accumulator / h + 1e-9))
-        self._accumulator = max(self._accumulator - count * h, 0.0)
+        total = self._accumulator + dt
+        count = int(math.floor(total / h + 1e-9))
+        if count > MAX_SUBSTEPS_PER_CALL:
+            raise InputError(
+                f"dt: {dt:g} s needs {count:,} substeps of [sim].substep = {h:g} s; one step"
+                f" runs at most {MAX_SUBSTEPS_PER_CALL:,}: call step in smaller pieces or"
+                " raise [sim].substep"
+            )
+        self._accumulator = max(total - count * h, 0.0)
         if count == 0:
             return
         start = (self.state.roots, self.state.frames)
@@ -234,6 +342,26 @@ class Simulator:
                             p.volume_repulsion, p.volume_blur, p.volume_resolution)
         self.state.roots, self.state.frames = end
         self._state_transform = finish
+        self._check_state()
+
+    def _check_state(self) -> None:
+        """SimulationError when the state left the meaningful range: a non-finite value
+        (the solver keeps such strands as they were; this catches the rest) or a vertex
+        more than EXPLODED strand lengths from its root."""
+        x, v, p = self.state.x, self.state.v, self.params
+        reach = np.linalg.norm(x - x[:, :1], axis=2).max(axis=1) / self.model.rest_length.sum(1)
+        finite = np.isfinite(x).all() and np.isfinite(v).all()
+        if finite and not (reach > EXPLODED).any():
+            return
+        what = "NaN or inf" if not finite else f"a vertex {float(np.nanmax(reach)):.3g} strand" \
+            " lengths from its root"  # fmt: skip
+        raise SimulationError(
+            f"simulation: the state blew up ({what}) at t = {self.state.time:.4f} s; soften"
+            f" [sim]: lower substep (now {p.substep:g} s), wind ({p.wind}), gravity"
+            f" ({p.gravity}) or volume_repulsion ({p.volume_repulsion}), raise iterations"
+            f" (now {p.iterations}) or stretch_stiffness ({p.stretch_stiffness}), or set"
+            " stretch_limit"
+        )
 
     # ------------------------------------------------------------------ results
     @property

@@ -2,11 +2,12 @@
 
 One parallel kernel takes blocks of strands (vertex-major, strands innermost, see
 :mod:`.constraints`) through a whole substep: pin the root to the skin,
-integrate (Verlet, 002 eq. 5.1, or semi-implicit Euler) under gravity, wind and drag
-with per-second damping, then ``iterations`` rounds of distance (PBD) or none (DFTL),
-bending, shape matching and collisions, then for DFTL one follow-the-leader pass, the
-cone limit, a last collision pass, and the velocity update (with 001 eq. 3.1's
-correction for DFTL and friction at contacts). Soft constraint stiffnesses are
+integrate (Verlet, 002 eq. 5.1, or semi-implicit Euler) under gravity and wind, with
+drag taken implicitly and per-second damping, then ``iterations`` rounds of distance
+(PBD) or none (DFTL), bending, shape matching and collisions, then for DFTL one
+follow-the-leader pass (PBD: the strain limit), the cone limit, a last collision pass,
+and the velocity update (with 001 eq. 3.1's correction for DFTL and the strain limit,
+and friction at contacts). Soft constraint stiffnesses are
 linearised over the iterations, k' = 1 − (1 − k)^(1/n) (002 eq. 5.5). A strand whose
 step would leave a non-finite value is put back as it was and reported.
 """
@@ -19,7 +20,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..arrays import FMA
-from ..errors import InputError
+from ..errors import SimulationError
 from .collision import collide
 from .constraints import (
     bend_pass,
@@ -164,10 +165,14 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                 static[a, b] = (root[a, b] + sl[0] * frame[0, a, b] + sl[1] * frame[1, a, b]
                                 + sl[2] * frame[2, a, b])  # fmt: skip
                 first[a, b] = d[0] * frame[0, a, b] + d[1] * frame[1, a, b] + d[2] * frame[2, a, b]
+        # drag −b·v (002 eq. 5.3) taken implicitly (backward Euler): v' = (v + a dt) / (1 + b dt)
+        # damps towards the terminal speed a / b for any b; explicit, v' = v + (a − b v) dt,
+        # overshoots and flips the velocity once b dt > 2 (b = 1000 /s stretched hair 1,900 %)
+        h = dt / (1.0 + drag * dt)  # the step × 1 / (1 + b dt)
         for i in range(1, n):  # integrate
             for b in range(nb):
                 m = 1.0 if W[i, b] > 0.0 else 0.0  # pinned vertices stay
-                vx, vy, vz = V0[i, 0, b], V0[i, 1, b], V0[i, 2, b]
+                ax, ay, az = gravity[0], gravity[1], gravity[2]
                 if windy:  # the tangent the wind acts across (002 eq. 5.2)
                     tx = X0[i, 0, b] - X0[i - 1, 0, b]
                     ty = X0[i, 1, b] - X0[i - 1, 1, b]
@@ -176,20 +181,16 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                     if tl > 0.0:
                         tx, ty, tz = tx / tl, ty / tl, tz / tl
                     ax, ay, az = acceleration(X0[i, 0, b], X0[i, 1, b], X0[i, 2, b], tx, ty, tz,
-                                              vx, vy, vz, gravity, wind, turbulence, frequency,
-                                              scroll, drag)  # fmt: skip
-                else:
-                    ax = gravity[0] - drag * vx
-                    ay = gravity[1] - drag * vy
-                    az = gravity[2] - drag * vz
+                                              gravity, wind, turbulence, frequency, scroll)
+                vx, vy, vz = V0[i, 0, b], V0[i, 1, b], V0[i, 2, b]
                 if euler:  # v ← (v + a dt) damped, x ← x + v dt
-                    X[i, 0, b] += m * (vx + ax * dt) * damp * dt
-                    X[i, 1, b] += m * (vy + ay * dt) * damp * dt
-                    X[i, 2, b] += m * (vz + az * dt) * damp * dt
+                    X[i, 0, b] += m * (vx + ax * dt) * damp * h
+                    X[i, 1, b] += m * (vy + ay * dt) * damp * h
+                    X[i, 2, b] += m * (vz + az * dt) * damp * h
                 else:  # 002 eq. 5.1: P = P⁻¹ + (P⁻¹ − P⁻²) + a Δt², the implicit velocity damped
-                    X[i, 0, b] += m * (vx * dt * damp + ax * dt * dt)
-                    X[i, 1, b] += m * (vy * dt * damp + ay * dt * dt)
-                    X[i, 2, b] += m * (vz * dt * damp + az * dt * dt)
+                    X[i, 0, b] += m * (vx * damp + ax * dt) * h
+                    X[i, 1, b] += m * (vy * damp + ay * dt) * h
+                    X[i, 2, b] += m * (vz * damp + az * dt) * h
         if shape:
             rest_pose(root, frame, rest_local[block], target, rest_dir, nb)
         for _ in range(iterations):
@@ -208,7 +209,7 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
         elif stretch_limit >= 0.0:
             strain_limit(X, W, L, 0.5 * stretch_limit, corr, row, nb)
         if cos_limit > -1.0:
-            cone_pass(X, cos_limit, sin_limit, first, nb)
+            cone_pass(X, L, cos_limit, sin_limit, first, nb)
         contact[:] = 0.0  # only the last pass's contacts get friction
         _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
                       sdf_inv_voxel, sdf_lfw, M, nb)  # collisions are hard: last
@@ -342,7 +343,7 @@ class Solver:
             *sdf, self._margin, p.friction, state.clear, moved, self.energy, self._bad,
         )  # fmt: skip
         if self._bad.any():
-            raise InputError(
+            raise SimulationError(
                 f"simulation: {int(self._bad.sum())} strand(s) would get NaN or inf at"
                 f" t = {state.time:.4f} s (kept as they were); lower [sim].substep"
                 f" (now {p.substep:g} s), wind ({p.wind}) or drag ({p.drag}), or raise"

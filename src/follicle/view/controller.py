@@ -106,9 +106,7 @@ class Controller:
         self.groom = groom_scene(scene)
         self.mesh = self.groom.mesh
         p = scene.sim
-        self.pivot = np.asarray(
-            p.motion_pivot if p.motion_pivot is not None else motion_pivot(self.mesh), np.float64
-        )
+        self.pivot = motion_pivot(self.mesh, p.motion_pivot)
         self.sim = GustySimulator(self.groom.guides, p, self.gusts)
         self.playing = True
         self.time = 0.0
