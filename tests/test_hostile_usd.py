@@ -229,19 +229,6 @@ def _crate_cases(crate: bytes) -> dict[str, tuple[bytes, str]]:
     }
 
 
-@pytest.mark.parametrize("name", ["empty", "text in a .usdc", "truncated", "toc far away",
-                                  "toc negative", "absurd section count",
-                                  "section past the end"])  # fmt: skip
-def test_corrupt_crate_is_refused_by_the_container_check(tmp_path, valid, name):
-    data, message = _crate_cases(valid["usdc"])[name]
-    path = tmp_path / "bad.usdc"
-    path.write_bytes(data)
-    with pytest.raises(FormatError, match=f"bad.usdc: .*{message}"):
-        check_container(path)
-    with pytest.raises(FormatError, match=f"bad.usdc: .*{message}"):
-        load_usd(path)
-
-
 def _zip(members: list[tuple[str, bytes]], compress: int = zipfile.ZIP_STORED) -> bytes:
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compress) as z:
@@ -263,15 +250,23 @@ def _usdz_cases(valid: dict[str, bytes]) -> dict[str, tuple[bytes, str]]:
     }
 
 
-@pytest.mark.parametrize("name", ["not a zip", "empty zip", "png first", "deflated",
-                                  "unaligned", "truncated"])
-def test_corrupt_usdz_is_refused_by_the_container_check(tmp_path, valid, name):
-    data, message = _usdz_cases(valid)[name]
-    path = tmp_path / "bad.usdz"
+CONTAINERS = [("usdc", name) for name in ["empty", "text in a .usdc", "truncated",
+                                           "toc far away", "toc negative",
+                                           "absurd section count", "section past the end"]] \
+    + [("usdz", name) for name in ["not a zip", "empty zip", "png first", "deflated",
+                                   "unaligned", "truncated"]]  # fmt: skip
+
+
+@pytest.mark.parametrize("ext, name", CONTAINERS)
+def test_a_corrupt_crate_or_package_is_refused_by_the_container_check(tmp_path, valid, ext,
+                                                                     name):
+    cases = _crate_cases(valid["usdc"]) if ext == "usdc" else _usdz_cases(valid)
+    data, message = cases[name]
+    path = tmp_path / f"bad.{ext}"
     path.write_bytes(data)
-    with pytest.raises(FormatError, match=f"bad.usdz: .*{message}"):
+    with pytest.raises(FormatError, match=f"bad.{ext}: .*{message}"):
         check_container(path)
-    with pytest.raises(FormatError, match=f"bad.usdz: .*{message}"):
+    with pytest.raises(FormatError, match=f"bad.{ext}: .*{message}"):
         load_usd(path)
 
 
