@@ -10,6 +10,7 @@ subclass (Python), no traceback, within the limits, and no file left behind.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
@@ -54,7 +55,7 @@ def _env(extra: dict[str, str] | None) -> dict[str, str]:
 
 
 def _kill(proc: subprocess.Popen) -> None:
-    with __import__("contextlib").suppress(ProcessLookupError):
+    with contextlib.suppress(ProcessLookupError):
         os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
 
