@@ -6,6 +6,7 @@ integrate (Verlet, 002 eq. 5.1, or semi-implicit Euler) under gravity and wind, 
 drag taken implicitly and per-second damping, then ``iterations`` rounds of distance
 (PBD) or none (DFTL), bending, shape matching and collisions, then for DFTL one
 follow-the-leader pass (PBD: the strain limit), the cone limit, a last collision pass,
+a settle pass that puts segments the collisions stretched back to length, root to tip,
 and the velocity update (with 001 eq. 3.1's correction for DFTL and the strain limit,
 and friction at contacts). Soft constraint stiffnesses are
 linearised over the iterations, k' = 1 − (1 − k)^(1/n) (002 eq. 5.5). A strand whose
@@ -117,6 +118,57 @@ def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_o
                 contact[i, 0, b], contact[i, 1, b], contact[i, 2, b] = nx, ny, nz
 
 
+SETTLE_FROM = 0.005  # relative stretch from which the settle pass moves a vertex
+
+
+@njit(cache=True, error_model="numpy", fastmath=FMA)
+def _settle_pass(X, W, L, limit, ref, gap2, contact, spheres, capsules, sdf_values,
+                 sdf_origin, sdf_inv_voxel, sdf_lfw, M, nb):  # fmt: skip
+    """After the last collision pass, root to tip: a segment that the collisions left
+    longer than (1 + ``limit``) × rest (and by more than SETTLE_FROM: the collisions'
+    slight pushes are left to the next substep's constraints, which cost no lookup) has
+    its child put back at that length from its
+    settled parent and pushed out of the colliders again (twice at most). The parent is
+    final when its child is handled (follow-the-leader order, 001 §3.1.1), so pushes out
+    of the skin no longer add up into stretched segments, and every vertex still ends
+    outside the colliders and their margins."""
+    if spheres.shape[0] == 0 and capsules.shape[0] == 0 and sdf_values.size == 0:
+        return  # nothing pushed after the lengths were set
+    over = np.empty(X.shape[2])
+    for i in range(1, X.shape[0]):
+        worst = -math.inf
+        for b in range(nb):  # branch-free, so it vectorises: is any segment of row i long?
+            dx = X[i, 0, b] - X[i - 1, 0, b]
+            dy = X[i, 1, b] - X[i - 1, 1, b]
+            dz = X[i, 2, b] - X[i - 1, 2, b]
+            most = (1.0 + max(limit, SETTLE_FROM)) * L[i - 1, b]
+            over[b] = (dx * dx + dy * dy + dz * dz - most * most) * W[i, b]
+            worst = max(worst, over[b])
+        if worst <= 0.0:
+            continue
+        for b in range(nb):
+            if over[b] <= 0.0:
+                continue
+            most = (1.0 + limit) * L[i - 1, b]
+            for _ in range(2):
+                dx = X[i, 0, b] - X[i - 1, 0, b]
+                dy = X[i, 1, b] - X[i - 1, 1, b]
+                dz = X[i, 2, b] - X[i - 1, 2, b]
+                length = math.sqrt(dx * dx + dy * dy + dz * dz)
+                if length <= most:
+                    break
+                f = most / length
+                px, py, pz, nx, ny, nz, hit, gap = collide(
+                    X[i - 1, 0, b] + f * dx, X[i - 1, 1, b] + f * dy, X[i - 1, 2, b] + f * dz,
+                    spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, M[i, b],
+                )  # fmt: skip
+                X[i, 0, b], X[i, 1, b], X[i, 2, b] = px, py, pz
+                ref[i, 0, b], ref[i, 1, b], ref[i, 2, b] = px, py, pz
+                gap2[i, b] = gap * gap / 3.0
+                if hit:
+                    contact[i, 0, b], contact[i, 1, b], contact[i, 2, b] = nx, ny, nz
+
+
 @njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
 def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, root_direction,
                     roots0, frames0, roots1, frames1, f, dt, damp, euler, dftl, iterations,
@@ -213,6 +265,10 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
         contact[:] = 0.0  # only the last pass's contacts get friction
         _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
                       sdf_inv_voxel, sdf_lfw, M, nb)  # collisions are hard: last
+        if dftl or stretch_limit >= 0.0:  # … and lengths are settled around them
+            _settle_pass(X, W, L, 0.0 if dftl else 0.5 * stretch_limit, ref, gap2, contact,
+                         spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, M,
+                         nb)  # fmt: skip
         keep = 1.0 - friction
         for i in range(n):  # velocities from the moves
             fix = correction / dt if correct and 0 < i < n - 1 else 0.0  # 001 eq. 3.1
