@@ -416,14 +416,14 @@ def test_readers_refuse_fifos_and_devices_in_python(tmp_path):
 
 def test_scene_that_is_a_folder_or_fifo_in_python(tmp_path):
     (tmp_path / "d.toml").mkdir()
-    with pytest.raises(FormatError, match=r"d\.toml: is a folder; give a scene file"):
+    with pytest.raises(FormatError, match=r"d\.toml: is a folder, not a file; give a scene file"):
         load_scene(tmp_path / "d.toml")
     os.mkfifo(tmp_path / "f.toml")
     with pytest.raises(FormatError, match=r"f\.toml: is a FIFO"):
         load_scene(tmp_path / "f.toml")
     with pytest.raises(FormatError, match=r"f\.toml: is a FIFO"):
         Texture.load(tmp_path / "f.toml")
-    with pytest.raises(FormatError, match=r"d\.toml' is a folder"):
+    with pytest.raises(FormatError, match=r"d\.toml: is a folder, not a file; give a PNG"):
         Texture.load(tmp_path / "d.toml")
 
 

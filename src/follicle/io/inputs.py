@@ -28,7 +28,7 @@ def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
         reason = getattr(exc, "strerror", None) or exc
         raise FormatError(f"{p!s:.200}: cannot be read ({reason}); give a {what}") from None
     if stat.S_ISDIR(mode):
-        raise FormatError(f"{p}: is a folder; give a {what}")
+        raise FormatError(f"{p}: is a folder, not a file; give a {what}")
     if not stat.S_ISREG(mode):
         kind = "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) \
             else "a device"  # fmt: skip

@@ -98,8 +98,6 @@ class Texture:
         p = Path(path)
         if not os.path.lexists(p):
             raise FormatError(f"texture file '{p}' does not exist or is not a file; check the path")
-        if p.is_dir():
-            raise FormatError(f"texture file '{p}' is a folder, not a file; give an image file")
         input_file(p, "PNG, JPEG or TIFF image file")
         try:
             with warnings.catch_warnings():
