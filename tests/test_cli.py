@@ -127,7 +127,7 @@ def test_unknown_output_extension_and_missing_curves(tmp_path):
     assert result.exit_code == 2 and "no such scene file" in result.output
     scene = tmp_path / "s.toml"
     scene.write_text("[groom]\ncount = 5\n")
-    result = CliRunner().invoke(main, ["grow", str(scene), "-o", str(tmp_path / "x.abc")])
+    result = CliRunner().invoke(main, ["grow", str(scene), "-o", str(tmp_path / "x.xyz")])
     assert result.exit_code == 2 and "must end in .npz" in result.output
     result = CliRunner().invoke(main, ["render", str(tmp_path / "missing.npz")])
     assert result.exit_code == 2 and "no such file" in result.output

@@ -37,10 +37,10 @@ def test_export_converts_between_formats(tmp_path, ext):
 
 def test_export_refuses_an_unknown_output_extension(tmp_path):
     source = follicle.save(hair(), tmp_path / "in.npz")
-    result = run("export", source, "-o", tmp_path / "out.abc")
+    result = run("export", source, "-o", tmp_path / "out.xyz")
     assert result.exit_code == 2
     message = result.output.replace("\n", "")
-    assert "out.abc: output must end in .npz or .hair or .obj or .pbrt" in message
+    assert "out.xyz: output must end in .npz or .abc or .hair or .obj or .pbrt" in message
     assert all(f" {ext}" in message for ext in (".tfx", ".txt"))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.npz"]
     result = run("export", tmp_path / "in.xyz", "-o", tmp_path / "out.hair")
@@ -86,8 +86,8 @@ def test_grow_streams_every_format_chunk_by_chunk(tmp_path, scene, monkeypatch, 
 
 
 def test_grow_refuses_unknown_extensions_and_writes_an_empty_groom(tmp_path, scene):
-    result = run("grow", scene, "-o", tmp_path / "x.abc")
-    assert result.exit_code == 2 and "must end in .npz or .hair" in result.output
+    result = run("grow", scene, "-o", tmp_path / "x.xyz")
+    assert result.exit_code == 2 and "must end in .npz or .abc or .hair" in result.output
     assert list(tmp_path.iterdir()) == []
     result = run("grow", scene, "--count", 0, "-o", tmp_path / "e.hair")
     assert result.exit_code == 0 and "0 hairs" in result.output

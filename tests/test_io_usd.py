@@ -69,7 +69,8 @@ def test_prims_attributes_and_stage_metadata(tmp_path, hair, ext):
         assert curves.ComputeInterpolationForSize(n, t) == interpolation, name
     pv = UsdGeom.PrimvarsAPI(curves)
     assert pv.GetPrimvar("root_uv").GetTypeName() == Sdf.ValueTypeNames.Float2Array
-    assert pv.GetPrimvar("hair_id").GetTypeName() == Sdf.ValueTypeNames.Int64Array
+    # ids as int32 (Blender drops int64 primvars; they read back as int64, follicle's)
+    assert pv.GetPrimvar("hair_id").GetTypeName() == Sdf.ValueTypeNames.IntArray
     assert curves.GetDisplayColorPrimvar().GetTypeName() == Sdf.ValueTypeNames.Color3fArray
 
 
@@ -150,7 +151,9 @@ def test_guides_prim_is_skipped_unless_asked_or_alone(tmp_path, hair, groom):
     _, prims = _curves_prims(path)
     assert "/Groom/Guides" in [str(p.GetPath()) for p in prims]
     assert load_usd(path) == hair
-    assert load_usd(path, guides=True) == groom.guides.curves
+    guides = load_usd(path, guides=True)  # written with widths (0.1 mm: guides have none)
+    assert (guides.point_data.pop("width") == np.float32(1e-4)).all()
+    assert guides == groom.guides.curves
     with pytest.raises(FormatError, match="no /Groom/Guides prim"):
         load_usd(save_usd(hair, tmp_path / "hair.usda"), guides=True)
     with pytest.raises(InputError, match="guides"):
@@ -265,7 +268,7 @@ def test_bad_files_are_format_errors_naming_the_file(tmp_path):
     stage = Usd.Stage.CreateNew(str(empty))
     UsdGeom.Xform.Define(stage, "/Groom")
     stage.Save()
-    with pytest.raises(FormatError, match="empty.usda: no BasisCurves prims"):
+    with pytest.raises(FormatError, match="empty.usda: no BasisCurves or NurbsCurves prims"):
         follicle.load_curves(empty)
     junk = tmp_path / "junk.usda"
     junk.write_text("this is not USD")

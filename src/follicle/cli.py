@@ -1,4 +1,5 @@
-"""The ``follicle`` command: demo, grow, export, export-rib, simulate, render, view, info.
+"""The ``follicle`` command: demo, grow, export, check, export-rib, simulate, render, view,
+info.
 
 Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
 traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
@@ -29,6 +30,7 @@ from rich.progress import (
 from rich.text import Text
 
 from .errors import FollicleError
+from .io.targets import TARGET_NAMES
 
 if TYPE_CHECKING:
     from pydantic import BaseModel
@@ -148,6 +150,17 @@ def _handle_signals() -> None:
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
 
+_NAMED_FORMATS = (".usd", ".usda", ".usdc", ".usdz", ".abc")  # formats with attribute names
+_MESH_ONLY = (".ply", ".glb", ".gltf", ".stl", ".off")  # written only as meshes
+_TARGET_OPTION = click.option(
+    "--target", "target_name", type=click.Choice(TARGET_NAMES), default=None,
+    help="The tool the USD / Alembic file is for: its attribute names, types and units"
+    " (default [output].target, else generic; README: Formats, Targets).")
+_SKIN_OPTION = click.option(
+    "--skin/--no-skin", default=True, show_default=True,
+    help="Write the skin mesh beside the hair (USD and Alembic).")
+
+
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("-v", "--verbose", count=True, help="Log what happens (-vv for debug).")
 @click.version_option(package_name="follicle")
@@ -196,11 +209,15 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
               " scene.")
 @click.option("--count", type=int, default=None, help="Override [groom].count.")
 @click.option("--seed", type=int, default=None, help="Override [groom].seed.")
-def grow(scene_path: str, out: str | None, count: int | None, seed: int | None) -> None:
+@_TARGET_OPTION
+@_SKIN_OPTION
+def grow(scene_path: str, out: str | None, count: int | None, seed: int | None,
+         target_name: str | None, skin: bool) -> None:  # fmt: skip
     """Grow the hair of a scene file and save the curves.
 
     Formats other than .npz are streamed: the hair is grown and written in chunks, so
-    memory stays bounded whatever the count.
+    memory stays bounded whatever the count. USD and Alembic files also get the guides
+    and the skin mesh, named and typed for the --target tool.
     """
     from .io.dispatch import save
     from .pipeline import groom_scene
@@ -208,29 +225,56 @@ def grow(scene_path: str, out: str | None, count: int | None, seed: int | None) 
     from .scene import load_scene
 
     scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
-    target = out or scene.resolve(scene.output.curves)
-    _check_writable_suffix(target, _curve_suffixes())
-    if Path(target).suffix.lower() == ".npz":
+    path = out or scene.resolve(scene.output.curves)
+    _check_writable_suffix(path, _curve_suffixes())
+    tool = target_name or scene.output.target
+    _check_target(path, tool)
+    if Path(path).suffix.lower() == ".npz":
         with _step("grow"), _progress("growing hair") as progress:
             _, curves = grow_scene(scene, progress)
-        save(curves, target)
+        save(curves, path)
         hairs, points = curves.curve_count, curves.point_count
     else:
         tally = [0, 0]
+        groom = groom_scene(scene)
+        extras = _extras(path, tool, groom.guides.curves, groom.mesh if skin else None)
         with _step("grow and save"), _progress("growing hair") as progress:
-            save(_grown_chunks(groom_scene(scene), progress, tally), target)
+            save(_grown_chunks(groom, progress, tally, tool), path, **extras)
         hairs, points = tally
-    click.echo(f"{hairs:,} hairs, {points:,} points → {target}")
+    click.echo(f"{hairs:,} hairs, {points:,} points → {path}")
+
+
+def _check_target(path: str, target: str) -> None:
+    """Only USD and Alembic carry named attributes: another format with a target other
+    than generic is refused (it would be silently ignored)."""
+    from .errors import FormatError
+
+    if target != "generic" and Path(path).suffix.lower() not in _NAMED_FORMATS:
+        raise FormatError(f"{path}: --target {target} is for USD and Alembic files"
+                          f" ({', '.join(_NAMED_FORMATS)}); drop it or write one of those")
+
+
+def _extras(path: str, target: str, guides: HairCurves | None, mesh: object) -> dict:
+    """The writer options for ``path``: for USD and Alembic the target, guides and skin."""
+    if Path(path).suffix.lower() not in _NAMED_FORMATS:
+        return {}
+    return {"target": target, "guides": guides, "mesh": mesh}
 
 
 def _grown_chunks(groom: Groom, progress: Callable[[int, int], None], tally: list[int],
-                  ) -> Iterator[HairCurves]:  # fmt: skip
+                  target: str = "generic") -> Iterator[HairCurves]:  # fmt: skip
     """The groom's hairs chunk by chunk, reporting progress and adding up (hairs, points)
-    in ``tally``; one empty chunk for a count of 0, so the file is still written."""
+    in ``tally``; one empty chunk for a count of 0, so the file is still written. For
+    Unreal each hair also carries the three guides it blends most and their weights."""
+    from .curves import HairCurves
     from .groom.generator import CHUNK
 
     total = groom.params.count
     for i, chunk in enumerate(groom.chunks(CHUNK) if total else [groom.generate(count=0)]):
+        if target == "unreal":
+            index, weight = groom.guide_binding(chunk.curve_data["hair_id"])
+            chunk = HairCurves(chunk.points, chunk.offsets, chunk.point_data, {
+                **chunk.curve_data, "closest_guides": index, "guide_weights": weight})
         tally[0] += chunk.curve_count
         tally[1] += chunk.point_count
         yield chunk
@@ -241,28 +285,64 @@ def _grown_chunks(groom: Groom, progress: Callable[[int, int], None], tally: lis
 @click.argument("source", metavar="IN", type=click.Path())
 @click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
               help="Output file; its extension picks the format (.npz, .hair, .tfx, .obj,"
-              " .pbrt, .txt, …).")
-def export(source: str, out: str) -> None:
-    """Convert a curves file to another format, e.g. hair.npz -o hair.hair.
+              " .pbrt, .txt, .usd*, .abc, …; for a mesh .obj, .ply, .glb, .stl, .off).")
+@_TARGET_OPTION
+@_SKIN_OPTION
+def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
+    """Convert a curves file to another format, e.g. hair.npz -o hair.hair, or a mesh,
+    e.g. builtin:head -o head.obj.
 
-    Any extension `follicle info` reads (.npz, .hair, .tfx, .obj, .txt, …) to any that
-    `follicle grow -o` writes; README § Formats says what each format keeps.
+    Any extension `follicle info` reads (.npz, .hair, .tfx, .obj, .usd, .abc, …) to any
+    that `follicle grow -o` writes; README § Formats says what each format keeps. A
+    simulation cache exports to animated USD or Alembic.
     """
     from .io.dispatch import load_curves, save
+    from .mesh.load import BUILTIN_MESHES
     from .sim.cache import is_cache
 
+    tool = target_name or "generic"
+    if source.startswith("builtin:") and source[len("builtin:"):] in BUILTIN_MESHES or \
+            Path(out).suffix.lower() in _MESH_ONLY:  # fmt: skip
+        _export_mesh(source, out, tool)
+        return
     _check_writable_suffix(out, _curve_suffixes())
+    _check_target(out, tool)
     if is_cache(source):
-        _export_cache(source, out)
+        _export_cache(source, out, skin)
         return
     curves = load_curves(source)
-    save(curves, out)
+    save(curves, out, **({"target": tool} if Path(out).suffix.lower() in _NAMED_FORMATS
+                         else {}))  # fmt: skip
     click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {out}")
 
 
-def _export_cache(source: str, out: str) -> None:
+def _export_mesh(source: str, out: str, target: str) -> None:
+    """`follicle export builtin:head -o head.obj`: the skin alone, as a mesh file, or as
+    the /Groom/Skin of a USD or Alembic file with no hair."""
+    from .io.dispatch import save
+    from .mesh.load import load_mesh
+    from .mesh.save import MESH_WRITE_EXTENSIONS, save_mesh
+
+    mesh = load_mesh(source)
+    suffix = Path(out).suffix.lower()
+    if suffix in _NAMED_FORMATS:
+        import numpy as np
+
+        from .curves import HairCurves
+
+        save(HairCurves.from_array(np.zeros((0, 2, 3), np.float32)), out, target=target,
+             mesh=mesh)  # fmt: skip
+    else:
+        _check_writable_suffix(out, MESH_WRITE_EXTENSIONS)
+        save_mesh(mesh, out)
+    click.echo(f"mesh '{mesh.name}': {len(mesh.rest_vertices):,} vertices,"
+               f" {len(mesh.faces):,} triangles → {out}")
+
+
+def _export_cache(source: str, out: str, skin: bool = True) -> None:
     """`follicle export CACHE -o anim.usdc`: the simulated guides of every frame as one
-    animated USD curves prim (time code = frame, at the cache's fps)."""
+    animated curves object (time code = frame, at the cache's fps), and the skin mesh of
+    the cache's scene moving with the head (its transform sampled per frame)."""
     from .errors import FormatError
     from .io.usd import SUFFIXES, save_usd_cache
     from .sim.cache import load_cache
@@ -273,6 +353,12 @@ def _export_cache(source: str, out: str) -> None:
             f" {' / '.join(SUFFIXES)} file (`follicle render {source} -o frames/` draws it)"
         )
     cache = load_cache(source)
+    mesh = None
+    if skin:
+        from .mesh.load import load_mesh
+
+        scene = cache.scene()
+        mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
     with _step("export"), _progress("writing frames") as progress:
         def frames() -> Iterator[HairCurves]:
             from .curves import HairCurves
@@ -281,9 +367,11 @@ def _export_cache(source: str, out: str) -> None:
                 yield HairCurves.from_array(strands)
                 progress(f + 1, cache.frame_count)
 
-        save_usd_cache(frames(), out, fps=cache.fps)
+        save_usd_cache(frames(), out, fps=cache.fps, mesh=mesh,
+                       transforms=cache.transforms if skin else None)  # fmt: skip
     click.echo(f"{cache.frame_count} frames of {cache.strand_count:,} guides ×"
-               f" {cache.vertex_count} vertices at {cache.fps:g} fps → {out}")
+               f" {cache.vertex_count} vertices at {cache.fps:g} fps"
+               f"{' with the moving skin' if skin else ''} → {out}")
 
 
 @main.command("export-rib")
@@ -588,6 +676,54 @@ def info(source: str | None) -> None:
         click.echo(repr(curves))
         return
     click.echo(scene_to_toml(load_scene(source)), nl=False)
+
+
+@contextlib.contextmanager
+def _warnings_heard() -> Iterator[list[str]]:
+    """The follicle logger's warnings while the block runs, kept instead of printed."""
+    heard: list[str] = []
+
+    class _Keep(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            heard.append(record.getMessage())
+
+    keep = _Keep(logging.WARNING)
+    log.addHandler(keep)
+    log.propagate = False
+    try:
+        yield heard
+    finally:
+        log.removeHandler(keep)
+        log.propagate = True
+
+
+@main.command()
+@click.argument("source", metavar="FILE", type=click.Path())
+@click.option("--target", "target_name", type=click.Choice(TARGET_NAMES), default="generic",
+              show_default=True, help="The tool that will open FILE.")
+def check(source: str, target_name: str) -> None:
+    """List, one line each, what TARGET would drop or refuse in a hair file.
+
+    Exit 0 when it opens as it is, 1 when problems were found, 2 when FILE cannot be
+    read. `follicle export FILE -o OUT --target TARGET` writes what it reads.
+    """
+    from .io.dispatch import load_curves
+    from .io.targets import TARGETS, problems
+    from .io.usd import SUFFIXES as USD_SUFFIXES
+
+    target = TARGETS[target_name]
+    # a file without a unit of its own is in the target's (Unreal's Alembic: centimetres)
+    units = "m" if Path(source).suffix.lower() in USD_SUFFIXES else target.meters_per_unit
+    with _warnings_heard() as heard:  # what the reader had to leave out or fix
+        curves = load_curves(source, units=units)
+    found = [line.removeprefix(f"{source}: ") for line in heard]
+    found += problems(curves, target)
+    for line in found:
+        click.echo(f"{source}: {line}".translate(_ESCAPES))
+    if found:
+        sys.exit(1)
+    click.echo(f"{source}: {target.tool} reads all of it ({curves.curve_count:,} curves,"
+               f" {curves.point_count:,} points)".translate(_ESCAPES))
 
 
 def _validated(model: M, section: str, changes: dict[str, object]) -> M:

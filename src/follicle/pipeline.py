@@ -31,7 +31,7 @@ Progress = Callable[[int, int], None]
 
 def groom_scene(scene: Scene) -> Groom:
     """The mesh, guides and groom parameters of ``scene``, ready to grow."""
-    mesh = load_mesh(scene.resolve(scene.mesh.path))
+    mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
     spec = scene.groom.groups
     if spec is None and scene.mesh.path == "builtin:head" and scene.guides.path.startswith(
             "builtin:"):  # fmt: skip
@@ -40,7 +40,8 @@ def groom_scene(scene: Scene) -> Groom:
         None if spec in (None, "none") else load_texture(spec, scene.resolve),
         scene.groom.group_vertices,
     )
-    guides = load_guides(scene.resolve(scene.guides.path), mesh, groups=groups)
+    guides = load_guides(scene.resolve(scene.guides.path), mesh, groups=groups,
+                         units=scene.guides.units)
     density = resolve_density(mesh, scene.groom.density, scene.resolve)
     displacement = scene.mesh.displacement
     return Groom(

@@ -21,11 +21,15 @@ from pydantic import (
     Field,
     PlainValidator,
     ValidationError,
+    ValidationInfo,
+    field_validator,
     model_validator,
 )
 
 from .errors import ConfigError, FormatError
 from .io.inputs import input_file
+from .io.targets import TARGET_NAMES
+from .units import UNITS, metres_per_unit, units_for
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -89,10 +93,34 @@ def _not_bool(v: object) -> object:
     return v
 
 
+def _units(value: object) -> str | float:
+    """A ``units`` value as given ("cm", or a number as float), else the reason why not."""
+    metres_per_unit(value, key=None)
+    return value if isinstance(value, str) else float(value)  # type: ignore[arg-type]
+
+
+def _units_apply(value: str | float, info: ValidationInfo) -> str | float:
+    """``units`` other than metres only for a file without a unit of its own (not for a
+    builtin, nor USD or glTF): checked against the section's ``path``."""
+    if "path" in info.data:
+        units_for(info.data["path"], value, key=None)
+    return value
+
+
+# "m", "cm", "mm", "in" or metres per unit (follicle.units), as written in the scene; a
+# name, not a path (the viewer's save_scene rewrites keys typed str)
+UnitsSetting = Annotated[Literal[tuple(UNITS)] | float,  # type: ignore[valid-type]
+                         PlainValidator(_units, json_schema_input_type=Any)]
+_UNITS_HELP = ("the file's units, converted to metres when loaded: \"m\", \"cm\", \"mm\","
+               " \"in\" or metres per unit; not for builtins or USD/glTF (they declare theirs)")
+
+
 class MeshParams(_StrictSection):
     """The skin the hair grows on."""
 
     path: str = Field("builtin:head", description="mesh file (OBJ/PLY/GLB/STL) or builtin:head")
+    units: UnitsSetting = Field("m", description=_UNITS_HELP)
+    _units_fit_path = field_validator("units")(_units_apply)
     displacement: str | None = Field(
         None, description="displacement map (image path): roots sit on P + scale·D(uv)·N"
     )
@@ -105,6 +133,8 @@ class GuidesParams(_StrictSection):
     """The artist-made guide curves every hair is interpolated from."""
 
     path: str = Field("builtin:long", description="builtin:long|short|curly or a curves file")
+    units: UnitsSetting = Field("m", description=_UNITS_HELP)
+    _units_fit_path = field_validator("units")(_units_apply)
 
 
 def _shown(x: object) -> str:
@@ -494,6 +524,10 @@ class OutputParams(_StrictSection):
 
     curves: str = Field("hair.npz", description="grown curves file")
     image: str = Field("hair.png", description="rendered image")
+    target: Literal[TARGET_NAMES] = Field(  # type: ignore[valid-type]
+        "generic", description="the tool USD / Alembic output is written for: its attribute"
+        " names, types and units (README: Formats, Targets)"
+    )
 
 
 class Scene(_StrictSection):

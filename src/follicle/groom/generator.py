@@ -334,6 +334,34 @@ class Groom:
         self._check_range(count, start)
         return self.sampler.sample(count, self.params.seed, "random", start)
 
+    def guide_binding(self, hair_ids: object, k: int = 3) -> tuple[np.ndarray, np.ndarray]:
+        """The ``k`` guides that weigh most in each hair's interpolation and their
+        weights, renormalised to sum to 1: (index (n, k) int32, weight (n, k) float32),
+        for hairs ``hair_ids`` (as in ``curve_data['hair_id']``). What Unreal's groom
+        schema calls ``groom_closest_guides`` / ``groom_guide_weights``: an engine that
+        interpolates hair from simulated guides then blends the guides follicle did. A
+        hair with fewer guides repeats its first one with weight 0."""
+        ids = np.asarray(hair_ids)
+        if ids.ndim != 1 or not np.issubdtype(ids.dtype, np.integer) or (ids < 0).any():
+            raise InputError("hair_ids: expected a 1-D array of hair ids ≥ 0")
+        if len(ids) == 0:
+            return np.zeros((0, k), np.int32), np.zeros((0, k), np.float32)
+        lo = int(ids.min())
+        tri, bary = self.roots(int(ids.max()) - lo + 1, lo)
+        tri, bary = tri[ids - lo], bary[ids - lo]
+        rest = self.mesh.evaluate(tri, bary, pose="rest")
+        index, weight = self._weights(rest, self.guides.groups.group_of(rest.uv))
+        top = np.argsort(-weight, axis=1, kind="stable")[:, :k]
+        index = np.take_along_axis(index, top, axis=1)
+        weight = np.take_along_axis(weight, top, axis=1)
+        if weight.shape[1] < k:  # offset interpolation: one guide
+            pad = k - weight.shape[1]
+            index = np.concatenate([index, np.repeat(index[:, :1], pad, axis=1)], axis=1)
+            weight = np.concatenate([weight, np.zeros((len(ids), pad), np.float32)], axis=1)
+        total = weight.sum(axis=1, keepdims=True)
+        weight = np.divide(weight, total, out=np.zeros_like(weight), where=total > 0)
+        return index.astype(np.int32), weight.astype(np.float32)
+
     def generate_at(
         self, triangles: np.ndarray, bary: np.ndarray, ids: np.ndarray | None = None,
         time: float = 0.0,

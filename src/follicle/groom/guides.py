@@ -10,6 +10,7 @@ bleeding through. Guides are resampled by arc length to a common vertex count.
 from __future__ import annotations
 
 import logging
+import math
 import os
 
 import numpy as np
@@ -18,12 +19,22 @@ from numba import njit
 from ..curves import HairCurves
 from ..errors import InputError
 from ..mesh.skin import SkinMesh
+from ..units import (
+    Units,
+    mesh_factors,
+    metres_per_unit,
+    off_mesh_factor,
+    scale_curves,
+    units_fix,
+    units_for,
+    warn_guide_size,
+)
 from .groups import InterpolationGroups
 
 log = logging.getLogger("follicle")
 _FAR = 0.01  # warn when a root is farther from the mesh than this share of its size
 
-__all__ = ["Guides", "load_guides", "resample_arclength"]
+__all__ = ["Guides", "load_guides", "bind_roots", "resample_arclength"]
 
 
 @njit(cache=True, nogil=True)
@@ -74,12 +85,57 @@ def resample_arclength(curves: HairCurves, vertices: int) -> np.ndarray:
     return out
 
 
+def _bound(curves: HairCurves) -> bool:
+    return "root_triangle" in curves.curve_data and "root_bary" in curves.curve_data
+
+
+def bind_roots(curves: HairCurves, mesh: SkinMesh, name: str = "guides", units: Units = "m",
+               warn: bool = True) -> HairCurves:  # fmt: skip
+    """``curves`` with ``curve_data['root_triangle']``/``['root_bary']``: each guide's first
+    vertex bound to the closest point of ``mesh``'s rest pose.
+
+    With ``warn``, roots farther than 1 % of the mesh's size are logged, naming ``name``;
+    when scaling them by 100 or 1000 puts them on the mesh the line says which units
+    (relative to the ``units`` the guides were read in) would, and when the mesh's own
+    size warning (:func:`follicle.units.warn_mesh_size`) explains the gap it says nothing.
+    """
+    roots = curves.points[curves.offsets[:-1]]
+    triangles, bary, dist = mesh.closest_points(roots, pose="rest")
+    lo, hi = mesh.bounds("rest")
+    size = float(np.linalg.norm(hi - lo))
+    if warn and dist.max() > _FAR * size:
+        _warn_off_mesh(roots, dist, mesh, size, name, units)
+    data = {**curves.curve_data, "root_triangle": triangles, "root_bary": bary}
+    return HairCurves(curves.points, curves.offsets, curves.point_data, data)
+
+
+def _warn_off_mesh(roots: np.ndarray, dist: np.ndarray, mesh: SkinMesh, size: float, name: str,
+                   units: Units) -> None:  # fmt: skip
+    """Log the roots farther than ``_FAR`` × ``size`` from the mesh, with the units that
+    would put them on it; nothing when the mesh is off by that factor (its own size
+    warning says what to set)."""
+    hint = ""
+    factor = off_mesh_factor(roots, mesh, _FAR * size)
+    if factor is not None:
+        if any(math.isclose(factor * f, 1.0) for f in mesh_factors(size)):
+            return
+        hint = f"; scaled by {factor:g} they lie on it: " + units_fix(
+            "the guides are", "[guides].units", "load_guides", units, factor)
+    log.warning(
+        "%s: %d root(s) lie off mesh '%s' (farthest: guide %d, %.4g away, %.1f%% of the mesh"
+        " size); they are bound to the closest surface point%s", name,
+        int((dist > _FAR * size).sum()), mesh.name, int(np.argmax(dist)), float(dist.max()),
+        100.0 * float(dist.max()) / size, hint,
+    )
+
+
 class Guides:
     """Guide curves bound to ``mesh``'s rest pose, each in an interpolation group.
 
     Roots come from ``curve_data['root_triangle']``/``['root_bary']`` when present,
-    else from the closest point of the rest mesh to each guide's first vertex (with
-    a warning when that is far). ``groups`` assigns each guide the group at its root
+    else from the closest point of the rest mesh to each guide's first vertex
+    (:func:`bind_roots`, with a warning when that is far; ``curves`` then holds the
+    binding). ``groups`` assigns each guide the group at its root
     UV (one group when None). ``local`` holds the shapes at ``vertices`` (default:
     the longest guide's count); :meth:`local_shapes` gives any other count.
     """
@@ -93,29 +149,18 @@ class Guides:
     ) -> None:
         if curves.curve_count == 0:
             raise InputError("guides: need at least one guide curve")
-        self.curves = curves
         self.mesh = mesh
         n = vertices if vertices is not None else int(curves.counts.max())
-        if "root_triangle" in curves.curve_data and "root_bary" in curves.curve_data:
-            self.triangles = curves.curve_data["root_triangle"].astype(np.int64)
-            self.bary = curves.curve_data["root_bary"].astype(np.float64)
-            if self.triangles.min() < 0 or self.triangles.max() >= len(mesh.faces):
-                raise InputError(
-                    f"guides: root_triangle refers to triangles outside mesh '{mesh.name}'"
-                    f" ({len(mesh.faces)} faces); were the guides made for another mesh?"
-                )
-        else:
-            roots = curves.points[curves.offsets[:-1]]
-            self.triangles, self.bary, dist = mesh.closest_points(roots, pose="rest")
-            lo, hi = mesh.bounds("rest")
-            size = float(np.linalg.norm(hi - lo))
-            if dist.max() > _FAR * size:
-                log.warning(
-                    "guides: %d root(s) lie off mesh '%s' (farthest: guide %d, %.4g away,"
-                    " %.1f%% of the mesh size); they are bound to the closest surface point",
-                    int((dist > _FAR * size).sum()), mesh.name, int(np.argmax(dist)),
-                    float(dist.max()), 100.0 * float(dist.max()) / size,
-                )
+        if not _bound(curves):
+            curves = bind_roots(curves, mesh)
+        self.curves = curves
+        self.triangles = curves.curve_data["root_triangle"].astype(np.int64)
+        self.bary = curves.curve_data["root_bary"].astype(np.float64)
+        if self.triangles.min() < 0 or self.triangles.max() >= len(mesh.faces):
+            raise InputError(
+                f"guides: root_triangle refers to triangles outside mesh '{mesh.name}'"
+                f" ({len(mesh.faces)} faces); were the guides made for another mesh?"
+            )
         frame = mesh.evaluate(self.triangles, self.bary, pose="rest")
         self.root_positions = frame.position
         self.normals, self.tangents, self.binormals = frame.normal, frame.tangent, frame.binormal
@@ -182,15 +227,30 @@ def load_guides(
     mesh: SkinMesh,
     vertices: int | None = None,
     groups: InterpolationGroups | None = None,
+    units: Units = "m",
 ) -> Guides:
-    """Guides from ``builtin:long|short|curly``, a curves file, or HairCurves, bound to ``mesh``."""
+    """Guides from ``builtin:long|short|curly``, a curves file, or HairCurves, bound to ``mesh``.
+
+    ``units`` are those of the file or HairCurves (``"m"``, ``"cm"``, ``"mm"``, ``"in"``
+    or metres per unit; :mod:`follicle.units`): points and widths are converted to
+    metres. Built-in guides are in metres and take no other units. Guides whose size
+    suggests other units, alone or next to the mesh, are logged as a warning naming
+    the setting that fixes them, and then their roots' distance from the mesh is not
+    logged again.
+    """
     from ..io.dispatch import load_curves
     from .builtin_guides import builtin_guides
 
     if isinstance(source, HairCurves):
-        curves = source
+        name, curves = "guides", scale_curves(source, metres_per_unit(units))
     elif str(source).startswith("builtin:"):
-        curves = builtin_guides(str(source).split(":", 1)[1], mesh)
+        units_for(str(source), units)  # built-in guides are metres: other units are an error
+        return Guides(builtin_guides(str(source).split(":", 1)[1], mesh), mesh, vertices, groups)
     else:
-        curves = load_curves(source)
+        name, curves = os.fspath(source), load_curves(source, units)
+    if curves.curve_count:  # none: Guides says so
+        lo, hi = mesh.bounds("rest")
+        warned = warn_guide_size(curves, float(np.linalg.norm(hi - lo)), units, name)
+        if not _bound(curves):
+            curves = bind_roots(curves, mesh, name, units, warn=not warned)
     return Guides(curves, mesh, vertices, groups)

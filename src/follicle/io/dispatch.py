@@ -13,6 +13,9 @@ from pathlib import Path
 
 from ..curves import HairCurves
 from ..errors import FormatError
+from ..units import Units, scale_curves, units_for
+from .alembic import load_abc, save_abc
+from .attributes import plausible_widths
 from .cyhair import load_cyhair, save_cyhair
 from .mitsuba import load_mitsuba, save_mitsuba
 from .npz import load_npz, save_npz
@@ -35,6 +38,9 @@ READERS.update({".hair": load_cyhair, ".tfx": load_tfx, ".obj": load_obj, ".txt"
 # USD (".usd" is crate, like ".usdc") and RenderMan RIB (written only)
 WRITERS.update({**dict.fromkeys(USD_SUFFIXES, save_usd), ".rib": save_rib})
 READERS.update(dict.fromkeys(USD_SUFFIXES, load_usd))
+# Alembic (Ogawa archives)
+WRITERS[".abc"] = save_abc
+READERS[".abc"] = load_abc
 
 
 def _suffix(path: str | os.PathLike[str], table: dict, verb: str) -> str:
@@ -53,6 +59,17 @@ def save(curves: Curves, path: str | os.PathLike[str], **options: object) -> Pat
     return writer(as_chunks(curves), path, **options)
 
 
-def load_curves(path: str | os.PathLike[str]) -> HairCurves:
-    """Read hair curves from ``path`` in the format its extension names."""
-    return READERS[_suffix(path, READERS, "read")](path)
+def load_curves(path: str | os.PathLike[str], units: Units = "m") -> HairCurves:
+    """Read hair curves from ``path`` in the format its extension names.
+
+    ``units`` are the file's (``"m"``, ``"cm"``, ``"mm"``, ``"in"`` or metres per unit;
+    :mod:`follicle.units`): points and widths are converted to metres. A format that
+    declares its own unit (USD's metersPerUnit) is converted by its reader and takes
+    no other ``units``. Widths that are not hair (a median over 5 mm: a tool's default
+    radius, or the wrong unit) log a warning naming the file.
+    """
+    reader = READERS[_suffix(path, READERS, "read")]
+    mpu = units_for(path, units)  # checked before the file is read
+    curves = scale_curves(reader(path), mpu)
+    plausible_widths(curves, path)  # in metres now, whatever the file's unit
+    return curves

@@ -40,7 +40,7 @@ from numba import njit, prange
 from ..curves import HairCurves
 from ..errors import InputError
 from .atomic import atomic_path
-from .attributes import DEFAULT_WIDTH
+from .attributes import DEFAULT_WIDTH, conventional
 from .stream import Curves, as_chunks
 from .text import write_values
 
@@ -203,6 +203,7 @@ def _indices(curves: HairCurves, key: str, default: np.ndarray) -> np.ndarray:
 def _curves(fh: BinaryIO, curves: HairCurves, first_index: int, normals: bool) -> None:
     """One ``Curves`` request of ``curves`` (the first curve's default hair_index is
     ``first_index``)."""
+    curves = conventional(curves)  # motion samples come here without as_chunks
     offs, pd, cd = curves.offsets, curves.point_data, curves.curve_data
     c = curves.curve_count
     hair_index = _indices(curves, "hair_id", np.arange(first_index, first_index + c))

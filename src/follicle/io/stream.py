@@ -10,6 +10,7 @@ from collections.abc import Iterable, Iterator
 
 from ..curves import HairCurves
 from ..errors import InputError
+from .attributes import conventional
 
 __all__ = ["Curves", "as_chunks"]
 
@@ -18,9 +19,11 @@ Curves = HairCurves | Iterable[HairCurves]
 
 def as_chunks(curves: Curves) -> Iterator[HairCurves]:
     """Yield the chunks of ``curves`` (one HairCurves, or an iterable of them), checking
-    each is a HairCurves; an empty stream raises InputError before anything is written."""
+    each is a HairCurves, with colour, opacity and width in follicle's shapes
+    (:func:`~follicle.io.attributes.conventional`); an empty stream raises InputError
+    before anything is written."""
     if isinstance(curves, HairCurves):
-        yield curves
+        yield conventional(curves)
         return
     if isinstance(curves, (str, bytes)) or not isinstance(curves, Iterable):
         raise InputError(
@@ -31,6 +34,6 @@ def as_chunks(curves: Curves) -> Iterator[HairCurves]:
         if not isinstance(chunk, HairCurves):
             raise InputError(f"curves: chunk {i} is a {type(chunk).__name__}, not HairCurves")
         empty = False
-        yield chunk
+        yield conventional(chunk)
     if empty:
         raise InputError("curves: the chunk stream is empty; nothing to write")

@@ -3,8 +3,10 @@
 Writing (``.usda``, ``.usdc``, ``.usdz``; ``.usd`` is crate, like ``.usdc``): the stage has
 ``upAxis = "Y"``, ``metersPerUnit = 1`` and ``defaultPrim = "Groom"``. ``/Groom`` is an Xform,
 ``/Groom/Hair`` a Scope holding one BasisCurves prim per chunk of the stream,
-``/Groom/Hair/chunk_0000``, ``chunk_0001``, … (always, even for a single chunk), and the
-optional guides are the BasisCurves ``/Groom/Guides``.
+``/Groom/Hair/chunk_0000``, ``chunk_0001``, … (always, even for a single chunk), the
+optional guides are the BasisCurves ``/Groom/Guides`` and the optional skin mesh the
+UsdGeomMesh ``/Groom/Skin`` (in an animation with head motion ``/Groom/Head/Skin``, under
+the sampled Xform ``/Groom/Head``; see :mod:`follicle.io.usd_skin`).
 
 Every prim is ``type = "cubic"``, ``basis = "catmullRom"``, ``wrap = "pinned"``: the curve
 passes through every stored vertex, root to tip, with no phantom points in the file (USD
@@ -30,9 +32,9 @@ maps the crate while it writes, so file-backed memory grows to about its size) a
 ``.usdz`` copies it block by block into a Zip32 package. The same curves give the same
 bytes.
 
-Reading takes every BasisCurves prim of the stage, any type, basis and wrap, and keeps
-the points each curve passes through; see :func:`load_usd`. usd-core reads in a child
-process under memory and time limits after cheap checks of the file's container
+Reading takes every BasisCurves and NurbsCurves prim of the stage, any type, basis and
+wrap, and keeps the points each curve passes through; see :func:`load_usd`. usd-core
+reads in a child process under memory and time limits after cheap checks of the file's container
 (:mod:`follicle.io.usd_guard`, :mod:`follicle.io.usd_stage`), so a hostile file is one
 FormatError, never a crash. A failed write (a full disk, a file-size limit) is one
 FormatError naming the output, with no temporary file left.
@@ -56,21 +58,30 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 from ..curves import HairCurves
 from ..errors import FormatError, InputError
 from .atomic import atomic_path
+from .attributes import conventional
+from .guard import curves_from_parts
 from .inputs import input_file
 from .stream import Curves, as_chunks
+from .targets import Target, for_target, get_target
 from .usd_guard import check_container, read_stage
+from .usd_skin import define_head, define_skin, head_matrices, set_head
 from .usd_stage import usd_error
 
 if TYPE_CHECKING:
+    from ..mesh.skin import SkinMesh
     from ..sim.cache import SimCache
 
-__all__ = ["save_usd", "save_usd_cache", "load_usd", "HAIR_PATH", "GUIDES_PATH", "SUFFIXES"]
+__all__ = ["save_usd", "save_usd_cache", "load_usd", "HAIR_PATH", "GUIDES_PATH", "SKIN_PATH",
+           "HEAD_PATH", "SUFFIXES"]
 
 log = logging.getLogger("follicle")
 
 GROOM_PATH = "/Groom"
 HAIR_PATH = "/Groom/Hair"
 GUIDES_PATH = "/Groom/Guides"
+GROOM_GUIDES_PATH = "/Groom/Hair/Guides"  # Unreal's groom schema: the guides in the groom
+SKIN_PATH = "/Groom/Skin"  # the skin mesh, at rest
+HEAD_PATH = "/Groom/Head"  # an animation's head motion, the skin under it (Head/Skin)
 SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")  # ".usd" is written as crate
 
 # point_data / curve_data name -> USD attribute written by the schema, not as a primvar
@@ -180,14 +191,19 @@ def _define_curves(stage: Usd.Stage, path: str, curves: HairCurves, normals: boo
             written.add(name)
 
 
-def _new_stage(path: Path) -> Usd.Stage:
-    """A crate stage at ``path`` with follicle's metadata and /Groom, /Groom/Hair."""
+def _new_stage(path: Path, groom_schema: bool = False) -> Usd.Stage:
+    """A crate stage at ``path`` with follicle's metadata and /Groom, /Groom/Hair (a
+    Scope; for Unreal's groom schema an Xform with GroomAPI: its importer builds one
+    groom from that prim and the curves below it, through Xforms only)."""
     args = {"format": "usdc"} if path.suffix.lower() == ".usd" else {}
     stage = Usd.Stage.Open(Sdf.Layer.CreateNew(str(path), args))
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     stage.SetDefaultPrim(UsdGeom.Xform.Define(stage, GROOM_PATH).GetPrim())
-    UsdGeom.Scope.Define(stage, HAIR_PATH)
+    if groom_schema:
+        UsdGeom.Xform.Define(stage, HAIR_PATH).GetPrim().AddAppliedSchema("GroomAPI")
+    else:
+        UsdGeom.Scope.Define(stage, HAIR_PATH)
     return stage
 
 
@@ -199,11 +215,14 @@ def _as_guides(guides: object) -> HairCurves:
 
 
 def _write_crate(chunks: Iterator[HairCurves], crate: Path, guides: HairCurves | None,
-                 normals: bool) -> None:  # fmt: skip
-    stage = _new_stage(crate)
+                 normals: bool, mesh: SkinMesh | None, groom_schema: bool) -> None:  # fmt: skip
+    stage = _new_stage(crate, groom_schema)
     layer = stage.GetRootLayer()
+    if mesh is not None:
+        define_skin(stage, SKIN_PATH, mesh)
     if guides is not None:
-        _define_curves(stage, GUIDES_PATH, guides, normals)
+        _define_curves(stage, GROOM_GUIDES_PATH if groom_schema else GUIDES_PATH, guides,
+                       normals)  # fmt: skip
     for i, chunk in enumerate(chunks):
         _define_curves(stage, f"{HAIR_PATH}/chunk_{i:04d}", chunk, normals)
         layer.Save()  # crate appends the chunk and lets go of its arrays
@@ -285,41 +304,61 @@ def save_usd(
     path: str | os.PathLike[str],
     guides: HairCurves | None = None,
     normals: bool = True,
+    mesh: SkinMesh | None = None,
+    target: Target | str = "generic",
 ) -> Path:
     """Write ``curves`` (HairCurves or a stream of chunks) as pinned Catmull-Rom
-    BasisCurves, one prim per chunk under ``/Groom/Hair``, and ``guides`` (HairCurves or
-    Guides) as ``/Groom/Guides``; atomically, in the format the extension names."""
-    target = _check_suffix(path)
-    guide_curves = None if guides is None else _as_guides(guides)
-    chunks = as_chunks(curves)
-    with _writing(target), atomic_path(target) as tmp:
-        _finish(target, tmp, lambda crate: _write_crate(chunks, crate, guide_curves, normals))
-    return target
+    BasisCurves, one prim per chunk under ``/Groom/Hair``, ``guides`` (HairCurves or
+    Guides) as ``/Groom/Guides`` and the skin ``mesh`` (a SkinMesh, at rest) as the
+    UsdGeomMesh ``/Groom/Skin`` (see :mod:`follicle.io.usd_skin`); atomically, in the
+    format the extension names. ``target`` (see :mod:`follicle.io.targets`) names and
+    types the attributes for the tool that opens the file; for Unreal's groom import
+    ``/Groom/Hair`` is an Xform with ``GroomAPI`` applied and the guides, flagged
+    ``groom_guide = 1``, are ``/Groom/Hair/Guides``, inside the groom. Points stay in
+    metres (``metersPerUnit = 1``), which every target converts from."""
+    out = _check_suffix(path)
+    tool = get_target(target)
+    guide_curves = None
+    if guides is not None:
+        guide_curves = for_target(conventional(_as_guides(guides)), tool, "guides", False)
+    chunks = (for_target(chunk, tool, in_units=False) for chunk in as_chunks(curves))
+    with _writing(out), atomic_path(out) as tmp:
+        _finish(out, tmp, lambda crate: _write_crate(chunks, crate, guide_curves, normals, mesh,
+                                                     tool.groom_schema))  # fmt: skip
+    return out
 
 
 # ------------------------------------------------------------------ animation cache
-def _frames(frames: Iterable[HairCurves] | SimCache) -> tuple[Iterable[HairCurves], float | None]:
-    """Frames to write and the fps they carry (a SimCache's guide strands per frame)."""
+def _frames(frames: Iterable[HairCurves] | SimCache,
+            ) -> tuple[Iterable[HairCurves], float | None, np.ndarray | None]:  # fmt: skip
+    """Frames to write, the fps and the head transforms they carry (a SimCache's guide
+    strands and head motion per frame)."""
     positions = getattr(frames, "positions", None)
     if isinstance(positions, np.ndarray) and positions.ndim == 4:
-        return (HairCurves.from_array(p) for p in positions), float(frames.fps)
+        return ((HairCurves.from_array(p) for p in positions), float(frames.fps),
+                frames.transforms)  # fmt: skip
     if isinstance(frames, HairCurves) or not isinstance(frames, Iterable):
         raise InputError(
             f"frames: expected an iterable of HairCurves or a SimCache, got {type(frames).__name__}"
         )
-    return frames, None
+    return frames, None, None
 
 
-def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: int) -> None:
+def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: int,
+                 mesh: SkinMesh | None, transforms: np.ndarray | None) -> None:  # fmt: skip
     stage = _new_stage(crate)
     stage.SetTimeCodesPerSecond(fps)
     stage.SetFramesPerSecond(fps)
     layer = stage.GetRootLayer()
+    head = None if transforms is None else define_head(stage, HEAD_PATH)
+    if mesh is not None:
+        define_skin(stage, SKIN_PATH if head is None else f"{HEAD_PATH}/Skin", mesh)
     path = f"{HAIR_PATH}/chunk_0000"
     first = None
     for f, frame in enumerate(frames):
         if not isinstance(frame, HairCurves):
             raise InputError(f"frames: frame {f} is a {type(frame).__name__}, not HairCurves")
+        frame = conventional(frame)
         if first is None:
             first = frame
             _define_curves(stage, path, frame, True)
@@ -335,6 +374,11 @@ def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: i
                 " every frame must share the first frame's topology"
             )
         time = Usd.TimeCode(start + f)
+        if head is not None:
+            if f >= len(transforms):
+                raise InputError(f"transforms: {len(transforms)} matrices for {f + 1} or more"
+                                 " frames; give one per frame")  # fmt: skip
+            set_head(head, transforms[f], time)
         sampled[0].Set(Vt.Vec3fArray.FromNumpy(frame.points), time)
         if frame.point_count:
             width = first.point_data.get("width")
@@ -345,6 +389,9 @@ def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: i
         layer.Save()  # crate appends this frame's samples
     if first is None:
         raise InputError("frames: the frame stream is empty; nothing to write")
+    if head is not None and len(transforms) != f + 1:
+        raise InputError(f"transforms: {len(transforms)} matrices for {f + 1} frames; give one"
+                         " per frame")  # fmt: skip
     stage.SetStartTimeCode(start)
     stage.SetEndTimeCode(start + f)
     layer.Save()
@@ -355,6 +402,8 @@ def save_usd_cache(
     path: str | os.PathLike[str],
     fps: float | None = None,
     start: int = 0,
+    mesh: SkinMesh | None = None,
+    transforms: object | None = None,
 ) -> Path:
     """Write an animation: frame ``f`` of ``frames`` is time code ``start + f`` of one
     BasisCurves prim ``/Groom/Hair/chunk_0000``, whose topology and primvars come from
@@ -363,9 +412,21 @@ def save_usd_cache(
     ``fps`` (default 24, or a SimCache's own) sets ``timeCodesPerSecond``. A SimCache
     writes its guide strands; for hair, write ``groom.follow(cache.positions[f])`` after
     ``groom.mesh.set_pose(transform=cache.transforms[f])`` for each frame f.
+
+    ``mesh`` (a SkinMesh) is written at rest as ``/Groom/Skin``; with ``transforms``
+    (F, 4, 4), one head transform per frame acting on column vectors as a SimCache
+    keeps them (a SimCache's own by default), it is ``/Groom/Head/Skin`` under the Xform
+    ``/Groom/Head`` whose ``xformOp:transform`` is sampled per frame, so the skin moves
+    with the (world-space) hair.
     """
     target = _check_suffix(path)
-    stream, cache_fps = _frames(frames)
+    stream, cache_fps, cache_transforms = _frames(frames)
+    if transforms is not None and mesh is None:
+        raise InputError("transforms: given without mesh=; they move the skin mesh, so pass"
+                         " the SkinMesh too")  # fmt: skip
+    if mesh is not None and transforms is None:
+        transforms = cache_transforms
+    head = None if transforms is None else head_matrices(transforms)
     rate = fps if fps is not None else cache_fps if cache_fps is not None else 24.0
     real = (int, float, np.integer, np.floating)
     if isinstance(rate, bool) or not isinstance(rate, real) or not 0 < rate < np.inf:
@@ -373,55 +434,35 @@ def save_usd_cache(
     if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
         raise InputError(f"start: expected a whole number (first time code), got {start!r}")
     with _writing(target), atomic_path(target) as tmp:
-        _finish(target, tmp, lambda crate: _write_cache(stream, crate, float(rate), int(start)))
+        _finish(target, tmp, lambda crate: _write_cache(stream, crate, float(rate), int(start),
+                                                        mesh, head))  # fmt: skip
     return target
 
 
 # ------------------------------------------------------------------ reading
-def _part(prim: dict, source: Path) -> HairCurves:
-    """One prim's arrays from the child as HairCurves (FormatError if they are not)."""
-    try:
-        return HairCurves(prim["points"], prim["offsets"], prim["point_data"],
-                          prim["curve_data"])  # fmt: skip
-    except InputError as exc:
-        raise FormatError(f"{prim['where']}: {exc}") from None
-
-
-def _join(parts: list[HairCurves], source: Path) -> HairCurves:
-    """Concatenate prims, keeping the attributes every prim has (with one row shape)."""
-    if len(parts) == 1:
-        return parts[0]
-
-    def common(get: Callable[[HairCurves], dict]) -> set[str]:
-        names = set.intersection(*(set(get(p)) for p in parts))
-        return {k for k in names if len({get(p)[k].shape[1:] for p in parts}) == 1}
-
-    pkeys = common(lambda p: p.point_data)
-    ckeys = common(lambda p: p.curve_data)
-    dropped = set().union(*(set(p.point_data) | set(p.curve_data) for p in parts)) - pkeys - ckeys
-    if dropped:
-        log.warning("%s: attributes not on every curves prim were dropped: %s", source,
-                    ", ".join(sorted(dropped)))  # fmt: skip
-    return HairCurves.concatenate([
-        HairCurves(p.points, p.offsets, {k: p.point_data[k] for k in pkeys},
-                   {k: p.curve_data[k] for k in ckeys})
-        for p in parts
-    ])  # fmt: skip
-
-
 def load_usd(
     path: str | os.PathLike[str], time: float | None = None, guides: bool = False
 ) -> HairCurves:
-    """Hair curves from every BasisCurves prim of a USD stage, joined in stage order.
+    """Hair curves from every BasisCurves and NurbsCurves prim of a USD stage, joined in
+    stage order.
 
     Any type, basis and wrap: each curve becomes the points it passes through (linear
     and pinned Catmull-Rom: every vertex; nonperiodic Catmull-Rom: all but the two end
-    vertices; Bézier: every third; B-spline: the curve at its knots). Widths, normals,
-    displayColor, displayOpacity and other numeric primvars of any interpolation come
-    back per point (``width``, ``normal``, ``color``, ``opacity``) or, uniform ones, per
-    curve; transforms, metersPerUnit and a Z up axis are applied. ``/Groom/Guides`` is
-    skipped unless it is the only curves prim, or ``guides=True`` reads only it.
-    ``time`` picks a time code (default: the default values, or else the first sample).
+    vertices; Bézier: every third; B-spline: the curve at its knots; NURBS, rational
+    or not: the curve at its knots and evenly between them, at least as many points as
+    it has control vertices, see :func:`follicle.io.curve_basis.nurbs_stencil`).
+    Widths, normals and other numeric primvars of any interpolation (constant, uniform,
+    vertex, varying) come back per point (``width``, ``normal``) or, uniform ones, per
+    curve. ``color`` (RGB) is the first of displayColor, then a primvar named color,
+    Cd or col (any case; Blender writes its colour attributes as 4-channel color4f),
+    ``opacity`` the first of displayOpacity, opacity or alpha, else a 4-channel colour's
+    4th channel; other primvars with these names come back as ``<name>_primvar``, and
+    Blender's ``surface_uv_coordinate`` as ``root_uv``. Transforms, metersPerUnit and a
+    Z up axis are applied. Widths whose median is over 5 mm (a tool's default radius,
+    not hair) are kept but logged as a warning. ``/Groom/Guides`` is skipped unless it
+    is the only curves prim, or ``guides=True`` reads only it; ``/Groom/Skin`` is never
+    read as hair. ``time`` picks a time code (default: the default values, or else the
+    first sample).
 
     usd-core reads the file in a child process under memory and time limits, after
     cheap checks of its container (see :mod:`follicle.io.usd_guard`): anything wrong
@@ -430,4 +471,4 @@ def load_usd(
     """
     source = input_file(path, "USD file (.usd, .usda, .usdc or .usdz)")
     check_container(source)
-    return _join([_part(p, source) for p in read_stage(source, time, guides)], source)
+    return curves_from_parts(read_stage(source, time, guides), source)

@@ -9,9 +9,9 @@ reference each other many times over compose for ever. So :func:`read_stage`
    and is UTF-8; a crate starts with ``PXR-USDC`` and its table of contents and every
    section lie inside the file; a ``.usdz`` is a zip whose members are stored
    uncompressed, 64-byte aligned, the first one a USD layer (checked the same way);
-2. reads it with usd-core in a child process: :mod:`follicle.io.usd_stage` runs as a
-   script (``python -I``, numpy and pxr only, one usd-core thread) that stays up and
-   forks a fresh child per file; the child caps its address space at ``MEMORY_BASE +
+2. reads it with usd-core in a child process (:func:`follicle.io.guard.read_guarded`:
+   :mod:`follicle.io.usd_stage` for curves, :mod:`follicle.io.usd_mesh` for meshes,
+   one usd-core thread); the child caps its address space at ``MEMORY_BASE +
    MEMORY_PER_BYTE × file size`` (1.5 GiB + 16 × size; Python and pxr alone map 1.1
    GB) and is killed after ``SECONDS_BASE + size / BYTES_PER_SECOND`` of wall time
    (6 s + 1 s per 16 MB). Before composing anything it counts the prims composition
@@ -19,40 +19,27 @@ reference each other many times over compose for ever. So :func:`read_stage`
    counted) and refuses cycles;
 3. turns a refusal, a crash, the memory limit or the time limit into one FormatError
    naming the file.
-
-Cost: the first read in a process starts the server (importing pxr: 0.5-1.5 s); each
-read then takes a fork and the read itself, about 50-100 ms for a small file. The
-arrays come back through an ``.npz`` in a temporary folder, loaded without pickle.
 """
 
 from __future__ import annotations
 
 import codecs
-import json
-import os
-import select
-import signal
-import subprocess
-import sys
-import tempfile
-import threading
 import zipfile
 from pathlib import Path
-from time import monotonic
 from typing import BinaryIO
 
 import numpy as np
 
 from ..errors import FormatError
+from .guard import read_guarded
 
-__all__ = ["check_container", "read_stage"]
+__all__ = ["check_container", "read_stage", "read_meshes"]
 
 MEMORY_BASE = 3 << 29  # bytes of address space: Python and pxr take 1.1 GB opening a stage
 MEMORY_PER_BYTE = 16  # and this many bytes per byte of the file
 SECONDS_BASE = 6.0  # wall time for the child to start and read a small file
 BYTES_PER_SECOND = 16 << 20  # and one more second per this many bytes of the file
 CRATE_MAGIC = b"PXR-USDC"
-_SCRIPT = Path(__file__).with_name("usd_stage.py")
 _HINT = "is it a valid USD file?"
 
 
@@ -167,99 +154,17 @@ def limits(size: int) -> tuple[int, float]:
     return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
 
 
-def _died(path: Path, reply: dict | None, stderr: Path, memory: int,
-          seconds: float) -> FormatError:  # fmt: skip
-    """The one line for a child that ended without a result."""
-    if reply is None:
-        why = "its reader process stopped"
-    elif reply["timed_out"]:
-        why = f"took more than {seconds:.0f} s"
-    elif reply["code"] < 0:
-        name = signal.Signals(-reply["code"]).name
-        why = f"crashed with {name}, or needed more than {memory / 2**30:.1f} GiB"
-    else:
-        text = stderr.read_text(errors="replace") if stderr.exists() else ""
-        last = text.strip().splitlines()[-1:] or ["no output"]
-        why = f"failed (exit {reply['code']}: {last[0][:200]}); or needed more than" \
-              f" {memory / 2**30:.1f} GiB"  # fmt: skip
-    return FormatError(f"{path}: usd-core could not read it ({why}); {_HINT}")
-
-
-class _Server:
-    """The long-lived ``usd_stage.py`` process that forks one child per read (started
-    on first use: ~0.5-1 s to import pxr, then milliseconds a read). It exits when this
-    process closes its stdin, i.e. when this process ends."""
-
-    def __init__(self) -> None:
-        self.lock = threading.Lock()
-        self.proc: subprocess.Popen | None = None
-
-    def _start(self) -> subprocess.Popen:
-        if self.proc is None or self.proc.poll() is not None:
-            env = {**os.environ, "PXR_WORK_THREAD_LIMIT": "1", "OPENBLAS_NUM_THREADS": "1",
-                   "OMP_NUM_THREADS": "1", "MALLOC_ARENA_MAX": "2"}  # one thread: fork-safe
-            # unbuffered: select() then sees every reply line, none hides in a buffer
-            self.proc = subprocess.Popen([sys.executable, "-I", str(_SCRIPT)], env=env,
-                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=subprocess.DEVNULL, bufsize=0)  # fmt: skip
-        return self.proc
-
-    def _stop(self) -> None:
-        if self.proc is not None:
-            self.proc.kill()
-            self.proc.wait()
-            self.proc = None
-
-    def _reply(self, proc: subprocess.Popen, seconds: float) -> dict | None:
-        """The server's next ``@@`` line, or None if it ends or goes quiet."""
-        deadline = monotonic() + seconds
-        while (left := deadline - monotonic()) > 0:
-            ready, _, _ = select.select([proc.stdout], [], [], left)
-            line = proc.stdout.readline() if ready else b""
-            if not line:
-                return None
-            if line.startswith(b"@@"):
-                return json.loads(line[2:])
-        return None
-
-    def ask(self, request: dict) -> dict | None:
-        """Send ``request``; the reply (``code``, ``timed_out``) or None if the server
-        failed twice (it is restarted once)."""
-        with self.lock:
-            for _ in range(2):
-                proc = self._start()
-                try:
-                    proc.stdin.write(json.dumps(request).encode() + b"\n")
-                    reply = self._reply(proc, request["seconds"] + 60)
-                except OSError:
-                    reply = None
-                if reply is not None:
-                    return reply
-                self._stop()
-            return None
-
-
-_SERVER = _Server()
-
-
 def read_stage(path: Path, time: float | None, guides: bool) -> list[dict]:
     """The chosen BasisCurves prims of ``path``: dicts of ``where``, ``points``,
     ``offsets``, ``point_data`` and ``curve_data`` arrays, read in a child process
     (see the module); FormatError naming the file on any failure."""
     memory, seconds = limits(path.stat().st_size)
-    with tempfile.TemporaryDirectory(prefix="follicle-usd-read-") as folder:
-        reply = _SERVER.ask({"source": os.path.abspath(path), "shown": str(path), "out": folder,
-                             "time": time, "guides": guides, "memory": memory,
-                             "seconds": seconds})  # fmt: skip
-        result_file = Path(folder, "result.json")
-        if reply is None or not result_file.exists():
-            raise _died(path, reply, Path(folder, "stderr.txt"), memory, seconds)
-        result = json.loads(result_file.read_text())
-        if "refused" in result:
-            raise FormatError(result["refused"])
-        with np.load(Path(folder, "arrays.npz"), allow_pickle=False) as arrays:
-            return [{"where": p["where"],
-                     "points": arrays[p["points"]], "offsets": arrays[p["offsets"]],
-                     "point_data": {k: arrays[v] for k, v in p["point_data"].items()},
-                     "curve_data": {k: arrays[v] for k, v in p["curve_data"].items()}}
-                    for p in result["prims"]]  # fmt: skip
+    return read_guarded("usd-curves", path, memory, seconds, "usd-core", _HINT, time=time,
+                        guides=guides)  # fmt: skip
+
+
+def read_meshes(path: Path) -> list[dict]:
+    """The Mesh prims of ``path`` (see :mod:`follicle.io.usd_mesh`), read as
+    :func:`read_stage` reads curves."""
+    memory, seconds = limits(path.stat().st_size)
+    return read_guarded("usd-mesh", path, memory, seconds, "usd-core", _HINT)

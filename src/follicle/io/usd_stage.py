@@ -1,36 +1,33 @@
-"""Reading a USD stage's BasisCurves as plain arrays, run as a script in a child process.
+"""Reading a USD stage's BasisCurves and NurbsCurves as plain arrays, in a guarded child
+process.
 
 usd-core is C++: a hostile file can make it crash, allocate without end or compose for
-ever, so :mod:`follicle.io.usd_guard` runs this file as a script (``python -I
-usd_stage.py``, see :func:`serve`): it imports only numpy and pxr (no follicle), and
-forks a child for each file, which caps its own address space before it opens the file,
-is killed at its time limit, and writes ``OUT/arrays.npz`` plus ``OUT/result.json``: either
-``{"prims": [{"where", "points", "offsets", "point_data", "curve_data"}]}`` (names of
-arrays in the npz) or ``{"refused": message}``. Each prim's curves are already the
-points they pass through, in follicle's space (metres, +Y up).
+ever, so :mod:`follicle.io.usd_guard` has this module run in the guarded reading server
+(:mod:`follicle.io.guard_server`, entry :func:`read_request`): it imports only numpy,
+pxr and follicle's numpy-only modules, and reads each file in a forked child under
+memory and time limits. Each prim becomes ``{"where", "points", "offsets",
+"point_data", "curve_data"}``, its curves already the points they pass through, in
+follicle's space (metres, +Y up).
 """
 
 from __future__ import annotations
 
-import json
+import contextlib
 import math
-import os
-import resource
-import select
-import signal
-import sys
-import traceback
-from pathlib import Path
+from collections.abc import Iterator
 
 import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom
 
-GUIDES_PATH = "/Groom/Guides"  # as follicle.io.usd has it (this script imports no follicle)
+from . import curve_basis, guard_server
+from .curve_space import SpaceError, to_world
+
+GUIDES_PATH = "/Groom/Guides"  # as follicle.io.usd has it (the reading child skips the writer)
+GROOM_GUIDES_PATH = "/Groom/Hair/Guides"  # … and where it puts them for Unreal
 # what usd-core raises on a file it cannot make sense of (Tf errors, bad values, bad types)
 USD_ERRORS = (Tf.ErrorException, RuntimeError, ValueError, TypeError, IndexError,
               OverflowError, np.linalg.LinAlgError)  # fmt: skip
 MAX_PRIMS = 100_000  # prims a stage may compose, by _Composition's count
-_VSTEP = {"bezier": 3, "bspline": 1, "catmullRom": 1}
 
 
 class Refused(Exception):
@@ -107,61 +104,6 @@ class _Composition:
 
 
 # ------------------------------------------------------------------ curves
-def _rule(kind: str, basis: str, wrap: str, counts: np.ndarray, where: str) -> str:
-    """How a prim's control vertices map to the points its curves pass through."""
-    if wrap == "periodic":
-        raise Refused(f"{where}: periodic (closed) curves are not hair; not read")
-    if kind == "linear":
-        low, rule = 2, "all"
-    elif basis not in _VSTEP:
-        raise Refused(f"{where}: unknown basis '{basis}' (bezier, bspline or catmullRom)")
-    elif wrap == "pinned" and basis != "bezier":
-        low, rule = 2, "all" if basis == "catmullRom" else "pinned-knots"
-    else:
-        low, rule = 4, {"bezier": "bezier", "bspline": "knots", "catmullRom": "inner"}[basis]
-    bad = (counts < low) | (((counts - 4) % 3 != 0) if rule == "bezier" else False)
-    if np.any(bad):
-        i = int(np.argmax(bad))
-        raise Refused(
-            f"{where}: curve {i} has {int(counts[i])} vertices, invalid for {kind} {basis}"
-            f" {wrap} curves"
-        )
-    return rule
-
-
-def _out_counts(rule: str, counts: np.ndarray) -> np.ndarray:
-    if rule in ("inner", "knots"):
-        return counts - 2
-    if rule == "bezier":
-        return (counts - 1) // 3 + 1
-    return counts
-
-
-def _through(values: np.ndarray, counts: np.ndarray, rule: str) -> np.ndarray:
-    """Per-control-vertex ``values`` at the points the curves pass through."""
-    offsets = np.concatenate([[0], np.cumsum(counts)])
-    if rule == "all":
-        return values
-    if rule == "pinned-knots":  # add USD's phantom ends, then as nonperiodic
-        starts, ends = offsets[:-1], offsets[1:] - 1
-        first, last = values[starts], values[ends]
-        if np.issubdtype(values.dtype, np.floating):
-            first, last = 2 * first - values[starts + 1], 2 * last - values[ends - 1]
-        at = np.arange(len(values)) + np.repeat(2 * np.arange(len(counts)) + 1, counts)
-        padded = np.empty((len(values) + 2 * len(counts),) + values.shape[1:], values.dtype)
-        padded[at], padded[starts + 2 * np.arange(len(counts))] = values, first
-        padded[ends + 2 * np.arange(len(counts)) + 2] = last
-        return _through(padded, counts + 2, "knots")
-    local = np.arange(len(values)) - np.repeat(offsets[:-1], counts)
-    if rule == "bezier":
-        return values[local % 3 == 0]
-    inner = np.flatnonzero((local > 0) & (local < np.repeat(counts, counts) - 1))
-    if rule == "inner" or not np.issubdtype(values.dtype, np.floating):
-        return values[inner]
-    # uniform cubic B-spline at its knots: (P[j-1] + 4 P[j] + P[j+1]) / 6
-    return ((values[inner - 1] + 4 * values[inner] + values[inner + 1]) / 6).astype(values.dtype)
-
-
 def _array(value: object, name: str, where: str) -> np.ndarray | None:
     """``value`` as a numeric array of rows (1-D, or 2-D of 1-4 columns; half widened to
     float32), None for a non-numeric one, Refused for a single value where USD wants
@@ -178,12 +120,18 @@ def _array(value: object, name: str, where: str) -> np.ndarray | None:
     return arr.astype(np.float32) if arr.dtype == np.float16 else arr
 
 
+COLOR_NAMES = ("displaycolor", "color", "cd", "col")  # colour primvars, lower case, by priority
+OPACITY_NAMES = ("displayopacity", "opacity", "alpha")  # and opacity ones
+# names in point_data that only the schema's attributes and the chosen colour fill
+CONVENTIONAL = ("width", "normal", "color", "opacity")
+
+
 class _Prim:
-    """A BasisCurves prim read as arrays: its topology, then its primvars mapped to the
-    points its curves pass through."""
+    """A BasisCurves or NurbsCurves prim read as arrays: its topology, then its primvars
+    mapped to the points its curves pass through (:mod:`follicle.io.curve_basis`)."""
 
     def __init__(self, prim: Usd.Prim, time: Usd.TimeCode, source: str) -> None:
-        self.schema = UsdGeom.BasisCurves(prim)
+        self.schema = UsdGeom.Curves(prim)
         self.time = time
         self.where = f"{source}: {prim.GetPath()}"
         counts = _array(self.schema.GetCurveVertexCountsAttr().Get(time), "curveVertexCounts",
@@ -207,29 +155,58 @@ class _Prim:
                 f"{self.where}: curveVertexCounts sum to {int(self.counts.sum())} but there are"
                 f" {len(points)} points"
             )
-        self.rule = _rule(self.schema.GetTypeAttr().Get(), self.schema.GetBasisAttr().Get(),
-                          self.schema.GetWrapAttr().Get(), self.counts, self.where)  # fmt: skip
-        self.out = _out_counts(self.rule, self.counts)
-        self.points = _through(points.astype(np.float32), self.counts, self.rule)
+        if prim.IsA(UsdGeom.NurbsCurves):
+            self.stencil = self._nurbs(UsdGeom.NurbsCurves(prim))
+            self.out, varying = self.stencil.counts, self.stencil.varying_counts
+            self.points = self.stencil.vertex(points.astype(np.float32))
+        else:
+            basis = UsdGeom.BasisCurves(prim)
+            self.stencil = None
+            self.rule = curve_basis.rule(basis.GetTypeAttr().Get(), basis.GetBasisAttr().Get(),
+                                         basis.GetWrapAttr().Get(), self.counts,
+                                         self.where)  # fmt: skip
+            self.out = varying = curve_basis.out_counts(self.rule, self.counts)
+            self.points = curve_basis.through_points(points.astype(np.float32), self.counts,
+                                                     self.rule)  # fmt: skip
+        self.sizes = {"constant": 1, "uniform": len(self.counts), "vertex": len(points),
+                      "varying": int(varying.sum()), "faceVarying": int(varying.sum())}  # fmt: skip
+
+    def _nurbs(self, schema: UsdGeom.NurbsCurves) -> curve_basis.NurbsStencil:
+        """The stencil of a NurbsCurves prim from its order, knots, pointWeights and ranges
+        (the last two optional: an empty array counts as unauthored, as Blender writes)."""
+        values = {}
+        for name, attr in (("order", schema.GetOrderAttr()), ("knots", schema.GetKnotsAttr()),
+                           ("pointWeights", schema.GetPointWeightsAttr()),
+                           ("ranges", schema.GetRangesAttr())):  # fmt: skip
+            arr = _array(attr.Get(self.time), name, self.where)
+            values[name] = None if arr is None or arr.size == 0 else arr
+        if values["order"] is None or values["knots"] is None:
+            raise Refused(f"{self.where}: a NurbsCurves prim needs order and knots; author"
+                          " them (one order per curve, vertices + order knots per curve)")
+        if values["order"].dtype.kind not in "iu":
+            raise Refused(f"{self.where}: order must be int[], got {values['order'].dtype}")
+        return curve_basis.nurbs_stencil(self.counts, values["order"], values["knots"],
+                                         values["pointWeights"], values["ranges"],
+                                         self.where)  # fmt: skip
 
     def _check(self, name: str, values: np.ndarray, interpolation: str) -> None:
-        sizes = {"constant": 1, "uniform": len(self.counts), "vertex": int(self.counts.sum()),
-                 "varying": int(self.out.sum()), "faceVarying": int(self.out.sum())}  # fmt: skip
-        if interpolation not in sizes or len(values) != sizes[interpolation]:
+        if interpolation not in self.sizes or len(values) != self.sizes[interpolation]:
             raise Refused(
                 f"{self.where}: {name} has {len(values)} values; {interpolation} interpolation"
-                f" needs {sizes.get(interpolation, 'a known interpolation')}"
+                f" needs {self.sizes.get(interpolation, 'a known interpolation')}"
             )
 
     def per_point(self, name: str, values: np.ndarray, interpolation: str) -> np.ndarray:
         """``values`` of any interpolation as one row per output point."""
         self._check(name, values, interpolation)
         if interpolation == "vertex":
-            return _through(values, self.counts, self.rule)
+            if self.stencil is not None:
+                return self.stencil.vertex(values)
+            return curve_basis.through_points(values, self.counts, self.rule)
         if interpolation in ("constant", "uniform"):
             return np.repeat(values, self.out if interpolation == "uniform" else len(self.points),
                              axis=0)  # fmt: skip
-        return values
+        return values if self.stencil is None else self.stencil.varying(values)
 
     def _widths_normals(self, point_data: dict[str, np.ndarray]) -> None:
         api = UsdGeom.PrimvarsAPI(self.schema)
@@ -245,6 +222,11 @@ class _Prim:
             else:
                 value = attr.Get(self.time) if attr.HasAuthoredValue() else None
             arr = _array(value, name, self.where)
+            if arr is not None and key == "width":
+                if arr.ndim == 2 and arr.shape[1] != 1:
+                    raise Refused(f"{self.where}: widths has {arr.shape[1]} values a row; it must"
+                                  " be float[], one diameter each")  # fmt: skip
+                arr = arr.reshape(len(arr))
             if arr is not None:
                 point_data[key] = self.per_point(name, arr.astype(np.float32), interpolation)
 
@@ -259,26 +241,57 @@ class _Prim:
                           " elementSize")  # fmt: skip
         return arr.reshape(len(arr) // size, size)
 
+    def _appearance(self, found: list[tuple[str, str, np.ndarray]],
+                    point_data: dict[str, np.ndarray]) -> set[str]:  # fmt: skip
+        """``color`` (RGB) and ``opacity`` from the first colour primvar by COLOR_NAMES
+        (displayColor, color, Cd, col: any case; 3 or 4 floats a row, the 4th its
+        opacity) and the first opacity one by OPACITY_NAMES, which wins over a 4th
+        channel; the names of the primvars used."""
+        def first(names: tuple[str, ...], widths: tuple[int, ...]) -> tuple | None:
+            fits = [f for f in found if f[0].lower() in names and f[2].dtype.kind == "f"
+                    and (f[2].shape[1] if f[2].ndim == 2 else 1) in widths]  # fmt: skip
+            return min(fits, key=lambda f: names.index(f[0].lower()), default=None)
+
+        used = set()
+        alpha = first(OPACITY_NAMES, (1,))
+        if alpha is not None:
+            rows = self.per_point(alpha[0], alpha[2].astype(np.float32), alpha[1])
+            point_data["opacity"] = rows.reshape(len(rows))
+            used.add(alpha[0])
+        color = first(COLOR_NAMES, (3, 4))
+        if color is not None:
+            rows = self.per_point(color[0], color[2].astype(np.float32), color[1])
+            point_data["color"] = np.ascontiguousarray(rows[:, :3])
+            if rows.shape[1] == 4 and alpha is None:
+                point_data["opacity"] = np.ascontiguousarray(rows[:, 3])
+            used.add(color[0])
+        return used
+
     def read(self) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-        """(point_data, curve_data) of the prim, per output point and per curve."""
+        """(point_data, curve_data) of the prim, per output point and per curve. A primvar
+        whose name is one of CONVENTIONAL but that does not fill it comes back as
+        ``<name>_primvar``; Blender's ``surface_uv_coordinate`` as ``root_uv``."""
         point_data: dict[str, np.ndarray] = {}
         curve_data: dict[str, np.ndarray] = {}
         self._widths_normals(point_data)
+        found = []
         for primvar in UsdGeom.PrimvarsAPI(self.schema).GetPrimvarsWithAuthoredValues():
-            name, interpolation = primvar.GetPrimvarName(), primvar.GetInterpolation()
+            name = primvar.GetPrimvarName()
             arr = _array(primvar.ComputeFlattened(self.time), name, self.where)
-            if name in ("widths", "normals") or arr is None or interpolation == "constant" \
-                    and name not in ("displayColor", "displayOpacity"):  # fmt: skip
+            if name not in ("widths", "normals") and arr is not None:
+                found.append((name, primvar.GetInterpolation(), self._rows(primvar, arr)))
+        used = self._appearance(found, point_data)
+        for name, interpolation, arr in found:
+            if name in used or interpolation == "constant":
                 continue
-            arr = self._rows(primvar, arr)
-            key = {"displayColor": "color", "displayOpacity": "opacity"}.get(name)
-            if key is not None:
-                point_data[key] = self.per_point(name, arr.astype(np.float32), interpolation)
-            elif interpolation == "uniform":
+            if interpolation == "uniform":
                 self._check(name, arr, interpolation)
                 curve_data[name] = arr
             else:
-                point_data[name] = self.per_point(name, arr, interpolation)
+                key = f"{name}_primvar" if name in CONVENTIONAL else name
+                point_data[key] = self.per_point(name, arr, interpolation)
+        if "root_uv" not in curve_data and "surface_uv_coordinate" in curve_data:
+            curve_data["root_uv"] = curve_data.pop("surface_uv_coordinate")
         return point_data, curve_data
 
 
@@ -320,38 +333,31 @@ def _world(prim: Usd.Prim, time: Usd.TimeCode, where: str) -> np.ndarray:
 
 def _transform(points: np.ndarray, pd: dict[str, np.ndarray], m: np.ndarray,
                where: str) -> np.ndarray:  # fmt: skip
-    """``points`` (returned) and ``pd``'s width and normal (in place) moved by ``m``."""
-    if np.allclose(m, np.eye(4), rtol=0, atol=1e-12):
-        return points
-    linear = m[:3, :3]  # USD matrices act on row vectors: p' = p @ linear + m[3, :3]
-    det = float(np.linalg.det(linear))
-    if "width" in pd:
-        pd["width"] = (pd["width"] * abs(det) ** (1 / 3)).astype(np.float32)
-    if "normal" in pd:
-        if not (np.isfinite(det) and abs(det) > 1e-30):
-            raise Refused(f"{where}: its transform is singular (a scale of 0), so its normals"
-                          " cannot be transformed; fix its xformOps")  # fmt: skip
-        n = pd["normal"].astype(np.float64) @ np.linalg.inv(linear).T
-        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-        pd["normal"] = n.astype(np.float32)
-    return (points.astype(np.float64) @ linear + m[3, :3]).astype(np.float32)
+    """``points`` (returned) and ``pd``'s width and normal (in place) moved by ``m``
+    (:func:`follicle.io.curve_space.to_world`; USD's matrices act on row vectors too)."""
+    try:
+        return to_world(points, pd, m, where, "fix its xformOps")
+    except SpaceError as exc:
+        raise Refused(str(exc)) from None
 
 
 # ------------------------------------------------------------------ stage
 def _chosen(stage: Usd.Stage, guides: bool, source: str) -> list[Usd.Prim]:
-    prims = [p for p in stage.Traverse() if p.IsA(UsdGeom.BasisCurves)]
-    guide_prims = [p for p in prims if p.GetPath().HasPrefix(Sdf.Path(GUIDES_PATH))]
+    prims = [p for p in stage.Traverse()
+             if p.IsA(UsdGeom.BasisCurves) or p.IsA(UsdGeom.NurbsCurves)]  # fmt: skip
+    guide_prims = [p for p in prims if p.GetPath().HasPrefix(Sdf.Path(GUIDES_PATH))
+                   or p.GetPath().HasPrefix(Sdf.Path(GROOM_GUIDES_PATH))]  # fmt: skip
     hair = [p for p in prims if p not in guide_prims]
     chosen = guide_prims if guides else hair or guide_prims
     if not chosen:
-        what = f"no {GUIDES_PATH} prim" if guides else "no BasisCurves prims"
+        what = f"no {GUIDES_PATH} prim" if guides else "no BasisCurves or NurbsCurves prims"
         raise Refused(f"{source}: {what}; is this a hair file?")
     return chosen
 
 
 def read(path: str, source: str, time: float | None, guides: bool) -> list[dict]:
-    """Every chosen BasisCurves prim of the file at ``path`` as a dict of arrays (see the
-    module); messages name it ``source``."""
+    """Every chosen BasisCurves or NurbsCurves prim of the file at ``path`` as a dict of
+    arrays (see the module); messages name it ``source``."""
     root = Sdf.Layer.FindOrOpen(path)
     if root is None:
         raise Refused(f"{source}: usd-core could not open it; is it a valid USD file?")
@@ -360,8 +366,11 @@ def read(path: str, source: str, time: float | None, guides: bool) -> list[dict]
     when = Usd.TimeCode.EarliestTime() if time is None else Usd.TimeCode(time)
     prims = []
     for prim in _chosen(stage, guides, source):
-        part = _Prim(prim, when, source)
-        point_data, curve_data = part.read()
+        try:
+            part = _Prim(prim, when, source)
+            point_data, curve_data = part.read()
+        except curve_basis.CurveBasisError as exc:
+            raise Refused(str(exc)) from None
         points = _transform(part.points, point_data, _world(prim, when, part.where), part.where)
         offsets = np.concatenate([[0], np.cumsum(part.out)])
         prims.append({"where": part.where, "points": points, "offsets": offsets,
@@ -380,93 +389,29 @@ def usd_error(exc: BaseException, first: bool = False) -> str:
     return message[:300] or type(exc).__name__
 
 
-def _save(prims: list[dict], out: Path) -> dict:
-    """Write the prims' arrays to ``out/arrays.npz``; the manifest naming them."""
-    arrays: dict[str, np.ndarray] = {}
-
-    def put(arr: np.ndarray) -> str:
-        key = f"a{len(arrays)}"
-        arrays[key] = np.ascontiguousarray(arr)
-        return key
-
-    manifest = [{"where": p["where"], "points": put(p["points"]), "offsets": put(p["offsets"]),
-                 "point_data": {k: put(v) for k, v in p["point_data"].items()},
-                 "curve_data": {k: put(v) for k, v in p["curve_data"].items()}}
-                for p in prims]  # fmt: skip
-    np.savez(out / "arrays.npz", **arrays)
-    return {"prims": manifest}
+HINT = "is it a valid USD file?"
 
 
-def _read_request(request: dict) -> None:
-    """Read ``request["source"]`` into ``request["out"]`` (see the module), with the
-    address space capped at ``request["memory"]`` bytes first."""
-    source, out = request["shown"], Path(request["out"])
-    _, hard = resource.getrlimit(resource.RLIMIT_AS)
-    cap = request["memory"] if hard == resource.RLIM_INFINITY else min(request["memory"], hard)
-    resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
+def prepare() -> None:
+    """Load usd-core's plugins once in the reading server, before any fork."""
+    Usd.SchemaRegistry()
+
+
+@contextlib.contextmanager
+def refusals(source: str) -> Iterator[None]:
+    """Turn Refused and usd-core's errors into :class:`follicle.io.guard_server.Refused`,
+    one line naming ``source``."""
     try:
-        result = _save(read(request["source"], source, request["time"], request["guides"]), out)
+        yield
     except Refused as exc:
-        result = {"refused": str(exc)}
-    except MemoryError:
-        result = {"refused": f"{source}: usd-core needed more than {cap / 2**30:.1f} GiB"
-                  " reading it; is it a valid USD file?"}  # fmt: skip
+        raise guard_server.Refused(str(exc)) from None
     except USD_ERRORS as exc:
-        result = {"refused": f"{source}: usd-core could not read it ({usd_error(exc)});"
-                  " is it a valid USD file?"}  # fmt: skip
-    tmp = out / "result.json.tmp"
-    tmp.write_text(json.dumps(result))
-    os.replace(tmp, out / "result.json")
+        raise guard_server.Refused(f"{source}: usd-core could not read it ({usd_error(exc)});"
+                                   f" {HINT}") from None  # fmt: skip
 
 
-def _child(request: dict) -> None:
-    """In the forked child: output to ``OUT/stderr.txt``, default signals, then read;
-    never returns."""
-    log = os.open(Path(request["out"], "stderr.txt"), os.O_WRONLY | os.O_CREAT, 0o600)
-    os.dup2(log, 1)
-    os.dup2(log, 2)
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    code = 1
-    try:
-        _read_request(request)
-        code = 0
-    except BaseException:  # noqa: BLE001 - the child reports every failure, then exits
-        traceback.print_exc()
-    finally:
-        sys.stdout.flush()
-        os._exit(code)
-
-
-def _wait(pid: int, seconds: float) -> dict:
-    """Wait up to ``seconds`` for child ``pid`` (then kill it): its exit code (negative:
-    the signal that ended it) and whether it ran out of time."""
-    fd = os.pidfd_open(pid)
-    try:
-        ready, _, _ = select.select([fd], [], [], seconds)
-    finally:
-        os.close(fd)
-    if not ready:
-        os.kill(pid, signal.SIGKILL)
-    _, status = os.waitpid(pid, 0)
-    return {"code": os.waitstatus_to_exitcode(status), "timed_out": not ready}
-
-
-def serve() -> None:
-    """The reading server: one JSON request a line on stdin (``source``, ``out``,
-    ``time``, ``guides``, ``memory``, ``seconds``), each read in a child forked from
-    this single-threaded process (pxr already imported and its plugins loaded, so a
-    read starts in milliseconds); one ``@@``-prefixed JSON reply a line on stdout.
-    Ends when stdin closes (its parent is gone)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
-    Usd.SchemaRegistry()  # loads the plugins once, before any fork
-    for line in sys.stdin:
-        request = json.loads(line)
-        pid = os.fork()
-        if pid == 0:
-            _child(request)
-        sys.stdout.write("@@" + json.dumps(_wait(pid, request["seconds"])) + "\n")
-        sys.stdout.flush()
-
-
-if __name__ == "__main__":
-    serve()
+def read_request(request: dict) -> list[dict]:
+    """The reading server's entry (:mod:`follicle.io.guard_server`): :func:`read` of
+    ``request["source"]`` with its ``time`` and ``guides``."""
+    with refusals(request["shown"]):
+        return read(request["source"], request["shown"], request["time"], request["guides"])

@@ -1,4 +1,5 @@
-"""load_mesh: a SkinMesh from a mesh file (through trimesh) or a built-in name."""
+"""load_mesh: a SkinMesh from a mesh file (through trimesh, or the USD and Alembic readers)
+or a built-in name."""
 
 from __future__ import annotations
 
@@ -10,25 +11,38 @@ import numpy as np
 
 from ..errors import FollicleError, FormatError, InputError
 from ..io.inputs import input_file
+from ..units import Units, units_for, warn_mesh_size
 from .head import builtin_head
 from .skin import SkinMesh
 
 __all__ = ["load_mesh", "MESH_EXTENSIONS", "BUILTIN_MESHES"]
 
-MESH_EXTENSIONS = (".obj", ".ply", ".glb", ".gltf", ".stl", ".off")
+SCENE_EXTENSIONS = (".abc", ".usd", ".usda", ".usdc", ".usdz")  # read by follicle.io's readers
+MESH_EXTENSIONS = (".obj", ".ply", ".glb", ".gltf", ".stl", ".off", *SCENE_EXTENSIONS)
 BUILTIN_MESHES: dict[str, Callable[[], SkinMesh]] = {"head": builtin_head}
 _BUILTIN_PREFIX = "builtin:"
 
 
-def load_mesh(path: str | os.PathLike[str]) -> SkinMesh:
-    """Load ``path`` (OBJ/PLY/GLB/GLTF/STL/OFF) or ``"builtin:head"`` as a SkinMesh.
+def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
+    """Load ``path`` (OBJ/PLY/GLB/GLTF/STL/OFF, Alembic, USD) or ``"builtin:head"`` as a
+    SkinMesh.
 
     The file is read with ``process=False`` (vertex order kept), triangulated, and
-    its per-vertex UVs kept when present. Unreadable files (and a FIFO, device or
-    folder, refused before opening) raise FormatError; bad geometry (NaN vertices, a
-    coordinate beyond ±:data:`~follicle.mesh.skin.MAX_COORDINATE`, no faces, only
-    zero-area faces) raises InputError naming the file.
+    its per-vertex UVs kept when present. Alembic (``.abc``) and USD (``.usd``,
+    ``.usda``, ``.usdc``, ``.usdz``) files give their first mesh (a warning names any
+    others), with transforms applied and faceVarying UVs split at seams, read in a
+    guarded child process (:func:`follicle.io.alembic.load_abc_mesh`,
+    :func:`follicle.mesh.polymesh.load_usd_mesh`; bad geometry in them is a FormatError,
+    the file holding it). ``units`` are the file's (``"m"``, ``"cm"``,
+    ``"mm"``, ``"in"`` or metres per unit; :mod:`follicle.units`): its vertices are
+    converted to metres, and a size that suggests other units is logged as a warning.
+    Unreadable files (and a FIFO, device or folder, refused before opening) raise
+    FormatError; bad geometry (NaN vertices, a coordinate beyond
+    ±:data:`~follicle.mesh.skin.MAX_COORDINATE` m, no faces, only zero-area faces) and
+    units other than metres for a built-in mesh or a glTF or USD file (they declare
+    their own) raise InputError.
     """
+    mpu = units_for(path, units)
     text = os.fspath(path)
     if isinstance(text, str) and text.startswith(_BUILTIN_PREFIX):
         key = text[len(_BUILTIN_PREFIX) :]
@@ -46,6 +60,8 @@ def load_mesh(path: str | os.PathLike[str]) -> SkinMesh:
     if not os.path.lexists(p):
         raise FormatError(f"mesh file '{p}' does not exist; check the path")
     input_file(p, f"mesh file ({', '.join(MESH_EXTENSIONS)})")
+    if ext in SCENE_EXTENSIONS:
+        return _plausible(_scene_mesh(p, ext, mpu), units, p)
 
     import trimesh
 
@@ -67,7 +83,34 @@ def load_mesh(path: str | os.PathLike[str]) -> SkinMesh:
         faces = np.concatenate([faces[:, [0, k, k + 1]] for k in range(1, faces.shape[1] - 1)])
     uvs = _uvs(loaded, len(vertices))
     try:
-        return SkinMesh(vertices, faces.reshape(-1, 3) if faces.size else faces, uvs, name=p.stem)
+        mesh = SkinMesh(vertices * mpu, faces.reshape(-1, 3) if faces.size else faces, uvs,
+                        name=p.stem)
+    except InputError as exc:
+        raise InputError(f"{p}: {exc}") from exc
+    return _plausible(mesh, units, p)
+
+
+def _plausible(mesh: SkinMesh, units: Units, p: Path) -> SkinMesh:
+    """``mesh``, with a warning when its size suggests other units."""
+    lo, hi = mesh.bounds("rest")
+    warn_mesh_size(float(np.linalg.norm(hi - lo)), units, str(p))
+    return mesh
+
+
+def _scene_mesh(p: Path, ext: str, mpu: float) -> SkinMesh:
+    """The first mesh of an Alembic or USD file (USD converts its own units; Alembic's
+    carry none, so ``mpu`` scales them)."""
+    if ext != ".abc":
+        from .polymesh import load_usd_mesh
+
+        return load_usd_mesh(p)
+    from ..io.alembic import load_abc_mesh
+
+    mesh = load_abc_mesh(p)
+    if mpu == 1.0:
+        return mesh
+    try:
+        return SkinMesh(mesh.rest_vertices * mpu, mesh.faces, mesh.uvs, name=mesh.name)
     except InputError as exc:
         raise InputError(f"{p}: {exc}") from exc
 

@@ -52,7 +52,8 @@ def _checked_positions(verts: np.ndarray, what: str) -> None:
         bad = int(np.argmax(far))
         raise InputError(
             f"{what} {bad} = {verts[bad].tolist()} lies beyond the limit |coordinate| ≤"
-            f" {MAX_COORDINATE:g} m; scale the mesh to metres"
+            f" {MAX_COORDINATE:g} m; scale the mesh to metres (or give its units: [mesh].units,"
+            " load_mesh(..., units=...))"
         )
 
 

@@ -1,0 +1,515 @@
+"""Alembic hair: ``OCurves`` written and read with alembic3d (PyAlembic's API, Ogawa).
+
+Writing: the archive's top object holds the Xform ``/Groom`` (identity), under it one
+``OCurves`` per chunk of the stream, ``Hair_0000``, ``Hair_0001``, … (always, even for a
+single chunk), the optional guides as the ``OCurves`` ``/Groom/Guides`` and the optional
+skin as the ``OPolyMesh`` ``/Groom/Skin`` (its rest pose, triangles, UVs as the indexed
+faceVarying ``uv``; in an animation with head motion ``/Groom/Head/Skin``, under the Xform
+``/Groom/Head`` sampled per frame).
+
+The curves are ``kLinear``, ``kNonPeriodic``, ``kNoBasis``: every stored vertex is a
+point of the curve, so they read back bit for bit; Blender imports them as poly hair
+curves with exactly these points (Cycles renders curves through their points as
+Catmull-Rom splines, the curve follicle means), Houdini as polylines and Unreal's groom
+importer as its strands. A Catmull-Rom basis would need phantom end vertices (Alembic,
+like RenderMan, has no pinned wrap), which Blender reads as two extra points a curve.
+Alembic declares no units and no up axis: follicle writes metres, +Y up. Attributes:
+
+- ``P``, ``nVertices`` and ``.selfBnds`` (the vertices' bounds padded by half the
+  widest width);
+- ``width``, vertex scope: diameters in metres, as Alembic inherits RenderMan's width
+  and as Houdini (``width``) and Blender's exporter (2 × radius) write it (Blender's
+  importer in its 3.x-4.x sources read it as the radius: hair twice as thick there);
+- ``N`` (``normal``), vertex scope (``normals=False`` leaves them out: renderers then
+  draw round tubes rather than ribbons facing them);
+- ``uv``, uniform scope: ``curve_data['root_uv']``;
+- arbGeomParams: ``color`` C3f (so are a target's ``Cd`` and ``groom_color``) and
+  ``opacity`` float, vertex scope, and every other ``point_data`` array (vertex scope)
+  and ``curve_data`` array (uniform scope) under its own name: floats of 1-3 components
+  (float32 as float, V2f, V3f; float64 as double, V2d, V3d; float16 widened), integers
+  of 1-3 components as int32 (int32, V2i, V3i: int64 ids such as ``hair_id`` are
+  written so when every value fits, and skipped with a warning otherwise), bool and
+  uint8 as uchar. Others (4 components, strings) are skipped with a warning.
+
+A ``target`` (:mod:`follicle.io.targets`) renames and types the attributes for the tool
+that opens the file and, Alembic declaring no units, scales to its units (Unreal:
+centimetres, guides flagged ``groom_guide``, and its groom schema's version,
+``groom_version_major`` 1 and ``groom_version_minor`` 5, int16 of constant scope, on
+every curves object).
+
+alembic3d writes in a child process (:mod:`follicle.io.alembic_sink`), fed one object
+at a time through a pipe: its C++ ends the process it runs in when a write fails (a
+full disk, a file-size limit), so that failure ends the child and comes back as one
+FormatError naming the output, with no temporary file left; the finished archive is
+checked whole (:func:`follicle.io.alembic_guard.check_archive`) before it is renamed
+into place. The stream is written with bounded memory: Ogawa writes each chunk's sample
+when it is set, and the chunk is released (here and in the child) before the next. The
+same curves give the same bytes (with the same alembic3d: the archive names the
+library's version and build).
+
+Reading takes every curves object of the archive (any type, basis and wrap; see
+:func:`load_abc`) and the first mesh (:func:`load_abc_mesh`); alembic3d reads in a child
+process under memory and time limits after cheap checks of the archive's structure
+(:mod:`follicle.io.alembic_guard`, :mod:`follicle.io.alembic_archive`), so a hostile file
+is one FormatError, never a crash.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import FormatError, InputError
+from ..mesh.polymesh import skin_from_part
+from ..mesh.skin import SkinMesh
+from .alembic_archive import COLOR_NAMES
+from .alembic_guard import check_archive, read_curves, read_mesh
+from .alembic_sink import send
+from .atomic import atomic_path
+from .attributes import conventional
+from .guard import curves_from_parts
+from .inputs import input_file
+from .stream import Curves, as_chunks
+from .targets import Target, for_target, get_target
+from .usd import _as_guides, _frames
+from .usd_skin import head_matrices
+
+if TYPE_CHECKING:
+    from ..sim.cache import SimCache
+
+__all__ = ["save_abc", "save_abc_cache", "load_abc", "load_abc_mesh", "GROOM", "GUIDES",
+           "SKIN", "HEAD"]
+
+log = logging.getLogger("follicle")
+
+GROOM, GUIDES, SKIN, HEAD = "/Groom", "/Groom/Guides", "/Groom/Skin", "/Groom/Head"
+GROOM_VERSION = (1, 5)  # Unreal's Alembic groom schema, on every curves object it reads
+_SCRIPT = Path(__file__).with_name("guard_server.py")
+_INT32 = np.iinfo(np.int32)
+# (dtype, components) -> the geometry parameter kind the writer makes of it
+_KINDS = {("f4", 1): "float", ("f4", 2): "v2f", ("f4", 3): "v3f", ("f8", 1): "double",
+          ("f8", 2): "v2d", ("f8", 3): "v3d", ("i4", 1): "int", ("i4", 2): "v2i",
+          ("i4", 3): "v3i", ("u1", 1): "uchar"}  # fmt: skip
+
+
+# ------------------------------------------------------------------ values
+def _as_stored(arr: np.ndarray) -> np.ndarray | None:
+    """``arr`` (rows of 1-3 components) in a dtype :data:`_KINDS` has, or None."""
+    if arr.ndim not in (1, 2) or arr.ndim == 2 and not 1 <= arr.shape[1] <= 3:
+        return None
+    if arr.dtype == np.float16:
+        return arr.astype(np.float32)
+    if arr.dtype in (np.bool_, np.uint8):
+        return arr.astype(np.uint8) if arr.ndim == 1 else None
+    if arr.dtype.kind in "iu":
+        fits = not arr.size or _INT32.min <= int(arr.min()) and int(arr.max()) <= _INT32.max
+        return arr.astype(np.int32) if fits else None
+    return arr if arr.dtype.kind == "f" and arr.dtype.itemsize in (4, 8) else None
+
+
+def _column(curves: HairCurves, key: str, comps: int) -> np.ndarray | None:
+    """``point_data[key]`` as float32 of ``comps`` components a vertex, or None if absent."""
+    values = curves.point_data.get(key)
+    if values is None:
+        return None
+    shape = (curves.point_count,) if comps == 1 else (curves.point_count, comps)
+    if values.shape != shape:
+        raise InputError(f"point_data['{key}']: expected shape {shape}, got {values.shape}")
+    return np.asarray(values, dtype=np.float32)
+
+
+def _bounds(points: np.ndarray, width: np.ndarray | None) -> np.ndarray:
+    """(2, 3) the vertices' bounds (linear curves lie in them) padded by half the widest
+    width."""
+    if not len(points):
+        return np.zeros((2, 3))
+    pad = 0.5 * float(width.max()) if width is not None and width.size else 0.0
+    return np.stack([points.min(axis=0) - pad, points.max(axis=0) + pad]).astype(np.float64)
+
+
+def _curves_arrays(curves: HairCurves, normals: bool,
+                   groom_schema: bool = False) -> tuple[list, dict[str, np.ndarray]]:  # fmt: skip
+    """(params, arrays) of a ``curves`` operation: points, counts, bounds, widths,
+    normals, uv and every other attribute as an arbGeomParam (warning of those that
+    have no Alembic type), and with ``groom_schema`` the version of Unreal's groom
+    schema (``groom_version_major`` / ``_minor``, int16, constant scope)."""
+    width = _column(curves, "width", 1)
+    arrays = {"points": curves.points, "counts": curves.counts.astype(np.int32),
+              "bounds": _bounds(curves.points, width)}  # fmt: skip
+    for key, value in (("width", width), ("normal", _column(curves, "normal", 3)
+                                          if normals else None)):  # fmt: skip
+        if value is not None:
+            arrays[key] = value
+    uv = curves.curve_data.get("root_uv")
+    if uv is not None:
+        if uv.shape != (curves.curve_count, 2):
+            raise InputError(f"curve_data['root_uv']: expected shape ({curves.curve_count}, 2),"
+                             f" got {uv.shape}")  # fmt: skip
+        arrays["uv"] = uv.astype(np.float32)
+    params = []
+    if groom_schema:
+        for key, number in zip(("groom_version_major", "groom_version_minor"), GROOM_VERSION,
+                               strict=True):  # fmt: skip
+            arrays[f"param{len(params)}"] = np.array([number], np.int16)
+            params.append([key, "short", "Constant"])
+    pd = curves.point_data
+    for data, scope in ((pd, "Vertex"), (curves.curve_data, "Uniform")):
+        for name, arr in sorted(data.items()):
+            if name in (("width", "normal") if data is pd else ("root_uv",)):
+                continue
+            if data is pd and name.lower() in COLOR_NAMES and arr.dtype.kind == "f" \
+                    and arr.shape == (curves.point_count, 3):  # color, or a target's Cd, …
+                arrays[f"param{len(params)}"] = arr.astype(np.float32)
+                params.append([name, "c3f", scope])
+                continue
+            stored = _as_stored(arr)
+            if stored is None or name.startswith("."):  # names with a dot are Alembic's own
+                log.warning("Alembic: %s '%s' (%s %s) not written: no Alembic type for it,"
+                            " integers beyond int32, or a name starting with '.'",
+                            "point_data" if data is pd else "curve_data", name, arr.dtype,
+                            arr.shape)  # fmt: skip
+                continue
+            kind = _KINDS[(stored.dtype.str[1:], 1 if stored.ndim == 1 else stored.shape[1])]
+            arrays[f"param{len(params)}"] = stored
+            params.append([name, kind, scope])
+    return params, arrays
+
+
+def _mesh_arrays(mesh: object, scale: float) -> dict[str, np.ndarray]:
+    """The rest pose of a SkinMesh, times ``scale`` (a target's units per metre):
+    triangles wound clockwise, as Alembic keeps polygons, and its per-vertex UVs as the
+    indexed, faceVarying ``uv`` every importer reads."""
+    if not isinstance(mesh, SkinMesh):
+        raise InputError(f"mesh: expected a SkinMesh (the skin to write beside the hair), got"
+                         f" {type(mesh).__name__}")  # fmt: skip
+    corners = np.ascontiguousarray(mesh.faces[:, ::-1], dtype=np.int32).reshape(-1)
+    arrays = {"points": (mesh.rest_vertices * scale).astype(np.float32), "indices": corners,
+              "counts": np.full(mesh.face_count, 3, np.int32)}  # fmt: skip
+    if mesh.uvs is not None:
+        arrays["uv"] = np.asarray(mesh.uvs, dtype=np.float32)
+        arrays["uv_index"] = corners
+    return arrays
+
+
+# ------------------------------------------------------------------ writing
+class _Sink:
+    """alembic3d writing archives in a child process (:mod:`follicle.io.alembic_sink`),
+    fed one operation at a time. A failed write in its C++ ends the child and comes
+    back as one FormatError naming the output; the child is kept for the next archive
+    after one it finished (its start, importing alembic3d, takes half a second), and
+    ended after anything else."""
+
+    _idle: _Sink | None = None  # the child between archives
+    _lock = threading.Lock()
+
+    def __init__(self) -> None:
+        self.stderr = tempfile.TemporaryFile()
+        self.proc = subprocess.Popen([sys.executable, "-I", "-B", str(_SCRIPT), "abc-sink"],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=self.stderr)  # fmt: skip
+        self.target = Path()
+
+    @classmethod
+    @contextlib.contextmanager
+    def writing(cls, target: Path, tmp: Path) -> Iterator[_Sink]:
+        """A sink with the archive ``tmp`` open; it is finished when the block ends
+        (FormatError naming ``target`` unless the child says so), the child ended if
+        the block raises."""
+        with cls._lock:
+            sink, cls._idle = cls._idle, None
+        if sink is None or sink.proc.poll() is not None:
+            sink = cls()
+        sink.target = target
+        try:
+            sink.send({"op": "open", "path": str(tmp)})
+            yield sink
+            sink.send({"op": "close"})
+            reply = sink.proc.stdout.readline()
+            if reply.strip() != b'{"ok": true}':
+                raise sink._failed(reply)
+        except BaseException:
+            sink.kill()
+            raise
+        with cls._lock:
+            if cls._idle is None:
+                cls._idle, sink = sink, None
+        if sink is not None:
+            sink.kill()
+
+    def send(self, op: dict, arrays: dict[str, np.ndarray] | None = None) -> None:
+        try:
+            send(self.proc.stdin, op, arrays)
+            self.proc.stdin.flush()
+        except OSError:  # the child has ended: it says why
+            raise self._failed() from None
+
+    def _failed(self, reply: bytes | None = None) -> FormatError:
+        """The child's reason for stopping (its ``reply``, read here if not given), as
+        one FormatError."""
+        with contextlib.suppress(OSError):
+            self.proc.stdin.close()
+        code = self.proc.wait()
+        line = self.proc.stdout.readline() if reply is None else reply
+        why = None
+        with contextlib.suppress(ValueError, AttributeError):  # a line cut short by a crash
+            why = json.loads(line).get("error")
+        if why:  # alembic3d's message: the innermost of its nested ones
+            why = f"a write failed: {why.rsplit('EXCEPTION: ', 1)[-1]}"
+        else:
+            self.stderr.seek(0)
+            text = self.stderr.read().decode(errors="replace").split()
+            how = f"crashed with {signal.Signals(-code).name}" if code < 0 else f"exit {code}"
+            why = f"its writer process {how}: {' '.join(text)[-200:] or 'no output'}"
+        return FormatError(f"{self.target}: could not write it ({why}); free disk space or"
+                           " write elsewhere")  # fmt: skip
+
+    def kill(self) -> None:
+        self.proc.kill()
+        self.proc.wait()
+        for stream in (self.proc.stdin, self.proc.stdout, self.stderr):
+            with contextlib.suppress(OSError):
+                stream.close()
+
+
+def _write(target: Path, fill: Callable[[_Sink], None]) -> None:
+    """An archive at ``target``, written atomically by a sink that ``fill`` feeds, then
+    checked whole (Ogawa's streams do not always report a failed write: a full disk
+    can leave a file without its root group or its finished flag)."""
+    with atomic_path(target) as tmp:
+        with _Sink.writing(target, tmp) as sink:
+            sink.send({"op": "xform", "path": GROOM})
+            fill(sink)
+        try:
+            check_archive(tmp)
+        except FormatError:
+            raise FormatError(f"{target}: could not write it (the archive came out"
+                              " incomplete); free disk space or write elsewhere") from None
+
+
+def _check_suffix(path: str | os.PathLike[str]) -> Path:
+    target = Path(path)
+    if target.suffix.lower() != ".abc":
+        raise FormatError(f"{target}: an Alembic file must end in .abc")
+    return target
+
+
+def _send_curves(sink: _Sink, path: str, curves: HairCurves, normals: bool,
+                 groom_schema: bool) -> None:  # fmt: skip
+    params, arrays = _curves_arrays(curves, normals, groom_schema)
+    sink.send({"op": "curves", "path": path, "params": params, "keep": False}, arrays)
+
+
+def save_abc(
+    curves: Curves,
+    path: str | os.PathLike[str],
+    guides: HairCurves | None = None,
+    mesh: SkinMesh | None = None,
+    normals: bool = True,
+    target: Target | str = "generic",
+) -> Path:
+    """Write ``curves`` (HairCurves or a stream of chunks) as linear OCurves, one object
+    per chunk under ``/Groom`` (``Hair_0000``, …), ``guides`` (HairCurves or Guides) as
+    ``/Groom/Guides`` and the skin ``mesh`` (a SkinMesh, at rest) as the OPolyMesh
+    ``/Groom/Skin``; atomically. See the module for the layout and attributes.
+
+    ``target`` (see :mod:`follicle.io.targets`) names and types the attributes for the
+    tool that opens the file and, Alembic declaring no units, writes points, widths and
+    the skin in its units (Unreal: centimetres, guides flagged ``groom_guide = 1``, and
+    the groom schema's version on every curves object)."""
+    out = _check_suffix(path)
+    tool = get_target(target)
+    guide_curves = None
+    if guides is not None:
+        guide_curves = for_target(conventional(_as_guides(guides)), tool, "guides")
+    skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
+    chunks = (for_target(chunk, tool) for chunk in as_chunks(curves))
+
+    def fill(sink: _Sink) -> None:
+        if skin is not None:
+            sink.send({"op": "mesh", "path": SKIN}, skin)
+        if guide_curves is not None:
+            _send_curves(sink, GUIDES, guide_curves, normals, tool.groom_schema)
+        for i, chunk in enumerate(chunks):
+            _send_curves(sink, f"{GROOM}/Hair_{i:04d}", chunk, normals, tool.groom_schema)
+
+    _write(out, fill)
+    return out
+
+
+# ------------------------------------------------------------------ animation cache
+def _velocities(frame: HairCurves, later: HairCurves, fps: float) -> np.ndarray:
+    """Per-vertex velocities, metres per second, from ``frame`` to the frame after it."""
+    return ((later.points.astype(np.float64) - frame.points) * fps).astype(np.float32)
+
+
+def _check_frame(frame: object, f: int, first: HairCurves | None) -> HairCurves:
+    if not isinstance(frame, HairCurves):
+        raise InputError(f"frames: frame {f} is a {type(frame).__name__}, not HairCurves")
+    frame = conventional(frame)
+    if first is not None and not np.array_equal(frame.offsets, first.offsets):
+        raise InputError(
+            f"frames: frame {f} has {frame.curve_count} curves / {frame.point_count} points"
+            f" laid out differently from frame 0 ({first.curve_count} / {first.point_count});"
+            " every frame must share the first frame's topology"
+        )
+    return frame
+
+
+def _send_frame(sink: _Sink, path: str, frame: HairCurves, first: HairCurves,
+                velocities: np.ndarray, timing: dict | None) -> None:  # fmt: skip
+    """Frame 0 (``timing`` given) with everything: topology, widths, uv and
+    arbGeomParams stay as it has them; later frames with points, velocities, bounds and
+    normals."""
+    arrays = {"points": frame.points, "velocities": velocities,
+              "bounds": _bounds(frame.points, _column(first, "width", 1))}  # fmt: skip
+    if "normal" in first.point_data:
+        arrays["normal"] = _column(frame, "normal", 3)
+    if timing is None:
+        sink.send({"op": "sample", "path": path}, arrays)
+        return
+    params, everything = _curves_arrays(frame, True)
+    sink.send({"op": "curves", "path": path, "params": params, "keep": True, **timing},
+              {**everything, **arrays})  # fmt: skip
+
+
+def _send_cache(sink: _Sink, frames: Iterable[HairCurves], fps: float, start: int,
+                skin: dict[str, np.ndarray] | None, head: np.ndarray | None) -> None:  # fmt: skip
+    """The animation's operations: the head Xform's samples, the skin, then the curves
+    at frame 0 and one sample per later frame, each sent once the next frame gives its
+    velocities (the last frame keeps the velocities into it; a single frame has none)."""
+    timing = {"fps": fps, "start": start / fps}
+    if head is not None:
+        sink.send({"op": "xform", "path": HEAD, **timing})
+        for m in head:  # a SimCache's matrices act on columns, Alembic's on rows
+            sink.send({"op": "matrix", "path": HEAD}, {"matrix": m.T})
+    if skin is not None:
+        sink.send({"op": "mesh", "path": SKIN if head is None else f"{HEAD}/Skin"}, skin)
+    path = f"{GROOM}/Hair_0000"
+    first = previous = velocities = None
+    count = 0
+    for count, raw in enumerate(frames, 1):
+        frame = _check_frame(raw, count - 1, first)
+        if first is None:
+            first = frame
+        else:
+            velocities = _velocities(previous, frame, fps)
+            _send_frame(sink, path, previous, first, velocities, timing if count == 2 else None)
+        previous = frame
+    if first is None:
+        raise InputError("frames: the frame stream is empty; nothing to write")
+    if head is not None and len(head) != count:
+        raise InputError(f"transforms: {len(head)} matrices for {count} frames; give one per"
+                         " frame")  # fmt: skip
+    if velocities is None:
+        velocities = np.zeros_like(first.points)
+    _send_frame(sink, path, previous, first, velocities, timing if count == 1 else None)
+
+
+def save_abc_cache(
+    frames: Iterable[HairCurves] | SimCache,
+    path: str | os.PathLike[str],
+    fps: float | None = None,
+    start: int = 0,
+    mesh: SkinMesh | None = None,
+    transforms: object | None = None,
+) -> Path:
+    """Write an animation: frame ``f`` of ``frames`` is sample ``f`` of one OCurves
+    ``/Groom/Hair_0000``, at ``(start + f) / fps`` seconds (a uniform time sampling),
+    whose topology, widths, uv and arbGeomParams come from frame 0 and whose ``P``,
+    ``.velocities`` (metres per second, from each frame to the next; the last frame
+    keeps the one into it), bounds and normals are sampled per frame.
+
+    ``fps`` defaults to 24, or a SimCache's own; a SimCache writes its guide strands
+    (for hair, write ``groom.follow(cache.positions[f])`` after
+    ``groom.mesh.set_pose(transform=cache.transforms[f])`` for each frame f). ``mesh``
+    (a SkinMesh) is written at rest as ``/Groom/Skin``; with ``transforms`` (F, 4, 4),
+    one head transform per frame acting on column vectors as a SimCache keeps them (a
+    SimCache's own by default), it is ``/Groom/Head/Skin`` under the Xform
+    ``/Groom/Head`` sampled per frame, so the skin moves with the (world-space) hair.
+    """
+    target = _check_suffix(path)
+    stream, cache_fps, cache_transforms = _frames(frames)
+    if transforms is not None and mesh is None:
+        raise InputError("transforms: given without mesh=; they move the skin mesh, so pass"
+                         " the SkinMesh too")  # fmt: skip
+    if mesh is not None and transforms is None:
+        transforms = cache_transforms
+    head = None if transforms is None else head_matrices(transforms)
+    skin = None if mesh is None else _mesh_arrays(mesh, 1.0)
+    rate = fps if fps is not None else cache_fps if cache_fps is not None else 24.0
+    real = (int, float, np.integer, np.floating)
+    if isinstance(rate, bool) or not isinstance(rate, real) or not 0 < rate < np.inf:
+        raise InputError(f"fps: expected a finite number > 0, got {rate!r}")
+    if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
+        raise InputError(f"start: expected a whole number (first frame), got {start!r}")
+    _write(target, lambda sink: _send_cache(sink, stream, float(rate), int(start), skin, head))
+    return target
+
+
+# ------------------------------------------------------------------ reading
+def load_abc(
+    path: str | os.PathLike[str], time: float | None = None, guides: bool = False
+) -> HairCurves:
+    """Hair curves from every curves object of an Alembic archive, joined in archive
+    order (depth first), each moved by the Xforms above it.
+
+    Any type, basis and wrap: each curve becomes the points it passes through, as
+    :func:`follicle.io.usd.load_usd` reads USD (:mod:`follicle.io.curve_basis`): linear
+    curves and curves of no basis, every vertex; cubic Catmull-Rom, all but the two end
+    vertices (Alembic's are nonperiodic, as RenderMan's); Bézier, every third; uniform
+    B-spline, the curve at its knots; NURBS (variable order, or cubic B-splines with
+    knots: orders, knots (also Maya's, without the outer two, or none: clamped uniform
+    as Blender makes them) and position weights), the curve at its knots and evenly
+    between them; Blender's variable-order Catmull-Rom curves, every vertex. Periodic
+    curves are refused.
+
+    ``width`` of any scope (constant, uniform, varying, vertex) comes back per point,
+    as diameters (see the module); ``N`` as ``normal``; ``uv`` of uniform or constant
+    scope as ``curve_data['root_uv']`` (per vertex: ``point_data['uv']``); the C3f or
+    C4f arbGeomParam named color (or Cd, displayColor, groom_color, col, else the
+    first) as ``color`` with a C4f's alpha as ``opacity`` (unless an ``opacity``
+    parameter gives it); other numeric arbGeomParams of vertex or varying scope per
+    point, uniform ones per curve (int32 widened to int64, follicle's id type; constant
+    ones skipped). ``Groom/Guides`` is skipped unless it is the only curves object, or
+    ``guides=True`` reads only it. ``time`` picks the sample nearest that many seconds
+    (default: each object's first sample). Alembic declares no units: values are taken
+    as metres (``follicle.load_curves(path, units="cm")`` converts).
+
+    alembic3d reads the file in a child process under memory and time limits, after
+    cheap checks of the archive's structure (see :mod:`follicle.io.alembic_guard`):
+    anything wrong with the file, or alembic3d crashing on it, is a FormatError naming
+    it. Widths whose median is over 5 mm (a tool's default radius, not hair) are kept
+    but logged as a warning.
+    """
+    if time is not None and (isinstance(time, bool) or not isinstance(
+            time, (int, float, np.integer, np.floating)) or not np.isfinite(time)):  # fmt: skip
+        raise InputError(f"time: expected a finite number of seconds or None, got {time!r}")
+    source = input_file(path, "Alembic file (.abc)")
+    check_archive(source)
+    return curves_from_parts(read_curves(source, None if time is None else float(time),
+                                         bool(guides)), source)  # fmt: skip
+
+
+def load_abc_mesh(path: str | os.PathLike[str]) -> SkinMesh:
+    """The first PolyMesh (or SubD, as its control cage) of an Alembic archive, at its
+    first sample, as a SkinMesh: moved by the Xforms above it, polygons (wound
+    clockwise, as Alembic keeps them) fanned into counter-clockwise triangles, its
+    ``uv`` of vertex or faceVarying scope as per-vertex UVs split at seams
+    (:mod:`follicle.mesh.polymesh`). Further meshes are named in a warning and not
+    read. Read in a guarded child process like :func:`load_abc`."""
+    source = input_file(path, "Alembic file (.abc)")
+    check_archive(source)
+    return skin_from_part(read_mesh(source), source)

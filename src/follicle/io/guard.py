@@ -1,0 +1,204 @@
+"""Reading files with C++ libraries that trust their input, without trusting the file.
+
+usd-core and Alembic are C++: a corrupt or hostile file can make them crash
+(segfault), map gigabytes or loop for ever. :func:`read_guarded` therefore reads in a
+child process: :mod:`follicle.io.guard_server` runs as a script (``python -I``, with
+numpy, the binding and follicle's pure-numpy reader modules only) that stays up and
+forks a fresh child per file; the child caps its address space at the ``memory`` it is
+given and is killed after ``seconds`` of wall time. A refusal, a crash, the memory
+limit or the time limit becomes one FormatError naming the file. Each format checks
+its container in Python first (:mod:`follicle.io.usd_guard`,
+:mod:`follicle.io.alembic_guard`) and chooses the limits.
+
+Cost: the first read of a kind in a process imports its binding in the server (pxr:
+0.5-1.5 s, alembic3d: 0.2 s); each read then takes a fork and the read itself, about
+50-100 ms for a small file. The arrays come back through an ``.npz`` in a temporary
+folder, loaded without pickle.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import select
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from time import monotonic
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import FormatError, InputError
+
+__all__ = ["read_guarded", "died", "curves_from_parts"]
+
+log = logging.getLogger("follicle")
+
+_SCRIPT = Path(__file__).with_name("guard_server.py")
+
+
+def died(path: Path, reply: dict | None, stderr: Path, memory: int, seconds: float,
+         tool: str, hint: str) -> FormatError:  # fmt: skip
+    """The one line for a child that ended without a result: ``tool`` (the library,
+    "usd-core") could not read ``path`` and why; ``hint`` ends it."""
+    if reply is None:
+        why = "its reader process stopped"
+    elif reply["timed_out"]:
+        why = f"took more than {seconds:.0f} s"
+    elif reply["code"] < 0:
+        name = signal.Signals(-reply["code"]).name
+        why = f"crashed with {name}, or needed more than {memory / 2**30:.1f} GiB"
+    else:
+        text = stderr.read_text(errors="replace") if stderr.exists() else ""
+        last = text.strip().splitlines()[-1:] or ["no output"]
+        why = f"failed (exit {reply['code']}: {last[0][:200]}); or needed more than" \
+              f" {memory / 2**30:.1f} GiB"  # fmt: skip
+    return FormatError(f"{path}: {tool} could not read it ({why}); {hint}")
+
+
+class _Server:
+    """The long-lived ``guard_server.py`` process that forks one child per read (started
+    on first use). It exits when this process closes its stdin, i.e. when this process
+    ends."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.proc: subprocess.Popen | None = None
+
+    def _start(self) -> subprocess.Popen:
+        if self.proc is None or self.proc.poll() is not None:
+            env = {**os.environ, "PXR_WORK_THREAD_LIMIT": "1", "OPENBLAS_NUM_THREADS": "1",
+                   "OMP_NUM_THREADS": "1", "MALLOC_ARENA_MAX": "2"}  # one thread: fork-safe
+            # unbuffered: select() then sees every reply line, none hides in a buffer
+            self.proc = subprocess.Popen([sys.executable, "-I", "-B", str(_SCRIPT)], env=env,
+                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                         stderr=subprocess.DEVNULL, bufsize=0)  # fmt: skip
+        return self.proc
+
+    def _stop(self) -> None:
+        if self.proc is not None:
+            self.proc.kill()
+            self.proc.wait()
+            self.proc = None
+
+    def _reply(self, proc: subprocess.Popen, seconds: float) -> dict | None:
+        """The server's next ``@@`` line, or None if it ends or goes quiet."""
+        deadline = monotonic() + seconds
+        while (left := deadline - monotonic()) > 0:
+            ready, _, _ = select.select([proc.stdout], [], [], left)
+            line = proc.stdout.readline() if ready else b""
+            if not line:
+                return None
+            if line.startswith(b"@@"):
+                return json.loads(line[2:])
+        return None
+
+    def ask(self, request: dict) -> dict | None:
+        """Send ``request``; the reply (``code``, ``timed_out``) or None if the server
+        failed twice (it is restarted once)."""
+        with self.lock:
+            for _ in range(2):
+                proc = self._start()
+                try:
+                    proc.stdin.write(json.dumps(request).encode() + b"\n")
+                    reply = self._reply(proc, request["seconds"] + 60)
+                except OSError:
+                    reply = None
+                if reply is not None:
+                    return reply
+                self._stop()
+            return None
+
+
+_SERVER = _Server()
+
+
+def _decode(value: object, arrays: np.lib.npyio.NpzFile) -> object:
+    """The parts as the child made them: ``{"@array": name}`` back to the array."""
+    if isinstance(value, dict):
+        if len(value) == 1 and isinstance(value.get("@array"), str):
+            return arrays[value["@array"]]
+        return {k: _decode(v, arrays) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_decode(v, arrays) for v in value]
+    return value
+
+
+def read_guarded(kind: str, path: Path, memory: int, seconds: float, tool: str, hint: str,
+                 **options: object) -> list[dict]:  # fmt: skip
+    """The parts the reader of ``kind`` (see :data:`follicle.io.guard_server.READERS`)
+    makes of ``path``, read in a child process with ``memory`` bytes of address space
+    and ``seconds`` of wall time; ``options`` go to the reader. FormatError naming the
+    file (``tool`` could not read it; ``hint``) on any failure."""
+    with tempfile.TemporaryDirectory(prefix="follicle-read-") as folder:
+        reply = _SERVER.ask({"kind": kind, "source": os.path.abspath(path), "shown": str(path),
+                             "out": folder, "memory": memory, "seconds": seconds, "tool": tool,
+                             "hint": hint, **options})  # fmt: skip
+        result_file = Path(folder, "result.json")
+        if reply is None or not result_file.exists():
+            raise died(path, reply, Path(folder, "stderr.txt"), memory, seconds, tool, hint)
+        result = json.loads(result_file.read_text())
+        if "refused" in result:
+            raise FormatError(result["refused"])
+        with np.load(Path(folder, "arrays.npz"), allow_pickle=False) as arrays:
+            return _decode(result["parts"], arrays)
+
+
+# ------------------------------------------------------------------ curves from parts
+def _widened(data: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """int32 arrays as int64, follicle's integer type: writers store ids as int32 where
+    the tools that open the file read no int64 (:mod:`follicle.io.targets`)."""
+    return {k: v.astype(np.int64) if v.dtype == np.int32 else v for k, v in data.items()}
+
+
+def _curves(part: dict) -> HairCurves:
+    """One curves part from the child (``where``, ``points``, ``offsets``, ``point_data``,
+    ``curve_data``) as HairCurves (FormatError if they are not valid curves), integers
+    as int64. Curves of one point are not hair (and Unity refuses a whole file for one):
+    they are left out with a warning naming the part."""
+    points, offsets = part["points"], np.asarray(part["offsets"])
+    point_data, curve_data = _widened(part["point_data"]), _widened(part["curve_data"])
+    counts = np.diff(offsets)
+    if offsets.ndim == 1 and len(offsets) and (counts == 1).any():
+        log.warning("%s: %d curve(s) with fewer than 2 points left out", part["where"],
+                    int((counts == 1).sum()))  # fmt: skip
+        keep, rows = counts != 1, np.repeat(counts != 1, counts)
+        points = points[rows]
+        point_data = {k: v[rows] for k, v in point_data.items()}
+        curve_data = {k: v[keep] for k, v in curve_data.items()}
+        offsets = np.concatenate([[0], np.cumsum(counts[keep])])
+    try:
+        return HairCurves(points, offsets, point_data, curve_data)
+    except InputError as exc:
+        raise FormatError(f"{part['where']}: {exc}") from None
+
+
+def curves_from_parts(parts: list[dict], source: Path) -> HairCurves:
+    """Curves parts (prims, objects) joined in order, keeping the attributes every part
+    has with one row shape; the others are dropped with a warning naming them."""
+    curves = [_curves(p) for p in parts]
+    if len(curves) == 1:
+        return curves[0]
+
+    def common(get: Callable[[HairCurves], dict]) -> set[str]:
+        names = set.intersection(*(set(get(p)) for p in curves))
+        return {k for k in names if len({get(p)[k].shape[1:] for p in curves}) == 1}
+
+    pkeys = common(lambda p: p.point_data)
+    ckeys = common(lambda p: p.curve_data)
+    dropped = set().union(*(set(p.point_data) | set(p.curve_data) for p in curves)) \
+        - pkeys - ckeys  # fmt: skip
+    if dropped:
+        log.warning("%s: attributes not on every curves object were dropped: %s", source,
+                    ", ".join(sorted(dropped)))  # fmt: skip
+    return HairCurves.concatenate([
+        HairCurves(p.points, p.offsets, {k: p.point_data[k] for k in pkeys},
+                   {k: p.curve_data[k] for k in ckeys})
+        for p in curves
+    ])  # fmt: skip

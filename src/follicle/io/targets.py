@@ -1,0 +1,212 @@
+"""Targets: the names, types and units each tool reads, applied to hair before writing.
+
+follicle's own attribute names (``width`` diameters in metres, ``color``, ``root_uv``,
+``hair_id`` int64, …) are what it reads back, but each tool that opens a groom looks for
+its own: Blender's hair tools look for ``surface_uv_coordinate`` and drop every int64
+attribute; Houdini calls colours ``Cd`` and binds guides to the skin with ``skinprim`` /
+``skinprimuv``; Unreal imports only ``groom_*`` attributes of its groom schema, in
+centimetres, at most 255 points a curve; Unity's hair package refuses a whole file for
+one curve with fewer than 2 points. A :class:`Target` says all of that as data, and
+:func:`for_target` turns one chunk of HairCurves into what the target reads — the same
+for every format, so a writer only adds what its container needs (USD: ``GroomAPI``;
+Alembic: the groom schema's version properties).
+
+The table in the README (Formats → Targets) is :data:`TARGETS`, written out.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import InputError
+from .attributes import DEFAULT_WIDTH
+
+__all__ = ["Target", "TARGETS", "TARGET_NAMES", "get_target", "for_target", "problems",
+           "MAX_UNREAL_POINTS"]
+
+log = logging.getLogger("follicle")
+
+MAX_UNREAL_POINTS = 255  # Unreal's groom builder stores a curve's point count in a byte
+_INT32 = np.iinfo(np.int32)
+
+
+@dataclass(frozen=True)
+class Target:
+    """What one tool reads: attribute renames (ours → theirs, per point and per curve),
+    copies kept under a second name, whether ids must be int32, the file units (metres
+    per unit) and the curve sizes it accepts."""
+
+    name: str
+    tool: str  # the tool's name, as messages say it
+    reads: str  # what of it reads the file (the README's table)
+    point_names: dict[str, str] = field(default_factory=dict)
+    curve_names: dict[str, str] = field(default_factory=dict)
+    int32: bool = True  # 64-bit integer attributes written as int32 (dropped if too big)
+    meters_per_unit: float = 1.0
+    max_points: int | None = None
+    guide_flag: str | None = None  # an int attribute, 1 on guides and 0 on hair
+    houdini_skin: bool = False  # root_triangle / root_bary → skinprim / skinprimuv
+    prefix: str | None = None  # the tool reads only attributes named so (and widths)
+    groom_schema: bool = False  # Unreal's: USD GroomAPI on the hair, Alembic's version keys
+
+    @property
+    def scale(self) -> float:
+        """File units per metre: points and widths are multiplied by it."""
+        return 1.0 / self.meters_per_unit
+
+
+TARGETS: dict[str, Target] = {t.name: t for t in (
+    Target("generic", "Blender", "any USD or Alembic reader; opens right in Blender and Houdini"),
+    Target("blender", "Blender", "Blender 4–5 hair curves (its hair tools' attribute names)",
+           curve_names={"root_uv": "surface_uv_coordinate"}),
+    Target("houdini", "Houdini", "Houdini SOPs and Solaris (its groom attribute names)",
+           point_names={"color": "Cd"}, curve_names={"root_uv": "uv"}, int32=False,
+           houdini_skin=True),
+    Target("unreal", "Unreal", "Unreal Engine's groom import (Alembic groom schema, USD"
+           " GroomAPI)", point_names={"color": "groom_color"},
+           curve_names={"root_uv": "groom_root_uv", "hair_id": "groom_id",
+                        "guide_id": "groom_id", "closest_guides": "groom_closest_guides",
+                        "guide_weights": "groom_guide_weights"},
+           meters_per_unit=0.01, max_points=MAX_UNREAL_POINTS,
+           guide_flag="groom_guide", prefix="groom_", groom_schema=True),
+    Target("unity", "Unity", "Unity's hair package (com.unity.demoteam.hair)", int32=False),
+)}  # fmt: skip
+TARGET_NAMES = tuple(TARGETS)
+
+
+def get_target(name: object, key: str = "target") -> Target:
+    """The Target called ``name`` (a Target passes through); InputError naming ``key``."""
+    if isinstance(name, Target):
+        return name
+    if not isinstance(name, str) or name not in TARGETS:
+        raise InputError(f"{key}: unknown target {name!r}; use one of {', '.join(TARGET_NAMES)}")
+    return TARGETS[name]
+
+
+def _narrow_ints(data: dict[str, np.ndarray], what: str) -> dict[str, np.ndarray]:
+    """64-bit (and unsigned 32-bit) integer arrays as int32; one that does not fit is
+    dropped with a warning naming it."""
+    out = {}
+    for k, v in data.items():
+        if v.dtype.kind in "iu" and v.dtype.itemsize >= 4 and v.dtype != np.int32:
+            if v.size and (v.min() < _INT32.min or v.max() > _INT32.max):
+                log.warning("%s '%s' not written: its values (%d … %d) do not fit the int32"
+                            " the target reads", what, k, int(v.min()), int(v.max()))  # fmt: skip
+                continue
+            v = v.astype(np.int32)
+        out[k] = v
+    return out
+
+
+def _sized(curves: HairCurves, target: Target, role: str) -> HairCurves:
+    """Curves longer than the target holds resampled to its most points. (No curve has
+    fewer than 2 points, which Unity refuses: HairCurves cannot hold one, and readers
+    leave such curves out with a warning.)"""
+    counts = curves.counts
+    if target.max_points is None or not (counts > target.max_points).any():
+        return curves
+    from .tfx import resample_fixed  # evenly by arc length, attributes interpolated
+
+    long = counts > target.max_points
+    log.warning("%s: %d %s curve(s) of more than %d points resampled to %d by arc length",
+                target.name, int(long.sum()), role, target.max_points, target.max_points)
+    keep, cut = curves[np.flatnonzero(~long)], curves[np.flatnonzero(long)]
+    floats = {k: v for k, v in cut.point_data.items() if v.dtype.kind == "f"}
+    pos, attrs = resample_fixed(cut, target.max_points, floats)
+    n = target.max_points
+    point_data = {k: attrs[k].reshape((len(cut) * n,) + cut.point_data[k].shape[1:])
+                  for k in floats}  # fmt: skip
+    dropped = sorted(set(cut.point_data) - set(floats))
+    if dropped:
+        log.warning("%s: per-point %s of the resampled curves left out (not numbers to"
+                    " interpolate)", target.name, ", ".join(dropped))  # fmt: skip
+    resampled = HairCurves.from_array(pos, point_data, dict(cut.curve_data))
+    keep = HairCurves(keep.points, keep.offsets, {k: keep.point_data[k] for k in floats},
+                      dict(keep.curve_data))  # fmt: skip
+    order = np.argsort(np.concatenate([np.flatnonzero(~long), np.flatnonzero(long)]),
+                       kind="stable")  # fmt: skip
+    return HairCurves.concatenate([keep, resampled])[order]
+
+
+def _houdini_skin(curve_data: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """root_triangle / root_bary as Houdini's skinprim / skinprimuv: our root is
+    u·v0 + v·v1 + (1 − u − v)·v2, Houdini's primuv (s, t) is (1 − s − t)·v0 + s·v1 + t·v2,
+    so s = v and t = 1 − u − v."""
+    out = dict(curve_data)
+    if "root_triangle" in out and "root_bary" in out:
+        bary = np.asarray(out.pop("root_bary"), dtype=np.float32)
+        out["skinprim"] = out.pop("root_triangle")
+        out["skinprimuv"] = np.stack([bary[:, 1], 1.0 - bary[:, 0] - bary[:, 1]], axis=1)
+    return out
+
+
+def for_target(curves: HairCurves, target: Target | str, role: str = "hair",
+               in_units: bool = True) -> HairCurves:  # fmt: skip
+    """``curves`` (one chunk) as ``target`` reads them: sized, renamed, ids as int32,
+    in its units (``in_units=False`` keeps metres, for a format that declares its unit,
+    like USD's ``metersPerUnit``, which the tool converts from). ``role`` is "hair" or
+    "guides": guides get widths (DEFAULT_WIDTH when they have none) and the target's
+    guide flag (1; hair gets 0)."""
+    t = get_target(target)
+    if role not in ("hair", "guides"):
+        raise InputError(f"role: expected 'hair' or 'guides', got {role!r}")
+    curves = _sized(curves, t, role)
+    point_data = dict(curves.point_data)
+    curve_data = dict(curves.curve_data)
+    if role == "guides" and "width" not in point_data:
+        point_data["width"] = np.full(curves.point_count, DEFAULT_WIDTH, np.float32)
+    if in_units and t.scale != 1.0:
+        if "width" in point_data:
+            point_data["width"] = np.asarray(point_data["width"], np.float32) * np.float32(t.scale)
+        points = np.asarray(curves.points, np.float64) * t.scale
+    else:
+        points = curves.points
+    if t.houdini_skin:
+        curve_data = _houdini_skin(curve_data)
+    if t.guide_flag is not None:
+        curve_data[t.guide_flag] = np.full(curves.curve_count, role == "guides", np.int32)
+    point_data = {t.point_names.get(k, k): v for k, v in point_data.items()}
+    curve_data = {t.curve_names.get(k, k): v for k, v in curve_data.items()}
+    if t.prefix is not None:  # what the tool would drop anyway is not written
+        point_data = {k: v for k, v in point_data.items() if k.startswith(t.prefix) or k == "width"}
+        curve_data = {k: v for k, v in curve_data.items() if k.startswith(t.prefix)}
+    if t.int32:
+        point_data = _narrow_ints(point_data, "point attribute")
+        curve_data = _narrow_ints(curve_data, "curve attribute")
+    return HairCurves(points.astype(np.float32, copy=False), curves.offsets, point_data,
+                      curve_data)  # fmt: skip
+
+
+def problems(curves: HairCurves, target: Target | str) -> list[str]:
+    """What ``target``'s tool would drop or reject in ``curves`` as a reader returned
+    them, one line each (empty: it opens them as they are). Widths that are not hair
+    are the reader's warning (:func:`follicle.io.attributes.plausible_widths`)."""
+    t = get_target(target)
+    out = []
+    counts = curves.counts
+    if t.max_points is not None and (counts > t.max_points).any():
+        out.append(f"{int((counts > t.max_points).sum()):,} curve(s) have more than"
+                   f" {t.max_points} points (up to {int(counts.max()):,}): {t.tool} refuses"
+                   f" them; `follicle export --target {t.name}` resamples them")
+    data = {**curves.point_data, **curves.curve_data}
+    if t.int32:
+        for k, v in data.items():
+            read = t.prefix is None or k.startswith(t.prefix)
+            if read and v.dtype.kind in "iu" and v.dtype.itemsize > 4:
+                out.append(f"'{k}' is {v.dtype}: {t.tool} drops 64-bit integer attributes"
+                           " (write int32)")
+    for ours, theirs in {**t.point_names, **t.curve_names}.items():
+        if theirs not in data and ours in data and (ours, theirs) != ("guide_id", "groom_id"):
+            out.append(f"'{ours}' is there but {t.tool} reads '{theirs}'")
+    if t.prefix is not None:
+        ignored = sorted(k for k in data if not k.startswith(t.prefix) and k != "width")
+        if ignored:
+            out.append(f"{t.tool} reads only {t.prefix}* attributes: {', '.join(ignored)}"
+                       " would be dropped")
+    if "width" not in curves.point_data:
+        out.append(f"no widths: {t.tool} draws every hair at its default width")
+    return out

@@ -1,0 +1,71 @@
+"""The skin a groom grew on, written into its USD file beside the hair.
+
+:func:`follicle.io.usd.save_usd` and :func:`~follicle.io.usd.save_usd_cache` take a
+``mesh=`` so the skin opens next to the hair in Blender, Houdini or usdview: a
+``UsdGeomMesh`` of the SkinMesh's rest pose (points, triangles as
+``faceVertexCounts`` / ``faceVertexIndices``, per-vertex UVs as ``primvars:st``
+texCoord2f, ``extent``, ``subdivisionScheme = "none"``: the triangles are the surface
+the hair was grown on, not a cage; ``orientation = "rightHanded"``). An animation's
+head motion is an ``Xform`` above it whose ``xformOp:transform`` is sampled per frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+
+from ..errors import InputError
+from ..mesh.skin import SkinMesh
+
+__all__ = ["define_skin", "define_head", "set_head", "head_matrices"]
+
+
+def define_skin(stage: Usd.Stage, path: str, mesh: object) -> None:
+    """``mesh`` (a SkinMesh) at rest as a UsdGeomMesh at ``path``."""
+    if not isinstance(mesh, SkinMesh):
+        raise InputError(f"mesh: expected a SkinMesh (the skin to write beside the hair), got"
+                         f" {type(mesh).__name__}")  # fmt: skip
+    points = np.asarray(mesh.rest_vertices, dtype=np.float32)
+    skin = UsdGeom.Mesh.Define(stage, path)
+    skin.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    skin.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(mesh.face_count, 3, np.int32)))
+    skin.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(
+        np.ascontiguousarray(mesh.faces, dtype=np.int32).reshape(-1)))  # fmt: skip
+    skin.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    skin.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    skin.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*lo.tolist()), Gf.Vec3f(*hi.tolist())]))
+    if mesh.uvs is not None:
+        st = UsdGeom.PrimvarsAPI(skin).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                                     UsdGeom.Tokens.vertex)  # fmt: skip
+        st.Set(Vt.Vec2fArray.FromNumpy(np.asarray(mesh.uvs, dtype=np.float32)))
+
+
+def head_matrices(transforms: object) -> np.ndarray:
+    """``transforms`` as (F, 4, 4) float64 affine matrices acting on column vectors
+    (``p' = M @ p``, translation in the last column, as a SimCache keeps them);
+    InputError naming the first bad one."""
+    try:
+        m = np.asarray(transforms, dtype=np.float64)
+    except (TypeError, ValueError):
+        m = np.zeros(0)
+    if m.ndim != 3 or m.shape[1:] != (4, 4):
+        raise InputError(f"transforms: expected one 4x4 matrix per frame, shape (F, 4, 4),"
+                         f" got {m.shape if m.size else repr(transforms)[:60]}")  # fmt: skip
+    bad = ~np.isfinite(m).all(axis=(1, 2)) | (np.abs(m[:, 3] - (0, 0, 0, 1)).max(axis=1) > 1e-9)
+    if np.any(bad):
+        f = int(np.argmax(bad))
+        raise InputError(f"transforms: frame {f} is not a finite affine matrix (last row"
+                         f" {m[f, 3].tolist()}, expected [0, 0, 0, 1])")  # fmt: skip
+    return m
+
+
+def define_head(stage: Usd.Stage, path: str) -> UsdGeom.XformOp:
+    """An Xform at ``path`` for the skin to sit under; its ``xformOp:transform``, to
+    sample with :func:`set_head`."""
+    return UsdGeom.Xform.Define(stage, path).AddTransformOp()
+
+
+def set_head(op: UsdGeom.XformOp, matrix: np.ndarray, time: Usd.TimeCode) -> None:
+    """Sample ``op`` at ``time`` with ``matrix`` (column vectors; USD's act on rows)."""
+    op.Set(Gf.Matrix4d(matrix.T.tolist()), time)

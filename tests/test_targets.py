@@ -1,0 +1,171 @@
+"""Targets: each tool's names, types, units and curve sizes applied before writing, and
+`follicle check` listing what a tool would drop or refuse."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from follicle.cli import main
+from follicle.curves import HairCurves
+from follicle.errors import InputError
+from follicle.io.dispatch import save
+from follicle.io.targets import MAX_UNREAL_POINTS, TARGET_NAMES, for_target, problems
+from follicle.scene import OutputParams
+
+
+@pytest.fixture(scope="module")
+def groom():
+    from follicle.pipeline import groom_scene
+    from follicle.scene import Scene
+
+    return groom_scene(Scene())
+
+
+@pytest.fixture(scope="module")
+def hair(groom) -> HairCurves:
+    return groom.generate(count=300)
+
+
+def test_the_scene_key_offers_every_target():
+    assert OutputParams.model_json_schema()["properties"]["target"]["enum"] == list(TARGET_NAMES)
+
+
+@pytest.mark.parametrize("name", TARGET_NAMES)
+def test_what_a_target_writes_is_what_it_reads(hair, name):
+    out = for_target(hair, name)
+    assert problems(out, name) == []
+    assert out.curve_count == hair.curve_count and np.array_equal(out.offsets, hair.offsets)
+    scale = 100.0 if name == "unreal" else 1.0
+    np.testing.assert_allclose(out.points, hair.points * scale, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(out.point_data["width"], hair.point_data["width"] * scale,
+                               rtol=1e-6)  # fmt: skip
+
+
+def test_ids_become_int32_for_blender_and_unreal(hair):
+    assert [k for k, v in hair.curve_data.items() if v.dtype == np.int64] == \
+        ["hair_id", "strand_id", "root_triangle"]  # fmt: skip
+    blender = for_target(hair, "blender")
+    assert blender.curve_data["hair_id"].dtype == np.int32
+    np.testing.assert_array_equal(blender.curve_data["hair_id"], hair.curve_data["hair_id"])
+    np.testing.assert_array_equal(blender.curve_data["surface_uv_coordinate"],
+                                  hair.curve_data["root_uv"])  # fmt: skip
+    unreal = for_target(hair, "unreal")
+    assert set(unreal.curve_data) == {"groom_id", "groom_root_uv", "groom_guide"}
+    assert set(unreal.point_data) == {"groom_color", "width"}
+    assert unreal.curve_data["groom_id"].dtype == np.int32
+    assert not unreal.curve_data["groom_guide"].any()
+
+
+def test_an_id_too_big_for_int32_is_left_out_with_a_warning(caplog):
+    c = HairCurves.from_array(np.zeros((2, 3, 3)), curve_data={
+        "hair_id": np.array([0, 2**40]), "small": np.array([1, 2], np.int64)})
+    with caplog.at_level(logging.WARNING, "follicle"):
+        out = for_target(c, "blender")
+    assert set(out.curve_data) == {"small"} and out.curve_data["small"].dtype == np.int32
+    assert "'hair_id'" in caplog.text and "1099511627776" in caplog.text
+
+
+def test_houdini_binds_to_the_skin_with_its_own_primuv(hair, groom):
+    out = for_target(hair, "houdini")
+    assert set(out.point_data) >= {"Cd"} and "uv" in out.curve_data
+    tri = out.curve_data["skinprim"]
+    s, t = out.curve_data["skinprimuv"].T
+    v = groom.mesh.rest_vertices[groom.mesh.faces[tri]]  # Houdini: (1-s-t)·v0 + s·v1 + t·v2
+    root = (1 - s - t)[:, None] * v[:, 0] + s[:, None] * v[:, 1] + t[:, None] * v[:, 2]
+    first = hair.points[hair.offsets[:-1]]
+    assert np.abs(root - first).max() < 2e-3  # roots sit on the skin (displaced by < 2 mm)
+    assert np.median(np.linalg.norm(root - first, axis=1)) < 1e-5
+
+
+def test_unreal_resamples_curves_beyond_255_points(caplog):
+    t = np.linspace(0.0, 1.0, 300) ** 1.5  # a curl with unequal segments
+    long = np.stack([0.01 * np.cos(40 * t), 0.3 * t, 0.01 * np.sin(40 * t)], axis=1)
+    c = HairCurves.from_polylines(
+        [long, long[:10]], point_data={"width": np.linspace(1e-4, 2e-5, 310).astype(np.float32)},
+        curve_data={"hair_id": np.array([7, 8])},
+    )
+    with caplog.at_level(logging.WARNING, "follicle"):
+        out = for_target(c, "unreal")
+    assert list(out.counts) == [MAX_UNREAL_POINTS, 10]
+    assert list(out.curve_data["groom_id"]) == [7, 8]
+    first = out.points[:MAX_UNREAL_POINTS] / 100.0  # cm
+    np.testing.assert_allclose(first[[0, -1]], long[[0, -1]], atol=1e-7)  # root and tip kept
+    seg = np.linalg.norm(np.diff(first, axis=0), axis=1)
+    total = np.linalg.norm(np.diff(long, axis=0), axis=1).sum()
+    assert abs(seg.sum() - total) / total < 5e-3  # the polyline's length, nearly
+    assert seg.max() / seg.min() < 1.01  # evenly spaced
+    width = out.point_data["width"][:MAX_UNREAL_POINTS] / 100.0
+    assert width[0] == pytest.approx(1e-4) and width[-1] == pytest.approx(2e-5 + 8e-5 * 10 / 309)
+    assert "1 hair curve(s) of more than 255 points resampled to 255" in caplog.text
+    assert list(for_target(c, "unity").counts) == [300, 10]
+
+
+def test_guides_get_widths_and_the_guide_flag(groom):
+    out = for_target(groom.guides.curves, "unreal", "guides")
+    assert out.curve_data["groom_guide"].all()
+    assert out.point_data["width"].min() == pytest.approx(1e-2)  # 0.1 mm in cm
+    with pytest.raises(InputError, match="role"):
+        for_target(groom.guides.curves, "unreal", "guide")
+    with pytest.raises(InputError, match="target: unknown target 'maya'"):
+        for_target(groom.guides.curves, "maya")
+
+
+def test_guide_binding_names_the_guides_that_weigh_most(groom, hair):
+    ids = hair.curve_data["hair_id"]
+    index, weight = groom.guide_binding(ids)
+    assert index.shape == weight.shape == (len(ids), 3) and index.dtype == np.int32
+    np.testing.assert_allclose(weight.sum(axis=1), 1.0, atol=1e-6)
+    assert (np.diff(weight, axis=1) <= 1e-7).all()  # heaviest first
+    roots = hair.points[hair.offsets[:-1]]
+    d = [np.linalg.norm(roots - groom.guides.root_positions[index[:, k]], axis=1) for k in range(3)]
+    assert np.median(d[0]) < np.median(d[2])  # the heaviest guide is the nearest, mostly
+    again, _ = groom.guide_binding(ids[::-1])
+    np.testing.assert_array_equal(again, index[::-1])  # per hair, whatever the order
+
+
+# ------------------------------------------------------------------ follicle check
+def test_check_lists_what_unreal_would_drop_and_exits_1(tmp_path, hair):
+    save(hair, tmp_path / "h.usda")
+    run = CliRunner().invoke(main, ["check", str(tmp_path / "h.usda"), "--target", "unreal"])
+    assert run.exit_code == 1, run.output
+    lines = run.output.splitlines()
+    assert any("'root_uv' is there but Unreal reads 'groom_root_uv'" in x for x in lines)
+    assert any("would be dropped" in x and "opacity" in x for x in lines)
+    assert all(x.startswith(str(tmp_path / "h.usda")) for x in lines)
+
+
+def test_check_passes_a_clean_file_and_refuses_an_unreadable_one(tmp_path, hair):
+    save(hair, tmp_path / "h.usda")
+    run = CliRunner().invoke(main, ["check", str(tmp_path / "h.usda"), "--target", "unity"])
+    assert run.exit_code == 0 and "Unity reads all of it (300 curves" in run.output
+    (tmp_path / "bad.usda").write_text("#usda 1.0\n(\n")
+    run = CliRunner().invoke(main, ["check", str(tmp_path / "bad.usda")])
+    assert run.exit_code == 2
+
+
+def test_check_finds_widths_in_the_wrong_unit(tmp_path):
+    pts = np.cumsum(np.full((4, 5, 3), 0.01), axis=1)
+    c = HairCurves.from_array(pts, {"width": np.full(20, 0.02, np.float32)})  # 1 cm radius
+    save(c, tmp_path / "b.usda")
+    run = CliRunner().invoke(main, ["check", str(tmp_path / "b.usda"), "--target", "unity"])
+    assert run.exit_code == 1
+    assert "widths look like a tool's default radius, not hair: the median width" \
+        " (diameter) is 0.02 m" in run.output  # fmt: skip
+
+
+def test_check_lists_curves_the_reader_left_out(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "one.usda"))
+    curves = UsdGeom.BasisCurves.Define(stage, "/Hair")
+    curves.CreatePointsAttr([(0, 0, 0), (0, 0.01, 0), (0, 0.02, 0), (1, 0, 0)])
+    curves.CreateCurveVertexCountsAttr([3, 1])
+    curves.CreateTypeAttr("linear")
+    stage.Save()
+    run = CliRunner().invoke(main, ["check", str(tmp_path / "one.usda"), "--target", "unity"])
+    assert run.exit_code == 1, run.output
+    assert "fewer than 2 points" in run.output
