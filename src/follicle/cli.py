@@ -707,17 +707,26 @@ def check(source: str, target_name: str) -> None:
     Exit 0 when it opens as it is, 1 when problems were found, 2 when FILE cannot be
     read. `follicle export FILE -o OUT --target TARGET` writes what it reads.
     """
+    from .io.alembic import load_abc
+    from .io.attributes import plausible_widths
     from .io.dispatch import load_curves
     from .io.targets import TARGETS, problems
     from .io.usd import SUFFIXES as USD_SUFFIXES
+    from .io.usd import load_usd
+    from .units import scale_curves
 
     target = TARGETS[target_name]
-    # a file without a unit of its own is in the target's (Unreal's Alembic: centimetres)
-    units = "m" if Path(source).suffix.lower() in USD_SUFFIXES else target.meters_per_unit
+    suffix = Path(source).suffix.lower()
     with _warnings_heard() as heard:  # what the reader had to leave out or fix
-        curves = load_curves(source, units=units)
+        if suffix in USD_SUFFIXES:  # attributes as the file names and types them
+            curves = load_usd(source, stored=True)
+        elif suffix == ".abc":  # no unit of its own: the target's (Unreal: centimetres)
+            curves = scale_curves(load_abc(source, stored=True), target.meters_per_unit)
+        else:
+            curves = load_curves(source, units=target.meters_per_unit)
+        plausible_widths(curves, source)
     found = [line.removeprefix(f"{source}: ") for line in heard]
-    found += problems(curves, target)
+    found += problems(curves, target, alembic=suffix == ".abc")
     for line in found:
         click.echo(f"{source}: {line}".translate(_ESCAPES))
     if found:

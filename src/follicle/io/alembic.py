@@ -461,7 +461,8 @@ def save_abc_cache(
 
 # ------------------------------------------------------------------ reading
 def load_abc(
-    path: str | os.PathLike[str], time: float | None = None, guides: bool = False
+    path: str | os.PathLike[str], time: float | None = None, guides: bool = False,
+    stored: bool = False,
 ) -> HairCurves:
     """Hair curves from every curves object of an Alembic archive, joined in archive
     order (depth first), each moved by the Xforms above it.
@@ -492,7 +493,8 @@ def load_abc(
     cheap checks of the archive's structure (see :mod:`follicle.io.alembic_guard`):
     anything wrong with the file, or alembic3d crashing on it, is a FormatError naming
     it. Widths whose median is over 5 mm (a tool's default radius, not hair) are kept
-    but logged as a warning.
+    but logged as a warning. ``stored`` keeps parameters as the file names and types
+    them (only one named ``color`` taken as the colour): what `follicle check` reads.
     """
     if time is not None and (isinstance(time, bool) or not isinstance(
             time, (int, float, np.integer, np.floating)) or not np.isfinite(time)):  # fmt: skip
@@ -500,7 +502,8 @@ def load_abc(
     source = input_file(path, "Alembic file (.abc)")
     check_archive(source)
     return curves_from_parts(read_curves(source, None if time is None else float(time),
-                                         bool(guides)), source)  # fmt: skip
+                                         bool(guides), bool(stored)), source,
+                             bool(stored))  # fmt: skip
 
 
 def load_abc_mesh(path: str | os.PathLike[str]) -> SkinMesh:

@@ -134,8 +134,10 @@ class _Curves:
     """A curves object's control vertices reduced to the points its curves pass
     through, and any scope of values mapped to those points."""
 
-    def __init__(self, sample: AbcGeom.ICurvesSchemaSample, where: str) -> None:
+    def __init__(self, sample: AbcGeom.ICurvesSchemaSample, where: str,
+                 stored: bool = False) -> None:  # fmt: skip
         self.where = where
+        self.stored = stored  # names as stored: no colour aliases taken for ours
         counts = _numpy(sample.getCurvesNumVertices())
         points = _numpy(sample.getPositions())
         if counts.ndim != 1 or counts.dtype.kind not in "iu":
@@ -258,11 +260,12 @@ class _Curves:
         return point_data, curve_data
 
     def _colour(self, params: dict, point_data: dict[str, np.ndarray]) -> None:
-        """The colour parameter (C3f or C4f; by name priority, else the first) as
-        ``color`` per point, its alpha as ``opacity`` unless an ``opacity`` parameter
-        gives that."""
+        """The colour parameter (C3f or C4f; by name priority, else the first; only one
+        named ``color`` when the names are read as ``stored``) as ``color`` per point,
+        its alpha as ``opacity`` unless an ``opacity`` parameter gives that."""
         colours = [n for n, p in params.items() if p is not None
-                   and p[2] in ("rgb", "rgba") and p[0].dtype.kind == "f"]  # fmt: skip
+                   and p[2] in ("rgb", "rgba") and p[0].dtype.kind == "f"
+                   and (not self.stored or n == "color")]  # fmt: skip
         if not colours:
             return
         name = min(colours, key=lambda n: COLOR_NAMES.index(n.lower())
@@ -336,11 +339,11 @@ def _selector(time: float | None) -> Abc.ISampleSelector:
 
 
 def _curves_part(obj: Abc.IObject, world: np.ndarray, sel: Abc.ISampleSelector,
-                 source: str) -> dict:  # fmt: skip
+                 source: str, stored: bool) -> dict:  # fmt: skip
     where = f"{source}: {obj.getFullName()}"
     sample = AbcGeom.ICurves(obj, _EXISTING).getSchema().getValue(sel)
     try:
-        part = _Curves(sample, where)
+        part = _Curves(sample, where, stored)
         point_data, curve_data = part.read(Abc.ICompoundProperty(obj.getProperties(), ".geom"),
                                            sel)  # fmt: skip
         points = to_world(part.points, point_data, world, where, "fix its Xforms")
@@ -350,10 +353,12 @@ def _curves_part(obj: Abc.IObject, world: np.ndarray, sel: Abc.ISampleSelector,
             "point_data": point_data, "curve_data": curve_data}  # fmt: skip
 
 
-def read_curves(path: str, source: str, time: float | None, guides: bool) -> list[dict]:
+def read_curves(path: str, source: str, time: float | None, guides: bool,
+                stored: bool = False) -> list[dict]:  # fmt: skip
     """Every chosen curves object of the archive at ``path`` as a dict of arrays (see
     the module): those outside /Groom/Guides, or those inside when ``guides`` or when
-    there are no others. Messages name it ``source``."""
+    there are no others. Messages name it ``source``. ``stored``: parameters under the
+    names the file gives them (for `follicle check`), no colour aliases taken as ours."""
     sel = _selector(time)
     archive = Abc.IArchive(path)
     found = [(o, m) for o, m in _objects(archive, sel, source)
@@ -366,7 +371,7 @@ def read_curves(path: str, source: str, time: float | None, guides: bool) -> lis
     if not chosen:
         what = f"no {GUIDES_PATH} curves" if guides else "no curves objects"
         raise Refused(f"{source}: {what}; is this a hair file?")
-    return [_curves_part(o, m, sel, source) for o, m in chosen]
+    return [_curves_part(o, m, sel, source, stored) for o, m in chosen]
 
 
 # ------------------------------------------------------------------ meshes
@@ -409,7 +414,8 @@ def read_request(request: dict) -> list[dict]:
     try:
         if request["kind"] == "abc-mesh":
             return read_mesh(request["source"], source)
-        return read_curves(request["source"], source, request["time"], request["guides"])
+        return read_curves(request["source"], source, request["time"], request["guides"],
+                           request.get("stored", False))  # fmt: skip
     except Refused as exc:
         raise guard_server.Refused(str(exc)) from None
     except ERRORS as exc:

@@ -110,12 +110,14 @@ def limits(size: int) -> tuple[int, float]:
     return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
 
 
-def read_curves(path: Path, time: float | None, guides: bool) -> list[dict]:
-    """The chosen curves objects of ``path`` (see :mod:`follicle.io.alembic_archive`),
-    read in a child process; FormatError naming the file on any failure."""
+def read_curves(path: Path, time: float | None, guides: bool, stored: bool = False,
+                ) -> list[dict]:  # fmt: skip
+    """The chosen curves objects of ``path`` (see :mod:`follicle.io.alembic_archive`;
+    ``stored``: under the file's own names), read in a child process; FormatError
+    naming the file on any failure."""
     memory, seconds = limits(path.stat().st_size)
     return read_guarded("abc-curves", path, memory, seconds, "Alembic", HINT, time=time,
-                        guides=guides)  # fmt: skip
+                        guides=guides, stored=stored)  # fmt: skip
 
 
 def read_mesh(path: Path) -> dict:

@@ -157,13 +157,15 @@ def _widened(data: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return {k: v.astype(np.int64) if v.dtype == np.int32 else v for k, v in data.items()}
 
 
-def _curves(part: dict) -> HairCurves:
+def _curves(part: dict, stored: bool = False) -> HairCurves:
     """One curves part from the child (``where``, ``points``, ``offsets``, ``point_data``,
     ``curve_data``) as HairCurves (FormatError if they are not valid curves), integers
     as int64. Curves of one point are not hair (and Unity refuses a whole file for one):
     they are left out with a warning naming the part."""
     points, offsets = part["points"], np.asarray(part["offsets"])
-    point_data, curve_data = _widened(part["point_data"]), _widened(part["curve_data"])
+    point_data, curve_data = part["point_data"], part["curve_data"]
+    if not stored:
+        point_data, curve_data = _widened(point_data), _widened(curve_data)
     counts = np.diff(offsets)
     if offsets.ndim == 1 and len(offsets) and (counts == 1).any():
         log.warning("%s: %d curve(s) with fewer than 2 points left out", part["where"],
@@ -179,10 +181,11 @@ def _curves(part: dict) -> HairCurves:
         raise FormatError(f"{part['where']}: {exc}") from None
 
 
-def curves_from_parts(parts: list[dict], source: Path) -> HairCurves:
+def curves_from_parts(parts: list[dict], source: Path, stored: bool = False) -> HairCurves:
     """Curves parts (prims, objects) joined in order, keeping the attributes every part
-    has with one row shape; the others are dropped with a warning naming them."""
-    curves = [_curves(p) for p in parts]
+    has with one row shape; the others are dropped with a warning naming them.
+    ``stored``: integers kept as the file stores them (for `follicle check`)."""
+    curves = [_curves(p, stored) for p in parts]
     if len(curves) == 1:
         return curves[0]
 

@@ -52,6 +52,7 @@ class Target:
     houdini_skin: bool = False  # root_triangle / root_bary → skinprim / skinprimuv
     prefix: str | None = None  # the tool reads only attributes named so (and widths)
     groom_schema: bool = False  # Unreal's: USD GroomAPI on the hair, Alembic's version keys
+    alembic_reads: frozenset[str] | None = None  # what its Alembic importer keeps (None: all)
 
     @property
     def scale(self) -> float:
@@ -62,7 +63,8 @@ class Target:
 TARGETS: dict[str, Target] = {t.name: t for t in (
     Target("generic", "Blender", "any USD or Alembic reader; opens right in Blender and Houdini"),
     Target("blender", "Blender", "Blender 4–5 hair curves (its hair tools' attribute names)",
-           curve_names={"root_uv": "surface_uv_coordinate"}),
+           curve_names={"root_uv": "surface_uv_coordinate"},
+           alembic_reads=frozenset({"width"})),  # measured, bpy 5.0.1
     Target("houdini", "Houdini", "Houdini SOPs and Solaris (its groom attribute names)",
            point_names={"color": "Cd"}, curve_names={"root_uv": "uv"}, int32=False,
            houdini_skin=True),
@@ -181,12 +183,19 @@ def for_target(curves: HairCurves, target: Target | str, role: str = "hair",
                       curve_data)  # fmt: skip
 
 
-def problems(curves: HairCurves, target: Target | str) -> list[str]:
+def problems(curves: HairCurves, target: Target | str, alembic: bool = False) -> list[str]:
     """What ``target``'s tool would drop or reject in ``curves`` as a reader returned
-    them, one line each (empty: it opens them as they are). Widths that are not hair
-    are the reader's warning (:func:`follicle.io.attributes.plausible_widths`)."""
+    them (``alembic``: from an Alembic file), one line each (empty: it opens them as
+    they are). Widths that are not hair are the reader's warning
+    (:func:`follicle.io.attributes.plausible_widths`)."""
     t = get_target(target)
     out = []
+    if alembic and t.alembic_reads is not None:
+        lost = sorted((set(curves.point_data) | set(curves.curve_data)) - t.alembic_reads)
+        if lost:
+            out.append(f"{t.tool}'s Alembic importer keeps only points and"
+                       f" {', '.join(sorted(t.alembic_reads))}: {', '.join(lost)} would be"
+                       " dropped; write USD for it")
     counts = curves.counts
     if t.max_points is not None and (counts > t.max_points).any():
         out.append(f"{int((counts > t.max_points).sum()):,} curve(s) have more than"

@@ -441,7 +441,8 @@ def save_usd_cache(
 
 # ------------------------------------------------------------------ reading
 def load_usd(
-    path: str | os.PathLike[str], time: float | None = None, guides: bool = False
+    path: str | os.PathLike[str], time: float | None = None, guides: bool = False,
+    stored: bool = False,
 ) -> HairCurves:
     """Hair curves from every BasisCurves and NurbsCurves prim of a USD stage, joined in
     stage order.
@@ -467,8 +468,11 @@ def load_usd(
     usd-core reads the file in a child process under memory and time limits, after
     cheap checks of its container (see :mod:`follicle.io.usd_guard`): anything wrong
     with the file, or usd-core crashing on it, is a FormatError naming it. Half-float
-    primvars come back as float32.
+    primvars come back as float32; int32 ones as int64, follicle's integers. ``stored``
+    keeps primvars as the file names and types them (only ``displayColor`` /
+    ``displayOpacity`` taken as ``color`` / ``opacity``): what `follicle check` reads.
     """
     source = input_file(path, "USD file (.usd, .usda, .usdc or .usdz)")
     check_container(source)
-    return curves_from_parts(read_stage(source, time, guides), source)
+    return curves_from_parts(read_stage(source, time, guides, bool(stored)), source,
+                             bool(stored))  # fmt: skip

@@ -154,13 +154,15 @@ def limits(size: int) -> tuple[int, float]:
     return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
 
 
-def read_stage(path: Path, time: float | None, guides: bool) -> list[dict]:
+def read_stage(path: Path, time: float | None, guides: bool, stored: bool = False,
+               ) -> list[dict]:  # fmt: skip
     """The chosen BasisCurves prims of ``path``: dicts of ``where``, ``points``,
     ``offsets``, ``point_data`` and ``curve_data`` arrays, read in a child process
-    (see the module); FormatError naming the file on any failure."""
+    (see the module; ``stored``: under the file's own names); FormatError naming the
+    file on any failure."""
     memory, seconds = limits(path.stat().st_size)
     return read_guarded("usd-curves", path, memory, seconds, "usd-core", _HINT, time=time,
-                        guides=guides)  # fmt: skip
+                        guides=guides, stored=stored)  # fmt: skip
 
 
 def read_meshes(path: Path) -> list[dict]:

@@ -130,9 +130,11 @@ class _Prim:
     """A BasisCurves or NurbsCurves prim read as arrays: its topology, then its primvars
     mapped to the points its curves pass through (:mod:`follicle.io.curve_basis`)."""
 
-    def __init__(self, prim: Usd.Prim, time: Usd.TimeCode, source: str) -> None:
+    def __init__(self, prim: Usd.Prim, time: Usd.TimeCode, source: str,
+                 stored: bool = False) -> None:  # fmt: skip
         self.schema = UsdGeom.Curves(prim)
         self.time = time
+        self.stored = stored  # names as stored: no colour / uv aliases taken for ours
         self.where = f"{source}: {prim.GetPath()}"
         counts = _array(self.schema.GetCurveVertexCountsAttr().Get(time), "curveVertexCounts",
                         self.where)  # fmt: skip
@@ -253,12 +255,15 @@ class _Prim:
             return min(fits, key=lambda f: names.index(f[0].lower()), default=None)
 
         used = set()
-        alpha = first(OPACITY_NAMES, (1,))
+        if self.stored:  # only the schema's own colour and opacity are ours
+            alpha = first(OPACITY_NAMES[:1], (1,))
+        else:
+            alpha = first(OPACITY_NAMES, (1,))
         if alpha is not None:
             rows = self.per_point(alpha[0], alpha[2].astype(np.float32), alpha[1])
             point_data["opacity"] = rows.reshape(len(rows))
             used.add(alpha[0])
-        color = first(COLOR_NAMES, (3, 4))
+        color = first(COLOR_NAMES[:1] if self.stored else COLOR_NAMES, (3, 4))
         if color is not None:
             rows = self.per_point(color[0], color[2].astype(np.float32), color[1])
             point_data["color"] = np.ascontiguousarray(rows[:, :3])
@@ -290,7 +295,8 @@ class _Prim:
             else:
                 key = f"{name}_primvar" if name in CONVENTIONAL else name
                 point_data[key] = self.per_point(name, arr, interpolation)
-        if "root_uv" not in curve_data and "surface_uv_coordinate" in curve_data:
+        if not self.stored and "root_uv" not in curve_data \
+                and "surface_uv_coordinate" in curve_data:  # fmt: skip
             curve_data["root_uv"] = curve_data.pop("surface_uv_coordinate")
         return point_data, curve_data
 
@@ -355,9 +361,11 @@ def _chosen(stage: Usd.Stage, guides: bool, source: str) -> list[Usd.Prim]:
     return chosen
 
 
-def read(path: str, source: str, time: float | None, guides: bool) -> list[dict]:
+def read(path: str, source: str, time: float | None, guides: bool,
+         stored: bool = False) -> list[dict]:  # fmt: skip
     """Every chosen BasisCurves or NurbsCurves prim of the file at ``path`` as a dict of
-    arrays (see the module); messages name it ``source``."""
+    arrays (see the module); messages name it ``source``. ``stored``: primvars under
+    the names the file gives them (for `follicle check`), no aliases taken as ours."""
     root = Sdf.Layer.FindOrOpen(path)
     if root is None:
         raise Refused(f"{source}: usd-core could not open it; is it a valid USD file?")
@@ -367,7 +375,7 @@ def read(path: str, source: str, time: float | None, guides: bool) -> list[dict]
     prims = []
     for prim in _chosen(stage, guides, source):
         try:
-            part = _Prim(prim, when, source)
+            part = _Prim(prim, when, source, stored)
             point_data, curve_data = part.read()
         except curve_basis.CurveBasisError as exc:
             raise Refused(str(exc)) from None
@@ -414,4 +422,5 @@ def read_request(request: dict) -> list[dict]:
     """The reading server's entry (:mod:`follicle.io.guard_server`): :func:`read` of
     ``request["source"]`` with its ``time`` and ``guides``."""
     with refusals(request["shown"]):
-        return read(request["source"], request["shown"], request["time"], request["guides"])
+        return read(request["source"], request["shown"], request["time"], request["guides"],
+                    request.get("stored", False))  # fmt: skip
