@@ -18,12 +18,15 @@ import pty
 import resource
 import select
 import signal
+import struct
 import subprocess
 import sys
 import textwrap
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from hypothesis import strategies as st
 
 MEMORY = 2 << 30  # bytes of address space a child may map (RLIMIT_AS)
 SECONDS = 30.0  # wall time a child may take
@@ -232,3 +235,23 @@ def warm() -> None:
                      ["render", "sim.npz", "-o", "f", "--size", "32", "32", "--count", "20"]):
             out = run_cli(*args, cwd=tmp, timeout=900, memory=8 << 30)
             assert out.rc == 0, out.stderr
+
+
+@st.composite
+def byte_damage(draw, data: bytes) -> bytes:
+    """``data`` truncated, or with bytes or 8-byte fields (a binary format's offsets and
+    sizes) overwritten, by edge values or any."""
+    out = bytearray(data)
+    how = draw(st.sampled_from(["truncate", "bytes", "field"]))
+    if how == "truncate":
+        return bytes(out[: draw(st.integers(0, len(out) - 1))])
+    if how == "bytes":
+        for _ in range(draw(st.integers(1, 8))):
+            out[draw(st.integers(0, len(out) - 1))] = draw(st.integers(0, 255))
+        return bytes(out)
+    at = draw(st.integers(0, len(out) - 8))
+    value = draw(st.sampled_from([0, 1, 2**31, 2**32 - 1, 2**63 - 1, 2**63, 2**64 - 1,
+                                  len(out), len(out) - 8, 1 << 63 | 16])
+                 | st.integers(0, 2**64 - 1))
+    out[at: at + 8] = struct.pack("<Q", value)
+    return bytes(out)

@@ -20,7 +20,6 @@ import time
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 
 import follicle
 from abcfiles import add_curves, add_mesh, write, xforms
@@ -32,6 +31,7 @@ from hostile import (
     Outcome,
     assert_api_refused,
     assert_cli_refused,
+    byte_damage,
     files,
     read_within,
     run_api,
@@ -198,32 +198,13 @@ def test_alembic_out_of_memory_or_time_is_a_format_error(tmp_path, valid, monkey
 
 
 # ------------------------------------------------------------------ fuzz
-@st.composite
-def damage(draw, data: bytes) -> bytes:
-    """``data`` truncated, or with bytes or 8-byte fields overwritten."""
-    out = bytearray(data)
-    how = draw(st.sampled_from(["truncate", "bytes", "field"]))
-    if how == "truncate":
-        return bytes(out[: draw(st.integers(0, len(out) - 1))])
-    if how == "bytes":
-        for _ in range(draw(st.integers(1, 8))):
-            out[draw(st.integers(0, len(out) - 1))] = draw(st.integers(0, 255))
-        return bytes(out)
-    at = draw(st.integers(0, len(out) - 8))
-    value = draw(st.sampled_from([0, 1, 2**31, 2**32 - 1, 2**63 - 1, 2**63, 2**64 - 1,
-                                  len(out), len(out) - 8, 1 << 63 | 16])
-                 | st.integers(0, 2**64 - 1))
-    out[at: at + 8] = struct.pack("<Q", value)
-    return bytes(out)
-
-
 @pytest.mark.parametrize("read", [load_abc, load_abc_mesh], ids=["curves", "mesh"])
 def test_damaged_archives_give_results_or_one_format_error(tmp_path, valid, read):
     path = tmp_path / "fuzz.abc"
 
     @settings(max_examples=60, deadline=None, derandomize=True,
               suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-    @given(damage(valid))
+    @given(byte_damage(valid))
     def check(data):
         path.write_bytes(data)
         # a result or one FormatError line naming the file, allocating at most 16 × the

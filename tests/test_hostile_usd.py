@@ -29,7 +29,7 @@ from follicle import FormatError, HairCurves
 from follicle.io.guard import died
 from follicle.io.usd import load_usd
 from follicle.io.usd_guard import check_container
-from hostile import FOLLICLE, Outcome, assert_cli_refused, files, run_cli
+from hostile import FOLLICLE, Outcome, assert_cli_refused, byte_damage, files, run_cli
 
 POINTS = "[(0, 0, 0), (0, 1, 0), (0, 2, 0), (1, 0, 0), (1, 1, 0), (1, 2, 0)]"
 NORMALS = "normal3f[] normals = [(0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1), " \
@@ -346,24 +346,6 @@ def text_damage(draw, text: str) -> bytes:
         else:
             text = text[:at] + text[at + draw(st.integers(1, 20)):]
     return text.encode()
-
-
-@st.composite
-def byte_damage(draw, data: bytes) -> bytes:
-    """``data`` truncated, or with bytes or 8-byte fields overwritten."""
-    out = bytearray(data)
-    how = draw(st.sampled_from(["truncate", "bytes", "field"]))
-    if how == "truncate":
-        return bytes(out[: draw(st.integers(0, len(out) - 1))])
-    if how == "bytes":
-        for _ in range(draw(st.integers(1, 8))):
-            out[draw(st.integers(0, len(out) - 1))] = draw(st.integers(0, 255))
-        return bytes(out)
-    at = draw(st.integers(0, len(out) - 8))
-    value = draw(st.sampled_from([0, 1, 2**31, 2**32 - 1, 2**63 - 1, len(out), len(out) - 8])
-                 | st.integers(0, 2**64 - 1))
-    out[at: at + 8] = struct.pack("<Q", value)
-    return bytes(out)
 
 
 def _read_or_refuse(path) -> None:

@@ -78,14 +78,13 @@ from ..mesh.skin import SkinMesh
 from .alembic_archive import COLOR_NAMES
 from .alembic_guard import check_archive, read_curves, read_mesh
 from .alembic_sink import send
+from .animation import animation, as_guides
 from .atomic import atomic_path
-from .attributes import conventional
+from .attributes import column, conventional
 from .guard import curves_from_parts
 from .inputs import input_file
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
-from .usd import _as_guides, _frames
-from .usd_skin import head_matrices
 
 if TYPE_CHECKING:
     from ..sim.cache import SimCache
@@ -120,17 +119,6 @@ def _as_stored(arr: np.ndarray) -> np.ndarray | None:
     return arr if arr.dtype.kind == "f" and arr.dtype.itemsize in (4, 8) else None
 
 
-def _column(curves: HairCurves, key: str, comps: int) -> np.ndarray | None:
-    """``point_data[key]`` as float32 of ``comps`` components a vertex, or None if absent."""
-    values = curves.point_data.get(key)
-    if values is None:
-        return None
-    shape = (curves.point_count,) if comps == 1 else (curves.point_count, comps)
-    if values.shape != shape:
-        raise InputError(f"point_data['{key}']: expected shape {shape}, got {values.shape}")
-    return np.asarray(values, dtype=np.float32)
-
-
 def _bounds(points: np.ndarray, width: np.ndarray | None) -> np.ndarray:
     """(2, 3) the vertices' bounds (linear curves lie in them) padded by half the widest
     width."""
@@ -146,10 +134,10 @@ def _curves_arrays(curves: HairCurves, normals: bool,
     normals, uv and every other attribute as an arbGeomParam (warning of those that
     have no Alembic type), and with ``groom_schema`` the version of Unreal's groom
     schema (``groom_version_major`` / ``_minor``, int16, constant scope)."""
-    width = _column(curves, "width", 1)
+    width = column(curves, "width", 1)
     arrays = {"points": curves.points, "counts": curves.counts.astype(np.int32),
               "bounds": _bounds(curves.points, width)}  # fmt: skip
-    for key, value in (("width", width), ("normal", _column(curves, "normal", 3)
+    for key, value in (("width", width), ("normal", column(curves, "normal", 3)
                                           if normals else None)):  # fmt: skip
         if value is not None:
             arrays[key] = value
@@ -333,7 +321,7 @@ def save_abc(
     tool = get_target(target)
     guide_curves = None
     if guides is not None:
-        guide_curves = for_target(conventional(_as_guides(guides)), tool, "guides")
+        guide_curves = for_target(conventional(as_guides(guides)), tool, "guides")
     skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
     chunks = (for_target(chunk, tool) for chunk in as_chunks(curves))
 
@@ -374,9 +362,9 @@ def _send_frame(sink: _Sink, path: str, frame: HairCurves, first: HairCurves,
     arbGeomParams stay as it has them; later frames with points, velocities, bounds and
     normals."""
     arrays = {"points": frame.points, "velocities": velocities,
-              "bounds": _bounds(frame.points, _column(first, "width", 1))}  # fmt: skip
+              "bounds": _bounds(frame.points, column(first, "width", 1))}  # fmt: skip
     if "normal" in first.point_data:
-        arrays["normal"] = _column(frame, "normal", 3)
+        arrays["normal"] = column(frame, "normal", 3)
     if timing is None:
         sink.send({"op": "sample", "path": path}, arrays)
         return
@@ -441,21 +429,9 @@ def save_abc_cache(
     ``/Groom/Head`` sampled per frame, so the skin moves with the (world-space) hair.
     """
     target = _check_suffix(path)
-    stream, cache_fps, cache_transforms = _frames(frames)
-    if transforms is not None and mesh is None:
-        raise InputError("transforms: given without mesh=; they move the skin mesh, so pass"
-                         " the SkinMesh too")  # fmt: skip
-    if mesh is not None and transforms is None:
-        transforms = cache_transforms
-    head = None if transforms is None else head_matrices(transforms)
+    stream, rate, start, head = animation(frames, fps, start, mesh, transforms)
     skin = None if mesh is None else _mesh_arrays(mesh, 1.0)
-    rate = fps if fps is not None else cache_fps if cache_fps is not None else 24.0
-    real = (int, float, np.integer, np.floating)
-    if isinstance(rate, bool) or not isinstance(rate, real) or not 0 < rate < np.inf:
-        raise InputError(f"fps: expected a finite number > 0, got {rate!r}")
-    if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
-        raise InputError(f"start: expected a whole number (first frame), got {start!r}")
-    _write(target, lambda sink: _send_cache(sink, stream, float(rate), int(start), skin, head))
+    _write(target, lambda sink: _send_cache(sink, stream, rate, start, skin, head))
     return target
 
 

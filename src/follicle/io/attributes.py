@@ -18,7 +18,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 
-__all__ = ["DEFAULT_WIDTH", "MAX_HAIR_WIDTH", "conventional", "consistent", "widths",
+__all__ = ["DEFAULT_WIDTH", "MAX_HAIR_WIDTH", "column", "conventional", "consistent", "widths",
            "plausible_widths"]
 
 log = logging.getLogger("follicle")
@@ -36,6 +36,18 @@ def _scalar(chunk: HairCurves, key: str) -> np.ndarray | None:
         return arr[:, 0]
     raise InputError(f"point_data['{key}']: expected one number a point, shape"
                      f" ({chunk.point_count},), got {arr.dtype} of shape {arr.shape}")  # fmt: skip
+
+
+def column(curves: HairCurves, key: str, comps: int) -> np.ndarray | None:
+    """``point_data[key]`` as float32 of ``comps`` components a vertex, or None if absent
+    (USD's and Alembic's writers copy it into their own arrays: no copy here)."""
+    values = curves.point_data.get(key)
+    if values is None:
+        return None
+    shape = (curves.point_count,) if comps == 1 else (curves.point_count, comps)
+    if values.shape != shape:
+        raise InputError(f"point_data['{key}']: expected shape {shape}, got {values.shape}")
+    return np.asarray(values, dtype=np.float32)
 
 
 def conventional(chunk: HairCurves) -> HairCurves:

@@ -57,14 +57,15 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..curves import HairCurves
 from ..errors import FormatError, InputError
+from .animation import animation, as_guides
 from .atomic import atomic_path
-from .attributes import conventional
+from .attributes import column, conventional
 from .guard import curves_from_parts
 from .inputs import input_file
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 from .usd_guard import check_container, read_stage
-from .usd_skin import define_head, define_skin, head_matrices, set_head
+from .usd_skin import define_head, define_skin, set_head
 from .usd_stage import usd_error
 
 if TYPE_CHECKING:
@@ -138,17 +139,6 @@ def _extent(points: np.ndarray, offsets: np.ndarray, widths: np.ndarray | None) 
     return Vt.Vec3fArray([Gf.Vec3f(*lo.tolist()), Gf.Vec3f(*hi.tolist())])
 
 
-def _column(curves: HairCurves, key: str, comps: int) -> np.ndarray | None:
-    """``point_data[key]`` as float32 of ``comps`` components a vertex, or None if absent."""
-    values = curves.point_data.get(key)
-    if values is None:
-        return None
-    shape = (curves.point_count,) if comps == 1 else (curves.point_count, comps)
-    if values.shape != shape:
-        raise InputError(f"point_data['{key}']: expected shape {shape}, got {values.shape}")
-    return np.asarray(values, dtype=np.float32)  # FromNumpy copies: no copy of our own
-
-
 def _define_curves(stage: Usd.Stage, path: str, curves: HairCurves, normals: bool) -> None:
     """One pinned Catmull-Rom BasisCurves prim at ``path`` holding ``curves``."""
     prim = UsdGeom.BasisCurves.Define(stage, path)
@@ -158,15 +148,15 @@ def _define_curves(stage: Usd.Stage, path: str, curves: HairCurves, normals: boo
     prim.CreateCurveVertexCountsAttr(Vt.IntArray.FromNumpy(curves.counts.astype(np.int32)))
     prim.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(curves.points))
     vertex, uniform = UsdGeom.Tokens.vertex, UsdGeom.Tokens.uniform
-    width = _column(curves, "width", 1)
+    width = column(curves, "width", 1)
     if width is not None:
         prim.CreateWidthsAttr(Vt.FloatArray.FromNumpy(width))
         prim.SetWidthsInterpolation(vertex)
-    normal = _column(curves, "normal", 3) if normals else None
+    normal = column(curves, "normal", 3) if normals else None
     if normal is not None:
         prim.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(normal))
         prim.SetNormalsInterpolation(vertex)
-    color, opacity = _column(curves, "color", 3), _column(curves, "opacity", 1)
+    color, opacity = column(curves, "color", 3), column(curves, "opacity", 1)
     if color is not None:
         prim.CreateDisplayColorPrimvar(vertex).Set(Vt.Vec3fArray.FromNumpy(color))
     if opacity is not None:
@@ -205,13 +195,6 @@ def _new_stage(path: Path, groom_schema: bool = False) -> Usd.Stage:
     else:
         UsdGeom.Scope.Define(stage, HAIR_PATH)
     return stage
-
-
-def _as_guides(guides: object) -> HairCurves:
-    curves = getattr(guides, "curves", guides)  # a Guides object or its HairCurves
-    if not isinstance(curves, HairCurves):
-        raise InputError(f"guides: expected HairCurves or Guides, got {type(guides).__name__}")
-    return curves
 
 
 def _write_crate(chunks: Iterator[HairCurves], crate: Path, guides: HairCurves | None,
@@ -320,7 +303,7 @@ def save_usd(
     tool = get_target(target)
     guide_curves = None
     if guides is not None:
-        guide_curves = for_target(conventional(_as_guides(guides)), tool, "guides", False)
+        guide_curves = for_target(conventional(as_guides(guides)), tool, "guides", False)
     chunks = (for_target(chunk, tool, in_units=False) for chunk in as_chunks(curves))
     with _writing(out), atomic_path(out) as tmp:
         _finish(out, tmp, lambda crate: _write_crate(chunks, crate, guide_curves, normals, mesh,
@@ -329,20 +312,6 @@ def save_usd(
 
 
 # ------------------------------------------------------------------ animation cache
-def _frames(frames: Iterable[HairCurves] | SimCache,
-            ) -> tuple[Iterable[HairCurves], float | None, np.ndarray | None]:  # fmt: skip
-    """Frames to write, the fps and the head transforms they carry (a SimCache's guide
-    strands and head motion per frame)."""
-    positions = getattr(frames, "positions", None)
-    if isinstance(positions, np.ndarray) and positions.ndim == 4:
-        return ((HairCurves.from_array(p) for p in positions), float(frames.fps),
-                frames.transforms)  # fmt: skip
-    if isinstance(frames, HairCurves) or not isinstance(frames, Iterable):
-        raise InputError(
-            f"frames: expected an iterable of HairCurves or a SimCache, got {type(frames).__name__}"
-        )
-    return frames, None, None
-
 
 def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: int,
                  mesh: SkinMesh | None, transforms: np.ndarray | None) -> None:  # fmt: skip
@@ -420,21 +389,9 @@ def save_usd_cache(
     with the (world-space) hair.
     """
     target = _check_suffix(path)
-    stream, cache_fps, cache_transforms = _frames(frames)
-    if transforms is not None and mesh is None:
-        raise InputError("transforms: given without mesh=; they move the skin mesh, so pass"
-                         " the SkinMesh too")  # fmt: skip
-    if mesh is not None and transforms is None:
-        transforms = cache_transforms
-    head = None if transforms is None else head_matrices(transforms)
-    rate = fps if fps is not None else cache_fps if cache_fps is not None else 24.0
-    real = (int, float, np.integer, np.floating)
-    if isinstance(rate, bool) or not isinstance(rate, real) or not 0 < rate < np.inf:
-        raise InputError(f"fps: expected a finite number > 0, got {rate!r}")
-    if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
-        raise InputError(f"start: expected a whole number (first time code), got {start!r}")
+    stream, rate, start, head = animation(frames, fps, start, mesh, transforms)
     with _writing(target), atomic_path(target) as tmp:
-        _finish(target, tmp, lambda crate: _write_cache(stream, crate, float(rate), int(start),
+        _finish(target, tmp, lambda crate: _write_cache(stream, crate, rate, start,
                                                         mesh, head))  # fmt: skip
     return target
 

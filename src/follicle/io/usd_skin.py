@@ -17,7 +17,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 from ..errors import InputError
 from ..mesh.skin import SkinMesh
 
-__all__ = ["define_skin", "define_head", "set_head", "head_matrices"]
+__all__ = ["define_skin", "define_head", "set_head"]
 
 
 def define_skin(stage: Usd.Stage, path: str, mesh: object) -> None:
@@ -40,24 +40,6 @@ def define_skin(stage: Usd.Stage, path: str, mesh: object) -> None:
                                                      UsdGeom.Tokens.vertex)  # fmt: skip
         st.Set(Vt.Vec2fArray.FromNumpy(np.asarray(mesh.uvs, dtype=np.float32)))
 
-
-def head_matrices(transforms: object) -> np.ndarray:
-    """``transforms`` as (F, 4, 4) float64 affine matrices acting on column vectors
-    (``p' = M @ p``, translation in the last column, as a SimCache keeps them);
-    InputError naming the first bad one."""
-    try:
-        m = np.asarray(transforms, dtype=np.float64)
-    except (TypeError, ValueError):
-        m = np.zeros(0)
-    if m.ndim != 3 or m.shape[1:] != (4, 4):
-        raise InputError(f"transforms: expected one 4x4 matrix per frame, shape (F, 4, 4),"
-                         f" got {m.shape if m.size else repr(transforms)[:60]}")  # fmt: skip
-    bad = ~np.isfinite(m).all(axis=(1, 2)) | (np.abs(m[:, 3] - (0, 0, 0, 1)).max(axis=1) > 1e-9)
-    if np.any(bad):
-        f = int(np.argmax(bad))
-        raise InputError(f"transforms: frame {f} is not a finite affine matrix (last row"
-                         f" {m[f, 3].tolist()}, expected [0, 0, 0, 1])")  # fmt: skip
-    return m
 
 
 def define_head(stage: Usd.Stage, path: str) -> UsdGeom.XformOp:
