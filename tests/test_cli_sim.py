@@ -192,3 +192,41 @@ def test_frames_and_count_need_the_right_source(tmp_path):
     result = run("render", tmp_path / "h.npz", "--count", 4)
     assert result.exit_code == 2 and "--count does not apply to a curves file" in result.output
     assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
+
+
+@pytest.mark.parametrize("ext", [".usdc", ".abc"])
+def test_a_cache_exports_with_the_skin_moving_with_the_head(sim, tmp_path, ext):
+    """`follicle export sim.npz -o anim.EXT`: the guides of every frame exact, and the
+    skin's head transform at each frame the cache's."""
+    _, path, _ = sim
+    out = tmp_path / f"anim{ext}"
+    result = run("export", path, "-o", out)
+    assert result.exit_code == 0, result.output
+    assert "3 frames of" in result.output and "with the moving skin" in result.output
+    cache = load_cache(path)
+    if ext == ".abc":
+        from alembic3d import Abc, AbcGeom
+
+        from follicle.io.alembic import load_abc
+
+        for f in range(3):
+            back = load_abc(out, time=f / 12)
+            np.testing.assert_array_equal(back.points.reshape(cache.positions[f].shape),
+                                          cache.positions[f])  # fmt: skip
+        head = AbcGeom.IXform(Abc.IArchive(str(out)).getTop().getChild("Groom").getChild("Head"),
+                              Abc.WrapExistingFlag.kWrapExisting).getSchema()
+        matrix = np.array(head.getValue(Abc.ISampleSelector(2 / 12)).getMatrix()).T
+    else:
+        from pxr import Usd, UsdGeom
+
+        from follicle.io.usd import load_usd
+
+        for f in range(3):
+            back = load_usd(out, time=f)
+            np.testing.assert_array_equal(back.points.reshape(cache.positions[f].shape),
+                                          cache.positions[f])  # fmt: skip
+        stage = Usd.Stage.Open(str(out))
+        xf = UsdGeom.Xformable(stage.GetPrimAtPath("/Groom/Head"))
+        matrix = np.array(xf.GetLocalTransformation(2)).T
+    np.testing.assert_allclose(matrix, cache.transforms[2], atol=1e-12)
+    assert not np.allclose(cache.transforms[2], np.eye(4))  # the head did turn

@@ -340,17 +340,21 @@ def _export_mesh(source: str, out: str, target: str) -> None:
 
 
 def _export_cache(source: str, out: str, skin: bool = True) -> None:
-    """`follicle export CACHE -o anim.usdc`: the simulated guides of every frame as one
-    animated curves object (time code = frame, at the cache's fps), and the skin mesh of
-    the cache's scene moving with the head (its transform sampled per frame)."""
+    """`follicle export CACHE -o anim.usdc` (or `.abc`): the simulated guides of every
+    frame as one animated curves object (a time sample a frame, at the cache's fps), and
+    the skin mesh of the cache's scene moving with the head (its transform sampled per
+    frame)."""
     from .errors import FormatError
+    from .io.alembic import save_abc_cache
     from .io.usd import SUFFIXES, save_usd_cache
     from .sim.cache import load_cache
 
-    if Path(out).suffix.lower() not in SUFFIXES:
+    suffix = Path(out).suffix.lower()
+    if suffix not in (*SUFFIXES, ".abc"):
         raise FormatError(
-            f"{source}: a simulation cache exports to animated USD; give -o a"
-            f" {' / '.join(SUFFIXES)} file (`follicle render {source} -o frames/` draws it)"
+            f"{source}: a simulation cache exports to animated USD or Alembic; give -o a"
+            f" {' / '.join(SUFFIXES)} or .abc file (`follicle render {source} -o frames/`"
+            " draws it)"
         )
     cache = load_cache(source)
     mesh = None
@@ -359,6 +363,7 @@ def _export_cache(source: str, out: str, skin: bool = True) -> None:
 
         scene = cache.scene()
         mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
+    write = save_abc_cache if suffix == ".abc" else save_usd_cache
     with _step("export"), _progress("writing frames") as progress:
         def frames() -> Iterator[HairCurves]:
             from .curves import HairCurves
@@ -367,8 +372,8 @@ def _export_cache(source: str, out: str, skin: bool = True) -> None:
                 yield HairCurves.from_array(strands)
                 progress(f + 1, cache.frame_count)
 
-        save_usd_cache(frames(), out, fps=cache.fps, mesh=mesh,
-                       transforms=cache.transforms if skin else None)  # fmt: skip
+        write(frames(), out, fps=cache.fps, mesh=mesh,
+              transforms=cache.transforms if skin else None)  # fmt: skip
     click.echo(f"{cache.frame_count} frames of {cache.strand_count:,} guides ×"
                f" {cache.vertex_count} vertices at {cache.fps:g} fps"
                f"{' with the moving skin' if skin else ''} → {out}")
