@@ -268,10 +268,11 @@ def _grown_chunks(groom: Groom, progress: Callable[[int, int], None], tally: lis
     Unreal each hair also carries the three guides it blends most and their weights."""
     from .curves import HairCurves
     from .groom.generator import CHUNK
+    from .io.targets import TARGETS
 
     total = groom.params.count
     for i, chunk in enumerate(groom.chunks(CHUNK) if total else [groom.generate(count=0)]):
-        if target == "unreal":
+        if "closest_guides" in TARGETS[target].curve_names:  # the target reads the binding
             index, weight = groom.guide_binding(chunk.curve_data["hair_id"])
             chunk = HairCurves(chunk.points, chunk.offsets, chunk.point_data, {
                 **chunk.curve_data, "closest_guides": index, "guide_weights": weight})

@@ -140,20 +140,7 @@ class _Curves:
         self.stored = stored  # names as stored: no colour aliases taken for ours
         counts = _numpy(sample.getCurvesNumVertices())
         points = _numpy(sample.getPositions())
-        if counts.ndim != 1 or counts.dtype.kind not in "iu":
-            raise Refused(f"{where}: nVertices must be int32[], got {counts.dtype} of shape"
-                          f" {counts.shape}")  # fmt: skip
-        if points.ndim != 2 or points.shape[1] != 3:
-            raise Refused(f"{where}: P must be point3f[] (x, y, z each), got shape"
-                          f" {points.shape}")  # fmt: skip
-        self.counts = counts.astype(np.int64)
-        if np.any(self.counts < 0):
-            i = int(np.argmax(self.counts < 0))
-            raise Refused(f"{where}: curve {i} has a negative vertex count"
-                          f" ({int(self.counts[i])})")  # fmt: skip
-        if int(self.counts.sum()) != len(points):
-            raise Refused(f"{where}: nVertices sum to {int(self.counts.sum())} but there are"
-                          f" {len(points)} points")  # fmt: skip
+        self.counts = curve_basis.topology(counts, points, where, "nVertices", "P")
         self.stencil, self.mapping = None, "all"
         self._reduction(sample)
         if self.stencil is not None:

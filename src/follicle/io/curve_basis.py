@@ -30,6 +30,28 @@ class CurveBasisError(ValueError):
     """Curves this module cannot reduce to points; the message names them and why."""
 
 
+def topology(counts: np.ndarray, points: np.ndarray, where: str, counts_name: str,
+             points_name: str) -> np.ndarray:
+    """A curves object's vertex counts as int64, checked against its points (whole
+    numbers, none negative, summing to the point count; points x, y, z rows):
+    CurveBasisError naming ``where`` and the file's own attribute names otherwise."""
+    if counts.ndim != 1 or counts.dtype.kind not in "iu":
+        raise CurveBasisError(f"{where}: {counts_name} must be int[], got {counts.dtype} of"
+                              f" shape {counts.shape}")  # fmt: skip
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise CurveBasisError(f"{where}: {points_name} must be point3f[] (x, y, z each), got"
+                              f" shape {points.shape}")  # fmt: skip
+    counts = counts.astype(np.int64)
+    if np.any(counts < 0):
+        i = int(np.argmax(counts < 0))
+        raise CurveBasisError(f"{where}: curve {i} has a negative vertex count"
+                              f" ({int(counts[i])})")  # fmt: skip
+    if int(counts.sum()) != len(points):
+        raise CurveBasisError(f"{where}: {counts_name} sum to {int(counts.sum())} but there"
+                              f" are {len(points)} points")  # fmt: skip
+    return counts
+
+
 def rule(kind: str, basis: str, wrap: str, counts: np.ndarray, where: str) -> str:
     """How curves of ``kind`` (linear or cubic), ``basis`` and ``wrap`` map their control
     vertices to the points they pass through: ``"all"`` (every vertex), ``"inner"`` (all

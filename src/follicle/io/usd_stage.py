@@ -141,22 +141,8 @@ class _Prim:
         points = _array(self.schema.GetPointsAttr().Get(time), "points", self.where)
         if counts is None or points is None:
             raise Refused(f"{self.where}: no points or curveVertexCounts")
-        if counts.ndim != 1 or counts.dtype.kind not in "iu":
-            raise Refused(f"{self.where}: curveVertexCounts must be int[], got {counts.dtype}"
-                          f" of shape {counts.shape}")  # fmt: skip
-        if points.ndim != 2 or points.shape[1] != 3:
-            raise Refused(f"{self.where}: points must be point3f[] (x, y, z each), got shape"
-                          f" {points.shape}")  # fmt: skip
-        self.counts = counts.astype(np.int64)
-        if np.any(self.counts < 0):
-            i = int(np.argmax(self.counts < 0))
-            raise Refused(f"{self.where}: curve {i} has a negative vertex count"
-                          f" ({int(self.counts[i])})")  # fmt: skip
-        if int(self.counts.sum()) != len(points):
-            raise Refused(
-                f"{self.where}: curveVertexCounts sum to {int(self.counts.sum())} but there are"
-                f" {len(points)} points"
-            )
+        self.counts = curve_basis.topology(counts, points, self.where, "curveVertexCounts",
+                                           "points")  # fmt: skip
         if prim.IsA(UsdGeom.NurbsCurves):
             self.stencil = self._nurbs(UsdGeom.NurbsCurves(prim))
             self.out, varying = self.stencil.counts, self.stencil.varying_counts
