@@ -37,6 +37,10 @@ def values(kind: str, arr, held: list) -> object:
     elif kind == "uchar":
         out = imath.UnsignedCharArray(len(arr))
         np.asarray(out)[:] = arr
+    elif kind == "short":  # no buffer constructor: element by element
+        out = imath.ShortArray(len(arr))
+        for i, v in enumerate(arr.tolist()):
+            out[i] = v
     else:
         out = {"float": imath.FloatArrayFromBuffer, "int": imath.IntArrayFromBuffer,
                "v2f": imath.V2fArrayFromBuffer, "v3f": imath.V3fArrayFromBuffer,
@@ -47,7 +51,7 @@ def values(kind: str, arr, held: list) -> object:
 
 
 GEOM = {"float": "Float", "int": "Int32", "v2f": "V2f", "v3f": "V3f", "n3f": "N3f",
-        "c3f": "C3f", "c4f": "C4f", "double": "Double"}
+        "c3f": "C3f", "c4f": "C4f", "double": "Double", "short": "Int16"}
 
 
 def param_sample(held: list, kind: str, vals, scope: str, index=None) -> object:
@@ -65,6 +69,14 @@ def write(path, build):
     kept = build(arch.getTop())
     del kept, arch
     return path
+
+
+def add_params(arb, params, held: list) -> None:
+    """arbGeomParams (name, kind, values, scope[, indices]) in the compound ``arb``."""
+    for pname, kind_, vals, scope, *index in params:
+        param = getattr(AbcGeom, f"O{GEOM[kind_]}GeomParam")(arb, pname, bool(index),
+                                                             SCOPE[scope], 1)
+        param.set(param_sample(held, kind_, vals, scope, *index))
 
 
 def xforms(top, chain) -> object:
@@ -104,11 +116,7 @@ def add_curves(parent, name, counts, points, kind="linear", basis="none", wrap="
         sample.setPositionWeights(values("float", weights, held))
     schema = obj.getSchema()
     schema.set(sample)
-    arb = schema.getArbGeomParams()
-    for pname, kind_, vals, scope, *index in params:
-        param = getattr(AbcGeom, f"O{GEOM[kind_]}GeomParam")(arb, pname, bool(index),
-                                                             SCOPE[scope], 1)
-        param.set(param_sample(held, kind_, vals, scope, *index))
+    add_params(schema.getArbGeomParams(), params, held)
     return obj
 
 

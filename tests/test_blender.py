@@ -49,7 +49,8 @@ CATMULL_ROM, POLY = 0, 1
 
 # What Blender 5.0.1's importers make of each attribute we write, measured: ours → its
 # attribute ("name DOMAIN TYPE"), or None where it is dropped. The hair and guides of
-# each file; the skin is checked in test_skin_mesh. A new bpy version that keeps or
+# each file (the blender target leaves out the normals Blender drops); the skin is
+# checked in test_skin_mesh. A new bpy version that keeps or
 # drops more fails test_what_blender_keeps here, which is the point: update the table.
 _USD_HAIR = {"width": "radius POINT FLOAT", "color": "displayColor POINT FLOAT_COLOR",
              "opacity": "displayOpacity POINT FLOAT", "normal": None,
@@ -63,13 +64,14 @@ _ABC_HAIR = {**dict.fromkeys(_USD_HAIR), "width": "radius POINT FLOAT", "root_uv
 _ABC_GUIDES = {**dict.fromkeys(_USD_GUIDES), "width": "radius POINT FLOAT", "root_uv": None}
 KEPT = {
     ("generic.usdc", "hair"): {**_USD_HAIR, "root_uv": "root_uv CURVE FLOAT2"},
-    ("blender.usdc", "hair"): {**_USD_HAIR,
+    ("blender.usdc", "hair"): {**{k: v for k, v in _USD_HAIR.items() if k != "normal"},
                                "surface_uv_coordinate": "surface_uv_coordinate CURVE FLOAT2"},
     ("generic.usdc", "guides"): {**_USD_GUIDES, "root_uv": "root_uv CURVE FLOAT2"},
     ("blender.usdc", "guides"): {**_USD_GUIDES,
                                  "surface_uv_coordinate": "surface_uv_coordinate CURVE FLOAT2"},
     ("generic.abc", "hair"): _ABC_HAIR,
-    ("blender.abc", "hair"): {**{k: v for k, v in _ABC_HAIR.items() if k != "root_uv"},
+    ("blender.abc", "hair"): {**{k: v for k, v in _ABC_HAIR.items()
+                                 if k not in ("root_uv", "normal")},
                               "surface_uv_coordinate": None},
     ("generic.abc", "guides"): _ABC_GUIDES,
     ("blender.abc", "guides"): {**{k: v for k, v in _ABC_GUIDES.items() if k != "root_uv"},
@@ -198,18 +200,28 @@ def ours(tmp_path_factory, blender, groom, hair):
     return report, dict(np.load(report["arrays"]))
 
 
-def _object(ours, name: str, data: tuple[str, ...]) -> dict:
-    """The imported object of file ``name`` whose data block is one of ``data``."""
+def _object(ours, name: str, names: tuple[str, ...]) -> dict:
+    """The imported object of file ``name`` named one of ``names``: each shape comes in
+    as an object named after its prim (USD) or its Xform (Alembic)."""
     report = ours[0]["files"][name]
     assert report["result"] == ["FINISHED"], f"{name}: Blender's import said {report['result']}"
-    found = [o for o in report["objects"] if o["data"] in data]
-    names = [(o["name"], o["type"], o["data"]) for o in report["objects"]]
-    assert len(found) == 1, f"{name}: expected one object holding {data}, Blender made {names}"
+    found = [o for o in report["objects"] if o["name"] in names]
+    made = [(o["name"], o["type"], o["data"]) for o in report["objects"]]
+    assert len(found) == 1, f"{name}: expected one object named {names}, Blender made {made}"
     return found[0]
 
 
 def _hair_object(ours, name: str) -> dict:
     return _object(ours, name, ("chunk_0000", "Hair_0000"))
+
+
+@pytest.mark.parametrize("name", [n for n in FILES if n.endswith(".abc")])
+def test_alembic_objects_are_named_for_what_they_hold(ours, name):
+    """Each shape under its own Xform: Blender names the objects Hair_0000, Guides and
+    Skin under the empty Groom (shapes sharing /Groom came in as Groom, Groom.001, …)."""
+    made = {o["name"]: (o["type"], o["parent"]) for o in ours[0]["files"][name]["objects"]}
+    assert made == {"Groom": ("EMPTY", None), "Hair_0000": ("CURVES", "Groom"),
+                    "Guides": ("CURVES", "Groom"), "Skin": ("MESH", "Groom")}, made
 
 
 def _written(curves, name: str, role: str):

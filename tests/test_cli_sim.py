@@ -230,3 +230,21 @@ def test_a_cache_exports_with_the_skin_moving_with_the_head(sim, tmp_path, ext):
         matrix = np.array(xf.GetLocalTransformation(2)).T
     np.testing.assert_allclose(matrix, cache.transforms[2], atol=1e-12)
     assert not np.allclose(cache.transforms[2], np.eye(4))  # the head did turn
+
+
+def test_a_cache_exports_for_a_target(sim, tmp_path):
+    """`follicle export sim.npz -o anim.abc --target unreal`: the guides in centimetres,
+    flagged as guides, and Unreal's check passes it."""
+    from follicle.io.alembic import load_abc
+
+    _, path, _ = sim
+    out = tmp_path / "anim.abc"
+    result = run("export", path, "-o", out, "--target", "unreal")
+    assert result.exit_code == 0, result.output
+    cache = load_cache(path)
+    back = load_abc(out, time=1 / 12, stored=True)
+    np.testing.assert_allclose(back.points.reshape(cache.positions[1].shape),
+                               cache.positions[1] * 100, rtol=1e-6)  # fmt: skip
+    assert back.curve_data["groom_guide"].all()
+    result = run("check", out, "--target", "unreal")
+    assert result.exit_code == 0, result.output

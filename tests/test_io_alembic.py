@@ -35,6 +35,9 @@ def grown(groom):
     return groom.generate(count=500)
 
 
+HAIR = "/Groom/Hair_0000/Hair_0000Shape"  # the first (or only) chunk's curves
+
+
 def _objects(path):
     """{full name: IObject} of every object in the archive at ``path``, depth first in
     archive order."""
@@ -85,9 +88,9 @@ def test_the_built_in_groom_round_trips_with_every_attribute(tmp_path, grown):
 def test_layout_types_and_scopes(tmp_path, grown):
     path = save_abc(grown, tmp_path / "groom.abc")
     objects = _objects(path)
-    assert sorted(objects) == ["/Groom", "/Groom/Hair_0000"]
+    assert sorted(objects) == ["/Groom", "/Groom/Hair_0000", "/Groom/Hair_0000/Hair_0000Shape"]
     assert AbcGeom.IXform.matches(objects["/Groom"].getHeader())
-    obj = objects["/Groom/Hair_0000"]
+    obj = objects[HAIR]
     schema = AbcGeom.ICurves(obj, EXISTING).getSchema()
     sample = schema.getValue()
     assert (sample.getType(), sample.getBasis(), sample.getWrap()) == (
@@ -140,7 +143,8 @@ def test_chunks_become_objects_in_order_with_bounded_memory(tmp_path):
     # a few chunks' worth in flight at most, not the 40 of the stream (16 MB)
     assert peak < 4 * chunk_bytes, peak
     names = [n for n in _objects(path) if n.startswith("/Groom/Hair_")]
-    assert names == [f"/Groom/Hair_{i:04d}" for i in range(40)]
+    assert names == [n for i in range(40)
+                     for n in (f"/Groom/Hair_{i:04d}", f"/Groom/Hair_{i:04d}/Hair_{i:04d}Shape")]
     assert load_abc(path) == HairCurves.concatenate(parts)
 
 
@@ -161,7 +165,7 @@ def test_guides_are_skipped_unless_asked_or_alone(tmp_path, grown, groom):
 def test_the_unreal_target_writes_centimetres_and_the_groom_schema(tmp_path, grown, groom):
     path = save_abc(grown, tmp_path / "ue.abc", guides=groom.guides, mesh=groom.mesh,
                     target="unreal")
-    arb = Abc.ICompoundProperty(_geom(_objects(path)["/Groom/Hair_0000"]), ".arbGeomParams")
+    arb = Abc.ICompoundProperty(_geom(_objects(path)[HAIR]), ".arbGeomParams")
     for key, number in (("groom_version_major", 1), ("groom_version_minor", 5)):
         header = arb.getPropertyHeader(key)
         assert (str(header.getDataType()), header.getMetaData().get("geoScope")) == \
@@ -181,7 +185,7 @@ def test_the_unreal_target_writes_centimetres_and_the_groom_schema(tmp_path, gro
 
 def test_normals_can_be_left_out(tmp_path, grown):
     path = save_abc(grown, tmp_path / "tubes.abc", normals=False)
-    assert _geom(_objects(path)["/Groom/Hair_0000"]).getPropertyHeader("N") is None
+    assert _geom(_objects(path)[HAIR]).getPropertyHeader("N") is None
     back = load_abc(path)
     assert "normal" not in back.point_data and back.point_data["width"].size
 
@@ -218,7 +222,7 @@ def test_bad_arguments_and_paths(tmp_path, grown):
 def test_skin_mesh_round_trips_and_is_wound_as_alembic_keeps_it(tmp_path, grown, groom):
     mesh = groom.mesh
     path = save_abc(grown, tmp_path / "skin.abc", mesh=mesh)
-    skin = _objects(path)["/Groom/Skin"]
+    skin = _objects(path)["/Groom/Skin/SkinShape"]
     sample = AbcGeom.IPolyMesh(skin, EXISTING).getSchema().getValue()
     faces = np.asarray(sample.getFaceIndices()).reshape(-1, 3)
     assert np.array_equal(faces, mesh.faces[:, ::-1])  # clockwise in the file
@@ -376,7 +380,7 @@ def test_cache_samples_points_velocities_and_head_motion(tmp_path, grown, groom)
     path = save_abc_cache(iter(frames), tmp_path / "sim.abc", fps=30, start=10,
                           mesh=groom.mesh, transforms=transforms)
     objects = _objects(path)
-    schema = AbcGeom.ICurves(objects["/Groom/Hair_0000"], EXISTING).getSchema()
+    schema = AbcGeom.ICurves(objects[HAIR], EXISTING).getSchema()
     assert schema.getNumSamples() == 4
     timing = schema.getTimeSampling()
     assert [timing.getSampleTime(f) for f in range(4)] == pytest.approx(
@@ -406,7 +410,7 @@ def test_cache_takes_a_sim_cache_and_refuses_bad_frames(tmp_path, grown, groom):
     moves[1, 1, 3] = 0.25
     cache = SimCache(positions, moves, 12.0, "", ".")
     path = save_abc_cache(cache, tmp_path / "guides.abc", mesh=groom.mesh)
-    schema = AbcGeom.ICurves(_objects(path)["/Groom/Hair_0000"], EXISTING).getSchema()
+    schema = AbcGeom.ICurves(_objects(path)[HAIR], EXISTING).getSchema()
     assert schema.getTimeSampling().getSampleTime(1) == pytest.approx(1 / 12)
     assert np.array_equal(load_abc(path, time=1 / 12).points, np.ones((6, 3), np.float32))
     head = AbcGeom.IXform(_objects(path)["/Groom/Head"], EXISTING).getSchema()
@@ -415,7 +419,7 @@ def test_cache_takes_a_sim_cache_and_refuses_bad_frames(tmp_path, grown, groom):
     assert load_abc(early) != load_abc(early, time=0.0)  # no time: the first, at -2/24 s
     assert load_abc(early) == load_abc(early, time=-2 / 24)
     single = save_abc_cache([grown], tmp_path / "one.abc")
-    sample = AbcGeom.ICurves(_objects(single)["/Groom/Hair_0000"], EXISTING).getSchema() \
+    sample = AbcGeom.ICurves(_objects(single)[HAIR], EXISTING).getSchema() \
         .getValue()
     assert not np.asarray(sample.getVelocities()).any()  # one frame: no motion
     frames = _frames(grown, 3)

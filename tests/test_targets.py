@@ -184,20 +184,25 @@ def test_our_export_for_a_target_passes_its_check(tmp_path, groom, hair, name, e
     assert "reads all of it (300 curves" in run.output
 
 
-def test_check_names_each_problem_of_a_file_broken_for_unreal(tmp_path, hair):
-    """Houdini's names, int64 ids, a 300-point curve: every one a line."""
+def _broken_for_unreal(hair: HairCurves) -> HairCurves:
+    """Houdini's names, int64 ids and a 300-point curve."""
     t = np.linspace(0.0, 0.3, 300)
     long = HairCurves.from_array(np.stack([0 * t, t, 0 * t], axis=1)[None])
     bad = for_target(hair, "houdini")
-    bad = HairCurves.concatenate([
+    return HairCurves.concatenate([
         HairCurves(bad.points, bad.offsets, {"Cd": bad.point_data["Cd"]},
                    {"uv": bad.curve_data["uv"], "id": np.arange(300, dtype=np.int64)}),
         HairCurves(long.points, long.offsets, {"Cd": np.zeros((300, 3), np.float32)},
                    {"uv": np.zeros((1, 2), np.float32), "id": np.array([300])}),
     ])  # fmt: skip
+
+
+def test_check_names_each_problem_of_a_file_broken_for_unreal(tmp_path, hair):
+    """Houdini's names, int64 ids, a 300-point curve, no widths, no GroomAPI: every one
+    a line."""
     from follicle.io.usd import save_usd
 
-    save_usd(bad, tmp_path / "bad.usda", target="houdini")  # houdini keeps int64
+    save_usd(_broken_for_unreal(hair), tmp_path / "bad.usda", target="houdini")  # int64 kept
     run = CliRunner().invoke(main, ["check", str(tmp_path / "bad.usda"), "--target", "unreal"])
     assert run.exit_code == 1
     lines = [x.split(": ", 1)[1] for x in run.output.splitlines()]
@@ -206,4 +211,104 @@ def test_check_names_each_problem_of_a_file_broken_for_unreal(tmp_path, hair):
         " `follicle export --target unreal` resamples them",
         "Unreal reads only groom_* attributes: Cd, id, uv would be dropped",
         "no widths: Unreal draws every hair at its default width",
+        "1 of 1 curves objects (/Groom/Hair/chunk_0000): no GroomAPI on them or a prim"
+        " above: Unreal's USD importer does not read them as a groom",
     ]
+
+
+def test_check_names_each_problem_of_an_alembic_file_broken_for_unreal(tmp_path, hair):
+    """The same in Alembic: no groom schema version (Unreal then drops every groom_*
+    attribute), and the guides too."""
+    from follicle.io.alembic import save_abc
+
+    save_abc(_broken_for_unreal(hair), tmp_path / "bad.abc", target="houdini",
+             guides=hair[:2])  # fmt: skip
+    run = CliRunner().invoke(main, ["check", str(tmp_path / "bad.abc"), "--target", "unreal"])
+    assert run.exit_code == 1
+    lines = [x.split(": ", 1)[1] for x in run.output.splitlines()]
+    assert lines[0].startswith("1 curve(s) have more than 255 points (up to 300)")
+    assert "Unreal reads only groom_* attributes: Cd, id, uv would be dropped" in lines
+    assert lines[-1] == (
+        "1 of 1 curves objects (/Groom/Hair_0000/Hair_0000Shape): no groom_version_major /"
+        " groom_version_minor (int16, constant) on them or an Xform above: Unreal imports"
+        " their curves without any groom_* attribute")
+
+
+@pytest.mark.parametrize("ext", [".usda", ".abc"])
+def test_a_groom_schema_above_the_curves_is_found(tmp_path, hair, ext):
+    """Unreal reads its schema on the curves or on a transform above them: GroomAPI on
+    /Groom/Hair (ours), or the version on the top Xform (as Houdini's groom exporter
+    writes it) pass."""
+    path = tmp_path / f"u{ext}"
+    save(hair, path, target="unreal")
+    if ext == ".abc":
+        from alembic3d import AbcGeom
+
+        from abcfiles import add_curves, add_params, write
+        from follicle.io.check import check_file
+
+        def build(top):
+            groom, held = AbcGeom.OXform(top, "Groom"), []
+            add_params(groom.getSchema().getArbGeomParams(), [
+                ("groom_version_major", "short", [1], "constant"),
+                ("groom_version_minor", "short", [5], "constant")], held)  # fmt: skip
+            return groom, add_curves(AbcGeom.OXform(groom, "Hair"), "HairShape", [2, 2],
+                                     hair.points[:4] * 100)  # fmt: skip
+
+        _, found = check_file(write(tmp_path / "top.abc", build), "unreal")
+        assert not [x for x in found if "groom_version" in x], found
+        _, found = check_file(write(tmp_path / "none.abc", lambda top: add_curves(
+            top, "Hair", [2, 2], hair.points[:4] * 100)), "unreal")  # fmt: skip
+        assert [x for x in found if "groom_version" in x], found
+    run = CliRunner().invoke(main, ["check", str(path), "--target", "unreal"])
+    assert run.exit_code == 0, run.output
+
+
+@pytest.mark.parametrize("ext", [".usda", ".abc"])
+def test_a_cache_is_written_for_unreal(tmp_path, groom, ext):
+    """An animated cache for a target: the simulated guides flagged as guides, in
+    centimetres in Alembic (its head's motion and the skin too), GroomAPI in USD; it
+    passes the target's check."""
+    from follicle.io.alembic import load_abc, load_abc_mesh, save_abc_cache
+    from follicle.io.check import check_file
+    from follicle.io.usd import load_usd, save_usd_cache
+    from follicle.sim.cache import SimCache
+
+    strands = groom.guides.curves.points.reshape(groom.guides.count, -1, 3)[:20]
+    positions = np.stack([strands, strands + np.float32(0.01)]).astype(np.float32)
+    moves = np.stack([np.eye(4)] * 2)
+    moves[1, :3, 3] = (0.0, 0.01, 0.02)
+    cache = SimCache(positions, moves, 12.0, "", ".")
+    write = save_abc_cache if ext == ".abc" else save_usd_cache
+    path = write(cache, tmp_path / f"anim{ext}", mesh=groom.mesh, target="unreal")
+    curves, found = check_file(path, "unreal")
+    assert found == [] and curves.curve_count == 20
+    if ext == ".usda":
+        back = load_usd(path, time=1, stored=True)  # metres: USD declares its unit
+        np.testing.assert_allclose(back.points, positions[1].reshape(-1, 3), atol=1e-7)
+        assert back.curve_data["groom_guide"].tolist() == [1] * 20
+        return
+    back = load_abc(path, time=1 / 12, stored=True)  # as the file has them: centimetres
+    np.testing.assert_allclose(back.points, positions[1].reshape(-1, 3) * 100, rtol=1e-6)
+    assert back.curve_data["groom_guide"].tolist() == [1] * 20
+    np.testing.assert_allclose(back.point_data["width"], 1e-4 * 100, rtol=1e-6)
+    skin = load_abc_mesh(path)  # the head at frame 0, in centimetres
+    np.testing.assert_allclose(skin.rest_vertices, groom.mesh.rest_vertices * 100, rtol=1e-5,
+                               atol=1e-4)  # fmt: skip
+    from alembic3d import Abc, AbcGeom
+
+    head = AbcGeom.IXform(Abc.IArchive(str(path)).getTop().getChild("Groom").getChild("Head"),
+                          Abc.WrapExistingFlag.kWrapExisting).getSchema()  # fmt: skip
+    matrix = np.array(head.getValue(Abc.ISampleSelector(1 / 12)).getMatrix())
+    np.testing.assert_allclose(matrix[3, :3], (0.0, 1.0, 2.0), atol=1e-9)  # cm, row vectors
+
+
+def test_a_cache_says_what_its_frames_are(tmp_path, hair):
+    from follicle.io.alembic import save_abc_cache
+
+    with pytest.raises(InputError, match="role: expected 'hair', 'guides' or None"):
+        save_abc_cache([hair], tmp_path / "x.abc", role="strands")
+    from follicle.io.alembic import load_abc
+
+    path = save_abc_cache([hair, hair], tmp_path / "h.abc", target="unreal")
+    assert not load_abc(path, stored=True).curve_data["groom_guide"].any()  # hair by default

@@ -309,7 +309,7 @@ def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
     _check_writable_suffix(out, _curve_suffixes())
     _check_target(out, tool)
     if is_cache(source):
-        _export_cache(source, out, skin)
+        _export_cache(source, out, skin, tool)
         return
     curves = load_curves(source)
     save(curves, out, **({"target": tool} if Path(out).suffix.lower() in _NAMED_FORMATS
@@ -340,11 +340,11 @@ def _export_mesh(source: str, out: str, target: str) -> None:
                f" {len(mesh.faces):,} triangles → {out}")
 
 
-def _export_cache(source: str, out: str, skin: bool = True) -> None:
+def _export_cache(source: str, out: str, skin: bool = True, target: str = "generic") -> None:
     """`follicle export CACHE -o anim.usdc` (or `.abc`): the simulated guides of every
     frame as one animated curves object (a time sample a frame, at the cache's fps), and
     the skin mesh of the cache's scene moving with the head (its transform sampled per
-    frame)."""
+    frame), named, typed and scaled for ``target``."""
     from .errors import FormatError
     from .io.alembic import save_abc_cache
     from .io.usd import SUFFIXES, save_usd_cache
@@ -373,7 +373,7 @@ def _export_cache(source: str, out: str, skin: bool = True) -> None:
                 yield HairCurves.from_array(strands)
                 progress(f + 1, cache.frame_count)
 
-        write(frames(), out, fps=cache.fps, mesh=mesh,
+        write(frames(), out, fps=cache.fps, mesh=mesh, role="guides", target=target,
               transforms=cache.transforms if skin else None)  # fmt: skip
     click.echo(f"{cache.frame_count} frames of {cache.strand_count:,} guides ×"
                f" {cache.vertex_count} vertices at {cache.fps:g} fps"
@@ -684,25 +684,6 @@ def info(source: str | None) -> None:
     click.echo(scene_to_toml(load_scene(source)), nl=False)
 
 
-@contextlib.contextmanager
-def _warnings_heard() -> Iterator[list[str]]:
-    """The follicle logger's warnings while the block runs, kept instead of printed."""
-    heard: list[str] = []
-
-    class _Keep(logging.Handler):
-        def emit(self, record: logging.LogRecord) -> None:
-            heard.append(record.getMessage())
-
-    keep = _Keep(logging.WARNING)
-    log.addHandler(keep)
-    log.propagate = False
-    try:
-        yield heard
-    finally:
-        log.removeHandler(keep)
-        log.propagate = True
-
-
 @main.command()
 @click.argument("source", metavar="FILE", type=click.Path())
 @click.option("--target", "target_name", type=click.Choice(TARGET_NAMES), default="generic",
@@ -713,26 +694,11 @@ def check(source: str, target_name: str) -> None:
     Exit 0 when it opens as it is, 1 when problems were found, 2 when FILE cannot be
     read. `follicle export FILE -o OUT --target TARGET` writes what it reads.
     """
-    from .io.alembic import load_abc
-    from .io.attributes import plausible_widths
-    from .io.dispatch import load_curves
-    from .io.targets import TARGETS, problems
-    from .io.usd import SUFFIXES as USD_SUFFIXES
-    from .io.usd import load_usd
-    from .units import scale_curves
+    from .io.check import check_file
+    from .io.targets import TARGETS
 
     target = TARGETS[target_name]
-    suffix = Path(source).suffix.lower()
-    with _warnings_heard() as heard:  # what the reader had to leave out or fix
-        if suffix in USD_SUFFIXES:  # attributes as the file names and types them
-            curves = load_usd(source, stored=True)
-        elif suffix == ".abc":  # no unit of its own: the target's (Unreal: centimetres)
-            curves = scale_curves(load_abc(source, stored=True), target.meters_per_unit)
-        else:
-            curves = load_curves(source, units=target.meters_per_unit)
-        plausible_widths(curves, source)
-    found = [line.removeprefix(f"{source}: ") for line in heard]
-    found += problems(curves, target, alembic=suffix == ".abc")
+    curves, found = check_file(source, target)
     for line in found:
         click.echo(f"{source}: {line}".translate(_ESCAPES))
     if found:

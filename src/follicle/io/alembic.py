@@ -1,11 +1,13 @@
 """Alembic hair: ``OCurves`` written and read with alembic3d (PyAlembic's API, Ogawa).
 
-Writing: the archive's top object holds the Xform ``/Groom`` (identity), under it one
-``OCurves`` per chunk of the stream, ``Hair_0000``, ``Hair_0001``, … (always, even for a
-single chunk), the optional guides as the ``OCurves`` ``/Groom/Guides`` and the optional
-skin as the ``OPolyMesh`` ``/Groom/Skin`` (its rest pose, triangles, UVs as the indexed
-faceVarying ``uv``; in an animation with head motion ``/Groom/Head/Skin``, under the Xform
-``/Groom/Head`` sampled per frame).
+Writing: the archive's top object holds the Xform ``/Groom`` (identity); under it each
+shape sits in an identity Xform of its own (Maya's transform-over-shape layout, which
+Blender folds into one object named after the Xform): the hair as one ``OCurves`` per
+chunk of the stream, ``Hair_0000/Hair_0000Shape``, ``Hair_0001/Hair_0001Shape``, …
+(always, even for a single chunk), the optional guides as ``Guides/GuidesShape`` and the
+optional skin as the ``OPolyMesh`` ``Skin/SkinShape`` (its rest pose, triangles, UVs as
+the indexed faceVarying ``uv``; in an animation with head motion
+``/Groom/Head/Skin/SkinShape``, under the Xform ``/Groom/Head`` sampled per frame).
 
 The curves are ``kLinear``, ``kNonPeriodic``, ``kNoBasis``: every stored vertex is a
 point of the curve, so they read back bit for bit; Blender imports them as poly hair
@@ -75,10 +77,10 @@ from ..curves import HairCurves
 from ..errors import FormatError, InputError
 from ..mesh.polymesh import skin_from_part
 from ..mesh.skin import SkinMesh
-from .alembic_archive import COLOR_NAMES
+from .alembic_archive import COLOR_NAMES, GROOM_VERSION_KEYS
 from .alembic_guard import check_archive, read_curves, read_mesh
 from .alembic_sink import send
-from .animation import animation, as_guides
+from .animation import Animation, animation, as_guides
 from .atomic import atomic_path
 from .attributes import column, conventional
 from .guard import curves_from_parts
@@ -89,8 +91,8 @@ from .targets import Target, for_target, get_target
 if TYPE_CHECKING:
     from ..sim.cache import SimCache
 
-__all__ = ["save_abc", "save_abc_cache", "load_abc", "load_abc_mesh", "GROOM", "GUIDES",
-           "SKIN", "HEAD"]
+__all__ = ["save_abc", "save_abc_cache", "load_abc", "abc_parts", "load_abc_mesh",
+           "GROOM", "GUIDES", "SKIN", "HEAD"]
 
 log = logging.getLogger("follicle")
 
@@ -149,8 +151,7 @@ def _curves_arrays(curves: HairCurves, normals: bool,
         arrays["uv"] = uv.astype(np.float32)
     params = []
     if groom_schema:
-        for key, number in zip(("groom_version_major", "groom_version_minor"), GROOM_VERSION,
-                               strict=True):  # fmt: skip
+        for key, number in zip(GROOM_VERSION_KEYS, GROOM_VERSION, strict=True):
             arrays[f"param{len(params)}"] = np.array([number], np.int16)
             params.append([key, "short", "Constant"])
     pd = curves.point_data
@@ -294,6 +295,15 @@ def _check_suffix(path: str | os.PathLike[str]) -> Path:
     return target
 
 
+def _shape(sink: _Sink, path: str) -> str:
+    """Send the (identity) Xform ``path`` and return the path of the
+    shape it holds, ``path/<name>Shape``: Maya's layout, a transform over each shape,
+    which Blender's importer folds into one object named after the transform (shapes
+    sharing one Xform all came in named after it: "Groom", "Groom.001", …)."""
+    sink.send({"op": "xform", "path": path})
+    return f"{path}/{path.rpartition('/')[2]}Shape"
+
+
 def _send_curves(sink: _Sink, path: str, curves: HairCurves, normals: bool,
                  groom_schema: bool) -> None:  # fmt: skip
     params, arrays = _curves_arrays(curves, normals, groom_schema)
@@ -309,9 +319,10 @@ def save_abc(
     target: Target | str = "generic",
 ) -> Path:
     """Write ``curves`` (HairCurves or a stream of chunks) as linear OCurves, one object
-    per chunk under ``/Groom`` (``Hair_0000``, …), ``guides`` (HairCurves or Guides) as
-    ``/Groom/Guides`` and the skin ``mesh`` (a SkinMesh, at rest) as the OPolyMesh
-    ``/Groom/Skin``; atomically. See the module for the layout and attributes.
+    per chunk under ``/Groom`` (``Hair_0000/Hair_0000Shape``, …), ``guides`` (HairCurves
+    or Guides) as ``/Groom/Guides/GuidesShape`` and the skin ``mesh`` (a SkinMesh, at
+    rest) as the OPolyMesh ``/Groom/Skin/SkinShape``; atomically. See the module for
+    the layout and attributes.
 
     ``target`` (see :mod:`follicle.io.targets`) names and types the attributes for the
     tool that opens the file and, Alembic declaring no units, writes points, widths and
@@ -327,11 +338,12 @@ def save_abc(
 
     def fill(sink: _Sink) -> None:
         if skin is not None:
-            sink.send({"op": "mesh", "path": SKIN}, skin)
+            sink.send({"op": "mesh", "path": _shape(sink, SKIN)}, skin)
         if guide_curves is not None:
-            _send_curves(sink, GUIDES, guide_curves, normals, tool.groom_schema)
+            _send_curves(sink, _shape(sink, GUIDES), guide_curves, normals, tool.groom_schema)
         for i, chunk in enumerate(chunks):
-            _send_curves(sink, f"{GROOM}/Hair_{i:04d}", chunk, normals, tool.groom_schema)
+            _send_curves(sink, _shape(sink, f"{GROOM}/Hair_{i:04d}"), chunk, normals,
+                         tool.groom_schema)  # fmt: skip
 
     _write(out, fill)
     return out
@@ -343,21 +355,9 @@ def _velocities(frame: HairCurves, later: HairCurves, fps: float) -> np.ndarray:
     return ((later.points.astype(np.float64) - frame.points) * fps).astype(np.float32)
 
 
-def _check_frame(frame: object, f: int, first: HairCurves | None) -> HairCurves:
-    if not isinstance(frame, HairCurves):
-        raise InputError(f"frames: frame {f} is a {type(frame).__name__}, not HairCurves")
-    frame = conventional(frame)
-    if first is not None and not np.array_equal(frame.offsets, first.offsets):
-        raise InputError(
-            f"frames: frame {f} has {frame.curve_count} curves / {frame.point_count} points"
-            f" laid out differently from frame 0 ({first.curve_count} / {first.point_count});"
-            " every frame must share the first frame's topology"
-        )
-    return frame
-
-
 def _send_frame(sink: _Sink, path: str, frame: HairCurves, first: HairCurves,
-                velocities: np.ndarray, timing: dict | None) -> None:  # fmt: skip
+                velocities: np.ndarray, timing: dict | None,
+                groom_schema: bool) -> None:  # fmt: skip
     """Frame 0 (``timing`` given) with everything: topology, widths, uv and
     arbGeomParams stay as it has them; later frames with points, velocities, bounds and
     normals."""
@@ -368,42 +368,38 @@ def _send_frame(sink: _Sink, path: str, frame: HairCurves, first: HairCurves,
     if timing is None:
         sink.send({"op": "sample", "path": path}, arrays)
         return
-    params, everything = _curves_arrays(frame, True)
+    params, everything = _curves_arrays(frame, True, groom_schema)
     sink.send({"op": "curves", "path": path, "params": params, "keep": True, **timing},
               {**everything, **arrays})  # fmt: skip
 
 
-def _send_cache(sink: _Sink, frames: Iterable[HairCurves], fps: float, start: int,
-                skin: dict[str, np.ndarray] | None, head: np.ndarray | None) -> None:  # fmt: skip
+def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None,
+                groom_schema: bool) -> None:  # fmt: skip
     """The animation's operations: the head Xform's samples, the skin, then the curves
     at frame 0 and one sample per later frame, each sent once the next frame gives its
     velocities (the last frame keeps the velocities into it; a single frame has none)."""
-    timing = {"fps": fps, "start": start / fps}
-    if head is not None:
+    timing = {"fps": anim.fps, "start": anim.start / anim.fps}
+    if anim.head is not None:
         sink.send({"op": "xform", "path": HEAD, **timing})
-        for m in head:  # a SimCache's matrices act on columns, Alembic's on rows
+        for m in anim.head:  # a SimCache's matrices act on columns, Alembic's on rows
             sink.send({"op": "matrix", "path": HEAD}, {"matrix": m.T})
     if skin is not None:
-        sink.send({"op": "mesh", "path": SKIN if head is None else f"{HEAD}/Skin"}, skin)
-    path = f"{GROOM}/Hair_0000"
+        where = SKIN if anim.head is None else f"{HEAD}/Skin"
+        sink.send({"op": "mesh", "path": _shape(sink, where)}, skin)
+    path = _shape(sink, f"{GROOM}/Hair_0000")
     first = previous = velocities = None
-    count = 0
-    for count, raw in enumerate(frames, 1):
-        frame = _check_frame(raw, count - 1, first)
+    for count, frame in enumerate(anim.frames, 1):
         if first is None:
             first = frame
         else:
-            velocities = _velocities(previous, frame, fps)
-            _send_frame(sink, path, previous, first, velocities, timing if count == 2 else None)
+            velocities = _velocities(previous, frame, anim.fps)
+            _send_frame(sink, path, previous, first, velocities,
+                        timing if count == 2 else None, groom_schema)  # fmt: skip
         previous = frame
-    if first is None:
-        raise InputError("frames: the frame stream is empty; nothing to write")
-    if head is not None and len(head) != count:
-        raise InputError(f"transforms: {len(head)} matrices for {count} frames; give one per"
-                         " frame")  # fmt: skip
     if velocities is None:
         velocities = np.zeros_like(first.points)
-    _send_frame(sink, path, previous, first, velocities, timing if count == 1 else None)
+    _send_frame(sink, path, previous, first, velocities, timing if count == 1 else None,
+                groom_schema)  # fmt: skip
 
 
 def save_abc_cache(
@@ -413,26 +409,32 @@ def save_abc_cache(
     start: int = 0,
     mesh: SkinMesh | None = None,
     transforms: object | None = None,
+    target: Target | str = "generic",
+    role: str | None = None,
 ) -> Path:
     """Write an animation: frame ``f`` of ``frames`` is sample ``f`` of one OCurves
-    ``/Groom/Hair_0000``, at ``(start + f) / fps`` seconds (a uniform time sampling),
+    ``/Groom/Hair_0000/Hair_0000Shape``, at ``(start + f) / fps`` seconds (a uniform time sampling),
     whose topology, widths, uv and arbGeomParams come from frame 0 and whose ``P``,
     ``.velocities`` (metres per second, from each frame to the next; the last frame
-    keeps the one into it), bounds and normals are sampled per frame.
+    keeps the one into it), bounds and normals are sampled per frame; as ``target``
+    reads them (see :func:`save_abc`; Unreal: centimetres, so are the head's motion and
+    the velocities).
 
-    ``fps`` defaults to 24, or a SimCache's own; a SimCache writes its guide strands
-    (for hair, write ``groom.follow(cache.positions[f])`` after
+    ``fps`` defaults to 24, or a SimCache's own; a SimCache writes its guide strands, as
+    guides (``role``: "hair" or "guides" says what the frames are; by default guides
+    for a SimCache, hair otherwise; for hair, write ``groom.follow(cache.positions[f])`` after
     ``groom.mesh.set_pose(transform=cache.transforms[f])`` for each frame f). ``mesh``
     (a SkinMesh) is written at rest as ``/Groom/Skin``; with ``transforms`` (F, 4, 4),
     one head transform per frame acting on column vectors as a SimCache keeps them (a
     SimCache's own by default), it is ``/Groom/Head/Skin`` under the Xform
     ``/Groom/Head`` sampled per frame, so the skin moves with the (world-space) hair.
     """
-    target = _check_suffix(path)
-    stream, rate, start, head = animation(frames, fps, start, mesh, transforms)
-    skin = None if mesh is None else _mesh_arrays(mesh, 1.0)
-    _write(target, lambda sink: _send_cache(sink, stream, rate, start, skin, head))
-    return target
+    out = _check_suffix(path)
+    tool = get_target(target)
+    anim = animation(frames, fps, start, mesh, transforms, tool, role=role)
+    skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
+    _write(out, lambda sink: _send_cache(sink, anim, skin, tool.groom_schema))
+    return out
 
 
 # ------------------------------------------------------------------ reading
@@ -472,14 +474,23 @@ def load_abc(
     but logged as a warning. ``stored`` keeps parameters as the file names and types
     them (only one named ``color`` taken as the colour): what `follicle check` reads.
     """
+    source, parts = abc_parts(path, time, guides, stored)
+    return curves_from_parts(parts, source, bool(stored))
+
+
+def abc_parts(path: str | os.PathLike[str], time: float | None = None, guides: bool = False,
+              stored: bool = False) -> tuple[Path, list[dict]]:  # fmt: skip
+    """(the file, its chosen curves objects as dicts of arrays) as :func:`load_abc`
+    reads and then joins them; ``stored`` parts also say whether Unreal's groom schema
+    version is on the object or an Xform above it (``groom_schema``), for `follicle
+    check`."""
     if time is not None and (isinstance(time, bool) or not isinstance(
             time, (int, float, np.integer, np.floating)) or not np.isfinite(time)):  # fmt: skip
         raise InputError(f"time: expected a finite number of seconds or None, got {time!r}")
     source = input_file(path, "Alembic file (.abc)")
     check_archive(source)
-    return curves_from_parts(read_curves(source, None if time is None else float(time),
-                                         bool(guides), bool(stored)), source,
-                             bool(stored))  # fmt: skip
+    return source, read_curves(source, None if time is None else float(time), bool(guides),
+                               bool(stored))  # fmt: skip
 
 
 def load_abc_mesh(path: str | os.PathLike[str]) -> SkinMesh:

@@ -28,6 +28,7 @@ from . import curve_basis, guard_server
 from .curve_space import SpaceError, to_world
 
 GUIDES_PATH = "/Groom/Guides"  # as follicle.io.alembic writes them
+GROOM_VERSION_KEYS = ("groom_version_major", "groom_version_minor")  # Unreal's groom schema
 HINT = "is it a valid Alembic file?"
 # what alembic3d raises on an archive it cannot make sense of (the C++ library's
 # exceptions arrive as RuntimeError, a missing child as KeyError, bad values otherwise)
@@ -325,6 +326,25 @@ def _selector(time: float | None) -> Abc.ISampleSelector:
     return Abc.ISampleSelector() if time is None else Abc.ISampleSelector(float(time))
 
 
+def _groom_version(obj: Abc.IObject, sel: Abc.ISampleSelector, where: str) -> list[int] | None:
+    """Unreal's groom schema version (``groom_version_major``, ``_minor``: arbGeomParams
+    of the curves object or an Xform above it) or None when it is not there."""
+    while obj.valid() and obj.getParent().valid():  # up to the archive's top, not it
+        props = obj.getProperties()
+        for schema in (".geom", ".xform"):
+            if props.getPropertyHeader(schema) is None:
+                continue
+            geom = Abc.ICompoundProperty(props, schema)
+            if geom.getPropertyHeader(".arbGeomParams") is None:
+                continue
+            arb = Abc.ICompoundProperty(geom, ".arbGeomParams")
+            found = [_param(arb, k, sel, where) for k in GROOM_VERSION_KEYS]
+            if all(f is not None and f[0].size and f[0].dtype.kind == "i" for f in found):
+                return [int(f[0].reshape(-1)[0]) for f in found]
+        obj = obj.getParent()
+    return None
+
+
 def _curves_part(obj: Abc.IObject, world: np.ndarray, sel: Abc.ISampleSelector,
                  source: str, stored: bool) -> dict:  # fmt: skip
     where = f"{source}: {obj.getFullName()}"
@@ -336,8 +356,12 @@ def _curves_part(obj: Abc.IObject, world: np.ndarray, sel: Abc.ISampleSelector,
         points = to_world(part.points, point_data, world, where, "fix its Xforms")
     except (curve_basis.CurveBasisError, SpaceError) as exc:
         raise Refused(str(exc)) from None
-    return {"where": where, "points": points, "offsets": np.concatenate([[0], np.cumsum(part.out)]),
-            "point_data": point_data, "curve_data": curve_data}  # fmt: skip
+    found = {"where": where, "points": points,
+             "offsets": np.concatenate([[0], np.cumsum(part.out)]),
+             "point_data": point_data, "curve_data": curve_data}  # fmt: skip
+    if stored:  # what `follicle check` also asks: does Unreal see its groom schema?
+        found["groom_schema"] = _groom_version(obj, sel, where) is not None
+    return found
 
 
 def read_curves(path: str, source: str, time: float | None, guides: bool,
@@ -362,6 +386,17 @@ def read_curves(path: str, source: str, time: float | None, guides: bool,
 
 
 # ------------------------------------------------------------------ meshes
+def _shape_name(obj: Abc.IObject) -> str:
+    """A shape's name as the tools that wrote it mean it: its Xform's when that holds
+    nothing else (Maya's ``head/headShape``, follicle's ``Skin/SkinShape``), as Blender
+    names the object it imports; else its own."""
+    parent = obj.getParent()
+    if parent.valid() and AbcGeom.IXform.matches(parent.getHeader()) \
+            and parent.getNumChildren() == 1:  # fmt: skip
+        return parent.getName()
+    return obj.getName()
+
+
 def read_mesh(path: str, source: str) -> list[dict]:
     """The first PolyMesh (or SubD cage) of the archive at ``path`` at its first sample,
     as polygons with their UVs, and the names of the meshes after it."""
@@ -382,7 +417,7 @@ def read_mesh(path: str, source: str) -> list[dict]:
         points = to_world(points, {}, world, where, "fix its Xforms")
     except SpaceError as exc:
         raise Refused(str(exc)) from None
-    part = {"where": where, "name": obj.getName(), "points": points,
+    part = {"where": where, "name": _shape_name(obj), "points": points,
             "face_counts": _numpy(sample.getFaceCounts()).reshape(-1),
             "face_indices": _numpy(sample.getFaceIndices()).reshape(-1),
             # Alembic winds faces clockwise; a mirroring transform turns them back

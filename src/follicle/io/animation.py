@@ -1,16 +1,20 @@
 """What the animation writers (USD, Alembic) take, checked once for both: the frames
-(HairCurves, or a SimCache's guide strands), their fps and first frame, and the head
-transforms that move the skin; and the guides a groom writer adds beside the hair."""
+(HairCurves, or a SimCache's guide strands) as the target reads them, their fps and
+first frame, and the head transforms that move the skin; and the guides a groom writer
+adds beside the hair."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
+from .attributes import conventional
+from .targets import Target, for_target, get_target
 
 if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
@@ -18,7 +22,19 @@ if TYPE_CHECKING:
 
 __all__ = ["Animation", "animation", "as_guides", "head_matrices"]
 
-Animation = tuple[Iterable[HairCurves], float, int, "np.ndarray | None"]
+
+@dataclass(frozen=True)
+class Animation:
+    """An animation checked for writing: ``frames`` yields each frame as the target
+    reads it (checked as it comes: HairCurves, frame 0's topology, one head transform
+    each; the stream's end checks it was not empty and used every transform), at
+    ``fps`` from frame ``start``; ``head`` (F, 4, 4) moves the skin (translations in the
+    target's units), or None."""
+
+    frames: Iterator[HairCurves]
+    fps: float
+    start: int
+    head: np.ndarray | None
 
 
 def as_guides(guides: object) -> HairCurves:
@@ -48,14 +64,50 @@ def head_matrices(transforms: object) -> np.ndarray:
     return m
 
 
+def _checked(frames: Iterable[object], head: np.ndarray | None, target: Target, role: str,
+             in_units: bool) -> Iterator[HairCurves]:  # fmt: skip
+    """Each frame checked and as ``target`` reads it (see :class:`Animation`)."""
+    first = None
+    f = -1
+    for f, frame in enumerate(frames):
+        if not isinstance(frame, HairCurves):
+            raise InputError(f"frames: frame {f} is a {type(frame).__name__}, not HairCurves")
+        if head is not None and f >= len(head):
+            raise InputError(f"transforms: {len(head)} matrices for {f + 1} or more frames;"
+                             " give one per frame")  # fmt: skip
+        if first is not None and not np.array_equal(frame.offsets, first.offsets):
+            raise InputError(
+                f"frames: frame {f} has {frame.curve_count} curves / {frame.point_count} points"
+                f" laid out differently from frame 0 ({first.curve_count} / {first.point_count});"
+                " every frame must share the first frame's topology"
+            )
+        if first is None:
+            first = frame
+        yield for_target(conventional(frame), target, role, in_units)
+    if first is None:
+        raise InputError("frames: the frame stream is empty; nothing to write")
+    if head is not None and len(head) != f + 1:
+        raise InputError(f"transforms: {len(head)} matrices for {f + 1} frames; give one per"
+                         " frame")  # fmt: skip
+
+
 def animation(frames: Iterable[HairCurves] | SimCache, fps: float | None, start: int,
-              mesh: SkinMesh | None, transforms: object | None) -> Animation:  # fmt: skip
-    """(frames, fps, start, head transforms or None), checked: a SimCache gives its guide
-    strands per frame, its fps (unless ``fps``; else 24) and, when ``mesh`` is given, its
-    head transforms (unless ``transforms``); transforms without a mesh are refused."""
+              mesh: SkinMesh | None, transforms: object | None,
+              target: Target | str = "generic", in_units: bool = True,
+              role: str | None = None) -> Animation:  # fmt: skip
+    """The animation to write, checked: a SimCache gives its guide strands per frame
+    (written as guides unless ``role`` says "hair"; other frames as hair unless it says
+    "guides"), its fps (unless ``fps``; else 24) and, when ``mesh`` is given,
+    its head transforms (unless ``transforms``); transforms without a mesh are refused.
+    ``target`` and ``in_units`` as :func:`follicle.io.targets.for_target` takes them."""
+    tool = get_target(target)
+    if role not in (None, "hair", "guides"):
+        raise InputError(f"role: expected 'hair', 'guides' or None, got {role!r}")
     positions = getattr(frames, "positions", None)
     cache_fps = cache_transforms = None
-    if isinstance(positions, np.ndarray) and positions.ndim == 4:
+    is_cache = isinstance(positions, np.ndarray) and positions.ndim == 4
+    role = role if role is not None else "guides" if is_cache else "hair"
+    if is_cache:
         cache_fps, cache_transforms = float(frames.fps), frames.transforms
         frames = (HairCurves.from_array(p) for p in positions)
     elif isinstance(frames, HairCurves) or not isinstance(frames, Iterable):
@@ -67,10 +119,13 @@ def animation(frames: Iterable[HairCurves] | SimCache, fps: float | None, start:
     if mesh is not None and transforms is None:
         transforms = cache_transforms
     head = None if transforms is None else head_matrices(transforms)
+    if head is not None and in_units and tool.scale != 1.0:
+        head = head.copy()
+        head[:, :3, 3] *= tool.scale
     rate = fps if fps is not None else cache_fps if cache_fps is not None else 24.0
     real = (int, float, np.integer, np.floating)
     if isinstance(rate, bool) or not isinstance(rate, real) or not 0 < rate < np.inf:
         raise InputError(f"fps: expected a finite number > 0, got {rate!r}")
     if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
         raise InputError(f"start: expected a whole number (the first frame), got {start!r}")
-    return frames, float(rate), int(start), head
+    return Animation(_checked(frames, head, tool, role, in_units), float(rate), int(start), head)

@@ -53,6 +53,7 @@ class Target:
     prefix: str | None = None  # the tool reads only attributes named so (and widths)
     groom_schema: bool = False  # Unreal's: USD GroomAPI on the hair, Alembic's version keys
     alembic_reads: frozenset[str] | None = None  # what its Alembic importer keeps (None: all)
+    unused: frozenset[str] = frozenset()  # ours that it has no use for: not written
 
     @property
     def scale(self) -> float:
@@ -64,7 +65,8 @@ TARGETS: dict[str, Target] = {t.name: t for t in (
     Target("generic", "Blender", "any USD or Alembic reader; opens right in Blender and Houdini"),
     Target("blender", "Blender", "Blender 4–5 hair curves (its hair tools' attribute names)",
            curve_names={"root_uv": "surface_uv_coordinate"},
-           alembic_reads=frozenset({"width"})),  # measured, bpy 5.0.1
+           alembic_reads=frozenset({"width"}),  # measured, bpy 5.0.1
+           unused=frozenset({"normal"})),  # its hair is round tubes: USD import drops them
     Target("houdini", "Houdini", "Houdini SOPs and Solaris (its groom attribute names)",
            point_names={"color": "Cd"}, curve_names={"root_uv": "uv"}, int32=False,
            houdini_skin=True),
@@ -157,8 +159,8 @@ def for_target(curves: HairCurves, target: Target | str, role: str = "hair",
     if role not in ("hair", "guides"):
         raise InputError(f"role: expected 'hair' or 'guides', got {role!r}")
     curves = _sized(curves, t, role)
-    point_data = dict(curves.point_data)
-    curve_data = dict(curves.curve_data)
+    point_data = {k: v for k, v in curves.point_data.items() if k not in t.unused}
+    curve_data = {k: v for k, v in curves.curve_data.items() if k not in t.unused}
     if role == "guides" and "width" not in point_data:
         point_data["width"] = np.full(curves.point_count, DEFAULT_WIDTH, np.float32)
     if in_units and t.scale != 1.0:

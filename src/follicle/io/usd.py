@@ -56,8 +56,8 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..curves import HairCurves
-from ..errors import FormatError, InputError
-from .animation import animation, as_guides
+from ..errors import FormatError
+from .animation import Animation, animation, as_guides
 from .atomic import atomic_path
 from .attributes import column, conventional
 from .guard import curves_from_parts
@@ -72,8 +72,8 @@ if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
     from ..sim.cache import SimCache
 
-__all__ = ["save_usd", "save_usd_cache", "load_usd", "HAIR_PATH", "GUIDES_PATH", "SKIN_PATH",
-           "HEAD_PATH", "SUFFIXES"]
+__all__ = ["save_usd", "save_usd_cache", "load_usd", "usd_parts", "HAIR_PATH",
+           "GUIDES_PATH", "SKIN_PATH", "HEAD_PATH", "SUFFIXES"]
 
 log = logging.getLogger("follicle")
 
@@ -313,21 +313,18 @@ def save_usd(
 
 # ------------------------------------------------------------------ animation cache
 
-def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: int,
-                 mesh: SkinMesh | None, transforms: np.ndarray | None) -> None:  # fmt: skip
-    stage = _new_stage(crate)
-    stage.SetTimeCodesPerSecond(fps)
-    stage.SetFramesPerSecond(fps)
+def _write_cache(anim: Animation, crate: Path, mesh: SkinMesh | None,
+                 groom_schema: bool) -> None:  # fmt: skip
+    stage = _new_stage(crate, groom_schema)
+    stage.SetTimeCodesPerSecond(anim.fps)
+    stage.SetFramesPerSecond(anim.fps)
     layer = stage.GetRootLayer()
-    head = None if transforms is None else define_head(stage, HEAD_PATH)
+    head = None if anim.head is None else define_head(stage, HEAD_PATH)
     if mesh is not None:
         define_skin(stage, SKIN_PATH if head is None else f"{HEAD_PATH}/Skin", mesh)
     path = f"{HAIR_PATH}/chunk_0000"
     first = None
-    for f, frame in enumerate(frames):
-        if not isinstance(frame, HairCurves):
-            raise InputError(f"frames: frame {f} is a {type(frame).__name__}, not HairCurves")
-        frame = conventional(frame)
+    for f, frame in enumerate(anim.frames):
         if first is None:
             first = frame
             _define_curves(stage, path, frame, True)
@@ -336,18 +333,9 @@ def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: i
             sampled = [prim.GetPointsAttr(), prim.GetExtentAttr(), prim.GetNormalsAttr()]
             for attr in sampled:
                 attr.Clear()
-        elif not np.array_equal(frame.offsets, first.offsets):
-            raise InputError(
-                f"frames: frame {f} has {frame.curve_count} curves / {frame.point_count} points"
-                f" laid out differently from frame 0 ({first.curve_count} / {first.point_count});"
-                " every frame must share the first frame's topology"
-            )
-        time = Usd.TimeCode(start + f)
+        time = Usd.TimeCode(anim.start + f)
         if head is not None:
-            if f >= len(transforms):
-                raise InputError(f"transforms: {len(transforms)} matrices for {f + 1} or more"
-                                 " frames; give one per frame")  # fmt: skip
-            set_head(head, transforms[f], time)
+            set_head(head, anim.head[f], time)
         sampled[0].Set(Vt.Vec3fArray.FromNumpy(frame.points), time)
         if frame.point_count:
             width = first.point_data.get("width")
@@ -356,13 +344,8 @@ def _write_cache(frames: Iterable[HairCurves], crate: Path, fps: float, start: i
             normal = np.asarray(frame.point_data["normal"], dtype=np.float32)
             sampled[2].Set(Vt.Vec3fArray.FromNumpy(normal), time)
         layer.Save()  # crate appends this frame's samples
-    if first is None:
-        raise InputError("frames: the frame stream is empty; nothing to write")
-    if head is not None and len(transforms) != f + 1:
-        raise InputError(f"transforms: {len(transforms)} matrices for {f + 1} frames; give one"
-                         " per frame")  # fmt: skip
-    stage.SetStartTimeCode(start)
-    stage.SetEndTimeCode(start + f)
+    stage.SetStartTimeCode(anim.start)
+    stage.SetEndTimeCode(anim.start + f)
     layer.Save()
 
 
@@ -373,13 +356,18 @@ def save_usd_cache(
     start: int = 0,
     mesh: SkinMesh | None = None,
     transforms: object | None = None,
+    target: Target | str = "generic",
+    role: str | None = None,
 ) -> Path:
     """Write an animation: frame ``f`` of ``frames`` is time code ``start + f`` of one
     BasisCurves prim ``/Groom/Hair/chunk_0000``, whose topology and primvars come from
-    frame 0 and whose ``points`` and ``extent`` are sampled per frame.
+    frame 0 and whose ``points`` and ``extent`` are sampled per frame; named and typed
+    as ``target`` reads them (see :func:`save_usd`).
 
     ``fps`` (default 24, or a SimCache's own) sets ``timeCodesPerSecond``. A SimCache
-    writes its guide strands; for hair, write ``groom.follow(cache.positions[f])`` after
+    writes its guide strands, as guides (``role``: "hair" or "guides" says what the
+    frames are; by default guides for a SimCache, hair otherwise); for hair, write
+    ``groom.follow(cache.positions[f])`` after
     ``groom.mesh.set_pose(transform=cache.transforms[f])`` for each frame f.
 
     ``mesh`` (a SkinMesh) is written at rest as ``/Groom/Skin``; with ``transforms``
@@ -388,12 +376,12 @@ def save_usd_cache(
     ``/Groom/Head`` whose ``xformOp:transform`` is sampled per frame, so the skin moves
     with the (world-space) hair.
     """
-    target = _check_suffix(path)
-    stream, rate, start, head = animation(frames, fps, start, mesh, transforms)
-    with _writing(target), atomic_path(target) as tmp:
-        _finish(target, tmp, lambda crate: _write_cache(stream, crate, rate, start,
-                                                        mesh, head))  # fmt: skip
-    return target
+    out = _check_suffix(path)
+    tool = get_target(target)
+    anim = animation(frames, fps, start, mesh, transforms, tool, in_units=False, role=role)
+    with _writing(out), atomic_path(out) as tmp:
+        _finish(out, tmp, lambda crate: _write_cache(anim, crate, mesh, tool.groom_schema))
+    return out
 
 
 # ------------------------------------------------------------------ reading
@@ -429,7 +417,15 @@ def load_usd(
     keeps primvars as the file names and types them (only ``displayColor`` /
     ``displayOpacity`` taken as ``color`` / ``opacity``): what `follicle check` reads.
     """
+    source, parts = usd_parts(path, time, guides, stored)
+    return curves_from_parts(parts, source, bool(stored))
+
+
+def usd_parts(path: str | os.PathLike[str], time: float | None = None, guides: bool = False,
+              stored: bool = False) -> tuple[Path, list[dict]]:  # fmt: skip
+    """(the file, its chosen curves prims as dicts of arrays) as :func:`load_usd` reads
+    and then joins them; ``stored`` parts also say whether Unreal's ``GroomAPI`` is on
+    the prim or one above it (``groom_schema``), for `follicle check`."""
     source = input_file(path, "USD file (.usd, .usda, .usdc or .usdz)")
     check_container(source)
-    return curves_from_parts(read_stage(source, time, guides, bool(stored)), source,
-                             bool(stored))  # fmt: skip
+    return source, read_stage(source, time, guides, bool(stored))

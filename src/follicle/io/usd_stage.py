@@ -367,9 +367,22 @@ def read(path: str, source: str, time: float | None, guides: bool,
             raise Refused(str(exc)) from None
         points = _transform(part.points, point_data, _world(prim, when, part.where), part.where)
         offsets = np.concatenate([[0], np.cumsum(part.out)])
-        prims.append({"where": part.where, "points": points, "offsets": offsets,
-                      "point_data": point_data, "curve_data": curve_data})  # fmt: skip
+        found = {"where": part.where, "points": points, "offsets": offsets,
+                 "point_data": point_data, "curve_data": curve_data}  # fmt: skip
+        if stored:  # what `follicle check` also asks: does Unreal see its groom schema?
+            found["groom_schema"] = _has_groom_api(prim)
+        prims.append(found)
     return prims
+
+
+def _has_groom_api(prim: Usd.Prim) -> bool:
+    """Whether ``GroomAPI`` (Unreal's USD groom schema, which USD does not know, so it
+    is read from the prim's list of applied schemas) is on ``prim`` or a prim above."""
+    while prim.IsValid() and not prim.IsPseudoRoot():
+        if "GroomAPI" in prim.GetPrimTypeInfo().GetAppliedAPISchemas():
+            return True
+        prim = prim.GetParent()
+    return False
 
 
 def usd_error(exc: BaseException, first: bool = False) -> str:

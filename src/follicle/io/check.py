@@ -1,0 +1,90 @@
+"""`follicle check`: a hair file read as a target's tool would read it, and what that
+tool would drop or refuse, one line each.
+
+USD and Alembic are read with their attributes as the file names and types them
+(:func:`follicle.io.usd.usd_parts`, :func:`follicle.io.alembic.abc_parts` with
+``stored``), Alembic in the target's units (it declares none); other formats through
+:func:`follicle.io.dispatch.load_curves`. What the reader had to leave out or fix (its
+warnings) is part of the list, then :func:`follicle.io.targets.problems`, then, for a
+target with a container schema (Unreal), the curves that lack it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+from ..curves import HairCurves
+from ..units import scale_curves
+from .attributes import plausible_widths
+from .guard import curves_from_parts
+from .targets import Target, get_target, problems
+
+__all__ = ["check_file", "warnings_heard"]
+
+log = logging.getLogger("follicle")
+
+_SHOWN = 3  # curves objects named in a line about several
+
+
+@contextlib.contextmanager
+def warnings_heard() -> Iterator[list[str]]:
+    """The follicle logger's warnings while the block runs, kept instead of printed."""
+    heard: list[str] = []
+
+    class _Keep(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            heard.append(record.getMessage())
+
+    keep = _Keep(logging.WARNING)
+    log.addHandler(keep)
+    log.propagate = False
+    try:
+        yield heard
+    finally:
+        log.removeHandler(keep)
+        log.propagate = True
+
+
+def _without_schema(parts: list[dict], source: Path, target: Target, alembic: bool) -> list[str]:
+    """One line for the curves objects that lack ``target``'s container schema."""
+    lacking = [p["where"].removeprefix(f"{source}: ") for p in parts if not p["groom_schema"]]
+    if not target.groom_schema or not lacking:
+        return []
+    named = ", ".join(lacking[:_SHOWN]) + (", …" if len(lacking) > _SHOWN else "")
+    where = f"{len(lacking)} of {len(parts)} curves objects ({named})"
+    if alembic:
+        return [f"{where}: no groom_version_major / groom_version_minor (int16, constant) on"
+                f" them or an Xform above: {target.tool} imports their curves without any"
+                " groom_* attribute"]
+    return [f"{where}: no GroomAPI on them or a prim above: {target.tool}'s USD importer does"
+            " not read them as a groom"]
+
+
+def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[HairCurves, list[str]]:
+    """(the curves of ``path`` as ``target`` reads them, what it would drop or refuse, one
+    line each, without the file's name); FollicleError when the file cannot be read."""
+    from .alembic import abc_parts
+    from .dispatch import load_curves
+    from .usd import SUFFIXES as USD_SUFFIXES
+    from .usd import usd_parts
+
+    t = get_target(target)
+    suffix = Path(path).suffix.lower()
+    alembic = suffix == ".abc"
+    schema: list[str] = []
+    with warnings_heard() as heard:  # what the reader had to leave out or fix
+        if suffix in USD_SUFFIXES or alembic:
+            source, parts = (abc_parts if alembic else usd_parts)(path, stored=True)
+            curves = curves_from_parts(parts, source, stored=True)
+            if alembic:  # no unit of its own: the target's (Unreal: centimetres)
+                curves = scale_curves(curves, t.meters_per_unit)
+            schema = _without_schema(parts, source, t, alembic)
+        else:
+            curves = load_curves(path, units=t.meters_per_unit)
+        plausible_widths(curves, path)
+    found = [line.removeprefix(f"{path}: ") for line in heard]
+    return curves, found + problems(curves, t, alembic=alembic) + schema
