@@ -165,12 +165,14 @@ def test_guides_are_skipped_unless_asked_or_alone(tmp_path, grown, groom):
 def test_the_unreal_target_writes_centimetres_and_the_groom_schema(tmp_path, grown, groom):
     path = save_abc(grown, tmp_path / "ue.abc", guides=groom.guides, mesh=groom.mesh,
                     target="unreal")
-    arb = Abc.ICompoundProperty(_geom(_objects(path)[HAIR]), ".arbGeomParams")
+    xform = Abc.ICompoundProperty(_objects(path)["/Groom"].getProperties(), ".xform")
+    user = Abc.ICompoundProperty(xform, ".userProperties")  # where Unreal reads it
     for key, number in (("groom_version_major", 1), ("groom_version_minor", 5)):
-        header = arb.getPropertyHeader(key)
-        assert (str(header.getDataType()), header.getMetaData().get("geoScope")) == \
-            ("int16_t", "con")
-        assert list(arb.getProperty(key).getValue(Abc.ISampleSelector())) == [number]
+        header = user.getPropertyHeader(key)
+        assert header.isScalar() and str(header.getDataType()) == "int16_t"
+        assert user.getProperty(key).getValue() == number
+    arb = Abc.ICompoundProperty(_geom(_objects(path)[HAIR]), ".arbGeomParams")
+    assert arb.getPropertyHeader("groom_version_major") is None  # strands' attributes there
     back = load_abc(path)  # Alembic declares no unit: these are Unreal's centimetres
     np.testing.assert_allclose(back.points, grown.points.astype(np.float64) * 100, rtol=1e-6)
     np.testing.assert_allclose(back.point_data["width"], grown.point_data["width"] * 100,

@@ -108,6 +108,14 @@ def test_guides_get_widths_and_the_guide_flag(groom):
     out = for_target(groom.guides.curves, "unreal", "guides")
     assert out.curve_data["groom_guide"].all()
     assert out.point_data["width"].min() == pytest.approx(1e-2)  # 0.1 mm in cm
+    n = groom.guides.count
+    assert out.curve_data["groom_id"].tolist() == list(range(n))
+    g = groom.guides.curves
+    for curve_data in ({}, {"guide_id": np.arange(n, dtype=np.int64)[::-1] + 100}):
+        # guides from a file (no ids, or ids of their own): the id the hair's closest
+        # guides name (Groom.guide_binding's indices) is the index
+        other = for_target(HairCurves(g.points, g.offsets, {}, curve_data), "unreal", "guides")
+        assert other.curve_data["groom_id"].tolist() == list(range(n))
     with pytest.raises(InputError, match="role"):
         for_target(groom.guides.curves, "unreal", "guide")
     with pytest.raises(InputError, match="target: unknown target 'maya'"):
@@ -230,15 +238,16 @@ def test_check_names_each_problem_of_an_alembic_file_broken_for_unreal(tmp_path,
     assert "Unreal reads only groom_* attributes: Cd, id, uv would be dropped" in lines
     assert lines[-1] == (
         "1 of 1 curves objects (/Groom/Hair_0000/Hair_0000Shape): no groom_version_major /"
-        " groom_version_minor (int16, constant) on them or an Xform above: Unreal imports"
-        " their curves without any groom_* attribute")
+        " groom_version_minor where Unreal reads them (user properties of the curves or an"
+        " Xform above): it imports their curves without any groom_* attribute")
 
 
 @pytest.mark.parametrize("ext", [".usda", ".abc"])
 def test_a_groom_schema_above_the_curves_is_found(tmp_path, hair, ext):
     """Unreal reads its schema on the curves or on a transform above them: GroomAPI on
-    /Groom/Hair (ours), or the version on the top Xform (as Houdini's groom exporter
-    writes it) pass."""
+    /Groom/Hair (ours), or the version in an Xform's arbGeomParams (the schema's 1.0
+    place) pass; the version among a curves object's own arbGeomParams (Unreal's
+    strand attributes) does not."""
     path = tmp_path / f"u{ext}"
     save(hair, path, target="unreal")
     if ext == ".abc":
@@ -258,7 +267,9 @@ def test_a_groom_schema_above_the_curves_is_found(tmp_path, hair, ext):
         _, found = check_file(write(tmp_path / "top.abc", build), "unreal")
         assert not [x for x in found if "groom_version" in x], found
         _, found = check_file(write(tmp_path / "none.abc", lambda top: add_curves(
-            top, "Hair", [2, 2], hair.points[:4] * 100)), "unreal")  # fmt: skip
+            top, "Hair", [2, 2], hair.points[:4] * 100, params=[
+                ("groom_version_major", "short", [1], "constant"),
+                ("groom_version_minor", "short", [5], "constant")])), "unreal")  # fmt: skip
         assert [x for x in found if "groom_version" in x], found
     run = CliRunner().invoke(main, ["check", str(path), "--target", "unreal"])
     assert run.exit_code == 0, run.output

@@ -36,8 +36,10 @@ Alembic declares no units and no up axis: follicle writes metres, +Y up. Attribu
 A ``target`` (:mod:`follicle.io.targets`) renames and types the attributes for the tool
 that opens the file and, Alembic declaring no units, scales to its units (Unreal:
 centimetres, guides flagged ``groom_guide``, and its groom schema's version,
-``groom_version_major`` 1 and ``groom_version_minor`` 5, int16 of constant scope, on
-every curves object).
+``groom_version_major`` 1 and ``groom_version_minor`` 5, int16 scalar user properties
+of the top Xform ``/Groom``, where Unreal's importer reads groom-wide values (and its
+own exporter writes them); as arbGeomParams of a curves object it would take them for
+the strands' attributes).
 
 alembic3d writes in a child process (:mod:`follicle.io.alembic_sink`), fed one object
 at a time through a pipe: its C++ ends the process it runs in when a write fails (a
@@ -97,7 +99,7 @@ __all__ = ["save_abc", "save_abc_cache", "load_abc", "abc_parts", "load_abc_mesh
 log = logging.getLogger("follicle")
 
 GROOM, GUIDES, SKIN, HEAD = "/Groom", "/Groom/Guides", "/Groom/Skin", "/Groom/Head"
-GROOM_VERSION = (1, 5)  # Unreal's Alembic groom schema, on every curves object it reads
+GROOM_VERSION = (1, 5)  # Unreal's Alembic groom schema: /Groom's user properties
 _SCRIPT = Path(__file__).with_name("guard_server.py")
 _INT32 = np.iinfo(np.int32)
 # (dtype, components) -> the geometry parameter kind the writer makes of it
@@ -130,12 +132,10 @@ def _bounds(points: np.ndarray, width: np.ndarray | None) -> np.ndarray:
     return np.stack([points.min(axis=0) - pad, points.max(axis=0) + pad]).astype(np.float64)
 
 
-def _curves_arrays(curves: HairCurves, normals: bool,
-                   groom_schema: bool = False) -> tuple[list, dict[str, np.ndarray]]:  # fmt: skip
+def _curves_arrays(curves: HairCurves, normals: bool) -> tuple[list, dict[str, np.ndarray]]:
     """(params, arrays) of a ``curves`` operation: points, counts, bounds, widths,
     normals, uv and every other attribute as an arbGeomParam (warning of those that
-    have no Alembic type), and with ``groom_schema`` the version of Unreal's groom
-    schema (``groom_version_major`` / ``_minor``, int16, constant scope)."""
+    have no Alembic type)."""
     width = column(curves, "width", 1)
     arrays = {"points": curves.points, "counts": curves.counts.astype(np.int32),
               "bounds": _bounds(curves.points, width)}  # fmt: skip
@@ -150,10 +150,6 @@ def _curves_arrays(curves: HairCurves, normals: bool,
                              f" got {uv.shape}")  # fmt: skip
         arrays["uv"] = uv.astype(np.float32)
     params = []
-    if groom_schema:
-        for key, number in zip(GROOM_VERSION_KEYS, GROOM_VERSION, strict=True):
-            arrays[f"param{len(params)}"] = np.array([number], np.int16)
-            params.append([key, "short", "Constant"])
     pd = curves.point_data
     for data, scope in ((pd, "Vertex"), (curves.curve_data, "Uniform")):
         for name, arr in sorted(data.items()):
@@ -273,13 +269,15 @@ class _Sink:
                 stream.close()
 
 
-def _write(target: Path, fill: Callable[[_Sink], None]) -> None:
+def _write(target: Path, fill: Callable[[_Sink], None], groom_schema: bool = False) -> None:
     """An archive at ``target``, written atomically by a sink that ``fill`` feeds, then
     checked whole (Ogawa's streams do not always report a failed write: a full disk
-    can leave a file without its root group or its finished flag)."""
+    can leave a file without its root group or its finished flag). With
+    ``groom_schema``, ``/Groom`` carries Unreal's groom schema version."""
+    version = dict(zip(GROOM_VERSION_KEYS, GROOM_VERSION, strict=True)) if groom_schema else {}
     with atomic_path(target) as tmp:
         with _Sink.writing(target, tmp) as sink:
-            sink.send({"op": "xform", "path": GROOM})
+            sink.send({"op": "xform", "path": GROOM, "user": version})
             fill(sink)
         try:
             check_archive(tmp)
@@ -304,9 +302,8 @@ def _shape(sink: _Sink, path: str) -> str:
     return f"{path}/{path.rpartition('/')[2]}Shape"
 
 
-def _send_curves(sink: _Sink, path: str, curves: HairCurves, normals: bool,
-                 groom_schema: bool) -> None:  # fmt: skip
-    params, arrays = _curves_arrays(curves, normals, groom_schema)
+def _send_curves(sink: _Sink, path: str, curves: HairCurves, normals: bool) -> None:
+    params, arrays = _curves_arrays(curves, normals)
     sink.send({"op": "curves", "path": path, "params": params, "keep": False}, arrays)
 
 
@@ -327,7 +324,7 @@ def save_abc(
     ``target`` (see :mod:`follicle.io.targets`) names and types the attributes for the
     tool that opens the file and, Alembic declaring no units, writes points, widths and
     the skin in its units (Unreal: centimetres, guides flagged ``groom_guide = 1``, and
-    the groom schema's version on every curves object)."""
+    the groom schema's version on ``/Groom``)."""
     out = _check_suffix(path)
     tool = get_target(target)
     guide_curves = None
@@ -340,12 +337,11 @@ def save_abc(
         if skin is not None:
             sink.send({"op": "mesh", "path": _shape(sink, SKIN)}, skin)
         if guide_curves is not None:
-            _send_curves(sink, _shape(sink, GUIDES), guide_curves, normals, tool.groom_schema)
+            _send_curves(sink, _shape(sink, GUIDES), guide_curves, normals)
         for i, chunk in enumerate(chunks):
-            _send_curves(sink, _shape(sink, f"{GROOM}/Hair_{i:04d}"), chunk, normals,
-                         tool.groom_schema)  # fmt: skip
+            _send_curves(sink, _shape(sink, f"{GROOM}/Hair_{i:04d}"), chunk, normals)
 
-    _write(out, fill)
+    _write(out, fill, tool.groom_schema)
     return out
 
 
@@ -356,8 +352,7 @@ def _velocities(frame: HairCurves, later: HairCurves, fps: float) -> np.ndarray:
 
 
 def _send_frame(sink: _Sink, path: str, frame: HairCurves, first: HairCurves,
-                velocities: np.ndarray, timing: dict | None,
-                groom_schema: bool) -> None:  # fmt: skip
+                velocities: np.ndarray, timing: dict | None) -> None:  # fmt: skip
     """Frame 0 (``timing`` given) with everything: topology, widths, uv and
     arbGeomParams stay as it has them; later frames with points, velocities, bounds and
     normals."""
@@ -368,13 +363,12 @@ def _send_frame(sink: _Sink, path: str, frame: HairCurves, first: HairCurves,
     if timing is None:
         sink.send({"op": "sample", "path": path}, arrays)
         return
-    params, everything = _curves_arrays(frame, True, groom_schema)
+    params, everything = _curves_arrays(frame, True)
     sink.send({"op": "curves", "path": path, "params": params, "keep": True, **timing},
               {**everything, **arrays})  # fmt: skip
 
 
-def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None,
-                groom_schema: bool) -> None:  # fmt: skip
+def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None) -> None:
     """The animation's operations: the head Xform's samples, the skin, then the curves
     at frame 0 and one sample per later frame, each sent once the next frame gives its
     velocities (the last frame keeps the velocities into it; a single frame has none)."""
@@ -394,12 +388,11 @@ def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None
         else:
             velocities = _velocities(previous, frame, anim.fps)
             _send_frame(sink, path, previous, first, velocities,
-                        timing if count == 2 else None, groom_schema)  # fmt: skip
+                        timing if count == 2 else None)  # fmt: skip
         previous = frame
     if velocities is None:
         velocities = np.zeros_like(first.points)
-    _send_frame(sink, path, previous, first, velocities, timing if count == 1 else None,
-                groom_schema)  # fmt: skip
+    _send_frame(sink, path, previous, first, velocities, timing if count == 1 else None)
 
 
 def save_abc_cache(
@@ -433,7 +426,7 @@ def save_abc_cache(
     tool = get_target(target)
     anim = animation(frames, fps, start, mesh, transforms, tool, role=role)
     skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
-    _write(out, lambda sink: _send_cache(sink, anim, skin, tool.groom_schema))
+    _write(out, lambda sink: _send_cache(sink, anim, skin), tool.groom_schema)
     return out
 
 

@@ -326,21 +326,38 @@ def _selector(time: float | None) -> Abc.ISampleSelector:
     return Abc.ISampleSelector() if time is None else Abc.ISampleSelector(float(time))
 
 
+def _scalar_int(compound: Abc.ICompoundProperty, name: str) -> int | None:
+    """The whole number that scalar property ``name`` of ``compound`` holds, or None."""
+    header = compound.getPropertyHeader(name)
+    if header is None or not header.isScalar() or _POD.get(header.getDataType().getPod()) \
+            not in (np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32):  # fmt: skip
+        return None
+    value = compound.getProperty(name).getValue()
+    return int(value) if isinstance(value, (int, np.integer)) else None
+
+
 def _groom_version(obj: Abc.IObject, sel: Abc.ISampleSelector, where: str) -> list[int] | None:
-    """Unreal's groom schema version (``groom_version_major``, ``_minor``: arbGeomParams
-    of the curves object or an Xform above it) or None when it is not there."""
+    """Unreal's groom schema version (``groom_version_major``, ``_minor``) where its
+    importer reads groom-wide values: scalar user properties of the curves object or an
+    Xform above it, or (version 1.0's place) an Xform's arbGeomParams; None when it is
+    not there. (A curves object's arbGeomParams are its strands' attributes to Unreal.)"""
     while obj.valid() and obj.getParent().valid():  # up to the archive's top, not it
         props = obj.getProperties()
-        for schema in (".geom", ".xform"):
+        xform = AbcGeom.IXform.matches(obj.getHeader())
+        for schema in (".xform",) if xform else (".geom",):
             if props.getPropertyHeader(schema) is None:
                 continue
             geom = Abc.ICompoundProperty(props, schema)
-            if geom.getPropertyHeader(".arbGeomParams") is None:
-                continue
-            arb = Abc.ICompoundProperty(geom, ".arbGeomParams")
-            found = [_param(arb, k, sel, where) for k in GROOM_VERSION_KEYS]
-            if all(f is not None and f[0].size and f[0].dtype.kind == "i" for f in found):
-                return [int(f[0].reshape(-1)[0]) for f in found]
+            if geom.getPropertyHeader(".userProperties") is not None:
+                user = Abc.ICompoundProperty(geom, ".userProperties")
+                found = [_scalar_int(user, k) for k in GROOM_VERSION_KEYS]
+                if None not in found:
+                    return found
+            if xform and geom.getPropertyHeader(".arbGeomParams") is not None:
+                arb = Abc.ICompoundProperty(geom, ".arbGeomParams")
+                params = [_param(arb, k, sel, where) for k in GROOM_VERSION_KEYS]
+                if all(p is not None and p[0].size and p[0].dtype.kind in "iu" for p in params):
+                    return [int(p[0].reshape(-1)[0]) for p in params]
         obj = obj.getParent()
     return None
 

@@ -12,15 +12,16 @@ runs; after a finished archive it waits for the next one.
 The protocol, on stdin: one JSON line per operation naming its arrays
 (``"arrays": [[name, dtype, shape], …]``), then their raw bytes in that order
 (:func:`send`, :func:`receive`). Operations: ``open`` (``path``), ``xform`` (``path``,
-``fps``/``start`` for a sampled one), ``matrix`` (``path``; ``matrix``: a row-vector
-4×4 sample), ``curves`` (``path``, ``fps``/``start``, ``keep``: hold it for more
-samples; ``points``, ``counts``, ``bounds``, optional ``width``, ``normal``, ``uv``,
-``velocities`` and ``params``: ``[[name, kind, scope], …]`` with arrays ``param0``, …,
-kind one of :data:`_PARAM_TYPES`, scope ``Vertex``, ``Uniform`` or ``Constant``),
-``sample`` (``path``; ``points``, ``velocities``, ``bounds``, optional ``normal``),
-``mesh`` (``path``; ``points``, ``indices``, ``counts``, optional ``uv`` and
-``uv_index``) and ``close``. The child answers ``close`` (or a failure) with one JSON
-line on stdout: ``{"ok": true}`` or ``{"error": message}``.
+``fps``/``start`` for a sampled one, ``user``: ``{name: int16}`` user properties),
+``matrix`` (``path``; ``matrix``: a row-vector 4×4 sample), ``curves`` (``path``,
+``fps``/``start``, ``keep``: hold it for more samples; ``points``, ``counts``,
+``bounds``, optional ``width``, ``normal``, ``uv``, ``velocities`` and ``params``:
+``[[name, kind, scope], …]`` with arrays ``param0``, …, kind one of
+:data:`_PARAM_TYPES`, scope ``Vertex``, ``Uniform`` or ``Constant``), ``sample``
+(``path``; ``points``, ``velocities``, ``bounds``, optional ``normal``), ``mesh``
+(``path``; ``points``, ``indices``, ``counts``, optional ``uv`` and ``uv_index``) and
+``close``. The child answers ``close`` (or a failure) with one JSON line on stdout:
+``{"ok": true}`` or ``{"error": message}``.
 """
 
 from __future__ import annotations
@@ -98,10 +99,6 @@ class _Writer:
             np.asarray(out)[:] = arr
         elif kind == "uint":
             out = imath.UnsignedIntArray(imath.DoubleArrayFromBuffer(arr.astype(np.float64)))
-        elif kind == "short":  # a few values (the groom schema's version): no buffer to fill
-            out = imath.ShortArray(len(arr))
-            for i, value in enumerate(arr.tolist()):
-                out[i] = value
         else:
             out = getattr(imath, _BUFFERS[kind] + "ArrayFromBuffer")(arr)
         self.held.append(out)
@@ -140,7 +137,12 @@ class _Writer:
 
     def xform(self, op: dict, arrays: dict[str, np.ndarray]) -> None:
         parent, name = self._parent(op["path"])
-        self.objects[op["path"]] = AbcGeom.OXform(parent, name, *self._args(op))
+        xform = AbcGeom.OXform(parent, name, *self._args(op))
+        self.objects[op["path"]] = xform
+        if op.get("user"):  # int16 scalars (Unreal's groom schema version)
+            user = xform.getSchema().getUserProperties()
+            for key, value in op["user"].items():
+                Abc.OInt16Property(user, key).setValue(int(value))
 
     def matrix(self, op: dict, arrays: dict[str, np.ndarray]) -> None:
         sample = AbcGeom.XformSample()
@@ -189,7 +191,7 @@ class _Writer:
 # geometry parameter kind -> the name in alembic3d's O<name>GeomParam, and its imath array
 _PARAM_TYPES = {"float": "Float", "v2f": "V2f", "v3f": "V3f", "n3f": "N3f", "double": "Double",
                 "v2d": "V2d", "v3d": "V3d", "int": "Int32", "v2i": "V2i", "v3i": "V3i",
-                "uchar": "Uchar", "c3f": "C3f", "short": "Int16"}  # fmt: skip
+                "uchar": "Uchar", "c3f": "C3f"}  # fmt: skip
 _BUFFERS = {"float": "Float", "v2f": "V2f", "v3f": "V3f", "n3f": "V3f", "double": "Double",
             "v2d": "V2d", "v3d": "V3d", "int": "Int", "v2i": "V2i", "v3i": "V3i"}
 

@@ -154,7 +154,9 @@ def for_target(curves: HairCurves, target: Target | str, role: str = "hair",
     in its units (``in_units=False`` keeps metres, for a format that declares its unit,
     like USD's ``metersPerUnit``, which the tool converts from). ``role`` is "hair" or
     "guides": guides get widths (DEFAULT_WIDTH when they have none) and the target's
-    guide flag (1; hair gets 0)."""
+    guide flag (1; hair gets 0) with their index as their id (Unreal binds each hair to
+    the ids its ``groom_closest_guides`` name, and :meth:`Groom.guide_binding` gives
+    guide indices)."""
     t = get_target(target)
     if role not in ("hair", "guides"):
         raise InputError(f"role: expected 'hair' or 'guides', got {role!r}")
@@ -173,6 +175,8 @@ def for_target(curves: HairCurves, target: Target | str, role: str = "hair",
         curve_data = _houdini_skin(curve_data)
     if t.guide_flag is not None:
         curve_data[t.guide_flag] = np.full(curves.curve_count, role == "guides", np.int32)
+        if role == "guides":  # its id is what the hair's closest guides name: the index
+            curve_data["guide_id"] = np.arange(curves.curve_count, dtype=np.int32)
     point_data = {t.point_names.get(k, k): v for k, v in point_data.items()}
     curve_data = {t.curve_names.get(k, k): v for k, v in curve_data.items()}
     if t.prefix is not None:  # what the tool would drop anyway is not written
