@@ -1,4 +1,5 @@
-"""Root sampler benchmark (seed 000 §4.1): DensitySampler against rejection sampling and trimesh.
+"""Root sampler benchmark (Šik 2012 §4.1): DensitySampler against rejection sampling and
+trimesh.
 
 The mesh is the built-in head subdivided twice (111k triangles), the density a
 1024² HDR-like texture (smooth log-noise over 10⁴:1 plus bright specks, the kind of

@@ -564,7 +564,7 @@ def _central_difference(density: np.ndarray, h: float) -> np.ndarray:
 
 # ------------------------------------------------------------------ helpers
 def _linearised(k: float | np.ndarray, iterations: int) -> float | np.ndarray:
-    """The per-iteration stiffness that gives ``k`` after ``iterations`` (002 eq. 5.5)."""
+    """The per-iteration stiffness that gives ``k`` after ``iterations`` (Le Muzic 2012 eq. 5.5)."""
     return 1.0 - (1.0 - k) ** (1.0 / iterations)
 
 

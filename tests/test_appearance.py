@@ -1,4 +1,4 @@
-"""Hair colour, width and opacity per vertex (000 §2.2.6, §2.2.9)."""
+"""Hair colour, width and opacity per vertex (Šik 2012 §2.2.6, §2.2.9)."""
 
 from __future__ import annotations
 
@@ -121,7 +121,7 @@ def test_variation_is_uniform_per_hair_and_follows_the_stream():
     assert np.all(np.abs(dh_root) <= 30.0 + 1e-3)
     assert dh_root.min() < -29.5 and dh_root.max() > 29.5  # the whole ±var is reached
     assert abs(dh_root.mean()) < 0.5 and abs(np.std(dh_root) - 30.0 / np.sqrt(3)) < 0.5
-    # 000 §2.2.6: hue = hue − var · 2(ξ − 0.5), ξ numbers 0, 1, 2 of (seed, id, purpose)
+    # Šik 2012 §2.2.6: hue = hue − var · 2(ξ − 0.5), ξ numbers 0, 1, 2 of (seed, id, purpose)
     xi = uniforms(seed, np.arange(n), "color variation", 3)
     shift = 2.0 * (xi - 0.5) * [30.0, 0.2, 0.1]
     np.testing.assert_allclose(dh_root, -shift[:, 0], atol=1e-3)

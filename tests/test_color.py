@@ -1,4 +1,4 @@
-"""RGB <-> HSV and shortest-route hue interpolation (000 §2.2.6)."""
+"""RGB <-> HSV and shortest-route hue interpolation (Šik 2012 §2.2.6)."""
 
 from __future__ import annotations
 
@@ -100,7 +100,7 @@ def test_lerp_broadcasts():
 
 
 def test_yellow_to_blue_keeps_saturation():
-    # the seed's Fig. 2.25 argument: HSV keeps saturation where RGB mixes to grey
+    # the paper's Fig. 2.25 argument: HSV keeps saturation where RGB mixes to grey
     hsv = lerp_hsv(rgb_to_hsv([1, 1, 0]), rgb_to_hsv([0, 0, 1]), np.linspace(0, 1, 9))
     np.testing.assert_allclose(hsv[:, 1], 1.0)
     assert np.allclose(0.5 * np.array([1, 1, 0]) + 0.5 * np.array([0, 0, 1]), 0.5)

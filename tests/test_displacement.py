@@ -1,4 +1,4 @@
-"""displace: root positions and frames on a displaced mesh (000 §2.2.3 "Mesh displacement"),
+"""displace: root positions and frames on a displaced mesh (Šik 2012 §2.2.3 "Mesh displacement"),
 checked on flat planes by hand, on a curved cylinder against finite differences of
 displaced positions, for orthonormality, rigid invariance and input errors."""
 

@@ -1,4 +1,4 @@
-"""Hair strands: fibres around each hair (000 §2.2.7), in the hairs' root-local frames."""
+"""Hair strands: fibres around each hair (Šik 2012 §2.2.7), in the hairs' root-local frames."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Rotation minimizing frames (000 §2.2.8, double reflection) and root frames."""
+"""Rotation minimizing frames (Šik 2012 §2.2.8, double reflection) and root frames."""
 
 from __future__ import annotations
 

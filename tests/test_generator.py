@@ -1,4 +1,5 @@
-"""The groom pipeline (000 §2.2.2): guides reproduced, chunking, rigid motion, every property."""
+"""The groom pipeline (Šik 2012 §2.2.2): guides reproduced, chunking, rigid motion, every
+property."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Improved Perlin noise and noise3D (000 §2.2.5)."""
+"""Improved Perlin noise and noise3D (Šik 2012 §2.2.5)."""
 
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def test_bounded_and_varied():
 
 
 def test_noise3_is_perlin_at_three_offsets():
-    """000 §2.2.5: noise3D(x) = [noise(a_i + x)]; the shared-cell evaluation matches it
+    """Šik 2012 §2.2.5: noise3D(x) = [noise(a_i + x)]; the shared-cell evaluation matches it
     to rounding, and noise3D(0) is not the zero vector (the offsets avoid the lattice)."""
     p = _random_points(3_000, seed=5, span=50)
     offsets = _SHIFT + _CELLS

@@ -33,7 +33,7 @@ def smoothstep(e0: float, e1: float, x: float) -> float:
 
 # ---------------------------------------------------------------- the formulas
 def kajiya_kay(T, N, E, L, base, p) -> np.ndarray:
-    """001 eq. 3.8 (diffuse sin(T, L)) and 3.9 (specular), two shifted lobes."""
+    """Almeida 2014 eq. 3.8 (diffuse sin(T, L)) and 3.9 (specular), two shifted lobes."""
 
     def cone(tangent, exponent):
         tl, te = tangent @ L, tangent @ E
@@ -47,7 +47,7 @@ def kajiya_kay(T, N, E, L, base, p) -> np.ndarray:
 
 
 def scheuermann(T, N, E, L, base, p) -> np.ndarray:
-    """001 Alg. 6 without noise: diffuse 0.75 N.L + 0.25, sin(T', H)^p lobes."""
+    """Almeida 2014 Alg. 6 without noise: diffuse 0.75 N.L + 0.25, sin(T', H)^p lobes."""
     H = unit(L + E)
 
     def lobe(tangent, exponent):

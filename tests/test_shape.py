@@ -1,4 +1,4 @@
-"""Frizz, Kink (000 §2.2.5) and Curl (001 §3.1.2) on hairs in root-local frames."""
+"""Frizz, Kink (Šik 2012 §2.2.5) and Curl (Almeida 2014 §3.1.2) on hairs in root-local frames."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def _bent(n: int, n_verts: int) -> np.ndarray:
 
 
 def _frizz_vector(root, freq, offset=(0.0, 0.0, 0.0), blend=0.0) -> np.ndarray:
-    """F_combined of 000 §2.2.5 evaluated directly, z folded to -|z|."""
+    """F_combined of Šik 2012 §2.2.5 evaluated directly, z folded to -|z|."""
     root = np.asarray(root, float)
     freq = np.asarray(freq, float)
     static = np.array(noise3(*(freq * root)))
@@ -316,7 +316,7 @@ def test_curve_parameter_defaults_to_the_original_parametrisation():
 
 
 def test_a_cut_hair_keeps_its_original_parametrisation():
-    # cutting keeps t = i / (N_uncut - 1) (000 §2.2.8): the kept part deforms as before
+    # cutting keeps t = i / (N_uncut - 1) (Šik 2012 §2.2.8): the kept part deforms as before
     full = _bent(3, 9)
     cut = full[:, :5].copy()
     t_cut = np.linspace(0.0, 1.0, 9)[:5]

@@ -1,4 +1,5 @@
-"""Voxel-grid hair interaction (001 §3.2, 002 §5.1.3): splat, blur, friction, repulsion."""
+"""Voxel-grid hair interaction (Almeida 2014 §3.2, Le Muzic 2012 §5.1.3): splat, blur,
+friction, repulsion."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Catmull-Rom curves (000 §2.2.8) against hand-computed values."""
+"""Catmull-Rom curves (Šik 2012 §2.2.8) against hand-computed values."""
 
 from __future__ import annotations
 

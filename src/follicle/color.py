@@ -1,4 +1,4 @@
-"""RGB <-> HSV conversion and shortest-route hue interpolation (000 §2.2.6).
+"""RGB <-> HSV conversion and shortest-route hue interpolation (Šik 2012 §2.2.6).
 
 Hair colour is given at the root and tip and interpolated in HSV, which keeps
 saturation from dipping midway the way an RGB blend does. Hue is in degrees
@@ -83,7 +83,7 @@ def hsv_to_rgb1(h: float, s: float, v: float) -> tuple[float, float, float]:
 
 @njit(cache=True)
 def hue_distance1(h1: float, h2: float) -> float:
-    """000 §2.2.6: signed shortest step from hue h1 to h2 (cw positive, ccw negative)."""
+    """Šik 2012 §2.2.6: signed shortest step from hue h1 to h2 (cw positive, ccw negative)."""
     h1 = _wrap_hue(h1)
     h2 = _wrap_hue(h2)
     ccw = h1 - h2 if h1 >= h2 else 360.0 + h1 - h2
@@ -96,7 +96,7 @@ def lerp_hsv1(
     h1: float, s1: float, v1: float, h2: float, s2: float, v2: float, t: float
 ) -> tuple[float, float, float]:
     """HSV blend at t: hue along the shortest route, wrapped to [0, 360); s, v linear."""
-    h = _wrap_hue(h1 + t * hue_distance1(h1, h2))  # 000 §2.2.6, hue = hue1 + t * hue_dist
+    h = _wrap_hue(h1 + t * hue_distance1(h1, h2))  # Šik 2012 §2.2.6, hue = hue1 + t * hue_dist
     return h, s1 + t * (s2 - s1), v1 + t * (v2 - v1)
 
 
@@ -166,7 +166,7 @@ def hsv_to_rgb(hsv: object) -> np.ndarray:
 
 
 def hue_distance(h1: object, h2: object) -> np.ndarray | float:
-    """000 §2.2.6 hue_dist: signed shortest hue step h1 -> h2 in degrees, in (-180, 180]."""
+    """Šik 2012 §2.2.6 hue_dist: signed shortest hue step h1 -> h2 in degrees, in (-180, 180]."""
     a, b = np.broadcast_arrays(_as_finite(h1, "h1"), _as_finite(h2, "h2"))
     out = _hue_distance_kernel(np.ascontiguousarray(a).ravel(), np.ascontiguousarray(b).ravel())
     out = out.reshape(a.shape)

@@ -22,7 +22,7 @@ def root_frames(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Orthonormal root frames (normal, tangent, binormal) from surface normals/tangents.
 
-    000 §2.2.3: the normal is normalised, the tangent made orthogonal to it
+    Šik 2012 §2.2.3: the normal is normalised, the tangent made orthogonal to it
     (t - (t·n) n) and normalised, and binormal = tangent × normal. A tangent
     parallel to the normal (or zero) is replaced by a fixed perpendicular, so the
     frame is always defined. Inputs (n, 3); outputs three float64 (n, 3) arrays.
@@ -68,7 +68,7 @@ def _perpendicular(tx, ty, tz, rx, ry, rz):
 def polyline_frames(p, first, tan, nor, bi):
     """Rotation-minimising frame of one polyline ``p`` (N, 3) into ``tan``, ``nor``, ``bi``.
 
-    The one kernel behind every curve frame (000 §2.2.8): Catmull-Rom vertex tangents
+    The one kernel behind every curve frame (Šik 2012 §2.2.8): Catmull-Rom vertex tangents
     (P_{i+1} − P_{i−1}) / 2, the first normal ``first`` (3,) made orthogonal to the
     first tangent, carried by double reflection (Wang et al. 2008; two reflections are an
     exact rotation, so no re-orthonormalisation on the serial path); binormal = t × n
@@ -163,7 +163,7 @@ def rotation_minimizing_frames(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Twist-minimising frames (tangents, normals, binormals), each (P, 3) float64 unit.
 
-    000 §2.2.8 curve frames: tangents are the normalised Catmull-Rom vertex tangents;
+    Šik 2012 §2.2.8 curve frames: tangents are the normalised Catmull-Rom vertex tangents;
     each curve's first normal (``first_normals`` (C, 3), made orthogonal to the first
     tangent) is carried along by the double reflection method, so hair ribbons do not
     spin; binormal = tangent × normal. Zero-length segments carry the previous frame.

@@ -1,4 +1,4 @@
-"""Perlin noise and the vector noise3D used by Frizz and Kink (000 §2.2.5).
+"""Perlin noise and the vector noise3D used by Frizz and Kink (Šik 2012 §2.2.5).
 
 ``perlin`` is Ken Perlin's improved noise (2002): quintic fade, gradients on the 12
 cube-edge directions picked by a hashed lattice corner. The permutation table is
@@ -35,7 +35,7 @@ def _make_permutation(seed: int = 0x5EED_F011) -> np.ndarray:
 
 _PERM = _make_permutation()
 
-# 000 §2.2.5: noise3D(x) = [noise(a_i + m_i x)], with m_i = 1 (the user's frequency
+# Šik 2012 §2.2.5: noise3D(x) = [noise(a_i + m_i x)], with m_i = 1 (the user's frequency
 # means the same for every component) and a_i = _SHIFT + _CELLS[i]: one fractional shift
 # shared by the three, so they share x's lattice cell position and fade weights (one
 # floor, one fade for all three: a fifth of the cost), and distinct whole-cell offsets,
@@ -118,7 +118,7 @@ def _clamp1(v):
 
 @njit(cache=True, inline="always")
 def noise3(x: float, y: float, z: float) -> tuple[float, float, float]:
-    """000 §2.2.5 noise3D: three decorrelated Perlin values, each clamped to [-1, 1]."""
+    """Šik 2012 §2.2.5 noise3D: three decorrelated Perlin values, each clamped to [-1, 1]."""
     x += _SHIFT[0]
     y += _SHIFT[1]
     z += _SHIFT[2]

@@ -170,7 +170,7 @@ def _prop_value(v: object, color: bool, bounds: dict[str, float]) -> float | tup
 
 
 def _prop(color: bool = False, **bounds: float) -> Any:
-    """A property (000 §2.2.2): a number (or [r, g, b]), a texture path, or a table
+    """A property (Šik 2012 §2.2.2): a number (or [r, g, b]), a texture path, or a table
     ``{value, texture, wrap}``; the value at a root is value × texture(uv)."""
 
     def check(v: object) -> object:
@@ -203,7 +203,7 @@ Color = _prop(color=True)
 
 
 class GroomParams(_StrictSection):
-    """How many hairs grow and how they look (000 §2.2).
+    """How many hairs grow and how they look (Šik 2012 §2.2).
 
     Properties marked "(map)" take a number, a texture path (value 1 × texture) or a
     table ``{value = ..., texture = "map.png", wrap = "repeat"}``: the value read at each
@@ -324,13 +324,13 @@ class ColliderParams(_StrictSection):
 
 
 class SimParams(_StrictSection):
-    """Guide-strand dynamics (001 §3, 002 §5.1.2–5.1.3)."""
+    """Guide-strand dynamics (Almeida 2014 §3, Le Muzic 2012 §5.1.2–5.1.3)."""
 
     solver: Literal["pbd", "dftl"] = Field(
         "pbd", description="inextensibility: PBD distance constraints or Dynamic Follow-The-Leader"
     )
     integrator: Literal["verlet", "euler"] = Field(
-        "verlet", description="Verlet (002 eq. 5.1) or semi-implicit Euler"
+        "verlet", description="Verlet (Le Muzic 2012 eq. 5.1) or semi-implicit Euler"
     )
     substep: float = Field(1 / 120, gt=0, le=1 / 30, description="internal fixed time step, s"
                            " (at most 1/30: longer steps let the skin sweep through the hair)")
@@ -341,9 +341,10 @@ class SimParams(_StrictSection):
     gravity: Acceleration = Field((0.0, -9.81, 0.0), description="gravity, m/s² (each"
                                   " component within ±100, about 10 g)")
     damping: float = Field(0.5, ge=0, le=100, description="velocity damping per second")
-    drag: float = Field(0.0, ge=0, le=1000, description="air drag b of −b·v (002 eq. 5.3), 1/s")
-    wind: Acceleration = Field((0.0, 0.0, 0.0), description="wind acceleration w of 002 eq."
-                               " 5.2, m/s² (each component within ±100)")
+    drag: float = Field(0.0, ge=0, le=1000, description="air drag b of −b·v (Le Muzic 2012"
+                       " eq. 5.3), 1/s")
+    wind: Acceleration = Field((0.0, 0.0, 0.0), description="wind acceleration w of Le Muzic"
+                               " 2012 eq. 5.2, m/s² (each component within ±100)")
     wind_turbulence: float = Field(
         0.5, ge=0, le=10, description="noise added to the wind, relative to its strength"
     )
@@ -362,9 +363,10 @@ class SimParams(_StrictSection):
         " unset = off",
     )
     stretch_limit_damping: Unit = Field(
-        0.8, description="PBD: the limit's moves leave velocities like DFTL's (001 eq. 3.1)"
+        0.8, description="PBD: the limit's moves leave velocities like DFTL's (Almeida 2014"
+        " eq. 3.1)"
     )
-    bend_stiffness: Unit = Field(0.2, description="bending (002 eq. 5.6) stiffness")
+    bend_stiffness: Unit = Field(0.2, description="bending (Le Muzic 2012 eq. 5.6) stiffness")
     bend_scale: float = Field(
         1.0, ge=0.5, le=10, description="bending rest distances × scale (> 1 stiffens; below"
         " 0.5 the rest distances pull the strand into its root and fight inextensibility)",
@@ -386,7 +388,7 @@ class SimParams(_StrictSection):
         (0.0, 1.0), description="global shape: full up to the first, zero from the second"
         " (root-to-tip fractions)",
     )
-    dftl_damping: Unit = Field(0.9, description="DFTL velocity correction s (001 eq. 3.1)")
+    dftl_damping: Unit = Field(0.9, description="DFTL velocity correction s (Almeida 2014 eq. 3.1)")
     collision_margin: float = Field(
         0.002, ge=0, le=1, description="distance kept from colliders, m"
     )
@@ -402,11 +404,12 @@ class SimParams(_StrictSection):
         " side / 64",
     )
     volume_friction: Unit = Field(
-        0.05, description="hair-hair friction: velocities pulled to the grid's (001 eq. 3.4)"
+        0.05, description="hair-hair friction: velocities pulled to the grid's (Almeida 2014"
+        " eq. 3.4)"
     )
     volume_repulsion: float = Field(
         0.0, ge=0, le=1, description="hair-hair repulsion down the density gradient, voxels"
-        " per substep (001 eq. 3.5–3.7)",
+        " per substep (Almeida 2014 eq. 3.5–3.7)",
     )
     volume_resolution: int = Field(
         32, ge=2, le=128, description="hair volume grid: cells along the hair's longest side"

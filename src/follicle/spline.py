@@ -1,6 +1,6 @@
 """Uniform Catmull-Rom hair curves: evaluation, resampling, cutting, Bezier form, bounds.
 
-000 §2.2.8. A curve with vertices P_0..P_{N-1} passes through every vertex with the
+Šik 2012 §2.2.8. A curve with vertices P_0..P_{N-1} passes through every vertex with the
 uniform parametrisation C(i / (N-1)) = P_i. Segment s (from P_s to P_{s+1}) uses
 P_{s-1}, P_s, P_{s+1}, P_{s+2}; the end points are duplicated (P_{-1} = P_0,
 P_N = P_{N-1}, seed Fig. 2.8) here only, never in the stored arrays.
@@ -29,7 +29,7 @@ __all__ = [
     "bounds",
 ]
 
-# 000 §2.2.8: C(t) = [t^3, t^2, t, 1] . M . [P_{i-1}, P_i, P_{i+1}, P_{i+2}] (tension 0.5)
+# Šik 2012 §2.2.8: C(t) = [t^3, t^2, t, 1] . M . [P_{i-1}, P_i, P_{i+1}, P_{i+2}] (tension 0.5)
 CATMULL_ROM = 0.5 * np.array(
     [[-1.0, 3.0, -3.0, 1.0], [2.0, -5.0, 4.0, -1.0], [-1.0, 0.0, 1.0, 0.0], [0.0, 2.0, 0.0, 0.0]]
 )
@@ -94,7 +94,7 @@ def _locate(t, nseg):
 
 @njit(cache=True, inline="always")
 def basis(u):
-    """Catmull-Rom weights of P_{s-1}, P_s, P_{s+1}, P_{s+2} at u in [0, 1] (000 §2.2.8).
+    """Catmull-Rom weights of P_{s-1}, P_s, P_{s+1}, P_{s+2} at u in [0, 1] (Šik 2012 §2.2.8).
 
     The rows of [u³, u², u, 1] · CATMULL_ROM written out; exact at u = 0 and u = 1.
     """
@@ -147,7 +147,7 @@ def _eval_kernel(v, ts, deriv):
 def evaluate(vertices: object, t: object) -> np.ndarray:
     """Point C(t) of one curve (N, 3) at t in [0, 1] (scalar or array): (..., 3) float64.
 
-    000 §2.2.8 uniform parametrisation: C(i / (N-1)) = P_i exactly.
+    Šik 2012 §2.2.8 uniform parametrisation: C(i / (N-1)) = P_i exactly.
     """
     v = _check_vertices(vertices)
     tt = _check_params(t, "t")
@@ -168,7 +168,7 @@ def _tangents_kernel(pts, offs):
     for c in range(offs.shape[0] - 1):
         a, b = offs[c], offs[c + 1]
         for i in range(a, b):
-            # 000 §2.2.8: T_i = (P_{i+1} - P_{i-1}) / 2 with duplicated end points
+            # Šik 2012 §2.2.8: T_i = (P_{i+1} - P_{i-1}) / 2 with duplicated end points
             lo = max(i - 1, a)
             hi = min(i + 1, b - 1)
             for k in range(3):
@@ -242,7 +242,7 @@ def _cut_kernel(pts, offs, nverts, tcut, offs2):
         n = nverts[c]  # vertex count of the full curve (the parametrisation)
         s, u = cut_locate(tcut[c], n - 1)
         o = offs2[c]
-        for i in range(s + 1):  # 000 §2.2.8 cutting: keep P_0 .. P_s = C(a)
+        for i in range(s + 1):  # Šik 2012 §2.2.8 cutting: keep P_0 .. P_s = C(a)
             for d in range(3):
                 out[o + i, d] = pts[a + i, d]
             tpar[o + i] = i / (n - 1)  # original parametrisation, not the cut one
@@ -269,7 +269,7 @@ def _cut_counts(nverts, tcut):
 def cut_vertex_count(n: int, t_cut: float) -> int:
     """How many leading vertices of an n-vertex curve are needed to cut it at t_cut.
 
-    The seed prints N' = max(ceil(t_cut N) + 2, N), which is always N: a typo for min.
+    Šik 2012 prints N' = max(ceil(t_cut N) + 2, N), which is always N: a typo for min.
     Derived here: t_cut in segment s (P_s .. P_{s+1}) needs P_{s-1} .. P_{s+2}, i.e.
     min(s + 3, n) vertices; when t_cut falls exactly on vertex s only P_0 .. P_s are
     kept, so s + 1 suffice.
@@ -284,7 +284,7 @@ def cut_vertex_count(n: int, t_cut: float) -> int:
 def cut(
     vertices: object, t_cut: float, n_total: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """000 §2.2.8 cutting: the curve up to C(t_cut) as (vertices2 float64, t_params float64).
+    """Šik 2012 §2.2.8 cutting: the curve up to C(t_cut) as (vertices2 float64, t_params float64).
 
     Keeps P_0 .. P_s (P_s the start of the segment holding t_cut) and appends
     C(t_cut); t_cut exactly on a vertex keeps that vertex as the end. ``t_params``
@@ -339,7 +339,7 @@ def _bezier_kernel(pts, offs):
         for s in range(n - 1):
             i0, i1, i2, i3 = control_points(a, n, s)
             for d in range(3):
-                # 000 §2.2.8, Bezier conversion: B = [[0,1,0,0],[-1/6,1,1/6,0],...] . P
+                # Šik 2012 §2.2.8, Bezier conversion: B = [[0,1,0,0],[-1/6,1,1/6,0],...] . P
                 out[m, 0, d] = pts[i1, d]
                 out[m, 1, d] = pts[i1, d] + (pts[i2, d] - pts[i0, d]) / 6.0
                 out[m, 2, d] = pts[i2, d] + (pts[i1, d] - pts[i3, d]) / 6.0
@@ -411,7 +411,7 @@ def _bounds_kernel(pts, offs):
 def curve_bounds(points: object, offsets: object) -> np.ndarray:
     """(C, 2, 3) exact axis-aligned [lo, hi] boxes of the smooth curves.
 
-    000 §2.2.8 bounds each Bezier hull (conservative); here each segment's cubic is
+    Šik 2012 §2.2.8 bounds each Bezier hull (conservative); here each segment's cubic is
     maximised per axis by solving its derivative quadratic, so the box is tight.
     """
     pts, offs = _check_curves(points, offsets)

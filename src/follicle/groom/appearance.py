@@ -1,4 +1,4 @@
-"""Per-vertex width, opacity and colour: root and tip values interpolated (000 §2.2.6, §2.2.9).
+"""Per-vertex width, opacity and colour: root and tip values interpolated (Šik 2012 §2.2.6, §2.2.9).
 
 Each hair gets a colour at its root and tip (or one mutant colour), shifted in hue,
 saturation and value by per-hair random amounts, and interpolated to its vertices in
@@ -31,7 +31,7 @@ def _clamp01(x):
 
 @njit(cache=True, nogil=True)
 def _shifted_hsv(r, g, b, dh, ds, dv):
-    """000 §2.2.6: RGB to HSV minus the shifts; s, v clamped to [0, 1] (hue wraps later)."""
+    """Šik 2012 §2.2.6: RGB to HSV minus the shifts; s, v clamped to [0, 1] (hue wraps later)."""
     h, s, v = rgb_to_hsv1(r, g, b)
     return h - dh, _clamp01(s - ds), _clamp01(v - dv)
 
@@ -74,7 +74,7 @@ def _ends_kernel(ids, seed, root_rgb, tip_rgb, hue_var, sat_var, val_var, mutant
 def vertex_look(e, t):
     """(r, g, b, width, opacity) at curve parameter ``t`` of a hair with ends ``e``.
 
-    000 §2.2.9: value = t·tip + (1 − t)·root; hue = hue1 + t·hue_dist, wrapped.
+    Šik 2012 §2.2.9: value = t·tip + (1 − t)·root; hue = hue1 + t·hue_dist, wrapped.
     """
     u = 1.0 - t
     r, g, b = hsv_to_rgb1(e[0] + t * e[3], u * e[1] + t * e[4], u * e[2] + t * e[5])
@@ -123,15 +123,15 @@ def hair_ends(
 ) -> np.ndarray:
     """Each hair's colour, width and opacity at root and tip: float64 (n, ENDS).
 
-    000 §2.2.6. Per-hair inputs are the property values already evaluated at each root
+    Šik 2012 §2.2.6. Per-hair inputs are the property values already evaluated at each root
     (a scalar or (3,) colour is shared by all n hairs):
 
     - ``root_color``, ``tip_color``, ``mutant_color``: linear RGB ≥ 0, (n, 3) or (3,),
-      global value and texture already mixed by the caller. 000 mixes them by
+      global value and texture already mixed by the caller. Šik 2012 mixes them by
       component-wise addition (``Root_Color_G + Root_Color_T(u, v)``, likewise tip and
       mutant); follicle's PropertyMap multiplies (``value × texture(uv)``); either result
       is valid input. An HSV value above 1 is clamped to 1 (hue and saturation kept),
-      as 000 keeps s and v in [0, 1].
+      as Šik 2012 keeps s and v in [0, 1].
     - ``hue_var`` degrees in [0, 180], ``sat_var`` and ``val_var`` in [0, 1]: G × T(u, v).
       Each hair draws shifts uniform in ±var (streams of (seed, id, "color variation"))
       and subtracts the same shifts from its root and tip colours (mutants too); hue
@@ -174,9 +174,9 @@ def hair_appearance(
     """Point data ``color`` (n·N, 3), ``width``, ``opacity`` (n·N,) float32, in hair order.
 
     ``properties`` are the keyword arguments of :func:`hair_ends`; each hair's values are
-    interpolated to its N vertices (000 §2.2.9), the colour in HSV with the hue along
+    interpolated to its N vertices (Šik 2012 §2.2.9), the colour in HSV with the hue along
     the shortest route. ``t`` is the curve parameter of each vertex, (N,) for all hairs
-    or (n, N) per hair (a cut hair keeps the parameters of its uncut curve, 000
+    or (n, N) per hair (a cut hair keeps the parameters of its uncut curve, Šik 2012
     §2.2.8); None means i / (N − 1).
     """
     if isinstance(vertices, bool) or not isinstance(vertices, (int, np.integer)):

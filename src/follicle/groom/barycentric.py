@@ -1,6 +1,6 @@
-"""Barycentric guide weights over a triangulation of the guide roots (002 multi-strand).
+"""Barycentric guide weights over a triangulation of the guide roots (Le Muzic 2012, multi-strand).
 
-002's "multi-strand interpolation" makes each hair from the three guides whose roots form
+Le Muzic's "multi-strand interpolation" makes each hair from the three guides whose roots form
 the triangle that encloses the hair's root, weighted by its barycentric coordinates. The
 guide roots are triangulated over the surface itself, not in UV space and not as a convex
 hull, so it works on any triangle mesh (heads, planes, open patches, tori, thin two-sided

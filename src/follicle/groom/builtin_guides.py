@@ -5,8 +5,8 @@ triangles by an area × scalp-density CDF). Each strand is marched from its root
 along the surface normal, bent by a comb field (a centre parting, hair going back
 and down) and by gravity, and after every step pushed out of the head to a small
 clearance, keeping every segment the same length. Curly guides wind a helix around
-such a path (001 §3.1.2). curve_data: ``root_triangle`` int64, ``root_bary``
-float32 (seed convention, 000 §2.2.3), ``root_uv`` float32, ``guide_id`` int64.
+such a path (Almeida 2014 §3.1.2). curve_data: ``root_triangle`` int64, ``root_bary``
+float32 (seed convention, Šik 2012 §2.2.3), ``root_uv`` float32, ``guide_id`` int64.
 """
 
 from __future__ import annotations
@@ -162,7 +162,8 @@ def _transport_frames(path: np.ndarray, normal0: np.ndarray) -> tuple[np.ndarray
 
 
 def _curl(path: np.ndarray, normal0: np.ndarray, style: _Style, phase: np.ndarray) -> np.ndarray:
-    """Helix of ``curl_radius`` around the path (001 §3.1.2), growing in over the first 3 cm."""
+    """Helix of ``curl_radius`` around the path (Almeida 2014 §3.1.2), growing in over the
+    first 3 cm."""
     arc = np.concatenate(
         [np.zeros((len(path), 1)), np.cumsum(np.linalg.norm(np.diff(path, axis=1), axis=2), 1)],
         axis=1,

@@ -1,6 +1,6 @@
-"""Hair strands: several fibres grown around each generated hair (000 §2.2.7).
+"""Hair strands: several fibres grown around each generated hair (Šik 2012 §2.2.7).
 
-The generated hair (the *main hair*) stays in its root-local frame (000 §2.2.2: strands
+The generated hair (the *main hair*) stays in its root-local frame (Šik 2012 §2.2.2: strands
 are made before the transform to world space); every fibre vertex ``P_i`` is put on the
 plane through the main hair vertex ``P_i^M`` spanned by the main hair's curve normal
 ``N_i`` and binormal ``B_i`` (equation 2.5)::
@@ -12,7 +12,7 @@ plane through the main hair vertex ``P_i^M`` spanned by the main hair's curve no
     border(t) = tip if t > ½ else root
 
 ``(d, φ)`` is the fibre's place in a unit disc (concentric sampling, Shirley & Chiu),
-``φ_i`` advances by a constant twist step per vertex with the seed's incremental
+``φ_i`` advances by a constant twist step per vertex with the paper's incremental
 sine/cosine recurrence, and ``scale = 1 − randomize·ξ``. Every random number is a pure
 function of (seed, hair id · count + fibre, purpose), so chunks of hairs can be made in
 any order or split and give the same bytes.
@@ -100,7 +100,7 @@ def _fibres_kernel(local, ids, seed, count, s_root, s_centre, s_tip, twist, aspe
                     s = 0.0
                 scale = 1.0 - rnd * uniform(stream_key(seed, fid, _RANDOM_STREAM), 0)
                 for i in range(nv):
-                    if i > 0:  # 000 §2.2.7: sin/cos of φ_i from those of φ_{i-1}
+                    if i > 0:  # Šik 2012 §2.2.7: sin/cos of φ_i from those of φ_{i-1}
                         c, s = c * ct - s * st, s * ct + c * st
                     di = d * spl[i]
                     a = di * c
@@ -113,7 +113,7 @@ def _fibres_kernel(local, ids, seed, count, s_root, s_centre, s_tip, twist, aspe
 
 # ------------------------------------------------------------------ Python API
 def splay_profile(t: object, root: float, centre: float, tip: float) -> np.ndarray:
-    """splay(t) of 000 §2.2.7: root at t = 0, centre at ½, tip at 1, quadratic between.
+    """splay(t) of Šik 2012 §2.2.7: root at t = 0, centre at ½, tip at 1, quadratic between.
 
     4(t − ½)²·border(t) + (1 − 4(t − ½)²)·centre with border = tip for t > ½, else root.
     """
@@ -178,22 +178,22 @@ def make_fibres(
 
     Notes
     -----
-    Cross-section frame: the rotation-minimising frame of the hair (000 §2.2.8, as
+    Cross-section frame: the rotation-minimising frame of the hair (Šik 2012 §2.2.8, as
     :func:`follicle.frames.polyline_frames`) with the first normal the root
-    tangent (local +x, the seed's choice of N_0), binormal B = T × N in local
+    tangent (local +x, the paper's choice of N_0), binormal B = T × N in local
     coordinates. The degeneracy threshold is per hair (chunk independent).
 
     Seed ambiguities and the choices made here:
 
-    * t_i = i / (N − 1): the root is t = 0 and the last vertex t = 1 (the seed's extra
+    * t_i = i / (N − 1): the root is t = 0 and the last vertex t = 1 (the paper's extra
       Catmull-Rom end vertices are not part of our curves).
-    * twist_* = twist / (N − 1), not twist / N_vertices: the seed defines twist as "the
+    * twist_* = twist / (N − 1), not twist / N_vertices: Šik 2012 defines twist as "the
       difference between the angle at the fibre root and at the fibre tip", which
-      this makes exact. φ_i follows the seed's recurrence sin φ_i = sin φ_{i−1} cos
+      this makes exact. φ_i follows the paper's recurrence sin φ_i = sin φ_{i−1} cos
       twist_* + cos φ_{i−1} sin twist_*, cos φ_i = cos φ_{i−1} cos twist_* − sin φ_{i−1}
       sin twist_*, with sin/cos of φ_0 from the disc sample (no trig per vertex).
-    * Randomize_Strand: the seed prints scale = (1 − R)·ξ, which would shrink every
-      fibre at random even with R = 0; we use 1 − R·ξ (like the seed's Random_Scale,
+    * Randomize_Strand: Šik 2012 prints scale = (1 − R)·ξ, which would shrink every
+      fibre at random even with R = 0; we use 1 − R·ξ (like the paper's Random_Scale,
       §2.2.2), so R = 0 leaves fibres unchanged and R = 1 scales by ξ ∈ [0, 1).
       As in equation 2.5 the whole fibre vertex is scaled about the hair root (the
       local origin): fibres get random lengths, the root offsets shrink with them.
@@ -202,7 +202,7 @@ def make_fibres(
     * Hairs are not re-parametrised for a cut: a caller that cuts before making
       strands must pass the uncut hair or accept t relative to the kept vertices.
 
-    Fibres inherit colour, width and opacity from their hair (000 §2.2.7): repeat the
+    Fibres inherit colour, width and opacity from their hair (Šik 2012 §2.2.7): repeat the
     hair's per-vertex arrays with :func:`inherit` (or ``values.reshape(n, N, ...)
     [fibre_parent]``) and per-hair arrays with ``values[fibre_parent]``. Curve normals
     must be recomputed per fibre after the transform to world space.
@@ -254,7 +254,7 @@ def make_fibres(
 def inherit(
     point_data: Mapping[str, object], fibre_parent: object, vertices: int
 ) -> dict[str, np.ndarray]:
-    """Per-vertex arrays of the hairs repeated for their fibres (000 §2.2.7).
+    """Per-vertex arrays of the hairs repeated for their fibres (Šik 2012 §2.2.7).
 
     Each value has a first axis of n · ``vertices`` (hairs one after another, as in
     ``HairCurves.point_data``); the result has len(fibre_parent) · ``vertices`` rows,

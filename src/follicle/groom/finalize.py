@@ -1,4 +1,4 @@
-"""Finishing hairs (000 §2.2.8, §2.2.9): cut, curve normals, vertex removal, placement.
+"""Finishing hairs (Šik 2012 §2.2.8, §2.2.9): cut, curve normals, vertex removal, placement.
 
 The generator shapes a bucket of m curves as one rectangular float64 array (m, n, 3)
 in root-local frames; every curve then has its own length. The kernels here cut each
@@ -29,7 +29,7 @@ def _plan_kernel(tcut, n_total, need):
 
 
 def cut_plan(tcut: np.ndarray, n_total: int) -> np.ndarray:
-    """Vertices each hair needs before cutting at ``tcut`` (early culling, 000 §2.2.8).
+    """Vertices each hair needs before cutting at ``tcut`` (early culling, Šik 2012 §2.2.8).
 
     A cut in segment s needs P_0 .. P_{s+2} (the segment's Catmull-Rom neighbours); a
     cut exactly on vertex s needs P_0 .. P_s. 0 for t_cut = 0 (the hair is dropped).
@@ -63,7 +63,7 @@ def _cut_kernel(p, tcut, n_total, length, t_end):
 def cut_in_place(p: np.ndarray, tcut: np.ndarray, n_total: int) -> tuple[np.ndarray, np.ndarray]:
     """Cut curves ``p`` (m, n, 3) of ``n_total``-vertex hairs at ``tcut`` (m,), in place.
 
-    Vertex s + 1 becomes C(t_cut) (000 §2.2.8). Returns (length (m,): vertices kept;
+    Vertex s + 1 becomes C(t_cut) (Šik 2012 §2.2.8). Returns (length (m,): vertices kept;
     t_end (m,): the parameter of the last kept vertex). Every vertex keeps the parameter
     i / (n_total − 1) of the uncut curve but the cut vertex, which gets t_cut.
     ``p`` must hold at least :func:`cut_plan` vertices of every curve.
@@ -132,7 +132,7 @@ def finish(p: np.ndarray, length: np.ndarray, skip_threshold: float | None) -> n
     """The keep mask (m, n) of cut curves ``p`` (m, n, 3) with ``length`` vertices each.
 
     A vertex is kept unless it lies past the cut, within 1e-6 of the mean segment
-    length of the previous kept vertex (degenerate, 000 §2.2.2), or, with a
+    length of the previous kept vertex (degenerate, Šik 2012 §2.2.2), or, with a
     ``skip_threshold``, the cosine of its tangent with both the previous kept vertex's
     and the next vertex's tangent exceeds it (§2.2.9; comparing with the previous KEPT
     vertex stops a gentle arc from being thinned away vertex by vertex). First and last
@@ -192,7 +192,7 @@ def pack(
     """Write the kept vertices of curves ``p`` into ``out`` from vertex ``start[h]`` on.
 
     Curve normals are the rotation-minimising frame normals of each cut curve with
-    N_0 the root tangent (000 §2.2.8). Points and normals go from the root-local frame
+    N_0 the root tangent (Šik 2012 §2.2.8). Points and normals go from the root-local frame
     of hair ``rows[h]`` to the skin: ``frame`` = (origin, tangent, binormal, normal),
     each (hairs, 3) float64. Colour, width and opacity come from each curve's
     :func:`.appearance.hair_ends` row at the vertex's parameter on the uncut

@@ -1,4 +1,4 @@
-"""Groom: grows every final hair from the guides, in the pipeline order of 000 §2.2.2.
+"""Groom: grows every final hair from the guides, in the pipeline order of Šik 2012 §2.2.2.
 
 roots (DensitySampler on the rest mesh) ► interpolation group ► cut factor, early vertex
 culling ► interpolate (idw | barycentric | offset) ► scale ► curl ► clump ► frizz ►
@@ -7,7 +7,7 @@ removal ► placed on the mesh's current pose ► HairCurves.
 
 All shaping happens in rest-pose root-local frames. Roots, groups, interpolation
 weights and clump membership (the *layout*) are computed once per id range and kept
-(000 §2.3.6, Table 2.1): a new mesh pose only re-places the hairs, a property change
+(Šik 2012 §2.3.6, Table 2.1): a new mesh pose only re-places the hairs, a property change
 regenerates them without re-sampling. Each hair is a pure function of (seed, hair id),
 so generating ids [0, N) at once equals concatenating any split of them, byte for byte;
 that is also what lets the chunks of one call grow side by side on numba's threads
@@ -198,7 +198,7 @@ class Groom:
 
     ``density`` overrides ``params.density`` (a Texture, number, path or None). With a
     ``displacement`` texture, roots on the current pose sit on the displaced skin
-    (000 §2.2.3); interpolation still uses the undisplaced rest pose. Texture paths in
+    (Šik 2012 §2.2.3); interpolation still uses the undisplaced rest pose. Texture paths in
     the properties resolve through ``resolve_path`` (the scene's folder).
 
     Set ``groom.params`` to change properties (keeps roots and weights unless the
@@ -526,7 +526,8 @@ class Groom:
 
     # ------------------------------------------------------------------ shaping
     def _vertex_bound(self, lay: _Layout) -> int:
-        """Most vertices the hairs of ``lay`` can have: culled counts (000 §2.2.8) × strands."""
+        """Most vertices the hairs of ``lay`` can have: culled counts (Šik 2012 §2.2.8) ×
+        strands."""
         cut = np.broadcast_to(self.properties.at(lay.rest.uv, ("cut",))["cut"], lay.group.shape)
         need = sum(
             int(cut_plan(cut[lay.group == g], int(self._vertices[g])).sum())
@@ -608,7 +609,7 @@ class Groom:
         self, local: np.ndarray, props: dict[str, np.ndarray], rows: np.ndarray | slice,
         ids: np.ndarray, t: np.ndarray,
     ) -> None:  # fmt: skip
-        """001 §3.1.2 curl on ``local`` when any hair has a curl radius."""
+        """Almeida 2014 §3.1.2 curl on ``local`` when any hair has a curl radius."""
         if not (props["curl_radius"] > 0).any():
             return
         p = self.params

@@ -1,4 +1,4 @@
-"""Interpolation groups: one group per colour of a texture painted on the skin (000 §2.2.4).
+"""Interpolation groups: one group per colour of a texture painted on the skin (Šik 2012 §2.2.4).
 
 A hair is interpolated only from guides of its own group, which is how a parting stays
 a clean line instead of a blur between the guides combed left and those combed right,

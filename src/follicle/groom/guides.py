@@ -2,7 +2,7 @@
 
 Each guide keeps the triangle and barycentric coordinates of its root on the rest
 mesh, the rest root frame there, and its vertices relative to the root in that frame
-(000 §2.2.4 "Interpolation details"): interpolating in root-local frames keeps the
+(Šik 2012 §2.2.4 "Interpolation details"): interpolating in root-local frames keeps the
 hair shape when the mesh deforms and stops guides on the far side of a thin part from
 bleeding through. Guides are resampled by arc length to a common vertex count.
 """
@@ -173,7 +173,7 @@ class Guides:
     def local_shapes(self, vertices: int) -> np.ndarray:
         """Guide shapes resampled by arc length to ``vertices``, in root frames (S, V, 3).
 
-        x along the root tangent, y the binormal, z the normal (000 §2.2.4).
+        x along the root tangent, y the binormal, z the normal (Šik 2012 §2.2.4).
         """
         if vertices not in self._local:
             rel = self.rest_shapes(vertices).astype(np.float64)
@@ -191,7 +191,7 @@ class Guides:
     def posed(self, positions: object) -> Guides:
         """These guides with new shapes ``positions`` (S, N, 3), given on the mesh's current
         pose (e.g. simulated): each strand is carried to the rest pose through its root's
-        frame, so interpolated hairs follow it (000 §2.2.4: hairs blend root-local shapes).
+        frame, so interpolated hairs follow it (Šik 2012 §2.2.4: hairs blend root-local shapes).
         """
         x = np.asarray(positions, dtype=np.float64)
         if x.ndim != 3 or x.shape[0] != self.count or x.shape[1] < 2 or x.shape[2] != 3:

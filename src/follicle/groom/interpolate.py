@@ -1,5 +1,5 @@
-"""Hair shapes from guides in root-local frames: blending (000 §2.2.4 IDW weights, or
-barycentric ones) and the single-strand offsets of 002 §5.1.4."""
+"""Hair shapes from guides in root-local frames: blending (Šik 2012 §2.2.4 IDW weights, or
+barycentric ones) and the single-strand offsets of Le Muzic 2012 §5.1.4."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ _TILT = purpose_id("offset angle")
 def idw_weights(
     guide_roots: PointGrid | np.ndarray, hair_roots: np.ndarray, samples: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The n+1 nearest guides of every hair and their weights (000 §2.2.4).
+    """The n+1 nearest guides of every hair and their weights (Šik 2012 §2.2.4).
 
     ``guide_roots`` is a PointGrid over the guide roots (build it once per group) or
     the (S, 3) roots. Weights are ((r - d) / (r d))², normalised, with r the distance
@@ -130,7 +130,7 @@ def blend_guides(
 ) -> np.ndarray:  # fmt: skip
     """Weighted guide shapes in root-local frames, times ``scale``: (H, vertices, 3) float64.
 
-    ``local`` (S, N, 3) holds the guides in their root frames (000 §2.2.4); only the
+    ``local`` (S, N, 3) holds the guides in their root frames (Šik 2012 §2.2.4); only the
     first ``vertices`` ≤ N are blended (a cut hair never needs the rest, §2.2.8).
     """
     out = np.empty((len(indices), vertices, 3), dtype=np.float64)
@@ -152,7 +152,7 @@ def _tilt_kernel(local, ca, sa, cb, sb):
 
 
 def tilt(local: np.ndarray, seed: int, ids: np.ndarray, max_angle: float) -> None:
-    """002 §5.1.4 single-strand offset by angle, in place: each hair (root-local) turns
+    """Le Muzic 2012 §5.1.4 single-strand offset by angle, in place: each hair (root-local) turns
     about its root tangent and binormal by two random angles in ±``max_angle`` degrees
     from the (seed, id, "offset angle") stream, so copies of one guide fan out instead
     of clustering."""
@@ -178,7 +178,7 @@ def translate_guides(
     rel: np.ndarray, indices: np.ndarray, rest_frame: tuple[np.ndarray, np.ndarray, np.ndarray],
     vertices: int, scale: float | np.ndarray = 1.0,
 ) -> np.ndarray:  # fmt: skip
-    """002 §5.1.4 single-strand offset by displacement: guide ``indices[h]``'s rest shape
+    """Le Muzic 2012 §5.1.4 single-strand offset by displacement: guide ``indices[h]``'s rest shape
     ``rel`` (S, N, 3, world axes, root at 0) moved to hair h's root unturned, in the
     hair's root-local frame (T, B, N rows of ``rest_frame``), times ``scale``."""
     out = np.empty((len(indices), vertices, 3), dtype=np.float64)

@@ -1,6 +1,6 @@
 """Per-hair parameters as the groom kernels take them: validated, C-contiguous float64.
 
-Every property reaches a kernel as one value per hair (000's global × texture(uv),
+Every property reaches a kernel as one value per hair (Šik's global × texture(uv),
 evaluated at the roots) or one value for all. Both arrive C-contiguous with n rows or
 one shared row, so nothing is copied per hair and each kernel has one signature to
 compile; kernels read hair i's value at ``row(a, i)``.
@@ -56,7 +56,7 @@ def per_hair(
 def curve_parameter(t: object, n: int, vertices: int) -> np.ndarray:
     """Curve parameters t of each vertex as (1, N) (shared by all hairs) or (n, N).
 
-    None gives the original parametrisation i / (N − 1) (000 §2.2.8: a cut hair keeps it).
+    None gives the original parametrisation i / (N − 1) (Šik 2012 §2.2.8: a cut hair keeps it).
     """
     if t is None:
         return np.linspace(0.0, 1.0, vertices)[None]

@@ -1,4 +1,4 @@
-"""The textured groom properties of a GroomParams, read at hair roots (000 §2.2.2).
+"""The textured groom properties of a GroomParams, read at hair roots (Šik 2012 §2.2.2).
 
 Each "(map)" setting becomes a PropertyMap (value × texture(uv)). Read at a chunk of
 roots, an untextured property stays one shared value, so the kernels see one row and

@@ -1,15 +1,16 @@
-"""Shape deformers on hairs in root-local frames: Frizz, Kink (000 §2.2.5) and Curl (001 §3.1.2).
+"""Shape deformers on hairs in root-local frames: Frizz, Kink (Šik 2012 §2.2.5), Curl
+(Almeida 2014 §3.1.2).
 
 Every function works IN PLACE on a chunk ``local`` of n hairs, a C-contiguous, writable
 float64 array (n, N, 3): x along the root tangent T, y along the binormal B, z along the
 surface normal N; vertex 0 is the root at the origin and is never moved. Call them after
-interpolation and scaling, before the transform to world space (000 §2.2.2), in the order
+interpolation and scaling, before the transform to world space (Šik 2012 §2.2.2), in the order
 ``curl`` (a shape), ``frizz``, ``kink`` (Kink samples the vertices as they are then).
 
 Per-hair properties (already global × texture(uv)) are numbers or float64 arrays (n,).
 ``check=False`` skips the scan of ``local`` for NaNs, for callers that made it (the
 generator); everything else is still validated.
-The curve parameter of vertex i is the ORIGINAL parametrisation t = i / (N - 1) (000
+The curve parameter of vertex i is the ORIGINAL parametrisation t = i / (N - 1) (Šik 2012
 §2.2.8: cutting a hair keeps it); pass ``t`` ((N,) or (n, N), values in [0, 1]) to use
 another one, e.g. i / (N_uncut - 1) for cut hairs. Noise is a pure function of rest-pose
 positions, so hairs keep their shape on an animated mesh and any chunking gives the
@@ -188,21 +189,21 @@ def frizz(
     *,
     check: bool = True,
 ) -> None:
-    """000 §2.2.5 Frizz, in place: one noise vector per hair bends the whole hair.
+    """Šik 2012 §2.2.5 Frizz, in place: one noise vector per hair bends the whole hair.
 
     F = noise3D(frequency ⊙ rest_root) with ``rest_roots`` (n, 3) the roots on the rest
     mesh in world space and ``frequency`` the X/Y/Z frequencies ((3,) or (n, 3)).
     Animated frizz: F_dynamic = noise3D(frequency ⊙ (rest_root + offset)) with
     ``offset`` = Frizz_Anim_Direction · speed · time ((3,) or (n, 3), from the caller),
     and F_combined = (1 - blend) F + blend F_dynamic with ``blend`` the animationFactor
-    in [0, 1]. Choice: the seed writes the dynamic input as frequency · dynamic · root (a
+    in [0, 1]. Choice: Šik 2012 writes the dynamic input as frequency · dynamic · root (a
     product), which gives every hair the same vector at time 0 and stretches the noise
     away from the world origin; adding the offset instead slides the pattern over the skin
     along the direction at the given speed (a breeze). Then F_combined.z = -|F_combined.z|
     and every vertex but the root moves by F_combined · min(amp_root · 4(t - t²) +
     amp_tip · t², max(amp_root, amp_tip)) (amplitudes >= 0). Choice: a vertex on or above
     the skin plane z = 0 is not moved below it (its z stops at 0; one below keeps its z),
-    so frizz never pushes hair into the skin. F is not normalised (as in the seed).
+    so frizz never pushes hair into the skin. F is not normalised (as in Šik 2012).
     """
     local = _check_local(local, check)
     n, n_verts = local.shape[:2]
@@ -229,13 +230,13 @@ def kink(
     *,
     check: bool = True,
 ) -> None:
-    """000 §2.2.5 Kink, in place: a noise vector per vertex crimps the hair.
+    """Šik 2012 §2.2.5 Kink, in place: a noise vector per vertex crimps the hair.
 
     Vertex i (all but the root) moves by K_i · ((1 - t) amp_root + t amp_tip), with
     K_i = noise3D(frequency ⊙ w_i) and w_i the vertex as it is now placed in world space on
     the rest pose: rest_root + x T + y B + z N with ``rest_frame`` = (T, B, N), each (n, 3)
     (None: the world axes, i.e. w_i = rest_root + vertex). K_i is added in the local frame,
-    as in the seed. Choice: the root vertex stays fixed (the seed's linear profile would
+    as in Šik 2012. Choice: the root vertex stays fixed (the paper's linear profile would
     move it by amp_root · K_0, off the skin).
     """
     local = _check_local(local, check)
@@ -262,10 +263,10 @@ def curl(
     *,
     check: bool = True,
 ) -> None:
-    """001 §3.1.2 Alg. 3 curly hair, in place: winds each hair into a helix about itself.
+    """Almeida 2014 §3.1.2 Alg. 3 curly hair, in place: winds each hair into a helix about itself.
 
     Vertex i moves by r(t_i) (cos θ_i n_i + sin θ_i b_i), with (n_i, b_i) the
-    rotation-minimising frame of the hair (000 §2.2.8) whose first normal is the root
+    rotation-minimising frame of the hair (Šik 2012 §2.2.8) whose first normal is the root
     tangent T = local x, b = tangent × n. θ = phase + 2π ∫ f ds along the hair's arc
     length s, f = ``frequency`` (turns per unit length; Alg. 3's 1/B) at the root rising
     linearly in t to ``frequency_tip`` (None: constant) at t = 1, like Alg. 3's growing

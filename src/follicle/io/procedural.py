@@ -1,10 +1,10 @@
 """RenderMan render-time hair: a RIB of ``Procedural "RunProgram"`` calls, one per voxel,
 and the ``follicle-procedural`` program that grows each voxel's hair when the renderer
-asks (000 §2.3.2–2.3.5).
+asks (Šik 2012 §2.3.2–2.3.5).
 
 :func:`export_rib` grows the whole groom once, chunk by chunk, to bound every voxel's
 hair exactly: each Catmull-Rom hair (end vertices doubled, as the RIB writes it) as
-cubic Bézier segments (000 §2.2.8), whose control points' box holds the curve, padded
+cubic Bézier segments (Šik 2012 §2.2.8), whose control points' box holds the curve, padded
 by half the voxel's widest width. The RIB holds no geometry, only the boxes and the
 frame file's name (:mod:`follicle.io.procedural_data`).
 

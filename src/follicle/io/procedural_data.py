@@ -1,5 +1,5 @@
 """What a RenderMan procedural needs to regrow one frame's hair: the voxel grid and the
-frame file (000 §2.3.3).
+frame file (Šik 2012 §2.3.3).
 
 The grid is uniform over the rest mesh's bounds with cubic cells: ``voxels`` cells
 along the longest side, as many as cover the other sides. A triangle belongs to the

@@ -13,7 +13,7 @@ values (RISpec: Σ(nsegs + 1)), so every varying variable is the hair's own per-
   widths, since RenderMan's default is 1 unit), ``"Cs"`` (varying color), ``"Os"`` (varying
   color: the opacity in all three channels), ``"N"`` (varying normal, when the curves carry
   normals and ``normals=True``; N makes RenderMan draw ribbons facing it);
-- per curve (000 §2.3.5): ``"uniform float[2] hair_uv"`` (root_uv), ``"uniform float[2]
+- per curve (Šik 2012 §2.3.5): ``"uniform float[2] hair_uv"`` (root_uv), ``"uniform float[2]
   strand_uv"`` (strand_uv, else root_uv), ``"uniform int hair_index"`` (hair_id, else the
   curve's place in the file) and ``"uniform int strand_index"`` (strand_id, else 0); ``int``
   is the RISpec's ``integer`` as RenderMan spells it, exact where a float would not be.

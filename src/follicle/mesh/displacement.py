@@ -2,7 +2,7 @@
 
 A displacement texture adds render-time detail by moving every skin point along its
 normal by ``D(u, v)``. Hair must grow from that displaced surface and lean with its
-slopes, so (000 §2.2.3 "Mesh displacement") each root's standard position and frame
+slopes, so (Šik 2012 §2.2.3 "Mesh displacement") each root's standard position and frame
 are recomputed: ``P' = P + D·N`` and ``N' = ∂P'/∂u × ∂P'/∂v`` with the chain rule
 ``∂P'/∂u = ∂P/∂u + (∂D/∂u)·N + D·∂N/∂u`` (likewise for v), as for bump-mapped shading
 normals. ``∂D`` is a forward difference of one texel.
@@ -39,7 +39,7 @@ def displace(
     keep the side of the undisplaced ones (mirrored UVs flip ``∂P'/∂u × ∂P'/∂v``);
     where the face has no UV derivatives or the displaced surface is pinched, the
     undisplaced normal is kept and only the position moves. UVs are not changed.
-    The groom never displaces the rest pose (000 §2.2.3), but any pose works here.
+    The groom never displaces the rest pose (Šik 2012 §2.2.3), but any pose works here.
     """
     if not isinstance(texture, Texture):
         raise InputError(

@@ -1,4 +1,4 @@
-"""DensitySampler: points on a triangle mesh distributed by a density texture (000 §2.1).
+"""DensitySampler: points on a triangle mesh distributed by a density texture (Šik 2012 §2.1).
 
 Preprocessing subdivides every triangle until its sub-triangles are smaller than a
 texel of the density texture (depth from the texel count, eq. 2.3), gives each the
@@ -461,7 +461,7 @@ class DensitySampler:
     ) -> tuple[np.ndarray, ...]:
         """Samples ``start … start+n-1``: (triangle int32 (n,), bary float32 (n, 2)).
 
-        ``bary`` follows 000 §2.2.3 (point = u·v0 + v·v1 + (1−u−v)·v2). ``sequence``
+        ``bary`` follows Šik 2012 §2.2.3 (point = u·v0 + v·v1 + (1−u−v)·v2). ``sequence``
         is "random" (counter-based, for hairs) or "halton" (low discrepancy, for
         guides). ``return_index`` adds each sample's sub-triangle (int32, an index
         into :attr:`pdf`).

@@ -1,7 +1,7 @@
 """SkinMesh: the triangle mesh hair grows on, in a rest pose and a current pose.
 
 Roots are bound to (triangle, barycentric) samples on the rest mesh and evaluated on
-either pose (000 §2.2.3). Barycentrics follow the seed: ``root = u·v0 + v·v1 +
+either pose (Šik 2012 §2.2.3). Barycentrics follow Šik 2012: ``root = u·v0 + v·v1 +
 (1 − u − v)·v2`` with ``bary[:, 0] = u`` and ``bary[:, 1] = v``.
 """
 
@@ -263,7 +263,7 @@ class SkinMesh:
     def face_uv_gradient(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per-face (∂X/∂u, ∂X/∂v, ok) of per-vertex ``values`` (V, k) linear on each face.
 
-        000 §2.2.3: [∂X/∂u; ∂X/∂v] = [[u1-u3, v1-v3], [u2-u3, v2-v3]]⁻¹ · [X1-X3; X2-X3];
+        Šik 2012 §2.2.3: [∂X/∂u; ∂X/∂v] = [[u1-u3, v1-v3], [u2-u3, v2-v3]]⁻¹ · [X1-X3; X2-X3];
         ok is False (and the gradients zero) where the UVs are missing or degenerate.
         """
         nf = len(self.faces)
@@ -343,7 +343,7 @@ class SkinMesh:
         return tri, b
 
     def evaluate(self, triangles: object, bary: object, pose: str = "rest") -> SurfacePoints:
-        """Positions, root frames and UVs at (triangle, barycentric) samples (000 §2.2.3).
+        """Positions, root frames and UVs at (triangle, barycentric) samples (Šik 2012 §2.2.3).
 
         Frames as :func:`follicle.frames.root_frames` of the interpolated vertex normal
         and tangent, in one parallel kernel (the groom evaluates millions of roots).
@@ -497,7 +497,7 @@ def _closest_kernel(q, verts, faces, qi, ti):
 @njit(cache=True, parallel=True, nogil=True)
 def _evaluate_kernel(verts, normals, tangents, uvs, faces, tri, bary, position, normal, tangent,
                      binormal, uv):  # fmt: skip
-    """Barycentric interpolation plus the root frame of 000 §2.2.3 for every sample."""
+    """Barycentric interpolation plus the root frame of Šik 2012 §2.2.3 for every sample."""
     for k in prange(tri.shape[0]):
         f0, f1, f2 = faces[tri[k], 0], faces[tri[k], 1], faces[tri[k], 2]
         w0, w1 = bary[k, 0], bary[k, 1]

@@ -1,5 +1,5 @@
 """OpenGL hair renderer: Catmull-Rom smoothing and viewer-facing ribbons in a geometry
-shader (002 §5.2), three hair shading models, deep-opacity-map self-shadowing, weighted
+shader (Le Muzic 2012 §5.2), three hair shading models, deep-opacity-map self-shadowing, weighted
 blended order-independent transparency, a Lambert-shaded skin mesh and a gradient
 background. Headless through EGL (Mesa llvmpipe on machines without a GPU).
 

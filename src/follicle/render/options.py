@@ -70,7 +70,7 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
         "shift2": (-0.12, -1.0, 1.0, "second highlight tangent shift"),
     },
     "scheuermann": {
-        "diffuse": (0.6, 0.0, 10.0, "K_d of max(0, 0.75 N·L + 0.25) (001 Alg. 6)"),
+        "diffuse": (0.6, 0.0, 10.0, "K_d of max(0, 0.75 N·L + 0.25) (Almeida 2014 Alg. 6)"),
         "specular": (0.5, 0.0, 10.0, "primary (white) highlight"),
         "shininess": (128.0, 0.1, 10000.0, "primary exponent (Alg. 6: 128)"),
         "specular_color": ((1.0, 0.97, 0.92), 0.0, 100.0, "primary highlight colour"),

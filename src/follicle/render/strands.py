@@ -15,7 +15,7 @@ def segment_indices(offsets: np.ndarray) -> np.ndarray:
 
     Segment i of a curve with vertices P_0 … P_{n-1} gets (P_{i-1}, P_i, P_{i+1},
     P_{i+2}) with the indices clamped to the curve, i.e. its end points duplicated
-    as phantom neighbours (000 §2.2.1, Fig. 2.8). Vectorised: no loop over curves.
+    as phantom neighbours (Šik 2012 §2.2.1, Fig. 2.8). Vectorised: no loop over curves.
     """
     offsets = np.asarray(offsets, dtype=np.int64)
     counts = np.diff(offsets)

@@ -1,4 +1,5 @@
-"""Guide-strand dynamics (001 §3, 002 §5.1): Model (static), State (per step), Solver,
+"""Guide-strand dynamics (Almeida 2014 §3, Le Muzic 2012 §5.1): Model (static), State (per
+step), Solver,
 and the Simulator facade."""
 
 from .simulator import Simulator

@@ -1,7 +1,7 @@
-"""Colliders: spheres, capsules and the skin's SDF (002 §5.1.2 collision constraints).
+"""Colliders: spheres, capsules and the skin's SDF (Le Muzic 2012 §5.1.2 collision constraints).
 
 A collision is a hard constraint: a vertex found inside a collider grown by the
-margin is moved to its surface along the collider's normal there (002: the head sphere
+margin is moved to its surface along the collider's normal there (Le Muzic 2012: the head sphere
 first, other shapes for the body; the skin mesh through its signed distance field,
 :mod:`follicle.sim.sdf`). Colliders arrive in world space as plain arrays: spheres
 (K, 4) = centre, radius; capsules (L, 7) = end a, end b, radius; the SDF as the

@@ -10,16 +10,16 @@ keep such loops scalar (6× slower). Per-vertex
 values are (N, B): ``W`` inverse masses (0 pins a vertex), ``L`` rest lengths of the
 segment starting at each vertex.
 
-- distance (002 §5.1.2): segments solved even then odd, so no two in a batch share a
+- distance (Le Muzic 2012 §5.1.2): segments solved even then odd, so no two in a batch share a
   vertex; the pinned root (inverse mass 0) never moves.
-- bending (002 eq. 5.6): a long-range distance from each vertex to the strand's static
+- bending (Le Muzic 2012 eq. 5.6): a long-range distance from each vertex to the strand's static
   point (one rest segment below the root, along the groomed root direction) with the
   rest distance × ``scale``, weakened along the strand by the attenuation.
-- follow-the-leader (001 §3.1.1, Alg. 2): one root-to-tip pass that restores every
+- follow-the-leader (Almeida 2014 §3.1.1, Alg. 2): one root-to-tip pass that restores every
   segment length exactly and records each vertex's correction for the velocity
   update of eq. 3.1.
 - strain limit: after PBD's iterations, no segment stays longer than (1 + limit) × rest.
-- cone (001 §3.3.3): a segment may turn away from the previous one by at most the
+- cone (Almeida 2014 §3.3.3): a segment may turn away from the previous one by at most the
   bend limit; beyond it, it is put on the cone at its rest length. Root to tip, each
   segment hangs from its parent's new place.
 - shape matching: local (each segment towards its rest direction in the frame of the
@@ -75,7 +75,7 @@ def distance_pass(X, W, L, k, row, nb):
 def bend_pass(X, W, static, bend_rest, scale, k, attenuation, nb):
     """Pull vertices 2 … N−1 to ``scale`` × their rest distance ``bend_rest`` (N, B) from
     the static point ``static`` (3, B), which does not move; vertex i's coefficient is
-    k / (1 + att·(i − 1)) (002 eq. 5.6 with att = 1 is k / i)."""
+    k / (1 + att·(i − 1)) (Le Muzic 2012 eq. 5.6 with att = 1 is k / i)."""
     for i in range(2, X.shape[0]):
         ki = k / (1.0 + attenuation * (i - 1))
         for b in range(nb):
@@ -118,7 +118,7 @@ def follow_the_leader(X, L, corr, row, nb):
 def strain_limit(X, W, L, limit, corr, row, nb):
     """Root to tip, shorten any segment longer than (1 + ``limit``) × rest by moving its
     child (Provot's strain limiting): PBD's iterations leave the rest of the stretch.
-    ``corr`` (N, 3, B) gets each vertex's move, for 001 eq. 3.1's velocity fix."""
+    ``corr`` (N, 3, B) gets each vertex's move, for Almeida 2014 eq. 3.1's velocity fix."""
     for b in range(nb):
         corr[0, 0, b] = corr[0, 1, b] = corr[0, 2, b] = 0.0
     for i in range(1, X.shape[0]):
@@ -146,9 +146,9 @@ def _put_row(X, i, row, corr, nb):
 @_jit
 def cone_pass(X, L, cos_limit, sin_limit, first, nb):
     """Limit each segment's turn from the previous one (the first from the unit root
-    direction ``first`` (3, B)) to the cone of half-angle acos(cos_limit) (001 §3.3.3).
+    direction ``first`` (3, B)) to the cone of half-angle acos(cos_limit) (Almeida 2014 §3.3.3).
 
-    Root to tip like follow-the-leader (001 §3.1.1): each segment keeps the vector it had
+    Root to tip like follow-the-leader (Almeida 2014 §3.1.1): each segment keeps the vector it had
     before the pass, hung from its parent's new place, and a segment outside the cone is
     put on it at its rest length ``L``. So no segment gets longer and a vertex moves at
     most by the turns above it: with any limit, down to 0 (a rigid straight strand at

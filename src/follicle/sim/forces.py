@@ -1,6 +1,6 @@
-"""External accelerations on strand vertices (002 §5.1.2): gravity and wind.
+"""External accelerations on strand vertices (Le Muzic 2012 §5.1.2): gravity and wind.
 
-Wind follows 002 eq. 5.2: F = |w × t| / |w| · w, strongest across a segment and zero
+Wind follows Le Muzic 2012 eq. 5.2: F = |w × t| / |w| · w, strongest across a segment and zero
 along it (wind does not stretch a strand it blows along), with w made turbulent by
 ``noise3`` scrolled through space over time. Vertex masses are 1, so forces are
 accelerations. Drag, −b·v (eq. 5.3), depends on the velocity being solved for, so the

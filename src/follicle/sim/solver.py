@@ -1,15 +1,15 @@
-"""Solver: advances a State by one fixed substep (002 §5.1.2, 001 §3.1.1).
+"""Solver: advances a State by one fixed substep (Le Muzic 2012 §5.1.2, Almeida 2014 §3.1.1).
 
 One parallel kernel takes blocks of strands (vertex-major, strands innermost, see
 :mod:`.constraints`) through a whole substep: pin the root to the skin,
-integrate (Verlet, 002 eq. 5.1, or semi-implicit Euler) under gravity and wind, with
+integrate (Verlet, Le Muzic 2012 eq. 5.1, or semi-implicit Euler) under gravity and wind, with
 drag taken implicitly and per-second damping, then ``iterations`` rounds of distance
 (PBD) or none (DFTL), bending, shape matching and collisions, then for DFTL one
 follow-the-leader pass (PBD: the strain limit), the cone limit, a last collision pass,
 a settle pass that hangs segments the collisions stretched or crushed back at length,
-root to tip, and the velocity update (with 001 eq. 3.1's correction for DFTL and the
+root to tip, and the velocity update (with Almeida 2014 eq. 3.1's correction for DFTL and the
 strain limit, and friction at contacts). Soft constraint stiffnesses are linearised over
-the iterations, k' = 1 − (1 − k)^(1/n) (002 eq. 5.5). A strand whose step would leave a
+the iterations, k' = 1 − (1 − k)^(1/n) (Le Muzic 2012 eq. 5.5). A strand whose step would leave a
 non-finite value is put back as it was and reported.
 """
 
@@ -41,7 +41,7 @@ __all__ = ["Solver", "linearised"]
 
 
 def linearised(k: float | np.ndarray, iterations: int) -> float | np.ndarray:
-    """002 eq. 5.5: the per-iteration stiffness that gives ``k`` after ``iterations``."""
+    """Le Muzic 2012 eq. 5.5: the per-iteration stiffness that gives ``k`` after ``iterations``."""
     return 1.0 - (1.0 - k) ** (1.0 / iterations)
 
 
@@ -162,7 +162,7 @@ def _settle_pass(X, W, L, limit, ref, gap2, contact, spheres, capsules, sdf_valu
     (:func:`_hang`). Too short counts as much as too long: a push out along the normal
     shortens a segment that points into the skin, and the distance constraints fighting
     the pushes crush their neighbours (10 g into the scalp: 32 %). The parent is final
-    when its child is handled (follow-the-leader order, 001 §3.1.1), so pushes out of
+    when its child is handled (follow-the-leader order, Almeida 2014 §3.1.1), so pushes out of
     the skin no longer add up into stretched or crushed segments, and every vertex still
     ends outside the colliders and their margins."""
     if spheres.shape[0] == 0 and capsules.shape[0] == 0 and sdf_values.size == 0:
@@ -213,7 +213,7 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                     energy, bad):  # fmt: skip
     strands, n = x.shape[0], x.shape[1]
     shape = k_local > 0.0 or k_global[1] > 0.0
-    correct = dftl or stretch_limit >= 0.0  # 001 eq. 3.1 applies
+    correct = dftl or stretch_limit >= 0.0  # Almeida 2014 eq. 3.1 applies
     correction = dftl_damping if dftl else limit_damping
     windy = wind[0] != 0.0 or wind[1] != 0.0 or wind[2] != 0.0
     for block in prange((strands + BLOCK - 1) // BLOCK):
@@ -251,7 +251,7 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                 static[a, b] = (root[a, b] + sl[0] * frame[0, a, b] + sl[1] * frame[1, a, b]
                                 + sl[2] * frame[2, a, b])  # fmt: skip
                 first[a, b] = d[0] * frame[0, a, b] + d[1] * frame[1, a, b] + d[2] * frame[2, a, b]
-        # drag −b·v (002 eq. 5.3) taken implicitly (backward Euler): v' = (v + a dt) / (1 + b dt)
+        # drag −b·v (Le Muzic 2012 eq. 5.3), implicit (backward Euler): v' = (v + a dt) / (1 + b dt)
         # damps towards the terminal speed a / b for any b; explicit, v' = v + (a − b v) dt,
         # overshoots and flips the velocity once b dt > 2 (b = 1000 /s stretched hair 1,900 %)
         h = dt / (1.0 + drag * dt)  # the step × 1 / (1 + b dt)
@@ -259,7 +259,7 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
             for b in range(nb):
                 m = 1.0 if W[i, b] > 0.0 else 0.0  # pinned vertices stay
                 ax, ay, az = gravity[0], gravity[1], gravity[2]
-                if windy:  # the tangent the wind acts across (002 eq. 5.2)
+                if windy:  # the tangent the wind acts across (Le Muzic 2012 eq. 5.2)
                     tx = X0[i, 0, b] - X0[i - 1, 0, b]
                     ty = X0[i, 1, b] - X0[i - 1, 1, b]
                     tz = X0[i, 2, b] - X0[i - 1, 2, b]
@@ -273,7 +273,7 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                     X[i, 0, b] += m * (vx + ax * dt) * damp * h
                     X[i, 1, b] += m * (vy + ay * dt) * damp * h
                     X[i, 2, b] += m * (vz + az * dt) * damp * h
-                else:  # 002 eq. 5.1: P = P⁻¹ + (P⁻¹ − P⁻²) + a Δt², the implicit velocity damped
+                else:  # Le Muzic 2012 eq. 5.1: P = 2P⁻¹ − P⁻² + a Δt², implicit velocity damped
                     X[i, 0, b] += m * (vx * damp + ax * dt) * h
                     X[i, 1, b] += m * (vy * damp + ay * dt) * h
                     X[i, 2, b] += m * (vz * damp + az * dt) * h
@@ -305,7 +305,7 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                          nb)  # fmt: skip
         keep = 1.0 - friction
         for i in range(n):  # velocities from the moves
-            fix = correction / dt if correct and 0 < i < n - 1 else 0.0  # 001 eq. 3.1
+            fix = correction / dt if correct and 0 < i < n - 1 else 0.0  # Almeida 2014 eq. 3.1
             j = min(i + 1, n - 1)
             for b in range(nb):
                 vx = (X[i, 0, b] - X0[i, 0, b]) / dt

@@ -1,7 +1,8 @@
-"""Hair-hair interaction through a voxel grid: friction and repulsion (001 §3.2, 002 §5.1.3).
+"""Hair-hair interaction through a voxel grid: friction and repulsion (Almeida 2014 §3.2,
+Le Muzic 2012 §5.1.3).
 
 Strands do not collide with each other one by one; the hair acts as a whole through
-two fields on a regular grid (Petrovic et al. 2005, Müller et al. 2012, as in 001 §3.2):
+two fields on a regular grid (Petrovic et al. 2005, Müller et al. 2012, as in Almeida 2014 §3.2):
 
 * density, eq. 3.2: every particle splats a trilinear "tent" weight, 1 at the particle
   falling linearly to 0 one voxel away, onto the 8 vertices of its cell:
@@ -9,15 +10,15 @@ two fields on a regular grid (Petrovic et al. 2005, Müller et al. 2012, as in 0
 * velocity, eq. 3.3: ``V = Σ w v / D`` with the same weights (0 where D ≤ 1e-12, so
   empty space never divides).
 
-Both sums are smoothed with box-blur passes (002 §5.1.3: each vertex becomes the mean of
+Both sums are smoothed with box-blur passes (Le Muzic 2012 §5.1.3: each vertex becomes the mean of
 its 3×3×3 neighbourhood, only neighbours inside the grid counted) before the division,
 so V stays a density-weighted mean. Particle velocities are then updated:
 
 * friction, eq. 3.4: ``v ← (1 − s_friction)·v + s_friction·v_grid(P)``, v_grid the
   trilinear interpolation of V, so strands drift with their neighbours;
 * repulsion, eq. 3.5–3.7: g is the central-difference gradient of the interpolated
-  density at P with radius r = h, normalised; the seed writes ``v ← v + s·g/Δt``, but
-  the push must go towards lower density (002 §5.1.3) and be independent of the grid's
+  density at P with radius r = h, normalised; Almeida 2014 writes ``v ← v + s·g/Δt``, but
+  the push must go towards lower density (Le Muzic 2012 §5.1.3) and be independent of the grid's
   scale, so here ``v ← v − s_repulsion·ĝ·h/Δt``: s_repulsion = 1 moves a particle one
   voxel in one step. No push where |g| is ~0 (no direction to push in).
 

@@ -54,7 +54,7 @@ def background(size: Sequence[int], top: Sequence[float], bottom: Sequence[float
 
 def density_grid(positions: np.ndarray, params: SimParams) -> VolumeGrid:
     """The hair density grid the solver builds each substep ([sim] volume_resolution,
-    volume_blur; 001 eq. 3.2), for the vertices ``positions`` (S, N, 3)."""
+    volume_blur; Almeida 2014 eq. 3.2), for the vertices ``positions`` (S, N, 3)."""
     x = np.ascontiguousarray(positions, np.float64)
     passes = params.volume_blur
     spec = grid_for(x, params.volume_resolution, margin=1 + passes)
