@@ -32,7 +32,7 @@ def main() -> None:
     rows.append((f"grow {args.count:,} hairs × 24 vertices", t_grow))
     curves = groom.generate(count=args.count)
     scene = Scene()
-    scene.render.size = (args.size, args.size)
+    scene = scene.replace(render=scene.render.replace(size=(args.size, args.size)))
     render_scene(curves, mesh, scene.render)  # context and shader warm-up
     t_render = best_of(lambda: render_scene(curves, mesh, scene.render), repeat=2)
     rows.append((f"render {args.count:,} hairs at {args.size}² msaa 4", t_render))

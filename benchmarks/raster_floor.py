@@ -118,7 +118,7 @@ def render_needs(counts: list[int]) -> list[tuple[str, int, int, float]]:
     render benchmark's frames: the least is our frame without shadows (colour pass, skin,
     full-screen triangles) plus one shadow pass drawing each hair segment once."""
     scene = Scene()
-    scene.groom.vertices = 16
+    scene = scene.replace(groom=scene.groom.replace(vertices=16))
     groom = groom_scene(scene)
     out = []
     with Renderer(size=SIZE, msaa=0) as renderer:

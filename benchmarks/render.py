@@ -65,7 +65,7 @@ def main() -> None:
     args = parser.parse_args()
 
     scene = Scene()
-    scene.groom.vertices = 16
+    scene = scene.replace(groom=scene.groom.replace(vertices=16))
     groom = groom_scene(scene)
     grown = {n: groom.generate(count=n) for n in args.counts}
     for curves in grown.values():

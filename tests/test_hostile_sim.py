@@ -375,6 +375,6 @@ def test_simulate_scene_refuses_before_growing_anything(monkeypatch):
 
     monkeypatch.setattr(pipeline, "groom_scene", grown)
     scene = Scene()
-    scene.sim.substep = 1e-7
+    scene = scene.replace(sim=scene.sim.replace(substep=1e-7))
     with pytest.raises(FollicleError, match="416,667 substeps per frame at 24 fps"):
         pipeline.simulate_scene(scene, frames=2, fps=24)

@@ -265,7 +265,8 @@ def test_stored_scene_keeps_colliders(tmp_path):
     from follicle.scene import ColliderParams
 
     scene = Scene()
-    scene.sim.colliders = [ColliderParams(kind="capsule", a=(0, -0.2, 0), b=(0, -0.3, 0.01))]
+    collider = ColliderParams(kind="capsule", a=(0, -0.2, 0), b=(0, -0.3, 0.01))
+    scene = scene.replace(sim=scene.sim.replace(colliders=[collider]))
     pos, tr = frames()
     save_cache(tmp_path / "c.npz", pos, tr, 24, scene_to_toml(scene), str(tmp_path))
     again = load_cache(tmp_path / "c.npz").scene()

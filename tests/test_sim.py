@@ -307,3 +307,27 @@ def test_wind_gusts_vary_between_steady_and_the_gust_strength():
     assert np.abs(np.diff(speeds)).max() < 0.5  # … that rise and fall smoothly
     steady = Simulator(_strands(), params=SimParams(wind=(2.0, 0.0, 0.0)))
     assert {float(steady.wind(t)[0]) for t in (0.0, 1.3, 7.7)} == {2.0}
+
+
+def test_changed_params_apply_from_the_next_step_and_in_place_changes_are_refused():
+    """The stale-physics fault: a params change mid-run must take effect. Gravity turned
+    upwards mid-fall lifts the tips on the next steps; vertices rebuild the model and put
+    the hair at rest; assigning a key in place says how to change it."""
+    from follicle.errors import ConfigError
+
+    sim = Simulator(_strands(1), params=SimParams(bend_stiffness=0.0, shape_local=0.0))
+    _run(sim, 0.25)
+    falling = sim.positions[0, -1, 1]
+    assert falling < -0.05  # the tip has dropped under gravity
+    with pytest.raises(ConfigError, match=r"SimParams.gravity: settings are values .*replace\("
+                                          r"gravity=\.\.\.\), and give it to Simulator.params"):
+        sim.params.gravity = (0.0, 9.81, 0.0)
+    sim.params = sim.params.replace(gravity=(0.0, 9.81, 0.0), damping=5.0)
+    _run(sim, 0.5)
+    assert sim.positions[0, -1, 1] > falling + 0.05  # now it rises
+    assert sim.state.time > 0.7  # the same run, not a new one
+    sim.params = sim.params.replace(vertices=12)  # a model key: rebuilt, at rest
+    assert sim.positions.shape == (1, 12, 3) and sim.state.time == 0.0
+    np.testing.assert_allclose(sim.positions[0, :, 1], 0.0, atol=1e-9)
+    with pytest.raises(InputError, match="params: expected SimParams"):
+        sim.params = {"gravity": (0, 0, 0)}

@@ -13,7 +13,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING
 
 import click
 from rich.console import Console
@@ -33,14 +33,10 @@ from .errors import FollicleError
 from .io.targets import TARGET_NAMES
 
 if TYPE_CHECKING:
-    from pydantic import BaseModel
-
     from .curves import HairCurves
     from .groom.generator import Groom
     from .scene import Scene
     from .sim.cache import SimCache
-
-    M = TypeVar("M", bound=BaseModel)
 
 log = logging.getLogger("follicle")
 _err = Console(stderr=True, highlight=False)
@@ -440,7 +436,7 @@ def simulate(scene_path: str, out: str | None, frames: int, fps: float, motion: 
 
     scene = _with_overrides(load_scene(scene_path), count=count)
     if motion is not None:
-        scene.sim = _validated(scene.sim, "sim", {"motion": motion})
+        scene = scene.replace(sim=scene.sim.replace("command line", motion=motion))
     target = out or scene.resolve("sim.npz")
     _check_writable_suffix(target, (".npz",))
     start = time.perf_counter()
@@ -534,7 +530,7 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
         _not_for(source, "a curves file", count=count, frames=frame_range)
         curves = load_curves(source)
         mesh = load_mesh(mesh_path) if mesh_path else None
-    params = _validated(scene.render, "render", overrides)
+    params = scene.render.replace("command line", **overrides)
     with _step("render"):
         if engine == "mitsuba":
             with _progress("path tracing (%)") as progress:
@@ -557,7 +553,7 @@ def _render_cache(source: str, out: str | None, overrides: dict[str, object], co
     cache = load_cache(source)
     frames = _frame_range(frame_range, cache.frame_count)
     scene = _with_overrides(cache.scene(), count=count)
-    scene.render = _validated(scene.render, "render", overrides)
+    scene = scene.replace(render=scene.render.replace("command line", **overrides))
     target = Path(out) if out else Path(source).with_name(Path(source).stem + "_frames")
     video = target.suffix.lower() == ".mp4"
     if not video and (target.suffix.lower() == ".png" or target.is_file()):
@@ -707,19 +703,11 @@ def check(source: str, target_name: str) -> None:
                f" {curves.point_count:,} points)".translate(_ESCAPES))
 
 
-def _validated(model: M, section: str, changes: dict[str, object]) -> M:
-    """A copy of scene section ``section`` with ``changes`` applied and validated."""
-    from .scene import parse_scene
-
-    data = {**model.model_dump(), **changes}
-    return getattr(parse_scene({section: data}, "command line"), section)
-
-
 def _with_overrides(scene: Scene, **groom: object) -> Scene:
     """``scene`` with the non-None [groom] values from the command line applied."""
     changes = {k: v for k, v in groom.items() if v is not None}
     if changes:
-        scene.groom = _validated(scene.groom, "groom", changes)
+        scene = scene.replace(groom=scene.groom.replace("command line", **changes))
     return scene
 
 

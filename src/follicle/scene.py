@@ -12,7 +12,7 @@ import math
 import os
 import sys
 from pathlib import Path
-from typing import Annotated, Any, Literal, get_args
+from typing import TYPE_CHECKING, Annotated, Any, Literal, get_args
 
 from pydantic import (
     BaseModel,
@@ -30,6 +30,9 @@ from .errors import ConfigError, FormatError
 from .io.inputs import input_file
 from .io.targets import TARGET_NAMES
 from .units import UNITS, metres_per_unit, units_for
+
+if TYPE_CHECKING:
+    from typing_extensions import Self
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -72,11 +75,32 @@ Acceleration = Annotated[tuple[Accel, Accel, Accel], Field(strict=False)]
 
 
 class _Section(BaseModel):
-    """A scene table: unknown keys are errors and no number may be NaN or infinite."""
+    """A scene table: unknown keys are errors and no number may be NaN or infinite.
 
-    model_config = ConfigDict(
-        extra="forbid", validate_assignment=True, frozen=False, allow_inf_nan=False
-    )
+    A value, never changed in place: ``replace(key=value)`` makes a validated copy, which
+    its owner takes whole (``Simulator.params``, ``Groom.params``, ``Scene.replace``) and
+    so knows what to rebuild; assigning to a key raises ConfigError saying so."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        kind = type(self).__name__
+        raise ConfigError(
+            f"{kind}.{name}: settings are values and do not change in place; make a changed"
+            f" copy, {_owner_hint(kind, name)}"
+        )
+
+    def replace(self, source: str = "settings", **changes: object) -> Self:
+        """A copy with ``changes`` applied and validated as a scene file's would be;
+        ConfigError naming ``[section].key`` (``source`` names where they came from)."""
+        data = {**self.model_dump(), **changes}
+        section = _SECTION_NAMES.get(type(self))
+        if section is not None:
+            return getattr(parse_scene({section: data}, source), section)
+        try:
+            return type(self).model_validate(data)
+        except ValidationError as err:
+            raise ConfigError(_format_errors(source, err)) from None
 
 
 class _StrictSection(_Section):
@@ -544,11 +568,42 @@ class Scene(_StrictSection):
     output: OutputParams = Field(default_factory=OutputParams)
     base_dir: Path = Field(Path("."), exclude=True, description="folder relative paths start in")
 
+    def replace(self, source: str = "settings", **changes: object) -> Scene:
+        """A copy with whole sections (a SimParams for ``sim``, …) or ``base_dir``
+        replaced; ConfigError for an unknown section or a value of the wrong type."""
+        for key, value in changes.items():
+            field = Scene.model_fields.get(key)
+            if field is None:
+                raise ConfigError(f"{source}: {key}: unknown scene section; allowed:"
+                                  f" {', '.join(Scene.model_fields)}")  # fmt: skip
+            want = Path if key == "base_dir" else field.annotation
+            if not isinstance(value, want):
+                raise ConfigError(f"{source}: {key}: expected {want.__name__}, got"
+                                  f" {type(value).__name__}")  # fmt: skip
+        return self.model_copy(update=changes)
+
     def resolve(self, path: str) -> str:
         """A scene path made absolute against the scene's folder (builtins untouched)."""
         if path.startswith("builtin:") or os.path.isabs(path):
             return path
         return str(self.base_dir / path)
+
+
+# each section's class and its [name] in a scene file
+_SECTION_NAMES: dict[type, str] = {
+    f.annotation: name for name, f in Scene.model_fields.items()
+    if isinstance(f.annotation, type) and issubclass(f.annotation, _Section)
+}  # fmt: skip
+_OWNERS = {"SimParams": "Simulator.params", "GroomParams": "Groom.params"}
+
+
+def _owner_hint(kind: str, name: str) -> str:
+    """How to change ``kind``'s key ``name``: a copy from replace, given to its owner."""
+    if kind == "Scene":
+        return f"scene = scene.replace({name}=...)"
+    owner = _OWNERS.get(kind)
+    where = f", and give it to {owner}" if owner else ""
+    return f"params = params.replace({name}=...){where}"
 
 
 def _format_errors(source: str, err: ValidationError) -> str:
@@ -598,9 +653,7 @@ def parse_scene(data: dict[str, Any], source: str = "scene", base_dir: Path | No
         scene = Scene.model_validate(data)
     except ValidationError as err:
         raise ConfigError(_format_errors(source, err)) from None
-    if base_dir is not None:
-        scene.base_dir = base_dir
-    return scene
+    return scene if base_dir is None else scene.model_copy(update={"base_dir": base_dir})
 
 
 def load_scene(path: str | os.PathLike[str] | None) -> Scene:

@@ -35,8 +35,11 @@ from .solver import Solver
 from .state import State
 from .volume import volume_step
 
-__all__ = ["MAX_SUBSTEPS_PER_CALL", "Simulator", "substeps_per_step"]
+__all__ = ["MAX_SUBSTEPS_PER_CALL", "MODEL_KEYS", "Simulator", "substeps_per_step"]
 
+# [sim] keys that shape the model (vertices), the skin's field (skin_collision,
+# skin_voxel) or the rest clearances (colliders): a change rebuilds them, hair at rest
+MODEL_KEYS = ("vertices", "skin_collision", "skin_voxel", "colliders")
 MAX_SUBSTEPS_PER_CALL = 10_000  # substeps one step() may run (83 s at the default 1/120 s)
 EXPLODED = 10.0  # a vertex this many strand lengths from its root: the state blew up
 
@@ -165,16 +168,37 @@ class Simulator:
         self, guides: Guides | HairCurves, mesh: SkinMesh | None = None,
         params: SimParams | None = None,
     ) -> None:  # fmt: skip
-        params = params if params is not None else SimParams()
-        if not isinstance(params, SimParams):
-            raise InputError(f"params: expected SimParams, got {type(params).__name__}")
         if isinstance(guides, Guides) and mesh is None:
             mesh = guides.mesh
         self.mesh = mesh
-        self.params = params
-        self.model = Model.build(guides, mesh, params.vertices)
-        self._free = self.model.inv_mass != 0  # particles the volume may move (not roots)
+        self._guides = guides
         self._transform = np.eye(4)
+        self._params: SimParams | None = None
+        self.params = params if params is not None else SimParams()
+
+    @property
+    def params(self) -> SimParams:
+        """The [sim] settings. Give a changed copy (``sim.params =
+        sim.params.replace(gravity=(0, 0, 0))``): it applies from the next step; a change
+        to a key of :data:`MODEL_KEYS` rebuilds the model, the skin's field and the rest
+        clearances and puts the hair back at rest on the current pose."""
+        return self._params
+
+    @params.setter
+    def params(self, params: SimParams) -> None:
+        if not isinstance(params, SimParams):
+            raise InputError(f"params: expected SimParams, got {type(params).__name__}")
+        old, self._params = self._params, params
+        if old is not None and all(getattr(old, k) == getattr(params, k) for k in MODEL_KEYS):
+            self.solver.params = params
+            return
+        self._build(params)
+
+    def _build(self, params: SimParams) -> None:
+        """Model, skin field, solver and state for ``params`` on the skin's current pose."""
+        mesh = self.mesh
+        self.model = Model.build(self._guides, mesh, params.vertices)
+        self._free = self.model.inv_mass != 0  # particles the volume may move (not roots)
         self._accumulator = 0.0
         self._pinned_cache: tuple[np.ndarray, np.ndarray] | None = None
         self.sdf = None  # the skin's SDF on the current pose

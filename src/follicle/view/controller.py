@@ -20,14 +20,14 @@ from ..render.options import parse_size
 from ..render.video import Mp4Writer
 from ..scene import Scene, load_scene
 from ..sim.motion import head_motion, motion_pivot
-from .controls import check_key, updated
+from ..sim.simulator import MODEL_KEYS
+from .controls import check_key
 from .gust import Gust, GustySimulator
 from .overlay import background, drawable, guide_curves, volume_overlay
 from .scenefile import save_scene
 
 __all__ = ["Controller", "Show", "QUALITIES"]
 
-REBUILD_SIM = ("vertices", "skin_collision", "skin_voxel", "colliders", "substep")
 QUALITIES = ("full", "fast")  # fast: no MSAA, no shadows, one Catmull-Rom step per segment
 DEFAULT_SCENE_FILE = "follicle_view.toml"  # where the scene is saved when not read from a file
 
@@ -123,15 +123,13 @@ class Controller:
         """Set scene key ``[section].key``: [sim] applies on the next step (keys that
         shape the model, e.g. ``vertices``, restart the simulation), [groom] regrows the
         displayed hair, [render] the next frame. ConfigError names a bad key or value."""
-        current = getattr(self.scene, section, None)
-        new = updated(section, current, key, value)
-        setattr(self.scene, section, new)
+        check_key(section, key)
+        new = getattr(self.scene, section).replace("viewer", **{key: value})
+        self.scene = self.scene.replace(**{section: new})
         if section == "sim":
-            if key in REBUILD_SIM:
-                self.sim = GustySimulator(self.groom.guides, new, self.gusts)
+            self.sim.params = new  # the simulator rebuilds what the change needs
+            if key in MODEL_KEYS:  # the hair is back at rest: so is the rest of the show
                 self.reset()
-            else:
-                self.sim.params = self.sim.solver.params = new
         elif section == "groom":
             self.groom.params = new
             self.curves = self.image = None

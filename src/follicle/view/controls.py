@@ -8,9 +8,9 @@ from typing import NamedTuple
 from pydantic import BaseModel
 
 from ..errors import ConfigError
-from ..scene import GroomParams, RenderParams, SimParams, parse_scene
+from ..scene import GroomParams, RenderParams, SimParams
 
-__all__ = ["Control", "CONTROLS", "SECTIONS", "check_key", "updated"]
+__all__ = ["Control", "CONTROLS", "SECTIONS", "check_key"]
 
 SECTIONS: dict[str, type[BaseModel]] = {
     "sim": SimParams, "groom": GroomParams, "render": RenderParams,
@@ -86,9 +86,3 @@ def check_key(section: str, key: str) -> None:
         raise ConfigError(f"viewer: [{section}].{key}: unknown parameter")
 
 
-def updated(section: str, model: BaseModel, key: str, value: object) -> BaseModel:
-    """A validated copy of scene section ``section`` (``model``) with ``key`` set to
-    ``value``; ConfigError naming ``[section].key`` when either is bad."""
-    check_key(section, key)
-    data = {**model.model_dump(), key: value}
-    return getattr(parse_scene({section: data}, "viewer"), section)
