@@ -96,3 +96,23 @@ def test_displacement_moves_roots_along_the_normal(tmp_path):
         lifted.points[lifted.offsets[:-1]], flat.points[flat.offsets[:-1]] + 0.004 * normal,
         atol=1e-5,
     )
+
+
+def test_the_python_quick_start_grows_the_default_scenes_groom(tmp_path):
+    """README § Python, line for line, and `follicle grow` of the default scene: the
+    same bytes (the built-in guides part along the built-in head's parting in both)."""
+    from click.testing import CliRunner
+
+    import follicle
+    from follicle.cli import main
+
+    mesh = follicle.load_mesh("builtin:head")
+    guides = follicle.load_guides("builtin:long", mesh)
+    groom = follicle.Groom(mesh, guides)
+    follicle.save(groom.generate(20000), tmp_path / "python.npz")
+    (tmp_path / "default.toml").write_text("")  # every key at its default
+    run = CliRunner().invoke(main, ["grow", str(tmp_path / "default.toml"), "-o",
+                                    str(tmp_path / "cli.npz")])  # fmt: skip
+    assert run.exit_code == 0, run.output
+    assert (tmp_path / "python.npz").read_bytes() == (tmp_path / "cli.npz").read_bytes()
+    assert guides.groups.colors.tolist() == [[255, 0, 0], [0, 0, 255]]  # the parting

@@ -13,7 +13,7 @@ import numpy as np
 from .curves import HairCurves
 from .errors import InputError
 from .groom.generator import Groom, load_texture, resolve_density
-from .groom.groups import InterpolationGroups
+from .groom.groups import InterpolationGroups, mesh_groups
 from .groom.guides import load_guides
 from .mesh.load import load_mesh
 from .mesh.skin import SkinMesh
@@ -32,14 +32,12 @@ Progress = Callable[[int, int], None]
 def groom_scene(scene: Scene) -> Groom:
     """The mesh, guides and groom parameters of ``scene``, ready to grow."""
     mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
-    spec = scene.groom.groups
-    if spec is None and scene.mesh.path == "builtin:head" and scene.guides.path.startswith(
-            "builtin:"):  # fmt: skip
-        spec = "builtin:parting"  # the built-in guides part at the head's mid-plane
-    groups = InterpolationGroups(
-        None if spec in (None, "none") else load_texture(spec, scene.resolve),
-        scene.groom.group_vertices,
-    )
+    spec, vertices = scene.groom.groups, scene.groom.group_vertices
+    if spec is None and scene.guides.path.startswith("builtin:"):
+        groups = mesh_groups(mesh, vertices)  # as load_guides gives built-in guides
+    else:
+        texture = None if spec in (None, "none") else load_texture(spec, scene.resolve)
+        groups = InterpolationGroups(texture, vertices)
     guides = load_guides(scene.resolve(scene.guides.path), mesh, groups=groups,
                          units=scene.guides.units)
     density = resolve_density(mesh, scene.groom.density, scene.resolve)

@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import InputError
 from ..mesh.texture import Texture, checked_uv
 
-__all__ = ["InterpolationGroups", "color_label"]
+__all__ = ["InterpolationGroups", "color_label", "mesh_groups"]
 
 
 def color_label(rgb: np.ndarray) -> str:
@@ -100,3 +100,13 @@ class InterpolationGroups:
         labels = ", ".join(self.label(g) for g in range(min(self.count, 8)))
         more = ", …" if self.count > 8 else ""
         return f"InterpolationGroups({self.count}: {labels}{more})"
+
+
+def mesh_groups(mesh: object, vertices: Mapping[str, int] | None = None) -> InterpolationGroups:
+    """The groups a mesh's built-in guides take unless told otherwise: its own parting
+    texture (the built-in head's, split at its mid-plane) when it has one, else one group
+    for everything. The one place this default lives, for the Python API, the scene and
+    the viewer alike."""
+    from ..mesh.head import PARTING_TEXTURE
+
+    return InterpolationGroups(getattr(mesh, "textures", {}).get(PARTING_TEXTURE), vertices)

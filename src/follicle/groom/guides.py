@@ -29,7 +29,7 @@ from ..units import (
     units_for,
     warn_guide_size,
 )
-from .groups import InterpolationGroups
+from .groups import InterpolationGroups, mesh_groups
 
 log = logging.getLogger("follicle")
 _FAR = 0.01  # warn when a root is farther from the mesh than this share of its size
@@ -245,6 +245,8 @@ def load_guides(
         name, curves = "guides", scale_curves(source, metres_per_unit(units))
     elif str(source).startswith("builtin:"):
         units_for(str(source), units)  # built-in guides are metres: other units are an error
+        if groups is None:  # they part where the mesh says (the built-in head's mid-plane)
+            groups = mesh_groups(mesh)
         return Guides(builtin_guides(str(source).split(":", 1)[1], mesh), mesh, vertices, groups)
     else:
         name, curves = os.fspath(source), load_curves(source, units)

@@ -30,6 +30,7 @@ __all__ = [
 ]
 
 SCALP_TEXTURE = "scalp"
+PARTING_TEXTURE = "parting"  # the interpolation groups its built-in guides part along
 HEAD_CENTER = np.zeros(3)  # the star centre of the radial function
 
 _N_THETA = 52  # latitude bands (pole to pole)
@@ -262,7 +263,7 @@ def parting_texture() -> Texture:
     n = _SCALP_SIZE
     right = (_texel_points(n)[:, 0] < 0.0).reshape(n, n)
     rgb = np.where(right[:, :, None], [255, 0, 0], [0, 0, 255]).astype(np.uint8)
-    return Texture(rgb, wrap="clamp", name="parting")
+    return Texture(rgb, wrap="clamp", name=PARTING_TEXTURE)
 
 
 def scalp_texture() -> Texture:
@@ -271,7 +272,8 @@ def scalp_texture() -> Texture:
 
 
 def builtin_head() -> SkinMesh:
-    """A new SkinMesh 'head' (about 7k triangles, UVs, ``textures['scalp']``)."""
+    """A new SkinMesh 'head' (about 7k triangles, UVs, ``textures['scalp']``, its hair
+    density, and ``textures['parting']``, the groups the built-in guides part along)."""
     verts, faces, uvs, _ = _head_arrays()
-    textures = {SCALP_TEXTURE: scalp_texture()}
+    textures = {SCALP_TEXTURE: scalp_texture(), PARTING_TEXTURE: parting_texture()}
     return SkinMesh(verts, faces, uvs=uvs, name="head", textures=textures)
