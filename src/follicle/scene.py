@@ -29,6 +29,8 @@ from pydantic import (
 from .errors import ConfigError, FormatError
 from .io.inputs import input_file
 from .io.targets import TARGET_NAMES
+from .render.camera import DEFAULT_FOV
+from .render.options import DEFAULT_BACKGROUND
 from .units import UNITS, metres_per_unit, units_for
 
 if TYPE_CHECKING:
@@ -515,9 +517,10 @@ class RenderParams(_StrictSection):
                               " (fewer where it is short and straight on screen)")
     eye: Vec3 | None = Field(None, description="camera position; unset = framed automatically")
     target: Vec3 | None = Field(None, description="camera target; unset = framed automatically")
-    fov: float = Field(30.0, gt=1, lt=170, description="vertical field of view, degrees")
-    background_top: RGB = Field((0.33, 0.36, 0.41), description="background gradient top")
-    background_bottom: RGB = Field((0.08, 0.085, 0.1), description="background gradient bottom")
+    fov: float = Field(DEFAULT_FOV, gt=1, lt=170, description="vertical field of view, degrees")
+    background_top: RGB = Field(DEFAULT_BACKGROUND[0], description="background gradient top")
+    background_bottom: RGB = Field(DEFAULT_BACKGROUND[1],
+                                   description="background gradient bottom")
 
     @model_validator(mode="after")
     def _eye_and_target_together(self) -> RenderParams:

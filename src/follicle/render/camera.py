@@ -19,7 +19,10 @@ from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
 
-__all__ = ["Camera", "Light", "default_lights", "frame_camera", "hair_bounds", "scene_bounds"]
+__all__ = ["Camera", "Light", "DEFAULT_FOV", "default_lights", "frame_camera", "hair_bounds",
+           "scene_bounds"]
+
+DEFAULT_FOV = 30.0  # vertical field of view, degrees: every camera's and [render].fov's
 
 
 def _vec3(value: object, name: str) -> np.ndarray:
@@ -51,7 +54,7 @@ class Camera:
     eye: Sequence[float]
     target: Sequence[float]
     up: Sequence[float] = (0.0, 1.0, 0.0)
-    fov_y: float = 35.0
+    fov_y: float = DEFAULT_FOV
     near: float | None = None
     far: float | None = None
 
@@ -147,7 +150,7 @@ def frame_camera(
     lo: object,
     hi: object,
     direction: Sequence[float] = (0.35, 0.15, 1.0),
-    fov_y: float = 35.0,
+    fov_y: float = DEFAULT_FOV,
     aspect: float = 1.0,
     margin: float = 1.1,
     up: Sequence[float] = (0.0, 1.0, 0.0),

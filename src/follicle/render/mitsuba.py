@@ -38,7 +38,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..io.mitsuba import save_mitsuba
-from .camera import Camera, Light, default_lights, frame_camera, scene_bounds
+from .camera import DEFAULT_FOV, Camera, Light, default_lights, frame_camera, scene_bounds
 from .image import encode_srgb8, save_png
 from .options import (
     DEFAULT_HAIR_COLOR,
@@ -240,7 +240,7 @@ def render_mitsuba(
     hair_color: Sequence[float] = DEFAULT_HAIR_COLOR,
     hair_width: float = DEFAULT_HAIR_WIDTH,
     skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
-    fov: float = 35.0,
+    fov: float = DEFAULT_FOV,
     progress: Callable[[int, int], None] | None = None,
 ) -> np.ndarray:
     """Path-trace hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.

@@ -25,7 +25,15 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
-from .camera import Camera, Light, default_lights, frame_camera, hair_bounds, scene_bounds
+from .camera import (
+    DEFAULT_FOV,
+    Camera,
+    Light,
+    default_lights,
+    frame_camera,
+    hair_bounds,
+    scene_bounds,
+)
 from .context import get_context
 from .image import encode_srgb8, save_png
 from .options import (
@@ -172,7 +180,7 @@ class Renderer:
         hair_width: float = DEFAULT_HAIR_WIDTH,
         hair_opacity: float = 1.0,
         skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
-        fov: float = 35.0,
+        fov: float = DEFAULT_FOV,
         shadows: bool = True,
         oit: bool = True,
     ) -> np.ndarray:
@@ -482,7 +490,7 @@ def render(
     hair_width: float = DEFAULT_HAIR_WIDTH,
     hair_opacity: float = 1.0,
     skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
-    fov: float = 35.0,
+    fov: float = DEFAULT_FOV,
     shadows: bool = True,
     shadow_size: int = 512,
     oit: bool = True,

@@ -39,7 +39,8 @@ MAX_SHADOW_SIZE = 4096
 DEFAULT_HAIR_COLOR = (0.16, 0.09, 0.045)  # linear RGB, a mid brown
 DEFAULT_HAIR_WIDTH = 80e-6  # diameter, metres
 DEFAULT_SKIN_COLOR = (0.42, 0.25, 0.18)  # linear RGB
-DEFAULT_BACKGROUND = ((0.09, 0.095, 0.11), (0.012, 0.012, 0.016))  # (top, bottom), linear
+# (top, bottom) of the gradient, linear RGB: every render's and [render].background_*'s
+DEFAULT_BACKGROUND = ((0.33, 0.36, 0.41), (0.08, 0.085, 0.1))
 
 # name: (default, low, high, meaning); a tuple default is a linear RGB colour.
 # Lobe shifts follow Marschner et al. 2003: a lobe "towards the root" peaks where the
