@@ -41,8 +41,10 @@ def main() -> None:
     arrays = [curves.points, *(curves.point_data[k] for k in DATA)]
     data_mb = sum(a.nbytes for a in arrays) / 1e6
     counts = np.unique(curves.counts).tolist()
-    print(f"{curves.curve_count:,} hairs × {counts} vertices, {curves.point_count:,} points;"
-          f" hair data (points, width, colour, opacity) {data_mb:.0f} MB")
+    print(
+        f"{curves.curve_count:,} hairs × {counts} vertices, {curves.point_count:,} points;"
+        f" hair data (points, width, colour, opacity) {data_mb:.0f} MB"
+    )
 
     with tempfile.TemporaryDirectory(prefix="follicle-formats-") as tmp:
         folder = Path(tmp)
@@ -57,17 +59,30 @@ def main() -> None:
         base_r = best_of(lambda: [np.load(p) for p in paths])
         base_mb = sum(p.stat().st_size for p in paths) / 1e6
 
-        print(f"\n{'format':<8} {'file MB':>9} {'write s':>8} {'MB/s':>7} {'× np.save':>9}"
-              f" {'read s':>8} {'MB/s':>7} {'× np.load':>9}")
-        print(f"{'np.save':<8} {base_mb:9.0f} {base_w:8.2f} {data_mb / base_w:7.0f} {1:9.1f}"
-              f" {base_r:8.2f} {data_mb / base_r:7.0f} {1:9.1f}")
+        print(
+            f"\n{'format':<8} {'file MB':>9} {'write s':>8} {'MB/s':>7} {'× np.save':>9}"
+            f" {'read s':>8} {'MB/s':>7} {'× np.load':>9}"
+        )
+        print(
+            f"{'np.save':<8} {base_mb:9.0f} {base_w:8.2f} {data_mb / base_w:7.0f} {1:9.1f}"
+            f" {base_r:8.2f} {data_mb / base_r:7.0f} {1:9.1f}"
+        )
         for ext in sorted(WRITERS):
-            print(_row(ext, curves, folder / f"hair{ext}", data_mb, base_w, base_r, args.repeat),
-                  flush=True)
+            print(
+                _row(ext, curves, folder / f"hair{ext}", data_mb, base_w, base_r, args.repeat),
+                flush=True,
+            )
 
 
-def _row(ext: str, curves: HairCurves, path: Path, data_mb: float, base_w: float,
-         base_r: float, repeat: int) -> str:  # fmt: skip
+def _row(
+    ext: str,
+    curves: HairCurves,
+    path: Path,
+    data_mb: float,
+    base_w: float,
+    base_r: float,
+    repeat: int,
+) -> str:
     """One table row: write (and read) ``curves`` as ``ext``; errors are printed, not raised."""
     try:
         write = best_of(lambda: save(curves, path), repeat)

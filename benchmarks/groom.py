@@ -140,44 +140,97 @@ def main() -> None:
     mem = measure_memory("ours", args.count)
     mem_base = measure_memory("baseline", args.count)
 
-    print(f"built-in head, 1,000 long guides → {args.count:,} hairs × {big.vertices} vertices,"
-          f" IDW n = {big.guide_samples}, frizz, kink, colour variation; {os.cpu_count()} CPUs")
-    print(f"{args.small:,} hairs: bounds ours {ours_bounds}, baseline {base_bounds};"
-          f" all finite: {finite}")
+    print(
+        f"built-in head, 1,000 long guides → {args.count:,} hairs × {big.vertices} vertices,"
+        f" IDW n = {big.guide_samples}, frizz, kink, colour variation; {os.cpu_count()} CPUs"
+    )
+    print(
+        f"{args.small:,} hairs: bounds ours {ours_bounds}, baseline {base_bounds};"
+        f" all finite: {finite}"
+    )
     print(f"{'figure':<32} {'ours (s)':>9} {'baseline':>9} {'speed-up':>9} {'ours hairs/s':>13}")
-    for label, n, ours, ref in (("grow", args.count, t_big, b_big),
-                                ("grow", args.small, t_small, b_small)):
-        print(f"{f'{label} {n:,} × {big.vertices}':<32} {ours:9.3f} {ref:9.3f} {ref / ours:9.2f}"
-              f" {n / ours:13,.0f}")
-    print(f"{f'fibres {args.fibres:,} × 5 × {big.vertices}':<32} {t_fib:9.3f} {'—':>9} {'':>9}"
-          f" {args.fibres / t_fib:13,.0f}")
-    print(f"{'yardstick: np.sort of 4 M floats':<32} {base:9.4f}"
-          f"   (grow {args.count:,} = {t_big / base:.1f} yardsticks)")
+    for label, n, ours, ref in (
+        ("grow", args.count, t_big, b_big),
+        ("grow", args.small, t_small, b_small),
+    ):
+        print(
+            f"{f'{label} {n:,} × {big.vertices}':<32} {ours:9.3f} {ref:9.3f} {ref / ours:9.2f}"
+            f" {n / ours:13,.0f}"
+        )
+    print(
+        f"{f'fibres {args.fibres:,} × 5 × {big.vertices}':<32} {t_fib:9.3f} {'—':>9} {'':>9}"
+        f" {args.fibres / t_fib:13,.0f}"
+    )
+    print(
+        f"{'yardstick: np.sort of 4 M floats':<32} {base:9.4f}"
+        f"   (grow {args.count:,} = {t_big / base:.1f} yardsticks)"
+    )
 
     summary: list[tuple[str, str, str, str, bool | None]] = []
     speedup = b_big / t_big
-    summary.append((f"ours, {args.count:,} × {big.vertices}", f"{t_big:.3f} s",
-                    f"baseline {b_big:.2f} s", f"≤ {TARGET_SECONDS} s", t_big <= TARGET_SECONDS))
-    summary.append(("speed-up over the baseline", f"{speedup:.1f}×", f"{b_big:.2f} / {t_big:.3f} s",
-                    f"≥ {TARGET_SPEEDUP:.0f}×", speedup >= TARGET_SPEEDUP))
-    summary.append((f"speed-up at {args.small:,}", f"{b_small / t_small:.1f}×",
-                    f"{b_small:.2f} / {t_small:.3f} s", "", None))
+    summary.append(
+        (
+            f"ours, {args.count:,} × {big.vertices}",
+            f"{t_big:.3f} s",
+            f"baseline {b_big:.2f} s",
+            f"≤ {TARGET_SECONDS} s",
+            t_big <= TARGET_SECONDS,
+        )
+    )
+    summary.append(
+        (
+            "speed-up over the baseline",
+            f"{speedup:.1f}×",
+            f"{b_big:.2f} / {t_big:.3f} s",
+            f"≥ {TARGET_SPEEDUP:.0f}×",
+            speedup >= TARGET_SPEEDUP,
+        )
+    )
+    summary.append(
+        (
+            f"speed-up at {args.small:,}",
+            f"{b_small / t_small:.1f}×",
+            f"{b_small:.2f} / {t_small:.3f} s",
+            "",
+            None,
+        )
+    )
     if "error" in mem:
-        summary.append(("peak memory / output arrays", "error", "(see above)",
-                        f"≤ {TARGET_MEMORY}×", False))
+        summary.append(
+            ("peak memory / output arrays", "error", "(see above)", f"≤ {TARGET_MEMORY}×", False)
+        )
     else:
         grew = mem["peak"] - mem["before"]
         ratio = grew / mem["output"]
-        summary.append(("peak memory / output arrays", f"{ratio:.2f}×",
-                        f"{grew / 2**20:.0f} / {mem['output'] / 2**20:.0f} MiB",
-                        f"≤ {TARGET_MEMORY}×", ratio <= TARGET_MEMORY))
+        summary.append(
+            (
+                "peak memory / output arrays",
+                f"{ratio:.2f}×",
+                f"{grew / 2**20:.0f} / {mem['output'] / 2**20:.0f} MiB",
+                f"≤ {TARGET_MEMORY}×",
+                ratio <= TARGET_MEMORY,
+            )
+        )
     if "error" not in mem_base:
         grew = mem_base["peak"] - mem_base["before"]
-        summary.append(("baseline peak / its output", f"{grew / mem_base['output']:.2f}×",
-                        f"{grew / 2**20:.0f} / {mem_base['output'] / 2**20:.0f} MiB", "", None))
-    summary.append((f"fibres {args.fibres:,} × 5 × {big.vertices}", f"{t_fib:.3f} s",
-                    f"{t_fib / base:.1f} yardsticks", f"≤ {TARGET_FIBRES} s",
-                    t_fib <= TARGET_FIBRES))
+        summary.append(
+            (
+                "baseline peak / its output",
+                f"{grew / mem_base['output']:.2f}×",
+                f"{grew / 2**20:.0f} / {mem_base['output'] / 2**20:.0f} MiB",
+                "",
+                None,
+            )
+        )
+    summary.append(
+        (
+            f"fibres {args.fibres:,} × 5 × {big.vertices}",
+            f"{t_fib:.3f} s",
+            f"{t_fib / base:.1f} yardsticks",
+            f"≤ {TARGET_FIBRES} s",
+            t_fib <= TARGET_FIBRES,
+        )
+    )
     summary.append(("yardstick", f"{base:.4f} s", f"ours = {t_big / base:.1f}×", "", None))
 
     for which, m in (("follicle", mem), ("baseline", mem_base)):

@@ -287,8 +287,10 @@ def grow(mesh: dict, guides: dict, settings: Settings, chunk: int = CHUNK) -> di
         out["points"][rows] = world.reshape(-1, 3)
 
         # 5. colour: per-hair HSV shifts, root → tip along the shortest hue route
-        dh, ds, dv = (rng.random((3, n)) - 0.5) * 2.0 * np.array(
-            [[st.hue_variation], [st.saturation_variation], [st.value_variation]]
+        dh, ds, dv = (
+            (rng.random((3, n)) - 0.5)
+            * 2.0
+            * np.array([[st.hue_variation], [st.saturation_variation], [st.value_variation]])
         )
         h1 = hsv_root[0] - dh
         h2 = hsv_tip[0] - dh
@@ -324,11 +326,15 @@ def main() -> None:
         out = grow(mesh, guides, settings)
         best = min(best, time.perf_counter() - start)
     pts = out["points"]
-    print(f"baseline: {args.count:,} hairs × {settings.vertices} vertices in {best:.3f} s"
-          f" ({args.count / best:,.0f} hairs/s)")
-    print(f"finite: {all(np.isfinite(a).all() for a in out.values())};"
-          f" bounds {np.round(pts.min(0).astype(float), 3).tolist()}"
-          f" … {np.round(pts.max(0).astype(float), 3).tolist()}")
+    print(
+        f"baseline: {args.count:,} hairs × {settings.vertices} vertices in {best:.3f} s"
+        f" ({args.count / best:,.0f} hairs/s)"
+    )
+    print(
+        f"finite: {all(np.isfinite(a).all() for a in out.values())};"
+        f" bounds {np.round(pts.min(0).astype(float), 3).tolist()}"
+        f" … {np.round(pts.max(0).astype(float), 3).tolist()}"
+    )
     print(f"output {sum(a.nbytes for a in out.values()) / 2**20:.0f} MiB")
 
 

@@ -83,8 +83,9 @@ def segments_per_second(count: int, frames: int, geometry: bool) -> float:
     points = rng.uniform(-0.9, 0.9, (strands, 1, 3)) + np.cumsum(step, axis=1)
     index = np.arange(strands * n, dtype="u4").reshape(strands, n)
     pairs = np.stack([index[:, :-1], index[:, 1:]], axis=2)
-    prog = ctx.program(vertex_shader=_VS, geometry_shader=_GS if geometry else None,
-                       fragment_shader=_FS)  # fmt: skip
+    prog = ctx.program(
+        vertex_shader=_VS, geometry_shader=_GS if geometry else None, fragment_shader=_FS
+    )
     vbo = ctx.buffer(points.astype("f4").tobytes())
     ibo = ctx.buffer(pairs.tobytes())
     vao = ctx.vertex_array(prog, [(vbo, "3f", "p")], index_buffer=ibo, index_element_size=4)
@@ -124,8 +125,12 @@ def render_needs(counts: list[int]) -> list[tuple[str, int, int, float]]:
     with Renderer(size=SIZE, msaa=0) as renderer:
         for n in counts:
             hair = groom.generate(count=n)
-            frame, colour = (primitives(lambda s=s, h=hair: renderer.draw(
-                h, groom.mesh, subdivisions=5, shadows=s)) for s in (True, False))  # fmt: skip
+            frame, colour = (
+                primitives(
+                    lambda s=s, h=hair: renderer.draw(h, groom.mesh, subdivisions=5, shadows=s)
+                )
+                for s in (True, False)
+            )
             least = colour + hair.point_count - hair.curve_count
             out.append((f"render: {n:,} hairs × 16, shadows", frame, least, TARGETS[n]))
     return out
@@ -138,8 +143,9 @@ def viewer_needs(folder: Path) -> list[tuple[str, int, int, float]]:
     save(builtin_guides("long", load_mesh("builtin:head"), count=1000), guides)
     out = []
     for quality in ("full", "fast"):
-        scene = Scene(guides={"path": str(guides)}, groom={"count": 20_000},
-                      sim={"motion": "shake"})  # fmt: skip
+        scene = Scene(
+            guides={"path": str(guides)}, groom={"count": 20_000}, sim={"motion": "shake"}
+        )
         ctl = Controller(scene, size=(960, 540), quality=quality)
         ctl.step()
         hair = ctl.hair()
@@ -159,16 +165,22 @@ def main() -> None:
     print(f"{ctx.info['GL_RENDERER']}, {SIZE[0]}×{SIZE[1]}")
     rate = segments_per_second(args.segments, args.frames, geometry=False)
     base = segments_per_second(args.segments, args.frames, geometry=True)
-    print(f"throughput: {rate / 1e6:.2f} M segments/s; through a pass-through geometry"
-          f" shader {base / 1e6:.2f} M/s (ratio {rate / base:.2f})")  # fmt: skip
+    print(
+        f"throughput: {rate / 1e6:.2f} M segments/s; through a pass-through geometry"
+        f" shader {base / 1e6:.2f} M/s (ratio {rate / base:.2f})"
+    )
     with tempfile.TemporaryDirectory() as folder:
         needs = render_needs(args.counts) + viewer_needs(Path(folder))
-    print(f"{'workload':<36} {'ours: primitives':>16} {'floor s':>8} {'least':>10}"
-          f" {'floor s':>8} {'target s':>9}")  # fmt: skip
+    print(
+        f"{'workload':<36} {'ours: primitives':>16} {'floor s':>8} {'least':>10}"
+        f" {'floor s':>8} {'target s':>9}"
+    )
     for name, frame, least, target in needs:
         verdict = "the least floor is above the target" if least / rate > target else ""
-        print(f"{name:<36} {frame:>16,} {frame / rate:8.3f} {least:>10,} {least / rate:8.3f}"
-              f" {target:9.3f}  {verdict}")  # fmt: skip
+        print(
+            f"{name:<36} {frame:>16,} {frame / rate:8.3f} {least:>10,} {least / rate:8.3f}"
+            f" {target:9.3f}  {verdict}"
+        )
 
 
 if __name__ == "__main__":

@@ -78,13 +78,16 @@ def main() -> None:
         with Renderer(size=SIZE, msaa=msaa) as renderer:
             for n, curves in grown.items():
                 ours = seconds_per_frame(renderer, curves, groom.mesh, args.frames)
-                base = seconds_per_frame(renderer, curves, groom.mesh, args.frames,
-                                         shadows=False, oit=False)  # fmt: skip
+                base = seconds_per_frame(
+                    renderer, curves, groom.mesh, args.frames, shadows=False, oit=False
+                )
                 label, limit = TARGETS.get(n, ("", None))
                 met = "" if limit is None else (" met" if ours <= limit else " missed")
                 name = f"{n:,} hairs × 16, shadows + OIT, msaa {msaa}"
-                print(f"{name:<40} {ours:8.3f} {1 / ours:9.2f} {base:9.3f} {ours / base:6.2f}"
-                      f"  {label}{met}")  # fmt: skip
+                print(
+                    f"{name:<40} {ours:8.3f} {1 / ours:9.2f} {base:9.3f} {ours / base:6.2f}"
+                    f"  {label}{met}"
+                )
 
     if args.mitsuba_spp:
         mitsuba_stills(args.mitsuba_spp)

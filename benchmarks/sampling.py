@@ -130,13 +130,19 @@ def main() -> None:
     r = n / best_of(lambda: one_cell.sample(n), repeat=2)
     row("HDR: one cell = plain bisection (M/s)", r, "factor 4", rate)
 
-    print(f"mesh {mesh.face_count:,} triangles; texture {tex.width}x{tex.height} HDR"
-          f" (max/mean {tex.data.max() / tex.data.mean():,.0f}); {n:,} samples per run")
-    print(f"preprocessing {pre:.3f} s, {hdr.sub_triangle_count:,} sub-triangles"
-          f" (depth ≤ {int(hdr.depths.max())}), memory {hdr.memory_bytes / 2**20:.1f} MiB"
-          f" ({hdr.memory_bytes / hdr.sub_triangle_count:.1f} B per sub-triangle with the grid)")
-    print(f"rejection sampling accepts {acceptance:.2%} of its proposals"
-          f" ({acceptance_smooth:.2%} without the specks)")
+    print(
+        f"mesh {mesh.face_count:,} triangles; texture {tex.width}x{tex.height} HDR"
+        f" (max/mean {tex.data.max() / tex.data.mean():,.0f}); {n:,} samples per run"
+    )
+    print(
+        f"preprocessing {pre:.3f} s, {hdr.sub_triangle_count:,} sub-triangles"
+        f" (depth ≤ {int(hdr.depths.max())}), memory {hdr.memory_bytes / 2**20:.1f} MiB"
+        f" ({hdr.memory_bytes / hdr.sub_triangle_count:.1f} B per sub-triangle with the grid)"
+    )
+    print(
+        f"rejection sampling accepts {acceptance:.2%} of its proposals"
+        f" ({acceptance_smooth:.2%} without the specks)"
+    )
     print(f"{'figure':<44} {'value':>9} {'baseline':>10} {'value':>9} {'ratio':>8}")
     for name, value, base_name, base_value in rows:
         ratio = value / base_value

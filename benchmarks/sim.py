@@ -23,20 +23,45 @@ from follicle.pipeline import groom_scene
 from follicle.scene import Scene, SimParams
 from sim_baseline import BaselinePBD
 
-FULL = dict(vertices=32, iterations=4, bend_stiffness=0.3, shape_local=0.2, shape_global=0.1,
-            volume_friction=0.1, volume_repulsion=0.05)  # fmt: skip
+FULL = dict(
+    vertices=32,
+    iterations=4,
+    bend_stiffness=0.3,
+    shape_local=0.2,
+    shape_global=0.1,
+    volume_friction=0.1,
+    volume_repulsion=0.05,
+)
 # the per-stage split: each row adds its stage to the ones above
 STAGES = [
-    ("integrate, distance, strain limit",
-     dict(bend_stiffness=0.0, shape_local=0.0, shape_global=0.0, skin_collision=False,
-          volume_friction=0.0, volume_repulsion=0.0)),
-    ("+ bending", dict(shape_local=0.0, shape_global=0.0, skin_collision=False,
-                       volume_friction=0.0, volume_repulsion=0.0)),
-    ("+ local and global shape", dict(skin_collision=False, volume_friction=0.0,
-                                      volume_repulsion=0.0)),
+    (
+        "integrate, distance, strain limit",
+        dict(
+            bend_stiffness=0.0,
+            shape_local=0.0,
+            shape_global=0.0,
+            skin_collision=False,
+            volume_friction=0.0,
+            volume_repulsion=0.0,
+        ),
+    ),
+    (
+        "+ bending",
+        dict(
+            shape_local=0.0,
+            shape_global=0.0,
+            skin_collision=False,
+            volume_friction=0.0,
+            volume_repulsion=0.0,
+        ),
+    ),
+    (
+        "+ local and global shape",
+        dict(skin_collision=False, volume_friction=0.0, volume_repulsion=0.0),
+    ),
     ("+ skin SDF collision", dict(volume_friction=0.0, volume_repulsion=0.0)),
     ("+ volume friction and repulsion (all)", {}),
-]  # fmt: skip
+]
 TARGETS = {32_768: 30.0, 6_875: 150.0}  # steps/s
 RATIO_TARGET = 20.0
 
@@ -111,16 +136,22 @@ def main() -> None:
     for strands in sizes:
         sim = _simulator(strands, FULL)
         vertices = strands * sim.model.vertices
-        print(f"\n{strands:,} strands × {sim.model.vertices} = {vertices:,} vertices"
-              f" (skin SDF {sim.sdf})")  # fmt: skip
+        print(
+            f"\n{strands:,} strands × {sim.model.vertices} = {vertices:,} vertices"
+            f" (skin SDF {sim.sdf})"
+        )
         for _ in range(12):  # compile, and let the hair leave its exact rest pose
             sim.step(sim.params.substep)
         best, median = _ours(sim, args.repeat)
         base, split = _baseline(sim, args.repeat)
-        print(f"  follicle    {1000 * best:8.1f} ms/step  ({1 / best:6.1f} steps/s;"
-              f" median {1000 * median:.1f} ms)")  # fmt: skip
-        print(f"  NumPy PBD   {1000 * base:8.1f} ms/step  ({1 / base:6.1f} steps/s)"
-              f"  → follicle is {base / best:.1f}× faster")  # fmt: skip
+        print(
+            f"  follicle    {1000 * best:8.1f} ms/step  ({1 / best:6.1f} steps/s;"
+            f" median {1000 * median:.1f} ms)"
+        )
+        print(
+            f"  NumPy PBD   {1000 * base:8.1f} ms/step  ({1 / base:6.1f} steps/s)"
+            f"  → follicle is {base / best:.1f}× faster"
+        )
         print("  baseline split: " + ", ".join(f"{k} {1000 * t:.0f} ms" for k, t in split.items()))
         print("  follicle per-stage split (each row adds a stage; best ms/step):")
         previous = 0.0
@@ -128,16 +159,20 @@ def main() -> None:
             print(f"    {label:40s} {1000 * took:7.1f}  (+{1000 * (took - previous):.1f})")
             previous = took
         stats = sim.stats
-        print(f"  after the run: max stretch {stats['max_stretch']:.2e}, mean"
-              f" {stats['mean_stretch']:.2e}, max penetration"
-              f" {1000 * stats['max_penetration']:.2f} mm")  # fmt: skip
+        print(
+            f"  after the run: max stretch {stats['max_stretch']:.2e}, mean"
+            f" {stats['mean_stretch']:.2e}, max penetration"
+            f" {1000 * stats['max_penetration']:.2f} mm"
+        )
         summary.append((strands, vertices, 1 / best, base / best))
     print("\nsummary (targets: ≥ 30 steps/s at 1 M, ≥ 150 at 220 k, ≥ 20× the baseline)")
     for strands, vertices, rate, ratio in summary:
         target = TARGETS[strands]
-        print(f"  {vertices:>9,} vertices: {rate:6.1f} steps/s (target {target:g}:"
-              f" {'met' if rate >= target else 'MISSED'}), {ratio:5.1f}× the baseline"
-              f" ({'met' if ratio >= RATIO_TARGET else 'MISSED'})")  # fmt: skip
+        print(
+            f"  {vertices:>9,} vertices: {rate:6.1f} steps/s (target {target:g}:"
+            f" {'met' if rate >= target else 'MISSED'}), {ratio:5.1f}× the baseline"
+            f" ({'met' if ratio >= RATIO_TARGET else 'MISSED'})"
+        )
 
 
 if __name__ == "__main__":

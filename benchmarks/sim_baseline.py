@@ -46,9 +46,12 @@ class BaselinePBD:
     """NumPy PBD of the benchmark's constraint set, one substep at a time."""
 
     def __init__(
-        self, model: Model, params: SimParams, sdf: SDF | None = None,
+        self,
+        model: Model,
+        params: SimParams,
+        sdf: SDF | None = None,
         volume: tuple[float, float] = (0.0, 0.0),
-    ) -> None:  # fmt: skip
+    ) -> None:
         """``params`` a SimParams (Verlet, PBD, no wind or cone); ``volume`` the hair-hair
         (friction, repulsion); ``sdf`` the skin, None for no collisions."""
         p = params
@@ -72,8 +75,9 @@ class BaselinePBD:
         self._pairs = []
         for parity in (0, 1):
             i, j = slice(parity, n - 1, 2), slice(parity + 1, n, 2)
-            self._pairs.append((i, j, share[parity::2] * w[i], share[parity::2] * w[j],
-                                rest[parity::2]))  # fmt: skip
+            self._pairs.append(
+                (i, j, share[parity::2] * w[i], share[parity::2] * w[j], rest[parity::2])
+            )
         m = n // 2  # segments of parity 0, the larger batch
         self._seg = np.empty((3, m, s))
         self._seg_move = np.empty((3, m, s))
@@ -431,8 +435,16 @@ class _SDFSampler:
         c1 = c10 + (c11 - c10) * fy
         d = c0 + (c1 - c0) * fx
         slope = dz[:2] + (dz[2:] - dz[:2]) * fy  # along z at y, for x = 0 and 1
-        g = np.stack([c1 - c0, (1.0 - fx) * (c01 - c00) + fx * (c11 - c10),
-                      (1.0 - fx) * slope[0] + fx * slope[1]]) * self._inv_voxel  # fmt: skip
+        g = (
+            np.stack(
+                [
+                    c1 - c0,
+                    (1.0 - fx) * (c01 - c00) + fx * (c11 - c10),
+                    (1.0 - fx) * slope[0] + fx * slope[1],
+                ]
+            )
+            * self._inv_voxel
+        )
         out = np.sqrt(np.einsum("ak,ak->k", e, e))
         g *= np.where((out > 0.0) & (d < 0.0), -1.0, 1.0)
         np.divide(e, out, out=g, where=e != 0.0)
@@ -459,9 +471,14 @@ class _VolumeGrid:
         self._line = [np.empty(count) for _ in range(2)]
 
     def apply(
-        self, x: np.ndarray, v: np.ndarray, free: np.ndarray, dt: float, friction: float,
+        self,
+        x: np.ndarray,
+        v: np.ndarray,
+        free: np.ndarray,
+        dt: float,
+        friction: float,
         repulsion: float,
-    ) -> None:  # fmt: skip
+    ) -> None:
         """Update the velocities ``v`` (3, N, S) of the particles ``x`` (3, N, S) where
         ``free`` (N, S) is 1, in place."""
         xf, vf, freef = x.reshape(3, -1), v.reshape(3, -1), free.reshape(-1)

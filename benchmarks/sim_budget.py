@@ -45,8 +45,9 @@ PASSES = ("distance", "bending", "local shape", "global shape")
 
 
 @njit(cache=True)
-def _run_pass(which, reps, X, W, L, R, static, target, rest_dir, row, k, profile, scale,
-              attenuation):  # fmt: skip
+def _run_pass(
+    which, reps, X, W, L, R, static, target, rest_dir, row, k, profile, scale, attenuation
+):
     """Pass ``which`` (an index of PASSES) over every block of X, ``reps`` times."""
     for _ in range(reps):
         for b in range(X.shape[0]):
@@ -103,8 +104,19 @@ def _pass_ns(sim, repeat: int) -> dict[str, float]:
         C.rest_pose(root_rows[b], frame_rows[b], local[b], target[b], rest_dir[b], BLOCK)
     p = sim.params
     _, _, (_, ks, kb, scale, att, kl, profile, *_) = solver._constants()
-    args = (W, L, R, _blocked(static, 3), target, rest_dir, np.empty((3, BLOCK)),
-            np.array([ks, kb, kl]), profile, scale, att)  # fmt: skip
+    args = (
+        W,
+        L,
+        R,
+        _blocked(static, 3),
+        target,
+        rest_dir,
+        np.empty((3, BLOCK)),
+        np.array([ks, kb, kl]),
+        profile,
+        scale,
+        att,
+    )
     reps, out = 64, {}
     for which, name in enumerate(PASSES):
         X = _blocked(st.x[take], n)
@@ -121,8 +133,16 @@ def _volume_ns(sim, resolution: int, repeat: int) -> float:
 
     def run() -> None:
         v[:] = st.v
-        volume_step(st.x, v, sim._free, p.substep, p.volume_friction, p.volume_repulsion,
-                    p.volume_blur, resolution)  # fmt: skip
+        volume_step(
+            st.x,
+            v,
+            sim._free,
+            p.substep,
+            p.volume_friction,
+            p.volume_repulsion,
+            p.volume_blur,
+            resolution,
+        )
 
     run()
     return 1e9 * _best(run, repeat) / st.x[..., 0].size
@@ -135,8 +155,10 @@ def main() -> None:
     cores = numba.config.NUMBA_NUM_THREADS
     sim = _simulator(STRANDS, FULL)
     vertices = sim.model.strands * sim.model.vertices
-    print(f"{sim.model.strands:,} strands × {sim.model.vertices} = {vertices:,} vertices,"
-          f" {sim.params.iterations} iterations; {cores} cores")  # fmt: skip
+    print(
+        f"{sim.model.strands:,} strands × {sim.model.vertices} = {vertices:,} vertices,"
+        f" {sim.params.iterations} iterations; {cores} cores"
+    )
     for _ in range(12):  # compile, and leave the exact rest pose
         sim.step(sim.params.substep)
     start, full = sim.state.copy(), SimParams(**FULL)
@@ -150,31 +172,44 @@ def main() -> None:
 
     numba.set_num_threads(1)
     whole = _step_ns(sim, start, full, 10, args.repeat, time.process_time)
-    bare = _step_ns(sim, start, SimParams(**{**FULL, "skin_collision": False}), 10, args.repeat,
-                    time.process_time)  # fmt: skip
+    bare = _step_ns(
+        sim,
+        start,
+        SimParams(**{**FULL, "skin_collision": False}),
+        10,
+        args.repeat,
+        time.process_time,
+    )
     passes = _pass_ns(sim, args.repeat)
     volume = _volume_ns(sim, sim.params.volume_resolution, args.repeat)
     coarse = _volume_ns(sim, sim.params.volume_resolution // 4, args.repeat)
     numba.set_num_threads(cores)
     wall = _step_ns(sim, start, full, 10, args.repeat, time.perf_counter)
 
-    print("\ncost: CPU ns per vertex-step on one thread (best of"
-          f" {args.repeat})")  # fmt: skip
+    print(f"\ncost: CPU ns per vertex-step on one thread (best of {args.repeat})")
     print(f"  whole step                                   {whole:6.1f}")
-    print(f"  whole step on {cores} threads (wall × {cores})            {wall * cores:6.1f}"
-          f"   (scaling {whole / wall:.2f} of {cores})")  # fmt: skip
+    print(
+        f"  whole step on {cores} threads (wall × {cores})            {wall * cores:6.1f}"
+        f"   (scaling {whole / wall:.2f} of {cores})"
+    )
     for name, ns in passes.items():
         print(f"  {name + f' pass × {sim.params.iterations}, in cache':44s} {ns:6.1f}")
     parts = sum(passes.values())
-    print(f"  {'volume (grid ' + str(sim.params.volume_resolution) + ')':44s} {volume:6.1f}"
-          f"   (grid {sim.params.volume_resolution // 4}: {coarse:.1f})")  # fmt: skip
+    print(
+        f"  {'volume (grid ' + str(sim.params.volume_resolution) + ')':44s} {volume:6.1f}"
+        f"   (grid {sim.params.volume_resolution // 4}: {coarse:.1f})"
+    )
     print(f"  {'skin collisions (whole step − without)':44s} {whole - bare:6.1f}")
     total = parts + volume + (whole - bare)
-    print(f"\nconstraint passes + volume + collisions: {total:.1f} ns (of the whole step's"
-          f" {whole:.1f})")  # fmt: skip
+    print(
+        f"\nconstraint passes + volume + collisions: {total:.1f} ns (of the whole step's"
+        f" {whole:.1f})"
+    )
     for n, budget in budgets.items():
-        print(f"  against {n:,} vertices' budget {budget:.1f} ns: {total / budget:.2f}×"
-              f" ({'over' if total > budget else 'within'})")  # fmt: skip
+        print(
+            f"  against {n:,} vertices' budget {budget:.1f} ns: {total / budget:.2f}×"
+            f" ({'over' if total > budget else 'within'})"
+        )
 
 
 if __name__ == "__main__":

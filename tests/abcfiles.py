@@ -10,19 +10,29 @@ import imath
 import numpy as np
 from alembic3d import Abc, AbcGeom
 
-KIND = {"linear": AbcGeom.CurveType.kLinear, "cubic": AbcGeom.CurveType.kCubic,
-        "variable": AbcGeom.CurveType.kVariableOrder}
-BASIS = {"none": AbcGeom.BasisType.kNoBasis, "bezier": AbcGeom.BasisType.kBezierBasis,
-         "bspline": AbcGeom.BasisType.kBsplineBasis,
-         "catmullRom": AbcGeom.BasisType.kCatmullromBasis,
-         "hermite": AbcGeom.BasisType.kHermiteBasis}
-WRAP = {"nonperiodic": AbcGeom.CurvePeriodicity.kNonPeriodic,
-        "periodic": AbcGeom.CurvePeriodicity.kPeriodic}
-SCOPE = {"constant": AbcGeom.GeometryScope.kConstantScope,
-         "uniform": AbcGeom.GeometryScope.kUniformScope,
-         "varying": AbcGeom.GeometryScope.kVaryingScope,
-         "vertex": AbcGeom.GeometryScope.kVertexScope,
-         "faceVarying": AbcGeom.GeometryScope.kFacevaryingScope}
+KIND = {
+    "linear": AbcGeom.CurveType.kLinear,
+    "cubic": AbcGeom.CurveType.kCubic,
+    "variable": AbcGeom.CurveType.kVariableOrder,
+}
+BASIS = {
+    "none": AbcGeom.BasisType.kNoBasis,
+    "bezier": AbcGeom.BasisType.kBezierBasis,
+    "bspline": AbcGeom.BasisType.kBsplineBasis,
+    "catmullRom": AbcGeom.BasisType.kCatmullromBasis,
+    "hermite": AbcGeom.BasisType.kHermiteBasis,
+}
+WRAP = {
+    "nonperiodic": AbcGeom.CurvePeriodicity.kNonPeriodic,
+    "periodic": AbcGeom.CurvePeriodicity.kPeriodic,
+}
+SCOPE = {
+    "constant": AbcGeom.GeometryScope.kConstantScope,
+    "uniform": AbcGeom.GeometryScope.kUniformScope,
+    "varying": AbcGeom.GeometryScope.kVaryingScope,
+    "vertex": AbcGeom.GeometryScope.kVertexScope,
+    "faceVarying": AbcGeom.GeometryScope.kFacevaryingScope,
+}
 
 
 def values(kind: str, arr, held: list) -> object:
@@ -42,16 +52,29 @@ def values(kind: str, arr, held: list) -> object:
         for i, v in enumerate(arr.tolist()):
             out[i] = v
     else:
-        out = {"float": imath.FloatArrayFromBuffer, "int": imath.IntArrayFromBuffer,
-               "v2f": imath.V2fArrayFromBuffer, "v3f": imath.V3fArrayFromBuffer,
-               "n3f": imath.V3fArrayFromBuffer, "double": imath.DoubleArrayFromBuffer}[kind](
-            arr.astype({"int": np.int32, "double": np.float64}.get(kind, np.float32)))
+        out = {
+            "float": imath.FloatArrayFromBuffer,
+            "int": imath.IntArrayFromBuffer,
+            "v2f": imath.V2fArrayFromBuffer,
+            "v3f": imath.V3fArrayFromBuffer,
+            "n3f": imath.V3fArrayFromBuffer,
+            "double": imath.DoubleArrayFromBuffer,
+        }[kind](arr.astype({"int": np.int32, "double": np.float64}.get(kind, np.float32)))
     held.append(out)
     return out
 
 
-GEOM = {"float": "Float", "int": "Int32", "v2f": "V2f", "v3f": "V3f", "n3f": "N3f",
-        "c3f": "C3f", "c4f": "C4f", "double": "Double", "short": "Int16"}
+GEOM = {
+    "float": "Float",
+    "int": "Int32",
+    "v2f": "V2f",
+    "v3f": "V3f",
+    "n3f": "N3f",
+    "c3f": "C3f",
+    "c4f": "C4f",
+    "double": "Double",
+    "short": "Int16",
+}
 
 
 def param_sample(held: list, kind: str, vals, scope: str, index=None) -> object:
@@ -74,8 +97,9 @@ def write(path, build):
 def add_params(arb, params, held: list) -> None:
     """arbGeomParams (name, kind, values, scope[, indices]) in the compound ``arb``."""
     for pname, kind_, vals, scope, *index in params:
-        param = getattr(AbcGeom, f"O{GEOM[kind_]}GeomParam")(arb, pname, bool(index),
-                                                             SCOPE[scope], 1)
+        param = getattr(AbcGeom, f"O{GEOM[kind_]}GeomParam")(
+            arb, pname, bool(index), SCOPE[scope], 1
+        )
         param.set(param_sample(held, kind_, vals, scope, *index))
 
 
@@ -92,9 +116,22 @@ def xforms(top, chain) -> object:
     return parent
 
 
-def add_curves(parent, name, counts, points, kind="linear", basis="none", wrap="nonperiodic",
-               widths=None, uv=None, normals=None, params=(), orders=None, knots=None,
-               weights=None) -> object:
+def add_curves(
+    parent,
+    name,
+    counts,
+    points,
+    kind="linear",
+    basis="none",
+    wrap="nonperiodic",
+    widths=None,
+    uv=None,
+    normals=None,
+    params=(),
+    orders=None,
+    knots=None,
+    weights=None,
+) -> object:
     """One OCurves: ``widths``/``uv``/``normals`` are (values, scope) or (values, scope,
     indices); ``params`` (name, kind, values, scope[, indices]) arbGeomParams."""
     obj, held = AbcGeom.OCurves(parent, name), []
@@ -104,8 +141,11 @@ def add_curves(parent, name, counts, points, kind="linear", basis="none", wrap="
     sample.setType(KIND[kind])
     sample.setBasis(BASIS[basis])
     sample.setWrap(WRAP[wrap])
-    for setter, kind_, given in (("setWidths", "float", widths), ("setUVs", "v2f", uv),
-                                 ("setNormals", "n3f", normals)):
+    for setter, kind_, given in (
+        ("setWidths", "float", widths),
+        ("setUVs", "v2f", uv),
+        ("setNormals", "n3f", normals),
+    ):
         if given is not None:
             getattr(sample, setter)(param_sample(held, kind_, *given))
     if orders is not None:
@@ -125,8 +165,9 @@ def add_mesh(parent, name, points, indices_, counts, uv=None, subd=False) -> obj
     (values, scope) or (values, scope, indices)."""
     obj, held = (AbcGeom.OSubD if subd else AbcGeom.OPolyMesh)(parent, name), []
     cls = AbcGeom.OSubDSchemaSample if subd else AbcGeom.OPolyMeshSchemaSample
-    sample = cls(values("v3f", points, held), values("int", indices_, held),
-                 values("int", counts, held))
+    sample = cls(
+        values("v3f", points, held), values("int", indices_, held), values("int", counts, held)
+    )
     if uv is not None:
         sample.setUVs(param_sample(held, "v2f", *uv))
     obj.getSchema().set(sample)

@@ -68,11 +68,15 @@ def _run(cmd: list[str], what: str) -> None:
     try:
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=INSTALL_TIMEOUT)
     except subprocess.TimeoutExpired:
-        pytest.fail(f"{what}: no result within {INSTALL_TIMEOUT} s ({' '.join(cmd)})",
-                    pytrace=False)  # fmt: skip
+        pytest.fail(
+            f"{what}: no result within {INSTALL_TIMEOUT} s ({' '.join(cmd)})", pytrace=False
+        )
     if done.returncode != 0:
-        pytest.fail(f"{what} failed (exit {done.returncode}): {' '.join(cmd)}\n"
-                    f"{(done.stdout + done.stderr)[-4000:]}", pytrace=False)  # fmt: skip
+        pytest.fail(
+            f"{what} failed (exit {done.returncode}): {' '.join(cmd)}\n"
+            f"{(done.stdout + done.stderr)[-4000:]}",
+            pytrace=False,
+        )
 
 
 def blender_python() -> Path:
@@ -82,8 +86,10 @@ def blender_python() -> Path:
         return Path(given)
     base = _base_python()
     if base is None:
-        _unavailable(f"bpy {BPY_VERSION} has wheels for Python {'.'.join(map(str, BPY_PYTHON))}"
-                     f" only; this is {sys.version.split()[0]} and no python3.11 is on PATH")
+        _unavailable(
+            f"bpy {BPY_VERSION} has wheels for Python {'.'.join(map(str, BPY_PYTHON))}"
+            f" only; this is {sys.version.split()[0]} and no python3.11 is on PATH"
+        )
     with open(LOCK, "w") as lock:
         if fcntl is not None:
             fcntl.flock(lock, fcntl.LOCK_EX)  # one maker; the others wait, then reuse it
@@ -91,8 +97,18 @@ def blender_python() -> Path:
             return _venv_python()
         shutil.rmtree(VENV, ignore_errors=True)  # half-made or another version: start over
         _run([base, "-m", "venv", str(VENV)], "making .venv-blender")
-        _run([str(_venv_python()), "-m", "pip", "install", "-q", "--disable-pip-version-check",
-              f"bpy=={BPY_VERSION}"], f"installing bpy {BPY_VERSION} into .venv-blender")
+        _run(
+            [
+                str(_venv_python()),
+                "-m",
+                "pip",
+                "install",
+                "-q",
+                "--disable-pip-version-check",
+                f"bpy=={BPY_VERSION}",
+            ],
+            f"installing bpy {BPY_VERSION} into .venv-blender",
+        )
         READY.write_text(BPY_VERSION + "\n")
     return _venv_python()
 
@@ -108,10 +124,16 @@ def run_blender(python: Path, script: str, *args: object, timeout: float = 600) 
     try:
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
     except subprocess.TimeoutExpired as exc:
-        pytest.fail(f"{script}: Blender did not finish within {timeout:g} s\n"
-                    f"{str(exc.stdout or '')[-3000:]}", pytrace=False)  # fmt: skip
+        pytest.fail(
+            f"{script}: Blender did not finish within {timeout:g} s\n"
+            f"{str(exc.stdout or '')[-3000:]}",
+            pytrace=False,
+        )
     log = (done.stdout + done.stderr)[-6000:]
     if done.returncode != 0 or not out.exists():
-        pytest.fail(f"{script} failed in Blender (exit {done.returncode}, wrote"
-                    f" {'no' if not out.exists() else 'its'} findings):\n{log}", pytrace=False)
+        pytest.fail(
+            f"{script} failed in Blender (exit {done.returncode}, wrote"
+            f" {'no' if not out.exists() else 'its'} findings):\n{log}",
+            pytrace=False,
+        )
     return json.loads(out.read_text())

@@ -18,15 +18,23 @@ def hair(counts: tuple[int, ...] = (4, 6, 2, 5), seed: int = 0, uv: bool = True)
     ends = np.cumsum(counts)
     pts = np.concatenate([np.cumsum(s, axis=0) for s in np.split(steps, ends[:-1])])
     p = len(pts)
-    point_data = {"width": rng.uniform(2e-5, 1e-4, p).astype(np.float32),
-                  "color": rng.random((p, 3)).astype(np.float32),
-                  "opacity": rng.random(p).astype(np.float32)}
+    point_data = {
+        "width": rng.uniform(2e-5, 1e-4, p).astype(np.float32),
+        "color": rng.random((p, 3)).astype(np.float32),
+        "opacity": rng.random(p).astype(np.float32),
+    }
     curve_data = {"root_uv": rng.random((len(counts), 2)).astype(np.float32)} if uv else {}
     return HairCurves.from_polylines(np.split(pts, ends[:-1]), point_data, curve_data)
 
 
-def tfx3_table(strands: int, n: int, vertices: object, thickness: object = None,
-               uv: object = None, colors: object = None) -> bytes:
+def tfx3_table(
+    strands: int,
+    n: int,
+    vertices: object,
+    thickness: object = None,
+    uv: object = None,
+    colors: object = None,
+) -> bytes:
     """A TressFX 3 file with the offset table of TressFX 3's TressFXFileFormat.h: the
     144-byte preamble, six offsets and 32 reserved uints, then 8-aligned sections."""
     sections, offsets, end = [], [0] * 6, 296

@@ -63,28 +63,59 @@ def _kill(proc: subprocess.Popen) -> None:
     proc.wait()
 
 
-def run(argv: list[str], cwd: str | os.PathLike[str], *, tty: bool = False,
-        timeout: float = SECONDS, memory: int = MEMORY, stdin: bytes | None = None,
-        env: dict[str, str] | None = None) -> Outcome:
+def run(
+    argv: list[str],
+    cwd: str | os.PathLike[str],
+    *,
+    tty: bool = False,
+    timeout: float = SECONDS,
+    memory: int = MEMORY,
+    stdin: bytes | None = None,
+    env: dict[str, str] | None = None,
+) -> Outcome:
     """Run ``argv`` under the limits. With ``tty`` its stdin, stdout and stderr are one
     pseudo-terminal (what a person's terminal is) and ``stdout`` holds all it printed."""
     start = time.perf_counter()
     if not tty:
-        proc = subprocess.Popen(argv, cwd=cwd, env=_env(env), stdin=subprocess.PIPE,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                preexec_fn=lambda: _limits(memory))
+        proc = subprocess.Popen(
+            argv,
+            cwd=cwd,
+            env=_env(env),
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            preexec_fn=lambda: _limits(memory),
+        )
         try:
             out, err = proc.communicate(stdin or b"", timeout=timeout)
         except subprocess.TimeoutExpired:
             _kill(proc)
             out, err = proc.communicate()
-            return Outcome(proc.returncode, out.decode(errors="replace"),
-                           err.decode(errors="replace"), time.perf_counter() - start, True)
-        return Outcome(proc.returncode, out.decode(errors="replace"),
-                       err.decode(errors="replace"), time.perf_counter() - start, False)
+            return Outcome(
+                proc.returncode,
+                out.decode(errors="replace"),
+                err.decode(errors="replace"),
+                time.perf_counter() - start,
+                True,
+            )
+        return Outcome(
+            proc.returncode,
+            out.decode(errors="replace"),
+            err.decode(errors="replace"),
+            time.perf_counter() - start,
+            False,
+        )
     master, slave = pty.openpty()
-    proc = subprocess.Popen(argv, cwd=cwd, env=_env(env), stdin=slave, stdout=slave,
-                            stderr=slave, preexec_fn=lambda: _limits(memory), close_fds=True)
+    proc = subprocess.Popen(
+        argv,
+        cwd=cwd,
+        env=_env(env),
+        stdin=slave,
+        stdout=slave,
+        stderr=slave,
+        preexec_fn=lambda: _limits(memory),
+        close_fds=True,
+    )
     os.close(slave)
     chunks: list[bytes] = []
     timed_out = False
@@ -111,12 +142,16 @@ def run(argv: list[str], cwd: str | os.PathLike[str], *, tty: bool = False,
     return Outcome(proc.returncode, text, "", time.perf_counter() - start, timed_out)
 
 
-def run_cli(*args: object, cwd: str | os.PathLike[str], tty: bool = False,
-            timeout: float = SECONDS, memory: int = MEMORY,
-            env: dict[str, str] | None = None) -> Outcome:
+def run_cli(
+    *args: object,
+    cwd: str | os.PathLike[str],
+    tty: bool = False,
+    timeout: float = SECONDS,
+    memory: int = MEMORY,
+    env: dict[str, str] | None = None,
+) -> Outcome:
     """``follicle ARGS`` in a child process under the limits."""
-    return run([*FOLLICLE, *map(str, args)], cwd, tty=tty, timeout=timeout, memory=memory,
-               env=env)
+    return run([*FOLLICLE, *map(str, args)], cwd, tty=tty, timeout=timeout, memory=memory, env=env)
 
 
 _API = """
@@ -150,18 +185,19 @@ class ApiOutcome:
     detail: dict
 
 
-def run_api(code: str, cwd: str | os.PathLike[str], *, timeout: float = SECONDS,
-            memory: int = MEMORY) -> ApiOutcome:
+def run_api(
+    code: str, cwd: str | os.PathLike[str], *, timeout: float = SECONDS, memory: int = MEMORY
+) -> ApiOutcome:
     """Run ``code`` (it may set ``result``) with ``follicle`` imported, in a child process
     under the limits."""
     body = textwrap.indent(textwrap.dedent(code).strip() or "pass", "    ")
-    out = run([sys.executable, "-c", _API.format(body=body)], cwd, timeout=timeout,
-              memory=memory)
+    out = run([sys.executable, "-c", _API.format(body=body)], cwd, timeout=timeout, memory=memory)
     for line in reversed(out.stdout.splitlines()):
         if line.startswith("@@"):
             detail = json.loads(line[2:])
-            return ApiOutcome(detail["kind"], detail.get("error", ""),
-                              detail.get("message", ""), out, detail)
+            return ApiOutcome(
+                detail["kind"], detail.get("error", ""), detail.get("message", ""), out, detail
+            )
     why = "timed out" if out.timed_out else f"exit {out.rc}"
     return ApiOutcome("died", why, out.stderr[-2000:], out, {})
 
@@ -175,8 +211,10 @@ def files(folder: str | os.PathLike[str]) -> set[str]:
 def assert_cli_refused(out: Outcome, *names: str) -> str:
     """The promise for bad input on the command line: exit 2, one ``error:`` line that
     names each of ``names``, no traceback, within the limits. Returns the line."""
-    shown = f"rc={out.rc} timed_out={out.timed_out}\nstdout: {out.stdout[-3000:]}\n" \
-            f"stderr: {out.stderr[-3000:]}"  # fmt: skip
+    shown = (
+        f"rc={out.rc} timed_out={out.timed_out}\nstdout: {out.stdout[-3000:]}\n"
+        f"stderr: {out.stderr[-3000:]}"
+    )
     assert not out.timed_out, f"did not finish in {SECONDS} s\n{shown}"
     assert out.rc == 2, shown
     assert "Traceback" not in out.stderr + out.stdout, shown
@@ -190,8 +228,10 @@ def assert_cli_refused(out: Outcome, *names: str) -> str:
 def assert_api_refused(res: ApiOutcome, *names: str, error: str = "FollicleError") -> str:
     """The promise for bad input in Python: a FollicleError subclass (``error`` among its
     bases) whose message names each of ``names``, within the limits. Returns the message."""
-    shown = f"{res.kind} {res.error}: {res.message}\n{res.detail.get('traceback', '')}" \
-            f"\n{res.outcome.stderr[-2000:]}"  # fmt: skip
+    shown = (
+        f"{res.kind} {res.error}: {res.message}\n{res.detail.get('traceback', '')}"
+        f"\n{res.outcome.stderr[-2000:]}"
+    )
     assert res.kind == "refused", shown
     assert error in res.detail["bases"], shown
     for name in names:
@@ -230,9 +270,11 @@ def warm() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         Path(tmp, "s.toml").write_text("[groom]\ncount = 50\n")
-        for args in (["grow", "s.toml", "-o", "h.npz"],
-                     ["simulate", "s.toml", "--frames", "2", "-o", "sim.npz"],
-                     ["render", "sim.npz", "-o", "f", "--size", "32", "32", "--count", "20"]):
+        for args in (
+            ["grow", "s.toml", "-o", "h.npz"],
+            ["simulate", "s.toml", "--frames", "2", "-o", "sim.npz"],
+            ["render", "sim.npz", "-o", "f", "--size", "32", "32", "--count", "20"],
+        ):
             out = run_cli(*args, cwd=tmp, timeout=900, memory=8 << 30)
             assert out.rc == 0, out.stderr
 
@@ -250,8 +292,22 @@ def byte_damage(draw, data: bytes) -> bytes:
             out[draw(st.integers(0, len(out) - 1))] = draw(st.integers(0, 255))
         return bytes(out)
     at = draw(st.integers(0, len(out) - 8))
-    value = draw(st.sampled_from([0, 1, 2**31, 2**32 - 1, 2**63 - 1, 2**63, 2**64 - 1,
-                                  len(out), len(out) - 8, 1 << 63 | 16])
-                 | st.integers(0, 2**64 - 1))
-    out[at: at + 8] = struct.pack("<Q", value)
+    value = draw(
+        st.sampled_from(
+            [
+                0,
+                1,
+                2**31,
+                2**32 - 1,
+                2**63 - 1,
+                2**63,
+                2**64 - 1,
+                len(out),
+                len(out) - 8,
+                1 << 63 | 16,
+            ]
+        )
+        | st.integers(0, 2**64 - 1)
+    )
+    out[at : at + 8] = struct.pack("<Q", value)
     return bytes(out)

@@ -56,8 +56,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Archive", "Object", "Compound", "Property", "TimeSampling", "POD_NAMES",
-           "parse_metadata"]
+__all__ = [
+    "Archive",
+    "Object",
+    "Compound",
+    "Property",
+    "TimeSampling",
+    "POD_NAMES",
+    "parse_metadata",
+]
 
 _MAGIC = b"Ogawa"
 _HEADER = 16
@@ -68,11 +75,21 @@ _MIN_LIBRARY_VERSION = 9999  # AbcCoreOgawa refuses an archive written by an old
 
 # Alembic's PlainOldDataType, in its enum order: (name, numpy dtype)
 _PODS: tuple[tuple[str, str | None], ...] = (
-    ("bool", "u1"), ("uint8", "u1"), ("int8", "i1"), ("uint16", "<u2"), ("int16", "<i2"),
-    ("uint32", "<u4"), ("int32", "<i4"), ("uint64", "<u8"), ("int64", "<i8"),
-    ("float16", "<f2"), ("float32", "<f4"), ("float64", "<f8"), ("string", None),
+    ("bool", "u1"),
+    ("uint8", "u1"),
+    ("int8", "i1"),
+    ("uint16", "<u2"),
+    ("int16", "<i2"),
+    ("uint32", "<u4"),
+    ("int32", "<i4"),
+    ("uint64", "<u8"),
+    ("int64", "<i8"),
+    ("float16", "<f2"),
+    ("float32", "<f4"),
+    ("float64", "<f8"),
+    ("string", None),
     ("wstring", None),
-)  # fmt: skip
+)
 POD_NAMES = tuple(name for name, _ in _PODS)
 _DTYPES = dict(_PODS)
 _KINDS = {0: "compound", 1: "scalar", 2: "array", 3: "array"}
@@ -129,7 +146,7 @@ class _Ogawa:
         """The little-endian uint64 at ``pos``."""
         if pos < 0 or pos + 8 > self.size:
             raise _fail(f"reading 8 bytes at {pos}, past the end ({self.size} bytes)")
-        return int.from_bytes(self.buf[pos:pos + 8], "little")
+        return int.from_bytes(self.buf[pos : pos + 8], "little")
 
     def group(self, ref: int) -> tuple[int, ...]:
         """The child references of the group ``ref`` (empty for the empty group)."""
@@ -162,7 +179,7 @@ class _Ogawa:
         size = self.u64(pos)
         if size > self.size - pos - 8:
             raise _fail(f"data at {pos} claims {size} bytes, past the end of the file")
-        return self.buf[pos + 8:pos + 8 + size]
+        return self.buf[pos + 8 : pos + 8 + size]
 
     def child(self, children: tuple[int, ...], i: int, what: str) -> int:
         """``children[i]``, ValueError naming ``what`` when the group is too short."""
@@ -182,9 +199,8 @@ class _Reader:
 
     def take(self, n: int) -> bytes:
         if n < 0 or self.pos + n > len(self.buf):
-            raise _fail(f"{self.what}: {n} bytes at {self.pos} run past its"
-                        f" {len(self.buf)} bytes")  # fmt: skip
-        out = bytes(self.buf[self.pos:self.pos + n])
+            raise _fail(f"{self.what}: {n} bytes at {self.pos} run past its {len(self.buf)} bytes")
+        out = bytes(self.buf[self.pos : self.pos + n])
         self.pos += n
         return out
 
@@ -204,8 +220,15 @@ class Compound:
 
     kind = "compound"
 
-    def __init__(self, archive: Archive, ref: int, name: str, metadata: dict[str, str],
-                 full_name: str, ancestors: frozenset[int] = frozenset()) -> None:  # fmt: skip
+    def __init__(
+        self,
+        archive: Archive,
+        ref: int,
+        name: str,
+        metadata: dict[str, str],
+        full_name: str,
+        ancestors: frozenset[int] = frozenset(),
+    ) -> None:
         self.archive, self.name, self.metadata = archive, name, metadata
         self.full_name = full_name
         self._ref = ref
@@ -237,8 +260,9 @@ class Compound:
             if header["kind"] == "compound":
                 if ref & _DATA_BIT or ref in self._ancestors:
                     raise _fail(f"{full}: compound property is not a fresh group")
-                out[name] = Compound(self.archive, ref, name, header["metadata"], full,
-                                     self._ancestors)  # fmt: skip
+                out[name] = Compound(
+                    self.archive, ref, name, header["metadata"], full, self._ancestors
+                )
             else:
                 if ref & _DATA_BIT:
                     raise _fail(f"{full}: property is data where a group belongs")
@@ -274,11 +298,18 @@ class Compound:
                 if not (first <= last <= count or first == 1 and count <= 1):
                     raise _fail(f"{r.what}: changed indices {first}..{last} of {count} samples")
                 if sampling >= len(self.archive.time_samplings):
-                    raise _fail(f"{r.what}: time sampling {sampling} of"
-                                f" {len(self.archive.time_samplings)}")  # fmt: skip
-                header.update(pod=POD_NAMES[pod], extent=extent, num_samples=count,
-                              first_changed=first, last_changed=last,
-                              time_sampling=sampling, homogenous=bool(info & 0x400))  # fmt: skip
+                    raise _fail(
+                        f"{r.what}: time sampling {sampling} of {len(self.archive.time_samplings)}"
+                    )
+                header.update(
+                    pod=POD_NAMES[pod],
+                    extent=extent,
+                    num_samples=count,
+                    first_changed=first,
+                    last_changed=last,
+                    time_sampling=sampling,
+                    homogenous=bool(info & 0x400),
+                )
             header["name"] = r.text(r.uint(width))
             index = (info >> 20) & 0xFF
             if index == 0xFF:
@@ -316,10 +347,23 @@ class Property:
     """A scalar or array property: its type (``pod``, ``extent``), metadata (e.g.
     ``geoScope``, ``interpretation``) and samples."""
 
-    def __init__(self, archive: Archive, ref: int, full_name: str, *, kind: str, name: str,
-                 metadata: dict[str, str], pod: str, extent: int, num_samples: int,
-                 first_changed: int, last_changed: int, time_sampling: int,
-                 homogenous: bool) -> None:  # fmt: skip
+    def __init__(
+        self,
+        archive: Archive,
+        ref: int,
+        full_name: str,
+        *,
+        kind: str,
+        name: str,
+        metadata: dict[str, str],
+        pod: str,
+        extent: int,
+        num_samples: int,
+        first_changed: int,
+        last_changed: int,
+        time_sampling: int,
+        homogenous: bool,
+    ) -> None:
         self.archive, self.full_name, self.kind, self.name = archive, full_name, kind, name
         self.metadata, self.pod, self.extent = metadata, pod, extent
         self.num_samples, self.time_sampling = num_samples, time_sampling
@@ -328,8 +372,10 @@ class Property:
         self._ref = ref
 
     def __repr__(self) -> str:
-        return (f"Property({self.full_name!r}, {self.kind} {self.pod}[{self.extent}],"
-                f" {self.num_samples} samples)")  # fmt: skip
+        return (
+            f"Property({self.full_name!r}, {self.kind} {self.pod}[{self.extent}],"
+            f" {self.num_samples} samples)"
+        )
 
     @property
     def is_constant(self) -> bool:
@@ -376,11 +422,14 @@ class Property:
             return self._strings(payload, shape)
         item = np.dtype(dtype).itemsize * self.extent
         if self.kind == "scalar" and len(payload) != item:
-            raise _fail(f"{self.full_name}: scalar sample of {len(payload)} bytes, its type"
-                        f" takes {item}")  # fmt: skip
+            raise _fail(
+                f"{self.full_name}: scalar sample of {len(payload)} bytes, its type takes {item}"
+            )
         if len(payload) % item:
-            raise _fail(f"{self.full_name}: {len(payload)} bytes are not whole"
-                        f" {self.pod}[{self.extent}] values")  # fmt: skip
+            raise _fail(
+                f"{self.full_name}: {len(payload)} bytes are not whole"
+                f" {self.pod}[{self.extent}] values"
+            )
         n = len(payload) // item
         arr = np.frombuffer(payload, dtype, n * self.extent).copy()
         if self.pod == "bool":
@@ -447,9 +496,15 @@ class Object:
     """An object of the archive: its name, metadata (``schema``: e.g.
     ``AbcGeom_Curve_v2``), child objects and properties."""
 
-    def __init__(self, archive: Archive, ref: int, name: str, full_name: str,
-                 metadata: dict[str, str],
-                 ancestors: frozenset[int] = frozenset()) -> None:  # fmt: skip
+    def __init__(
+        self,
+        archive: Archive,
+        ref: int,
+        name: str,
+        full_name: str,
+        metadata: dict[str, str],
+        ancestors: frozenset[int] = frozenset(),
+    ) -> None:
         self.archive, self.name, self.full_name = archive, name, full_name
         self.metadata = metadata
         self._ref = ref
@@ -475,8 +530,9 @@ class Object:
                 raise _fail(f"{self.full_name}: properties are data where a group belongs")
             if ref and ref in self._ancestors:
                 raise _fail(f"{self.full_name}: properties loop back to an ancestor")
-            self._properties = Compound(self.archive, ref, "", {}, self.full_name.rstrip("/"),
-                                        self._ancestors)  # fmt: skip
+            self._properties = Compound(
+                self.archive, ref, "", {}, self.full_name.rstrip("/"), self._ancestors
+            )
         return self._properties
 
     @property
@@ -510,8 +566,9 @@ class Object:
             ref = ogawa.child(refs[:-1], len(out) + 1, f"object {prefix}/{name}")
             if ref & _DATA_BIT or ref and ref in self._ancestors:
                 raise _fail(f"{prefix}/{name}: object is not a fresh group")
-            out.append(Object(self.archive, ref, name, f"{prefix}/{name}", metadata,
-                              self._ancestors))  # fmt: skip
+            out.append(
+                Object(self.archive, ref, name, f"{prefix}/{name}", metadata, self._ancestors)
+            )
         return out
 
     def child(self, name: str) -> Object:
@@ -542,8 +599,9 @@ class Archive:
         root = self._ogawa.group(self._ogawa.root)
         kinds = [bool(ref & _DATA_BIT) for ref in root[:6]]
         if len(root) < 6 or kinds != [True, True, False, True, True, True]:
-            raise _fail("the root group is not an Alembic archive (data, data, group, data,"
-                        " data, data)")  # fmt: skip
+            raise _fail(
+                "the root group is not an Alembic archive (data, data, group, data, data, data)"
+            )
         self.archive_version = self._int32(root[0], "archive version")
         self.library_version = self._int32(root[1], "library version")
         if not 0 <= self.archive_version <= _OGAWA_FILE_VERSION:

@@ -18,9 +18,20 @@ GREY = (0.8, 0.8, 0.8)
 def _call(n: int = 4, **kw: object) -> dict[str, np.ndarray]:
     """hair_appearance for hairs 0 … n − 1 with plain defaults, overridden by ``kw``."""
     args = dict(
-        hair_ids=np.arange(n), seed=1, vertices=5, root_color=BROWN, tip_color=BLOND,
-        hue_var=0.0, sat_var=0.0, val_var=0.0, mutant_fraction=0.0, mutant_color=GREY,
-        root_width=80e-6, tip_width=30e-6, root_opacity=1.0, tip_opacity=0.5,
+        hair_ids=np.arange(n),
+        seed=1,
+        vertices=5,
+        root_color=BROWN,
+        tip_color=BLOND,
+        hue_var=0.0,
+        sat_var=0.0,
+        val_var=0.0,
+        mutant_fraction=0.0,
+        mutant_color=GREY,
+        root_width=80e-6,
+        tip_width=30e-6,
+        root_opacity=1.0,
+        tip_opacity=0.5,
     )
     args.update(kw)
     return hair_appearance(**args)
@@ -74,10 +85,18 @@ def test_width_and_opacity_at_root_middle_and_tip():
 def test_per_hair_values_and_curve_parameters():
     # hair 1 is cut in half: its vertices keep the parameters of the uncut curve (§2.2.8)
     t = np.array([[0.0, 0.5, 1.0], [0.0, 0.25, 0.5]])
-    out = _call(n=2, vertices=3, root_width=[1e-4, 2e-4], tip_width=[5e-5, 1e-4],
-                root_opacity=[1.0, 0.8], tip_opacity=[0.0, 0.4], t=t)
-    np.testing.assert_allclose(out["width"], np.float32([1e-4, 7.5e-5, 5e-5, 2e-4, 1.75e-4,
-                                                         1.5e-4]))
+    out = _call(
+        n=2,
+        vertices=3,
+        root_width=[1e-4, 2e-4],
+        tip_width=[5e-5, 1e-4],
+        root_opacity=[1.0, 0.8],
+        tip_opacity=[0.0, 0.4],
+        t=t,
+    )
+    np.testing.assert_allclose(
+        out["width"], np.float32([1e-4, 7.5e-5, 5e-5, 2e-4, 1.75e-4, 1.5e-4])
+    )
     np.testing.assert_allclose(out["opacity"], [1.0, 0.5, 0.0, 0.8, 0.7, 0.6], atol=1e-7)
     shared = _call(n=2, vertices=3, t=[0.0, 0.5, 1.0])
     np.testing.assert_array_equal(shared["width"], _call(n=2, vertices=3)["width"])
@@ -87,11 +106,18 @@ def test_shared_and_per_hair_inputs_agree():
     n = 50
     shared = _call(n=n, hue_var=20.0, sat_var=0.1, val_var=0.1, mutant_fraction=0.3)
     per_hair = _call(
-        n=n, root_color=np.tile(BROWN, (n, 1)), tip_color=np.tile(BLOND, (n, 1)),
-        hue_var=np.full(n, 20.0), sat_var=np.full(n, 0.1), val_var=np.full(n, 0.1),
-        mutant_fraction=np.full(n, 0.3), mutant_color=np.tile(GREY, (n, 1)),
-        root_width=np.full(n, 80e-6), tip_width=np.full(n, 30e-6),
-        root_opacity=np.ones(n), tip_opacity=np.full(n, 0.5),
+        n=n,
+        root_color=np.tile(BROWN, (n, 1)),
+        tip_color=np.tile(BLOND, (n, 1)),
+        hue_var=np.full(n, 20.0),
+        sat_var=np.full(n, 0.1),
+        val_var=np.full(n, 0.1),
+        mutant_fraction=np.full(n, 0.3),
+        mutant_color=np.tile(GREY, (n, 1)),
+        root_width=np.full(n, 80e-6),
+        tip_width=np.full(n, 30e-6),
+        root_opacity=np.ones(n),
+        tip_opacity=np.full(n, 0.5),
         t=np.tile(np.linspace(0.0, 1.0, 5), (n, 1)),
     )
     for key in ("color", "width", "opacity"):
@@ -110,8 +136,16 @@ def test_variation_is_uniform_per_hair_and_follows_the_stream():
     n, nv, seed = 20000, 4, 5
     root = hsv_to_rgb([120.0, 0.5, 0.5])
     tip = hsv_to_rgb([140.0, 0.6, 0.4])
-    out = _call(n=n, seed=seed, vertices=nv, root_color=root, tip_color=tip,
-                hue_var=30.0, sat_var=0.2, val_var=0.1)
+    out = _call(
+        n=n,
+        seed=seed,
+        vertices=nv,
+        root_color=root,
+        tip_color=tip,
+        hue_var=30.0,
+        sat_var=0.2,
+        val_var=0.1,
+    )
     hsv = _hsv(out, nv)
     dh_root = _wrapped(hsv[:, 0, 0] - 120.0)
     dh_tip = _wrapped(hsv[:, -1, 0] - 140.0)
@@ -137,8 +171,9 @@ def test_variation_is_uniform_per_hair_and_follows_the_stream():
 def test_hue_wraps_and_saturation_value_clamp():
     n = 5000
     red = (1.0, 0.0, 0.0)  # hue 0, s = v = 1: every negative s or v shift clamps at 1
-    out = _call(n=n, vertices=2, root_color=red, tip_color=red,
-                hue_var=45.0, sat_var=0.5, val_var=0.5)
+    out = _call(
+        n=n, vertices=2, root_color=red, tip_color=red, hue_var=45.0, sat_var=0.5, val_var=0.5
+    )
     hsv = _hsv(out, 2)[:, 0]
     assert np.all((hsv[:, 0] >= 0.0) & (hsv[:, 0] < 360.0))
     assert np.any(hsv[:, 0] > 315.0) and np.any(hsv[:, 0] < 45.0)  # wrapped both ways
@@ -146,8 +181,9 @@ def test_hue_wraps_and_saturation_value_clamp():
     assert np.all((hsv[:, 1:] >= 0.5 - 1e-6) & (hsv[:, 1:] <= 1.0))
     clamped = np.isclose(hsv[:, 1:], 1.0, atol=1e-7).mean(axis=0)
     assert np.all(np.abs(clamped - 0.5) < 0.05)  # half the hairs shift up and are clamped
-    dark = _call(n=n, vertices=2, root_color=(0.1, 0.05, 0.0), tip_color=(0.1, 0.05, 0.0),
-                 val_var=1.0)
+    dark = _call(
+        n=n, vertices=2, root_color=(0.1, 0.05, 0.0), tip_color=(0.1, 0.05, 0.0), val_var=1.0
+    )
     v = _hsv(dark, 2)[:, 0, 2]  # 0.1 − U(−1, 1): P(v < 0) = 0.45, P(v > 1) = 0.05
     assert v.min() == 0.0 and v.max() == 1.0
     assert abs(np.mean(v == 0.0) - 0.45) < 0.04 and abs(np.mean(v == 1.0) - 0.05) < 0.02
@@ -170,8 +206,14 @@ def test_mutant_fraction_is_binomial_and_mutants_have_the_mutant_color():
 
 def test_mutant_variation_and_per_hair_fraction():
     n = 400
-    out = _call(n=n, vertices=3, mutant_fraction=1.0, mutant_color=(0.6, 0.4, 0.2),
-                hue_var=20.0, val_var=0.2)
+    out = _call(
+        n=n,
+        vertices=3,
+        mutant_fraction=1.0,
+        mutant_color=(0.6, 0.4, 0.2),
+        hue_var=20.0,
+        val_var=0.2,
+    )
     c = out["color"].reshape(n, 3, 3)
     np.testing.assert_allclose(c, np.repeat(c[:, :1], 3, axis=1), atol=1e-7)  # one colour
     assert np.unique(c[:, 0], axis=0).shape[0] == n  # shifted per hair
@@ -185,8 +227,15 @@ def test_mutant_variation_and_per_hair_fraction():
 # -------------------------------------------------------------------- determinism
 def test_deterministic_and_independent_of_chunking():
     n = 5000
-    kw = dict(seed=123, vertices=6, hue_var=25.0, sat_var=0.2, val_var=0.2,
-              mutant_fraction=0.1, root_width=np.linspace(50e-6, 90e-6, n))
+    kw = dict(
+        seed=123,
+        vertices=6,
+        hue_var=25.0,
+        sat_var=0.2,
+        val_var=0.2,
+        mutant_fraction=0.1,
+        root_width=np.linspace(50e-6, 90e-6, n),
+    )
     whole = _call(n=n, **kw)
     again = _call(n=n, **kw)
     parts = [(0, 1234), (1234, 1235), (1235, n)]

@@ -52,34 +52,49 @@ CATMULL_ROM, POLY = 0, 1
 # each file (the blender target leaves out the normals Blender drops); the skin is
 # checked in test_skin_mesh. A new bpy version that keeps or
 # drops more fails test_what_blender_keeps here, which is the point: update the table.
-_USD_HAIR = {"width": "radius POINT FLOAT", "color": "displayColor POINT FLOAT_COLOR",
-             "opacity": "displayOpacity POINT FLOAT", "normal": None,
-             "hair_id": "hair_id CURVE INT", "strand_id": "strand_id CURVE INT",
-             "root_triangle": "root_triangle CURVE INT", "root_bary": "root_bary CURVE FLOAT2",
-             "strand_uv": "strand_uv CURVE FLOAT2"}  # fmt: skip
-_USD_GUIDES = {"width": "radius POINT FLOAT", "guide_id": "guide_id CURVE INT",
-               "root_triangle": "root_triangle CURVE INT",
-               "root_bary": "root_bary CURVE FLOAT2"}  # fmt: skip
+_USD_HAIR = {
+    "width": "radius POINT FLOAT",
+    "color": "displayColor POINT FLOAT_COLOR",
+    "opacity": "displayOpacity POINT FLOAT",
+    "normal": None,
+    "hair_id": "hair_id CURVE INT",
+    "strand_id": "strand_id CURVE INT",
+    "root_triangle": "root_triangle CURVE INT",
+    "root_bary": "root_bary CURVE FLOAT2",
+    "strand_uv": "strand_uv CURVE FLOAT2",
+}
+_USD_GUIDES = {
+    "width": "radius POINT FLOAT",
+    "guide_id": "guide_id CURVE INT",
+    "root_triangle": "root_triangle CURVE INT",
+    "root_bary": "root_bary CURVE FLOAT2",
+}
 _ABC_HAIR = {**dict.fromkeys(_USD_HAIR), "width": "radius POINT FLOAT", "root_uv": None}
 _ABC_GUIDES = {**dict.fromkeys(_USD_GUIDES), "width": "radius POINT FLOAT", "root_uv": None}
 KEPT = {
     ("generic.usdc", "hair"): {**_USD_HAIR, "root_uv": "root_uv CURVE FLOAT2"},
-    ("blender.usdc", "hair"): {**{k: v for k, v in _USD_HAIR.items() if k != "normal"},
-                               "surface_uv_coordinate": "surface_uv_coordinate CURVE FLOAT2"},
+    ("blender.usdc", "hair"): {
+        **{k: v for k, v in _USD_HAIR.items() if k != "normal"},
+        "surface_uv_coordinate": "surface_uv_coordinate CURVE FLOAT2",
+    },
     ("generic.usdc", "guides"): {**_USD_GUIDES, "root_uv": "root_uv CURVE FLOAT2"},
-    ("blender.usdc", "guides"): {**_USD_GUIDES,
-                                 "surface_uv_coordinate": "surface_uv_coordinate CURVE FLOAT2"},
+    ("blender.usdc", "guides"): {
+        **_USD_GUIDES,
+        "surface_uv_coordinate": "surface_uv_coordinate CURVE FLOAT2",
+    },
     ("generic.abc", "hair"): _ABC_HAIR,
-    ("blender.abc", "hair"): {**{k: v for k, v in _ABC_HAIR.items()
-                                 if k not in ("root_uv", "normal")},
-                              "surface_uv_coordinate": None},
+    ("blender.abc", "hair"): {
+        **{k: v for k, v in _ABC_HAIR.items() if k not in ("root_uv", "normal")},
+        "surface_uv_coordinate": None,
+    },
     ("generic.abc", "guides"): _ABC_GUIDES,
-    ("blender.abc", "guides"): {**{k: v for k, v in _ABC_GUIDES.items() if k != "root_uv"},
-                                "surface_uv_coordinate": None},
-}  # fmt: skip
+    ("blender.abc", "guides"): {
+        **{k: v for k, v in _ABC_GUIDES.items() if k != "root_uv"},
+        "surface_uv_coordinate": None,
+    },
+}
 # our attribute → the name Blender's importers give it where not its own
-_BLENDER_NAMES = {"width": ("radius",), "color": ("displayColor",),
-                  "opacity": ("displayOpacity",)}  # fmt: skip
+_BLENDER_NAMES = {"width": ("radius",), "color": ("displayColor",), "opacity": ("displayOpacity",)}
 FILES = ("generic.usdc", "blender.usdc", "generic.abc", "blender.abc")
 
 
@@ -114,15 +129,20 @@ def _assert_points(got: np.ndarray, want: np.ndarray, what: str, hint: str) -> N
             f"{what}: {int((err > tol).any(axis=1).sum())} of {len(got)} points differ, on"
             f" axes {', '.join(a for a, b in zip(AXES, bad, strict=True) if b)}; worst point"
             f" {i}: {AXES[axis]} is {got[i, axis]:.7g}, expected {want[i, axis]:.7g}"
-            f" (got {got[i].round(6).tolist()}, expected {want[i].round(6).tolist()}). {hint}")
+            f" (got {got[i].round(6).tolist()}, expected {want[i].round(6).tolist()}). {hint}"
+        )
 
 
 def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
     """Each point's distance to the polyline through ``line``'s vertices."""
     a, b = line[:-1][None], line[1:][None]
     ab = b - a
-    t = np.clip(np.einsum("psk,psk->ps", points[:, None] - a, ab)
-                / np.maximum(np.einsum("psk,psk->ps", ab, ab), 1e-300), 0.0, 1.0)  # fmt: skip
+    t = np.clip(
+        np.einsum("psk,psk->ps", points[:, None] - a, ab)
+        / np.maximum(np.einsum("psk,psk->ps", ab, ab), 1e-300),
+        0.0,
+        1.0,
+    )
     closest = a + t[..., None] * ab
     return np.linalg.norm(points[:, None] - closest, axis=2).min(axis=1)
 
@@ -149,8 +169,12 @@ def test_a_half_made_env_is_made_again_then_reused(tmp_path, monkeypatch):
     (venv / "bin").mkdir(parents=True)
     (venv / "bin" / "python").touch()
     (venv / "half-installed").touch()
-    for name, value in (("VENV", venv), ("READY", venv / "ready.txt"),
-                        ("LOCK", tmp_path / "lock"), ("BPY_PYTHON", sys.version_info[:2])):
+    for name, value in (
+        ("VENV", venv),
+        ("READY", venv / "ready.txt"),
+        ("LOCK", tmp_path / "lock"),
+        ("BPY_PYTHON", sys.version_info[:2]),
+    ):
         monkeypatch.setattr(blender_env, name, value)
     monkeypatch.delenv("FOLLICLE_BLENDER_PYTHON", raising=False)
     made = []
@@ -195,8 +219,9 @@ def ours(tmp_path_factory, blender, groom, hair):
     for name in FILES:
         save = save_usd if name.endswith(".usdc") else save_abc
         save(hair, folder / name, guides=groom.guides, mesh=groom.mesh, target=_target(name))
-    report = run_blender(blender, "import_ours.py", *(folder / n for n in FILES),
-                         folder / "findings.json")  # fmt: skip
+    report = run_blender(
+        blender, "import_ours.py", *(folder / n for n in FILES), folder / "findings.json"
+    )
     return report, dict(np.load(report["arrays"]))
 
 
@@ -220,8 +245,12 @@ def test_alembic_objects_are_named_for_what_they_hold(ours, name):
     """Each shape under its own Xform: Blender names the objects Hair_0000, Guides and
     Skin under the empty Groom (shapes sharing /Groom came in as Groom, Groom.001, …)."""
     made = {o["name"]: (o["type"], o["parent"]) for o in ours[0]["files"][name]["objects"]}
-    assert made == {"Groom": ("EMPTY", None), "Hair_0000": ("CURVES", "Groom"),
-                    "Guides": ("CURVES", "Groom"), "Skin": ("MESH", "Groom")}, made
+    assert made == {
+        "Groom": ("EMPTY", None),
+        "Hair_0000": ("CURVES", "Groom"),
+        "Guides": ("CURVES", "Groom"),
+        "Skin": ("MESH", "Groom"),
+    }, made
 
 
 def _written(curves, name: str, role: str):
@@ -235,13 +264,18 @@ def test_hair_curves_and_points(ours, hair, name):
     obj = _hair_object(ours, name)
     arrays = ours[1]
     assert obj["type"] == "CURVES", f"{name}: the hair came in as {obj['type']}, not hair curves"
-    assert (obj["curves"], obj["points"]) == (hair.curve_count, hair.point_count), \
-        f"{name}: Blender has {obj['curves']} curves / {obj['points']} points"  # fmt: skip
-    np.testing.assert_array_equal(arrays[f"{obj['key']}/offsets"], hair.offsets,
-                                  err_msg=f"{name}: curve sizes differ")  # fmt: skip
-    _assert_points(arrays[f"{obj['key']}/position"], _to_blender(hair.points),
-                   f"{name}: hair points in Blender's world",
-                   "A Y-up (x, y, z) should land at (x, -z, y).")  # fmt: skip
+    assert (obj["curves"], obj["points"]) == (hair.curve_count, hair.point_count), (
+        f"{name}: Blender has {obj['curves']} curves / {obj['points']} points"
+    )
+    np.testing.assert_array_equal(
+        arrays[f"{obj['key']}/offsets"], hair.offsets, err_msg=f"{name}: curve sizes differ"
+    )
+    _assert_points(
+        arrays[f"{obj['key']}/position"],
+        _to_blender(hair.points),
+        f"{name}: hair points in Blender's world",
+        "A Y-up (x, y, z) should land at (x, -z, y).",
+    )
 
 
 @pytest.mark.parametrize("name", FILES)
@@ -249,8 +283,12 @@ def test_radius_is_half_the_width(ours, hair, name):
     obj = _hair_object(ours, name)
     radius = ours[1].get(f"{obj['key']}/radius")
     assert radius is not None, f"{name}: Blender made no radius of our widths"
-    np.testing.assert_allclose(radius, 0.5 * hair.point_data["width"], rtol=1e-6,
-                               err_msg=f"{name}: Blender's radius is not width / 2")  # fmt: skip
+    np.testing.assert_allclose(
+        radius,
+        0.5 * hair.point_data["width"],
+        rtol=1e-6,
+        err_msg=f"{name}: Blender's radius is not width / 2",
+    )
 
 
 @pytest.mark.parametrize("name", FILES)
@@ -270,17 +308,21 @@ def test_ids_and_uvs_kept_as_blender_types(ours, hair, name):
     arrays, attrs = ours[1], {a["name"]: a for a in obj["attributes"]}
     for key in ("hair_id", "strand_id", "root_triangle"):
         assert key in attrs, f"{name}: Blender dropped '{key}' (it drops 64-bit integers)"
-        assert (attrs[key]["domain"], attrs[key]["type"]) == ("CURVE", "INT"), \
-            f"{name}: '{key}' is {attrs[key]}, not a per-curve INT"  # fmt: skip
-        np.testing.assert_array_equal(arrays[f"{obj['key']}/{key}"], hair.curve_data[key],
-                                      err_msg=f"{name}: '{key}' values")  # fmt: skip
+        assert (attrs[key]["domain"], attrs[key]["type"]) == ("CURVE", "INT"), (
+            f"{name}: '{key}' is {attrs[key]}, not a per-curve INT"
+        )
+        np.testing.assert_array_equal(
+            arrays[f"{obj['key']}/{key}"], hair.curve_data[key], err_msg=f"{name}: '{key}' values"
+        )
     uv = "surface_uv_coordinate" if _target(name) == "blender" else "root_uv"
     other = "root_uv" if uv != "root_uv" else "surface_uv_coordinate"
-    assert uv in attrs and other not in attrs, \
-        f"{name}: expected the root UVs as '{uv}' only, Blender has {sorted(attrs)}"  # fmt: skip
+    assert uv in attrs and other not in attrs, (
+        f"{name}: expected the root UVs as '{uv}' only, Blender has {sorted(attrs)}"
+    )
     assert (attrs[uv]["domain"], attrs[uv]["type"]) == ("CURVE", "FLOAT2")
-    np.testing.assert_array_equal(arrays[f"{obj['key']}/{uv}"], hair.curve_data["root_uv"],
-                                  err_msg=f"{name}: '{uv}' values")  # fmt: skip
+    np.testing.assert_array_equal(
+        arrays[f"{obj['key']}/{uv}"], hair.curve_data["root_uv"], err_msg=f"{name}: '{uv}' values"
+    )
 
 
 @pytest.mark.parametrize("name", ["generic.usdc", "blender.usdc"])
@@ -289,11 +331,15 @@ def test_colour_and_opacity(ours, hair, name):
     arrays = ours[1]
     colour = arrays.get(f"{obj['key']}/displayColor")
     assert colour is not None, f"{name}: Blender dropped the hair colour (displayColor)"
-    np.testing.assert_allclose(colour[:, :3], hair.point_data["color"], atol=1e-6,
-                               err_msg=f"{name}: colour RGB")  # fmt: skip
-    np.testing.assert_allclose(arrays[f"{obj['key']}/displayOpacity"],
-                               hair.point_data["opacity"], atol=1e-6,
-                               err_msg=f"{name}: opacity")  # fmt: skip
+    np.testing.assert_allclose(
+        colour[:, :3], hair.point_data["color"], atol=1e-6, err_msg=f"{name}: colour RGB"
+    )
+    np.testing.assert_allclose(
+        arrays[f"{obj['key']}/displayOpacity"],
+        hair.point_data["opacity"],
+        atol=1e-6,
+        err_msg=f"{name}: opacity",
+    )
 
 
 @pytest.mark.parametrize("name", FILES)
@@ -302,16 +348,23 @@ def test_guides_are_their_own_object(ours, groom, name):
     hair_obj = _hair_object(ours, name)
     guides = groom.guides.curves
     assert obj["type"] == "CURVES" and obj["name"] != hair_obj["name"]
-    assert obj["curves"] == guides.curve_count, \
-        f"{name}: {obj['curves']} guides in Blender, {guides.curve_count} written"  # fmt: skip
-    _assert_points(ours[1][f"{obj['key']}/position"], _to_blender(guides.points),
-                   f"{name}: guide points in Blender's world",
-                   "A Y-up (x, y, z) should land at (x, -z, y).")  # fmt: skip
+    assert obj["curves"] == guides.curve_count, (
+        f"{name}: {obj['curves']} guides in Blender, {guides.curve_count} written"
+    )
+    _assert_points(
+        ours[1][f"{obj['key']}/position"],
+        _to_blender(guides.points),
+        f"{name}: guide points in Blender's world",
+        "A Y-up (x, y, z) should land at (x, -z, y).",
+    )
     radius = ours[1].get(f"{obj['key']}/radius")
-    assert radius is not None, f"{name}: the guides have no radius in Blender (its default"\
-        " is a centimetre): write them widths"  # fmt: skip
-    np.testing.assert_allclose(radius, DEFAULT_WIDTH / 2, rtol=1e-6,
-                               err_msg=f"{name}: guide radius")  # fmt: skip
+    assert radius is not None, (
+        f"{name}: the guides have no radius in Blender (its default"
+        " is a centimetre): write them widths"
+    )
+    np.testing.assert_allclose(
+        radius, DEFAULT_WIDTH / 2, rtol=1e-6, err_msg=f"{name}: guide radius"
+    )
 
 
 @pytest.mark.parametrize("name", FILES)
@@ -319,17 +372,29 @@ def test_skin_mesh(ours, groom, name):
     obj = _object(ours, name, ("Skin",))
     mesh, arrays, key = groom.mesh, ours[1], obj["key"]
     assert obj["type"] == "MESH"
-    assert (obj["vertices"], obj["faces"]) == (len(mesh.rest_vertices), mesh.face_count), \
+    assert (obj["vertices"], obj["faces"]) == (len(mesh.rest_vertices), mesh.face_count), (
         f"{name}: the skin has {obj['vertices']} vertices / {obj['faces']} faces in Blender"
+    )
     assert (arrays[f"{key}/face_sizes"] == 3).all(), f"{name}: the skin's faces are not triangles"
-    np.testing.assert_array_equal(arrays[f"{key}/corner_vertex"], mesh.faces.ravel(),
-                                  err_msg=f"{name}: triangle corners (winding) differ")
-    _assert_points(arrays[f"{key}/position"], _to_blender(mesh.rest_vertices),
-                   f"{name}: skin vertices in Blender's world", "Same axes as the hair.")
+    np.testing.assert_array_equal(
+        arrays[f"{key}/corner_vertex"],
+        mesh.faces.ravel(),
+        err_msg=f"{name}: triangle corners (winding) differ",
+    )
+    _assert_points(
+        arrays[f"{key}/position"],
+        _to_blender(mesh.rest_vertices),
+        f"{name}: skin vertices in Blender's world",
+        "Same axes as the hair.",
+    )
     assert len(obj["uv_maps"]) == 1, f"{name}: UV maps {obj['uv_maps']}, expected one"
     uv = arrays[f"{key}/uv:{obj['uv_maps'][0]}"]
-    np.testing.assert_allclose(uv, mesh.uvs[mesh.faces.ravel()], atol=1e-6,
-                               err_msg=f"{name}: the skin's UVs at its corners")
+    np.testing.assert_allclose(
+        uv,
+        mesh.uvs[mesh.faces.ravel()],
+        atol=1e-6,
+        err_msg=f"{name}: the skin's UVs at its corners",
+    )
 
 
 def _measured(obj: dict, written) -> dict[str, str | None]:
@@ -347,19 +412,22 @@ def test_what_blender_keeps(ours, groom, hair, name, capsys):
     """Measure what Blender keeps and drops of each attribute we write (printed), and
     pin it: see :data:`KEPT`."""
     found = {}
-    for role, obj, curves in (("hair", _hair_object(ours, name), hair),
-                              ("guides", _object(ours, name, ("Guides",)),
-                               groom.guides.curves)):  # fmt: skip
+    for role, obj, curves in (
+        ("hair", _hair_object(ours, name), hair),
+        ("guides", _object(ours, name, ("Guides",)), groom.guides.curves),
+    ):
         found[role] = _measured(obj, _written(curves, name, role))
         with capsys.disabled():
             kept = ", ".join(f"{k}→{v}" for k, v in found[role].items() if v)
             dropped = ", ".join(k for k, v in found[role].items() if not v) or "nothing"
-            print(f"\n[Blender {ours[0]['blender']}] {name} {role}: kept {kept};"
-                  f" dropped {dropped}")
+            print(f"\n[Blender {ours[0]['blender']}] {name} {role}: kept {kept}; dropped {dropped}")
     for role in found:
         want = KEPT[(name, role)]
-        diff = {k: (found[role].get(k), want.get(k)) for k in {*found[role], *want}
-                if found[role].get(k, "absent") != want.get(k, "absent")}  # fmt: skip
+        diff = {
+            k: (found[role].get(k), want.get(k))
+            for k in {*found[role], *want}
+            if found[role].get(k, "absent") != want.get(k, "absent")
+        }
         assert not diff, f"{name} {role}: Blender made (measured, expected) {diff}"
 
 
@@ -390,22 +458,38 @@ def test_blender_hair_curves_load(made, fmt):
     report, truth = made
     curves = load_curves(_made_file(made, "Hair", fmt))
     assert curves.curve_count == report["objects"]["Hair"]["curves"]
-    np.testing.assert_array_equal(curves.offsets, truth["Hair/offsets"],
-                                  err_msg=f"{fmt}: curve sizes differ")  # fmt: skip
-    _assert_points(curves.points, _from_blender(truth["Hair/position"]),
-                   f"{fmt}: Blender's hair points in follicle",
-                   "Blender's Z-up (x, y, z) with its object transform should read as"
-                   " (x, z, -y).")  # fmt: skip
-    np.testing.assert_allclose(curves.point_data["width"], 2 * truth["Hair/radius"], rtol=1e-6,
-                               err_msg=f"{fmt}: width is not 2 × Blender's radius")
-    assert sorted(curves.point_data) == MADE_POINT_DATA[fmt], \
-        f"{fmt}: follicle read {sorted(curves.point_data)} of Blender's hair"  # fmt: skip
+    np.testing.assert_array_equal(
+        curves.offsets, truth["Hair/offsets"], err_msg=f"{fmt}: curve sizes differ"
+    )
+    _assert_points(
+        curves.points,
+        _from_blender(truth["Hair/position"]),
+        f"{fmt}: Blender's hair points in follicle",
+        "Blender's Z-up (x, y, z) with its object transform should read as (x, z, -y).",
+    )
+    np.testing.assert_allclose(
+        curves.point_data["width"],
+        2 * truth["Hair/radius"],
+        rtol=1e-6,
+        err_msg=f"{fmt}: width is not 2 × Blender's radius",
+    )
+    assert sorted(curves.point_data) == MADE_POINT_DATA[fmt], (
+        f"{fmt}: follicle read {sorted(curves.point_data)} of Blender's hair"
+    )
     if "color" in curves.point_data:
         rgba = truth["Hair/color"]
-        np.testing.assert_allclose(curves.point_data["color"], rgba[:, :3], atol=1e-6,
-                                   err_msg=f"{fmt}: RGB of Blender's 4-channel colour")
-        np.testing.assert_allclose(curves.point_data["opacity"], rgba[:, 3], atol=1e-6,
-                                   err_msg=f"{fmt}: opacity from the colour's alpha")
+        np.testing.assert_allclose(
+            curves.point_data["color"],
+            rgba[:, :3],
+            atol=1e-6,
+            err_msg=f"{fmt}: RGB of Blender's 4-channel colour",
+        )
+        np.testing.assert_allclose(
+            curves.point_data["opacity"],
+            rgba[:, 3],
+            atol=1e-6,
+            err_msg=f"{fmt}: opacity from the colour's alpha",
+        )
 
 
 @pytest.mark.parametrize("fmt", ["usd", "abc"])
@@ -421,15 +505,28 @@ def test_blender_legacy_curves_load(made, fmt, kind):
     if kind == "Nurbs":
         assert curves.point_count >= len(cvs)
         off = _distance_to_polyline(curves.points.astype(np.float64), drawn)
-        assert off.max() < 1e-5, \
+        assert off.max() < 1e-5, (
             f"{fmt} {kind}: point {int(off.argmax())} is {off.max():.3g} m off Blender's curve"
-        _assert_points(curves.points[[0, -1]], drawn[[0, -1]], f"{fmt} {kind}: curve ends",
-                       "Endpoint knots: the curve starts and ends at its end CVs.")
+        )
+        _assert_points(
+            curves.points[[0, -1]],
+            drawn[[0, -1]],
+            f"{fmt} {kind}: curve ends",
+            "Endpoint knots: the curve starts and ends at its end CVs.",
+        )
     else:
-        _assert_points(curves.points, cvs, f"{fmt} {kind}: curve points",
-                       "Poly: the points; Bézier: the knots, not their handles.")
-    np.testing.assert_allclose(curves.point_data["width"], 2e-4, rtol=1e-6,
-                               err_msg=f"{fmt} {kind}: width is not 2 × radius 1e-4")
+        _assert_points(
+            curves.points,
+            cvs,
+            f"{fmt} {kind}: curve points",
+            "Poly: the points; Bézier: the knots, not their handles.",
+        )
+    np.testing.assert_allclose(
+        curves.point_data["width"],
+        2e-4,
+        rtol=1e-6,
+        err_msg=f"{fmt} {kind}: width is not 2 × radius 1e-4",
+    )
 
 
 @pytest.mark.parametrize("fmt", ["usd", "abc"])
@@ -446,15 +543,17 @@ def test_blender_head_mesh_loads(made, fmt):
     gap = np.linalg.norm(mesh.rest_vertices[:, None] - blender_vertices[None], axis=2).min(1)
     assert gap.max() < 1e-6, f"{fmt}: vertex {int(gap.argmax())} is not one of Blender's"
     assert len(np.unique(mesh.rest_vertices.round(7), axis=0)) == head["vertices"]
-    np.testing.assert_allclose(mesh.face_areas().sum(), head["area"], rtol=1e-6,
-                               err_msg=f"{fmt}: surface area")
+    np.testing.assert_allclose(
+        mesh.face_areas().sum(), head["area"], rtol=1e-6, err_msg=f"{fmt}: surface area"
+    )
     # each (vertex, UV) follicle has is one of Blender's corners: the seams split right
     corners = np.hstack([_from_blender(truth["Head/corner_position"]), truth["Head/corner_uv"]])
     ours = np.hstack([mesh.rest_vertices, mesh.uvs])
     miss = np.abs(ours[:, None] - corners[None]).max(axis=2).min(axis=1)
-    assert miss.max() < 1e-6, \
-        f"{fmt}: vertex {int(miss.argmax())} (position, UV) {ours[miss.argmax()].round(5)} is" \
-        " no corner of Blender's sphere"  # fmt: skip
+    assert miss.max() < 1e-6, (
+        f"{fmt}: vertex {int(miss.argmax())} (position, UV) {ours[miss.argmax()].round(5)} is"
+        " no corner of Blender's sphere"
+    )
 
 
 @pytest.mark.parametrize("fmt", ["usd", "abc"])
@@ -463,8 +562,10 @@ def test_grows_on_blender_hair(made, fmt, tmp_path):
     ext = {"usd": "usda", "abc": "abc"}[fmt]
     head, hair_file = _made_file(made, "Head", fmt), _made_file(made, "Hair", fmt)
     scene = tmp_path / "scene.toml"
-    scene.write_text(f"[mesh]\npath = {json.dumps(head)}\n\n[guides]\npath ="
-                     f" {json.dumps(hair_file)}\n\n[groom]\ncount = 500\nseed = 3\n")
+    scene.write_text(
+        f"[mesh]\npath = {json.dumps(head)}\n\n[guides]\npath ="
+        f" {json.dumps(hair_file)}\n\n[groom]\ncount = 500\nseed = 3\n"
+    )
     out = tmp_path / "grown.npz"
     result = CliRunner().invoke(follicle_cli, ["grow", str(scene), "-o", str(out)])
     assert result.exit_code == 0, f"follicle grow on Blender's {ext} files: {result.output}"
@@ -484,13 +585,15 @@ def test_grows_on_blender_hair(made, fmt, tmp_path):
         return np.add.reduceat(np.where(inside, seg, 0.0), c.offsets[:-1])
 
     g, h = lengths(guides), lengths(grown)
-    assert g.min() * 0.5 < np.median(h) < g.max() * 1.5, \
+    assert g.min() * 0.5 < np.median(h) < g.max() * 1.5, (
         f"{fmt}: median hair length {np.median(h):.3g} m, guides {g.min():.3g}–{g.max():.3g}"
+    )
 
     def fall(c):  # tip − root in Y: negative where a curve hangs down
         return c.points[c.offsets[1:] - 1, 1] - c.points[c.offsets[:-1], 1]
 
     hang, guide_hang = float(np.median(fall(grown))), float(np.median(fall(guides)))
-    assert guide_hang < 0 and hang < 0.5 * guide_hang, \
-        f"{fmt}: the median hair ends {hang:.3g} m below its root in Y, the guides" \
+    assert guide_hang < 0 and hang < 0.5 * guide_hang, (
+        f"{fmt}: the median hair ends {hang:.3g} m below its root in Y, the guides"
         f" {guide_hang:.3g} m: Blender's guides fall (−Z), so our hair should hang (−Y)"
+    )

@@ -43,8 +43,10 @@ def test_demo_writes_20000_hairs_and_a_picture_of_hair(demo_dir):
 
 def test_grow_render_info_from_a_scene(tmp_path):
     scene = tmp_path / "scene.toml"
-    scene.write_text('[groom]\ncount = 1500\nseed = 3\n[guides]\npath = "builtin:short"\n'
-                     "[render]\nsize = [160, 120]\n")
+    scene.write_text(
+        '[groom]\ncount = 1500\nseed = 3\n[guides]\npath = "builtin:short"\n'
+        "[render]\nsize = [160, 120]\n"
+    )
     result = run("grow", scene, "-o", tmp_path / "a.npz")
     assert result.exit_code == 0 and "1,500 hairs" in result.output
     a = follicle.load_curves(tmp_path / "a.npz")
@@ -92,7 +94,7 @@ def test_default_output_paths_come_from_the_scene(tmp_path):
         ('[groom]\ndensity = "builtin:fur"\n', "unknown built-in texture 'builtin:fur'"),
         ('[groom]\ndensity = "black.png"\n', "'black' is zero everywhere"),
         ('[mesh]\npath = "nouv.obj"\n[groom]\ndensity = "black.png"\n', "no UVs"),
-        ('[mesh]\ndensity = 2\n', "[mesh].density: unknown key"),
+        ("[mesh]\ndensity = 2\n", "[mesh].density: unknown key"),
     ],
 )
 def test_bad_input_is_one_line_exit_2_and_no_output(tmp_path, scene_text, message):
@@ -105,7 +107,8 @@ def test_bad_input_is_one_line_exit_2_and_no_output(tmp_path, scene_text, messag
     scene.write_text(scene_text)
     proc = subprocess.run(
         [sys.executable, "-m", "follicle.cli", "grow", str(scene), "-o", str(tmp_path / "o.npz")],
-        capture_output=True, text=True,
+        capture_output=True,
+        text=True,
     )
     assert proc.returncode == 2, proc.stderr
     assert message in proc.stderr
@@ -144,13 +147,24 @@ def test_piped_output_has_no_progress_bar(tmp_path):
     scene.write_text("[groom]\ncount = 100\n")
     proc = subprocess.run(
         [sys.executable, "-m", "follicle.cli", "grow", str(scene), "-o", str(tmp_path / "h.npz")],
-        capture_output=True, text=True,
+        capture_output=True,
+        text=True,
     )
     assert proc.returncode == 0 and proc.stderr == ""
     assert proc.stdout.strip().endswith("h.npz")
     verbose = subprocess.run(
-        [sys.executable, "-m", "follicle.cli", "-v", "grow", str(scene), "-o",
-         str(tmp_path / "h.npz")], capture_output=True, text=True,
+        [
+            sys.executable,
+            "-m",
+            "follicle.cli",
+            "-v",
+            "grow",
+            str(scene),
+            "-o",
+            str(tmp_path / "h.npz"),
+        ],
+        capture_output=True,
+        text=True,
     )
     assert "grow in" in verbose.stderr
 

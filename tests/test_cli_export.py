@@ -70,6 +70,7 @@ def test_grow_streams_every_format_chunk_by_chunk(tmp_path, scene, monkeypatch, 
             for chunk in curves:
                 chunk_sizes.append(chunk.curve_count)
                 yield chunk
+
         return save(chunks(), path, **options)
 
     monkeypatch.setattr(dispatch, "save", spy)

@@ -22,8 +22,12 @@ def _warm():
 @pytest.mark.parametrize("suffix", [".hair", ".usdc"])
 def test_a_stopped_grow_leaves_no_file(tmp_path, signum, suffix):
     (tmp_path / "s.toml").write_text("[groom]\ncount = 400000\n")
-    proc = subprocess.Popen([*FOLLICLE, "grow", "s.toml", "-o", f"big{suffix}"], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [*FOLLICLE, "grow", "s.toml", "-o", f"big{suffix}"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     deadline = time.monotonic() + 120
     while not any(name.startswith(".big") for name in os.listdir(tmp_path)):
         assert proc.poll() is None, proc.communicate()
@@ -40,6 +44,7 @@ def test_a_stopped_grow_leaves_no_file(tmp_path, signum, suffix):
 def _file_size_limit(limit):
     def set_limit():
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
     return set_limit
 
 
@@ -47,9 +52,14 @@ def _file_size_limit(limit):
 def test_a_file_size_limit_is_one_line_and_exit_2(tmp_path, suffix):
     (tmp_path / "s.toml").write_text("[groom]\ncount = 3000\n")
     start = time.perf_counter()
-    proc = subprocess.run([*FOLLICLE, "grow", "s.toml", "-o", f"h{suffix}"], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=120,
-                          preexec_fn=_file_size_limit(200_000))
+    proc = subprocess.run(
+        [*FOLLICLE, "grow", "s.toml", "-o", f"h{suffix}"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=_file_size_limit(200_000),
+    )
     out = Outcome(proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - start, False)
     assert_cli_refused(out, f"h{suffix}")
     assert files(tmp_path) == {"s.toml"}

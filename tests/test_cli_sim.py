@@ -1,6 +1,5 @@
 """`follicle simulate` and `follicle render CACHE`: caches, PNG sequences, exit codes."""
 
-
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -36,8 +35,18 @@ def sim(tmp_path_factory):
     """A 3-frame turn of the head: (folder, cache path, command output)."""
     folder = tmp_path_factory.mktemp("sim")
     (folder / "scene.toml").write_text(SCENE)
-    result = run("simulate", folder / "scene.toml", "--frames", 3, "--fps", 12,
-                 "--motion", "turn", "--count", 500)
+    result = run(
+        "simulate",
+        folder / "scene.toml",
+        "--frames",
+        3,
+        "--fps",
+        12,
+        "--motion",
+        "turn",
+        "--count",
+        500,
+    )
     assert result.exit_code == 0, result.output
     return folder, folder / "sim.npz", result.output
 
@@ -74,8 +83,20 @@ def test_simulate_writes_a_cache_beside_the_scene(sim):
 def test_same_scene_same_bytes(sim, tmp_path):
     folder, path, _ = sim
     again = tmp_path / "again.npz"
-    result = run("simulate", folder / "scene.toml", "--frames", 3, "--fps", 12,
-                 "--motion", "turn", "--count", 500, "-o", again)
+    result = run(
+        "simulate",
+        folder / "scene.toml",
+        "--frames",
+        3,
+        "--fps",
+        12,
+        "--motion",
+        "turn",
+        "--count",
+        500,
+        "-o",
+        again,
+    )
     assert result.exit_code == 0, result.output
     assert again.read_bytes() == path.read_bytes()
 
@@ -107,7 +128,7 @@ def test_bad_simulate_input_is_exit_2_and_no_file(tmp_path, args, message):
 def test_missing_or_bad_scene(tmp_path):
     result = run("simulate", tmp_path / "nope.toml")
     assert result.exit_code == 2 and "no such scene file" in result.output
-    (tmp_path / "bad.toml").write_text("[sim]\nmotion = \"wave\"\n")
+    (tmp_path / "bad.toml").write_text('[sim]\nmotion = "wave"\n')
     result = run("simulate", tmp_path / "bad.toml")
     assert result.exit_code == 2 and "[sim].motion" in result.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
@@ -211,10 +232,13 @@ def test_a_cache_exports_with_the_skin_moving_with_the_head(sim, tmp_path, ext):
 
         for f in range(3):
             back = load_abc(out, time=f / 12)
-            np.testing.assert_array_equal(back.points.reshape(cache.positions[f].shape),
-                                          cache.positions[f])  # fmt: skip
-        head = AbcGeom.IXform(Abc.IArchive(str(out)).getTop().getChild("Groom").getChild("Head"),
-                              Abc.WrapExistingFlag.kWrapExisting).getSchema()
+            np.testing.assert_array_equal(
+                back.points.reshape(cache.positions[f].shape), cache.positions[f]
+            )
+        head = AbcGeom.IXform(
+            Abc.IArchive(str(out)).getTop().getChild("Groom").getChild("Head"),
+            Abc.WrapExistingFlag.kWrapExisting,
+        ).getSchema()
         matrix = np.array(head.getValue(Abc.ISampleSelector(2 / 12)).getMatrix()).T
     else:
         from pxr import Usd, UsdGeom
@@ -223,8 +247,9 @@ def test_a_cache_exports_with_the_skin_moving_with_the_head(sim, tmp_path, ext):
 
         for f in range(3):
             back = load_usd(out, time=f)
-            np.testing.assert_array_equal(back.points.reshape(cache.positions[f].shape),
-                                          cache.positions[f])  # fmt: skip
+            np.testing.assert_array_equal(
+                back.points.reshape(cache.positions[f].shape), cache.positions[f]
+            )
         stage = Usd.Stage.Open(str(out))
         xf = UsdGeom.Xformable(stage.GetPrimAtPath("/Groom/Head"))
         matrix = np.array(xf.GetLocalTransformation(2)).T
@@ -243,8 +268,9 @@ def test_a_cache_exports_for_a_target(sim, tmp_path):
     assert result.exit_code == 0, result.output
     cache = load_cache(path)
     back = load_abc(out, time=1 / 12, stored=True)
-    np.testing.assert_allclose(back.points.reshape(cache.positions[1].shape),
-                               cache.positions[1] * 100, rtol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(
+        back.points.reshape(cache.positions[1].shape), cache.positions[1] * 100, rtol=1e-6
+    )
     assert back.curve_data["groom_guide"].all()
     result = run("check", out, "--target", "unreal")
     assert result.exit_code == 0, result.output

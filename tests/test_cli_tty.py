@@ -27,17 +27,21 @@ def tty(folder, *args):
 # (arguments, what the bar says, what the result line says); in order: simulate makes the
 # cache that the cache commands read
 COMMANDS = [
-    (["demo", "--out", "demo", "--count", "400", "--size", "64", "64"], "growing hair",
-     "400 hairs → demo/demo.png"),
+    (
+        ["demo", "--out", "demo", "--count", "400", "--size", "64", "64"],
+        "growing hair",
+        "400 hairs → demo/demo.png",
+    ),
     (["grow", "s.toml", "-o", "h.npz"], "growing hair", "300 hairs"),
     (["grow", "s.toml", "-o", "h.hair"], "growing hair", "→ h.hair"),
     (["render", "s.toml", "-o", "s.png"], "rendering", "→ s.png"),
-    (["render", "s.toml", "--engine", "mitsuba", "--spp", "2", "-o", "m.png"], "path tracing",
-     "→ m.png"),
-    (["simulate", "s.toml", "--frames", "3", "-o", "sim.npz"], "simulating",
-     "3 frames at 24 fps"),
-    (["render", "sim.npz", "-o", "frames", "--count", "50"], "rendering frames",
-     "3 frames (0–2)"),
+    (
+        ["render", "s.toml", "--engine", "mitsuba", "--spp", "2", "-o", "m.png"],
+        "path tracing",
+        "→ m.png",
+    ),
+    (["simulate", "s.toml", "--frames", "3", "-o", "sim.npz"], "simulating", "3 frames at 24 fps"),
+    (["render", "sim.npz", "-o", "frames", "--count", "50"], "rendering frames", "3 frames (0–2)"),
     (["render", "sim.npz", "-o", "sim.mp4", "--count", "50"], "rendering frames", "→ sim.mp4"),
     (["export", "sim.npz", "-o", "sim.usda"], "writing frames", "3 frames of"),
     (["export-rib", "s.toml", "-o", "f.rib", "--voxels", "2"], "bounding voxels", "→ f.rib"),
@@ -55,7 +59,8 @@ def test_every_command_draws_its_progress_on_a_terminal(folder, args, bar, resul
 def test_the_outputs_a_terminal_run_writes_are_whole(folder):
     assert follicle.load_curves(folder / "h.npz").curve_count == 300
     assert sorted(p.name for p in (folder / "frames").iterdir()) == [
-        f"frame_000{i}.png" for i in range(3)]
+        f"frame_000{i}.png" for i in range(3)
+    ]
     assert not [p for p in folder.rglob(".*") if p.is_file()]  # no temporary file left
 
 
@@ -65,8 +70,16 @@ def test_a_first_run_says_it_is_compiling(folder, tmp_path):
     (tmp_path / "s.toml").write_text(SCENE)
     cache = tmp_path / "numba"
     cache.mkdir()
-    out = run_cli("grow", "s.toml", "-o", "h.npz", cwd=tmp_path, tty=True, timeout=20,
-                  env={"NUMBA_CACHE_DIR": str(cache)})
+    out = run_cli(
+        "grow",
+        "s.toml",
+        "-o",
+        "h.npz",
+        cwd=tmp_path,
+        tty=True,
+        timeout=20,
+        env={"NUMBA_CACHE_DIR": str(cache)},
+    )
     assert "first run: compiling follicle's kernels" in out.stdout, out.stdout[-2000:]
     warm_run = tty(folder, "grow", "s.toml", "-o", "again.npz")
     assert "growing hair" in warm_run and "first run" not in warm_run

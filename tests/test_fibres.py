@@ -33,8 +33,15 @@ def _curved(n: int = 4, nv: int = N) -> np.ndarray:
 
 def _plain(local, count=6, seed=7, **kw):
     """Fibres with no splay, twist, offset or randomize unless given; ids 0 … n − 1."""
-    args = dict(splay_root=0.0, splay_centre=0.0, splay_tip=0.0, twist=0.0, aspect=1.0,
-                offset=0.0, randomize=0.0)
+    args = dict(
+        splay_root=0.0,
+        splay_centre=0.0,
+        splay_tip=0.0,
+        twist=0.0,
+        aspect=1.0,
+        offset=0.0,
+        randomize=0.0,
+    )
     args.update(kw)
     return make_fibres(local, np.arange(len(local), dtype=np.int64), seed, count, **args)
 
@@ -96,8 +103,9 @@ def test_fibre_direction_matches_disc_sample_without_twist():
 @pytest.mark.parametrize("twist", [1.3, -2.0, 4 * np.pi])
 def test_twist_advances_angle_by_constant_step(twist):
     local = _straight(2)
-    fib, parent, _, _ = _plain(local, count=6, splay_root=0.3, splay_centre=0.3, splay_tip=0.3,
-                               twist=twist)
+    fib, parent, _, _ = _plain(
+        local, count=6, splay_root=0.3, splay_centre=0.3, splay_tip=0.3, twist=twist
+    )
     off = _offsets(local, fib, parent)
     phi0 = np.arctan2(off[:, 0, 1], off[:, 0, 0])
     r = np.hypot(off[:, 0, 0], off[:, 0, 1])
@@ -114,8 +122,14 @@ def test_twist_advances_angle_by_constant_step(twist):
 
 def test_twist_per_hair():
     local = _straight(2)
-    fib, parent, _, _ = _plain(local, count=3, splay_root=0.3, splay_centre=0.3, splay_tip=0.3,
-                               twist=np.array([0.0, np.pi]))
+    fib, parent, _, _ = _plain(
+        local,
+        count=3,
+        splay_root=0.3,
+        splay_centre=0.3,
+        splay_tip=0.3,
+        twist=np.array([0.0, np.pi]),
+    )
     off = _offsets(local, fib, parent)
     np.testing.assert_allclose(off[:3, -1], off[:3, 0], atol=1e-12)  # no twist
     np.testing.assert_allclose(off[3:, -1, :2], -off[3:, 0, :2], atol=1e-12)  # half a turn
@@ -172,8 +186,7 @@ def test_count_one_zero_splay_reproduces_hair_exactly():
 def test_curved_hair_fibres_in_rmf_planes_at_splay_distance():
     local = _curved(4)
     n = len(local)
-    fib, parent, _, uv = _plain(local, count=7, splay_root=0.02, splay_centre=0.08,
-                                splay_tip=0.05)
+    fib, parent, _, uv = _plain(local, count=7, splay_root=0.02, splay_centre=0.08, splay_tip=0.05)
     flat = local.reshape(-1, 3)
     offs = np.arange(n + 1) * N
     tan, nor, bi = rotation_minimizing_frames(flat, offs, np.tile([1.0, 0, 0], (n, 1)))
@@ -183,8 +196,9 @@ def test_curved_hair_fibres_in_rmf_planes_at_splay_distance():
     prof = splay_profile(np.linspace(0.0, 1.0, N), 0.02, 0.08, 0.05)
     # perpendicular to the hair, at the splay distance
     np.testing.assert_allclose(np.einsum("fik,fik->fi", off, tan), 0.0, atol=1e-12)
-    np.testing.assert_allclose(np.linalg.norm(off, axis=-1), d[:, None] * prof,
-                               rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(
+        np.linalg.norm(off, axis=-1), d[:, None] * prof, rtol=1e-6, atol=1e-9
+    )
     # at a fixed angle in the rotation-minimising frame (no twist): same (u, v) everywhere
     u = np.einsum("fik,fik->fi", off, nor)
     v = np.einsum("fik,fik->fi", off, bi)
@@ -201,17 +215,22 @@ def test_degenerate_hair_segments_are_handled():
     d = np.hypot(uv[:, 0], uv[:, 1]).astype(np.float64)
     np.testing.assert_allclose(dist, np.repeat(0.1 * d[:, None], 6, axis=1), rtol=1e-6)
     # a hair collapsed to its root still gets finite fibres around +z
-    fib, _, _, _ = _plain(np.zeros((1, 4, 3)), count=2, splay_root=0.1, splay_centre=0.1,
-                          splay_tip=0.1)
+    fib, _, _, _ = _plain(
+        np.zeros((1, 4, 3)), count=2, splay_root=0.1, splay_centre=0.1, splay_tip=0.1
+    )
     assert np.all(np.isfinite(fib)) and np.allclose(fib[..., 2], 0.0)
 
 
 # ------------------------------------------------------------------ determinism, chunks
 def _rich_args(n, rng):
     return dict(
-        splay_root=rng.random(n) * 0.02, splay_centre=rng.random(n) * 0.05,
-        splay_tip=rng.random(n) * 0.03, twist=rng.normal(size=n) * 3, aspect=rng.random(n) + 0.2,
-        offset=rng.normal(size=n) * 0.01, randomize=rng.random(n),
+        splay_root=rng.random(n) * 0.02,
+        splay_centre=rng.random(n) * 0.05,
+        splay_tip=rng.random(n) * 0.03,
+        twist=rng.normal(size=n) * 3,
+        aspect=rng.random(n) + 0.2,
+        offset=rng.normal(size=n) * 0.01,
+        randomize=rng.random(n),
     )
 
 
@@ -243,8 +262,9 @@ def test_chunk_independence_byte_for_byte(cuts):
     whole = make_fibres(local, ids, 99, count, **args)
     parts = []
     for lo, hi in zip([0, *cuts], [*cuts, n], strict=True):
-        part = make_fibres(local[lo:hi], ids[lo:hi], 99, count,
-                           **{k: v[lo:hi] for k, v in args.items()})
+        part = make_fibres(
+            local[lo:hi], ids[lo:hi], 99, count, **{k: v[lo:hi] for k, v in args.items()}
+        )
         parts.append((part[0], part[1] + lo, part[2], part[3]))
     for j in range(4):
         joined = np.concatenate([p[j] for p in parts])
@@ -256,15 +276,15 @@ def test_scalars_broadcast_like_arrays():
     local = _curved(3)
     ids = np.arange(3)
     a = make_fibres(local, ids, 1, 3, 0.1, 0.2, 0.3, 1.0, 0.5, 0.1, 0.3)
-    b = make_fibres(local, ids, 1, 3, *(np.full(3, v) for v in (0.1, 0.2, 0.3, 1.0, 0.5, 0.1,
-                                                                 0.3)))
+    b = make_fibres(local, ids, 1, 3, *(np.full(3, v) for v in (0.1, 0.2, 0.3, 1.0, 0.5, 0.1, 0.3)))
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x, y)
 
 
 def test_empty_chunk():
-    fib, parent, sid, uv = make_fibres(np.zeros((0, 5, 3)), np.zeros(0, np.int64), 1, 3,
-                                       0.1, 0.1, 0.1)
+    fib, parent, sid, uv = make_fibres(
+        np.zeros((0, 5, 3)), np.zeros(0, np.int64), 1, 3, 0.1, 0.1, 0.1
+    )
     assert fib.shape == (0, 5, 3) and parent.shape == sid.shape == (0,) and uv.shape == (0, 2)
 
 
@@ -277,8 +297,12 @@ def test_inherit_repeats_per_vertex_arrays():
     got = inherit({"width": width, "color": color}, parent, nv)
     assert got["width"].shape == (6 * nv,) and got["color"].shape == (6 * nv, 3)
     for f, h in enumerate(parent):
-        np.testing.assert_array_equal(got["width"][f * nv:(f + 1) * nv], width[h * nv:(h + 1) * nv])
-        np.testing.assert_array_equal(got["color"][f * nv:(f + 1) * nv], color[h * nv:(h + 1) * nv])
+        np.testing.assert_array_equal(
+            got["width"][f * nv : (f + 1) * nv], width[h * nv : (h + 1) * nv]
+        )
+        np.testing.assert_array_equal(
+            got["color"][f * nv : (f + 1) * nv], color[h * nv : (h + 1) * nv]
+        )
     with pytest.raises(InputError, match="width"):
         inherit({"width": width[:-1]}, parent, nv)
     with pytest.raises(InputError, match="fibre_parent"):
@@ -288,8 +312,15 @@ def test_inherit_repeats_per_vertex_arrays():
 
 
 # ------------------------------------------------------------------ bad input
-_GOOD = dict(splay_root=0.1, splay_centre=0.1, splay_tip=0.1, twist=0.0, aspect=1.0, offset=0.0,
-             randomize=0.0)
+_GOOD = dict(
+    splay_root=0.1,
+    splay_centre=0.1,
+    splay_tip=0.1,
+    twist=0.0,
+    aspect=1.0,
+    offset=0.0,
+    randomize=0.0,
+)
 
 
 @pytest.mark.parametrize(

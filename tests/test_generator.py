@@ -20,8 +20,7 @@ def _straight_guides(mesh: SkinMesh, n: int = 5, vertices: int = 9, length: floa
     """An n×n grid of straight guides standing on the plane (+Y), slightly leaning in x."""
     g = np.linspace(0.1, 0.9, n)
     s = np.linspace(0.0, 1.0, vertices)[:, None]
-    curves = [np.array([x, 0.0, z]) + s * np.array([0.1, 1.0, 0.0]) * length
-              for x in g for z in g]  # fmt: skip
+    curves = [np.array([x, 0.0, z]) + s * np.array([0.1, 1.0, 0.0]) * length for x in g for z in g]
     return Guides(HairCurves.from_polylines(curves), mesh)
 
 
@@ -55,12 +54,20 @@ def test_a_hair_at_a_guide_root_reproduces_the_guide():
     "extra",
     [
         {},
-        {"cut": 0.63, "random_scale": 0.5, "frizz_tip": 0.01, "kink_tip": 0.004,
-         "curl_radius": 0.004, "clump_count": 40, "hue_variation": 10.0, "skip_threshold": 0.999},
+        {
+            "cut": 0.63,
+            "random_scale": 0.5,
+            "frizz_tip": 0.01,
+            "kink_tip": 0.004,
+            "curl_radius": 0.004,
+            "clump_count": 40,
+            "hue_variation": 10.0,
+            "skip_threshold": 0.999,
+        },
         {"strand_count": 3, "strand_twist": 90.0, "interpolation": "offset"},
         {"interpolation": "barycentric", "groups": "builtin:parting"},
     ],
-)  # fmt: skip
+)
 def test_chunked_equals_whole_byte_for_byte(extra):
     mesh = builtin_head()
     guides = load_guides("builtin:long", mesh, vertices=16)
@@ -193,8 +200,7 @@ def test_offset_rotate_tilts_copies_within_the_angle():
 
 def test_fibres_inherit_appearance_and_number_their_strands():
     mesh = _plane()
-    params = GroomParams(strand_count=4, strand_splay_centre=0.01, hue_variation=30.0,
-                         vertices=9)  # fmt: skip
+    params = GroomParams(strand_count=4, strand_splay_centre=0.01, hue_variation=30.0, vertices=9)
     hair = Groom(mesh, _straight_guides(mesh), params).generate(100)
     assert hair.curve_count == 400
     np.testing.assert_array_equal(hair.curve_data["strand_id"], np.tile(np.arange(4), 100))
@@ -209,8 +215,9 @@ def test_skip_threshold_thins_straight_runs_and_keeps_bends():
     guides = _straight_guides(mesh)
     straight = Groom(mesh, guides, GroomParams(skip_threshold=0.999)).generate(100)
     assert (straight.counts == 2).all()  # a straight hair needs only its ends
-    curly = Groom(mesh, guides, GroomParams(skip_threshold=0.999, curl_radius=0.02,
-                                            curl_frequency=10.0)).generate(100)  # fmt: skip
+    curly = Groom(
+        mesh, guides, GroomParams(skip_threshold=0.999, curl_radius=0.02, curl_frequency=10.0)
+    ).generate(100)
     assert curly.counts.min() > 4
 
 

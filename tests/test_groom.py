@@ -37,8 +37,9 @@ def test_idw_weights_match_hand_computed_values():
 
 
 def test_blend_mixes_local_shapes_and_scales_them():
-    local = np.array([[[0, 0, 0], [0, 0, 1], [0, 0, 2]], [[0, 0, 0], [1, 0, 1], [2, 0, 2]]],
-                     np.float32)  # fmt: skip
+    local = np.array(
+        [[[0, 0, 0], [0, 0, 1], [0, 0, 2]], [[0, 0, 0], [1, 0, 1], [2, 0, 2]]], np.float32
+    )
     idx = np.array([[0, 1], [1, 0]])
     w = np.array([[0.5, 0.5], [1.0, 0.0]], np.float32)
     out = blend_guides(local, idx, w, 2, scale=np.array([2.0, 1.0]))

@@ -74,8 +74,9 @@ def test_a_parting_never_mixes_groups():
     # without groups the hairs near the parting blend both sides
     blended = Groom(mesh, _combed_guides(mesh, None), params).generate()
     near = np.abs(blended.points[blended.offsets[:-1], 0] - 0.5) < 0.05
-    blended_lean = blended.points[blended.offsets[1:] - 1, 0] - blended.points[
-        blended.offsets[:-1], 0]
+    blended_lean = (
+        blended.points[blended.offsets[1:] - 1, 0] - blended.points[blended.offsets[:-1], 0]
+    )
     assert np.abs(blended_lean[near]).min() < 0.2
 
 

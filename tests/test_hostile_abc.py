@@ -46,9 +46,11 @@ def valid(tmp_path_factory):
     """Bytes of a small valid archive: two chunks of curves, guides and a skin."""
     folder = tmp_path_factory.mktemp("valid")
     rng = np.random.default_rng(7)
-    curves = HairCurves.from_array(rng.random((3, 4, 3), dtype=np.float32),
-                                   point_data={"width": np.full(12, 0.01, np.float32)},
-                                   curve_data={"root_uv": rng.random((3, 2), np.float32)})
+    curves = HairCurves.from_array(
+        rng.random((3, 4, 3), dtype=np.float32),
+        point_data={"width": np.full(12, 0.01, np.float32)},
+        curve_data={"root_uv": rng.random((3, 2), np.float32)},
+    )
     skin = SkinMesh([[0, 0, 0], [1, 0, 0], [0, 0, -1]], [[0, 1, 2]], [[0, 0], [1, 0], [0, 1]])
     path = save_abc([curves, curves[:2]], folder / "v.abc", guides=curves, mesh=skin)
     return path.read_bytes()
@@ -68,17 +70,32 @@ def _cases(data: bytes) -> dict[str, tuple[bytes, str]]:
         "unfinished": (data[:5] + b"\x00" + data[6:], r"never finished"),
         "version": (data[:6] + b"\x00\x07" + data[8:], r"Ogawa version 7 is not 1"),
         "truncated": (data[: len(data) // 2], r"group at byte \d+ lies outside the \d+-byte"),
-        "root far": (data[:8] + struct.pack("<Q", 2**40) + data[16:],
-                     r"group at byte 1099511627776 lies outside"),
-        "many children": (data[:root] + struct.pack("<Q", 2**40) + data[root + 8:],
-                          r"lists 1099511627776 children, more than fit"),
-        "data past the end": (data[:first_child] + struct.pack("<Q", 2**40)
-                              + data[first_child + 8:], r"data block runs past the end"),
+        "root far": (
+            data[:8] + struct.pack("<Q", 2**40) + data[16:],
+            r"group at byte 1099511627776 lies outside",
+        ),
+        "many children": (
+            data[:root] + struct.pack("<Q", 2**40) + data[root + 8 :],
+            r"lists 1099511627776 children, more than fit",
+        ),
+        "data past the end": (
+            data[:first_child] + struct.pack("<Q", 2**40) + data[first_child + 8 :],
+            r"data block runs past the end",
+        ),
     }
 
 
-CASES = ["empty", "usd text", "hdf5", "unfinished", "version", "truncated", "root far",
-         "many children", "data past the end"]
+CASES = [
+    "empty",
+    "usd text",
+    "hdf5",
+    "unfinished",
+    "version",
+    "truncated",
+    "root far",
+    "many children",
+    "data past the end",
+]
 
 
 @pytest.mark.parametrize("name", CASES)
@@ -119,25 +136,41 @@ def _write(path, **kw):
 
 
 CONTENT = {  # name: (add_curves arguments, what the message must say)
-    "counts over the points": (dict(counts=[4, 9], points=PTS),
-                               r"/C: nVertices sum to 13 but there are 9 points"),
-    "negative count": (dict(counts=[-1, 10], points=PTS),
-                       r"/C: curve 0 has a negative vertex count \(-1\)"),
-    "uv index out of range": (dict(counts=[4, 5], points=PTS,
-                                   uv=([[0, 0], [1, 1]], "uniform", [0, 7])),
-                              r"/C: uv.indices\[1\] = 7 is outside its 2 values"),
-    "NaN point": (dict(counts=[4, 5], points=np.where(np.arange(27).reshape(9, 3) == 4,
-                                                      np.nan, PTS)),
-                  r"/C: points: vertex 1 is not finite"),
-    "inf width": (dict(counts=[4, 5], points=PTS, widths=([np.inf], "constant")),
-                  r"/C: point_data\['width'\]: contains NaN or inf"),
-    "scope size": (dict(counts=[4, 5], points=PTS,
-                        params=[("x", "float", [1, 2, 3], "vertex")]),
-                   r"/C: x has 3 values; vertex scope needs 9"),
-    "knots decrease": (dict(counts=[4, 5], points=PTS, kind="variable", basis="bspline",
-                            orders=[4, 4], knots=[0, 0, 0, 0, 1, 1, 1, 1,
-                                                  0, 0, 0, 0, 2, 1, 1, 1, 1]),
-                       r"/C: the knots of curve 1 decrease"),
+    "counts over the points": (
+        dict(counts=[4, 9], points=PTS),
+        r"/C: nVertices sum to 13 but there are 9 points",
+    ),
+    "negative count": (
+        dict(counts=[-1, 10], points=PTS),
+        r"/C: curve 0 has a negative vertex count \(-1\)",
+    ),
+    "uv index out of range": (
+        dict(counts=[4, 5], points=PTS, uv=([[0, 0], [1, 1]], "uniform", [0, 7])),
+        r"/C: uv.indices\[1\] = 7 is outside its 2 values",
+    ),
+    "NaN point": (
+        dict(counts=[4, 5], points=np.where(np.arange(27).reshape(9, 3) == 4, np.nan, PTS)),
+        r"/C: points: vertex 1 is not finite",
+    ),
+    "inf width": (
+        dict(counts=[4, 5], points=PTS, widths=([np.inf], "constant")),
+        r"/C: point_data\['width'\]: contains NaN or inf",
+    ),
+    "scope size": (
+        dict(counts=[4, 5], points=PTS, params=[("x", "float", [1, 2, 3], "vertex")]),
+        r"/C: x has 3 values; vertex scope needs 9",
+    ),
+    "knots decrease": (
+        dict(
+            counts=[4, 5],
+            points=PTS,
+            kind="variable",
+            basis="bspline",
+            orders=[4, 4],
+            knots=[0, 0, 0, 0, 1, 1, 1, 1, 0, 0, 0, 0, 2, 1, 1, 1, 1],
+        ),
+        r"/C: the knots of curve 1 decrease",
+    ),
 }
 
 
@@ -164,30 +197,39 @@ def test_a_deep_hierarchy_reads_without_recursion(tmp_path):
     step = np.eye(4)
     step[3, 1] = 0.001
     chain = [(f"X{i}", step, True) for i in range(3000)]
-    path = write(tmp_path / "deep.abc",
-                 lambda top: [add_curves(xforms(top, chain), "C", counts=[9], points=PTS)])
+    path = write(
+        tmp_path / "deep.abc",
+        lambda top: [add_curves(xforms(top, chain), "C", counts=[9], points=PTS)],
+    )
     back = load_abc(path)
     np.testing.assert_allclose(back.points[:, 1], PTS[:, 1] + 3.0, atol=1e-4)
 
 
 def test_a_mesh_with_bad_faces_is_one_format_error(tmp_path):
     points = [[0, 0, 0], [1, 0, 0], [0, 0, -1]]
-    for indices, counts, message in (([0, 1, 5], [3], r"/M: face index 2 is 5, outside the 3"),
-                                     ([0, 1, 2], [2, 1], r"/M: face 0 has 2 corners"),
-                                     ([0, 1, 2], [4], r"/M: face counts sum to 4 but there")):
-        path = write(tmp_path / "m.abc",
-                     lambda top, i=indices, c=counts: [add_mesh(top, "M", points, i, c)])
+    for indices, counts, message in (
+        ([0, 1, 5], [3], r"/M: face index 2 is 5, outside the 3"),
+        ([0, 1, 2], [2, 1], r"/M: face 0 has 2 corners"),
+        ([0, 1, 2], [4], r"/M: face counts sum to 4 but there"),
+    ):
+        path = write(
+            tmp_path / "m.abc", lambda top, i=indices, c=counts: [add_mesh(top, "M", points, i, c)]
+        )
         with pytest.raises(FormatError, match=message):
             load_abc_mesh(path)
 
 
-@pytest.mark.parametrize("limit, message", [
-    # alembic3d turns a failed allocation while opening into "Unknown core type"
-    ("MEMORY_BASE", r"crashed with SIG\w+, or needed more than|needed more than|Unknown core"),
-    ("SECONDS_BASE", r"took more than 0 s"),
-])  # fmt: skip
-def test_alembic_out_of_memory_or_time_is_a_format_error(tmp_path, valid, monkeypatch, limit,
-                                                         message):  # fmt: skip
+@pytest.mark.parametrize(
+    "limit, message",
+    [
+        # alembic3d turns a failed allocation while opening into "Unknown core type"
+        ("MEMORY_BASE", r"crashed with SIG\w+, or needed more than|needed more than|Unknown core"),
+        ("SECONDS_BASE", r"took more than 0 s"),
+    ],
+)
+def test_alembic_out_of_memory_or_time_is_a_format_error(
+    tmp_path, valid, monkeypatch, limit, message
+):
     """The child's limits, made tiny: one line naming the file, not a crash or a hang."""
     path = tmp_path / "ok.abc"
     path.write_bytes(valid)
@@ -202,8 +244,12 @@ def test_alembic_out_of_memory_or_time_is_a_format_error(tmp_path, valid, monkey
 def test_damaged_archives_give_results_or_one_format_error(tmp_path, valid, read):
     path = tmp_path / "fuzz.abc"
 
-    @settings(max_examples=60, deadline=None, derandomize=True,
-              suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+    @settings(
+        max_examples=60,
+        deadline=None,
+        derandomize=True,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+    )
     @given(byte_damage(valid))
     def check(data):
         path.write_bytes(data)
@@ -224,8 +270,14 @@ def _write_limited(folder, limit: int) -> Outcome:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
     start = time.perf_counter()
-    proc = subprocess.run([*FOLLICLE, "export", "in.hair", "-o", "out.abc"], cwd=folder,
-                          capture_output=True, text=True, timeout=120, preexec_fn=preexec)
+    proc = subprocess.run(
+        [*FOLLICLE, "export", "in.hair", "-o", "out.abc"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=preexec,
+    )
     return Outcome(proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - start, False)
 
 
@@ -239,6 +291,7 @@ def test_a_full_disk_is_one_line_and_leaves_nothing(tmp_path, room):
     probe.unlink()
     before = files(tmp_path)
     line = assert_cli_refused(_write_limited(tmp_path, limit), "out.abc")
-    assert line.startswith("error: out.abc: could not write it (") and \
-        line.endswith("); free disk space or write elsewhere"), line
+    assert line.startswith("error: out.abc: could not write it (") and line.endswith(
+        "); free disk space or write elsewhere"
+    ), line
     assert files(tmp_path) == before

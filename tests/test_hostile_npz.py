@@ -33,8 +33,10 @@ def _curves():
     rng = np.random.default_rng(7)
     return HairCurves.from_array(
         rng.normal(size=(C, P // C, 3)),
-        point_data={"width": rng.random(P).astype(np.float32),
-                    "color": rng.random((P, 3)).astype(np.float32)},
+        point_data={
+            "width": rng.random(P).astype(np.float32),
+            "color": rng.random((P, 3)).astype(np.float32),
+        },
         curve_data={"hair_id": np.arange(C)},
     )
 
@@ -42,9 +44,14 @@ def _curves():
 def _arrays():
     """The arrays ``follicle.save`` writes for the valid curves."""
     c = _curves()
-    return {"format_version": np.array(1, np.int64), "points": c.points, "offsets": c.offsets,
-            "point_data.color": c.point_data["color"], "point_data.width": c.point_data["width"],
-            "curve_data.hair_id": c.curve_data["hair_id"]}
+    return {
+        "format_version": np.array(1, np.int64),
+        "points": c.points,
+        "offsets": c.offsets,
+        "point_data.color": c.point_data["color"],
+        "point_data.width": c.point_data["width"],
+        "curve_data.hair_id": c.curve_data["hair_id"],
+    }
 
 
 def _npy(arr=None, *, header=None, data=b"", version=(1, 0)):
@@ -106,17 +113,26 @@ def test_valid_files_still_load(tmp_path):
 
 
 # ---------------------------------------------------------------------- dtypes and shapes
-@pytest.mark.parametrize(("value", "message"), [
-    (np.array(np.nan), "format_version: expected an integer scalar, got float64 array of shape ()"),
-    (np.array(1.0), "format_version: expected an integer scalar, got float64"),
-    (np.array([1]), "format_version: expected an integer scalar, got int64 array of shape (1,)"),
-    (np.array(1 + 0j), "format_version: expected an integer scalar, got complex128"),
-    (np.array(True), "format_version: expected an integer scalar, got bool"),
-    (np.array("1"), "format_version: expected an integer scalar, got <U1"),
-    (np.array(0), "format_version 0 is not a follicle format version"),
-    (np.array(-5, np.int8), "format_version -5 is not a follicle format version"),
-    (np.array(2**63, np.uint64), "format_version 9223372036854775808 is newer"),
-])
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        (
+            np.array(np.nan),
+            "format_version: expected an integer scalar, got float64 array of shape ()",
+        ),
+        (np.array(1.0), "format_version: expected an integer scalar, got float64"),
+        (
+            np.array([1]),
+            "format_version: expected an integer scalar, got int64 array of shape (1,)",
+        ),
+        (np.array(1 + 0j), "format_version: expected an integer scalar, got complex128"),
+        (np.array(True), "format_version: expected an integer scalar, got bool"),
+        (np.array("1"), "format_version: expected an integer scalar, got <U1"),
+        (np.array(0), "format_version 0 is not a follicle format version"),
+        (np.array(-5, np.int8), "format_version -5 is not a follicle format version"),
+        (np.array(2**63, np.uint64), "format_version 9223372036854775808 is newer"),
+    ],
+)
 def test_format_version_must_be_an_integer_scalar(tmp_path, value, message):
     _refused(_curves_file(tmp_path / "v.npz", format_version=value), message)
 
@@ -124,45 +140,75 @@ def test_format_version_must_be_an_integer_scalar(tmp_path, value, message):
 POINTS = _arrays()["points"]
 
 
-@pytest.mark.parametrize(("key", "value", "message"), [
-    ("points", POINTS.astype("U8"), "points: expected a float32 or float64 (P, 3) array, got <U8"),
-    ("points", POINTS.astype(np.complex64), "points: expected a float32 or float64 (P, 3) array"),
-    ("points", POINTS.astype(np.float16), "got float16 array of shape (12, 3)"),
-    ("points", POINTS.astype(np.int64), "got int64 array"),
-    ("points", POINTS[:, :2], "got float32 array of shape (12, 2)"),
-    ("points", POINTS[..., None], "got float32 array of shape (12, 3, 1)"),
-    ("offsets", np.array([0.0, 4, 8, 12]), "offsets: expected a 1-D integer array"),
-    ("offsets", np.array([[0, 4, 8, 12]]), "got int64 array of shape (1, 4)"),
-    ("offsets", np.array(["0", "4", "8", "12"]), "got <U2 array"),
-    ("offsets", np.array([False, True]), "got bool array"),
-    ("point_data.width", np.ones(P, np.complex64), "point_data['width']: complex64 attributes"
-                                                    " are not supported; store bool, integer"),
-    ("point_data.width", np.array(["x"] * P), "point_data['width']: <U1 attributes"),
-    ("point_data.width", np.ones(P, "S3"), "point_data['width']: |S3 attributes"),
-    ("point_data.width", np.ones(P, np.float16), "float16 attributes are not supported"),
-    ("point_data.width", np.ones(P, np.longdouble), "float128 attributes are not supported"),
-    ("point_data.width", np.ones(P - 1, np.float32),
-     "point_data['width']: expected shape (12,) or (12, k), got float32 array of shape (11,)"),
-    ("point_data.width", np.ones((P, 2, 2), np.float32), "got float32 array of shape (12, 2, 2)"),
-    ("point_data.width", np.ones((P, 0), np.float32), "got float32 array of shape (12, 0)"),
-    ("point_data.width", np.float32(1), "got float32 array of shape ()"),
-    ("curve_data.hair_id", np.arange(C + 1), "curve_data['hair_id']: expected shape (3,)"),
-    ("curve_data.", np.arange(C), "curve_data.: an attribute needs a name"),
-    ("point_data.width", np.array([np.nan] * P, np.float32), "point_data['width']: contains NaN"),
-])
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        (
+            "points",
+            POINTS.astype("U8"),
+            "points: expected a float32 or float64 (P, 3) array, got <U8",
+        ),
+        (
+            "points",
+            POINTS.astype(np.complex64),
+            "points: expected a float32 or float64 (P, 3) array",
+        ),
+        ("points", POINTS.astype(np.float16), "got float16 array of shape (12, 3)"),
+        ("points", POINTS.astype(np.int64), "got int64 array"),
+        ("points", POINTS[:, :2], "got float32 array of shape (12, 2)"),
+        ("points", POINTS[..., None], "got float32 array of shape (12, 3, 1)"),
+        ("offsets", np.array([0.0, 4, 8, 12]), "offsets: expected a 1-D integer array"),
+        ("offsets", np.array([[0, 4, 8, 12]]), "got int64 array of shape (1, 4)"),
+        ("offsets", np.array(["0", "4", "8", "12"]), "got <U2 array"),
+        ("offsets", np.array([False, True]), "got bool array"),
+        (
+            "point_data.width",
+            np.ones(P, np.complex64),
+            "point_data['width']: complex64 attributes are not supported; store bool, integer",
+        ),
+        ("point_data.width", np.array(["x"] * P), "point_data['width']: <U1 attributes"),
+        ("point_data.width", np.ones(P, "S3"), "point_data['width']: |S3 attributes"),
+        ("point_data.width", np.ones(P, np.float16), "float16 attributes are not supported"),
+        ("point_data.width", np.ones(P, np.longdouble), "float128 attributes are not supported"),
+        (
+            "point_data.width",
+            np.ones(P - 1, np.float32),
+            "point_data['width']: expected shape (12,) or (12, k), got float32 array of"
+            " shape (11,)",
+        ),
+        (
+            "point_data.width",
+            np.ones((P, 2, 2), np.float32),
+            "got float32 array of shape (12, 2, 2)",
+        ),
+        ("point_data.width", np.ones((P, 0), np.float32), "got float32 array of shape (12, 0)"),
+        ("point_data.width", np.float32(1), "got float32 array of shape ()"),
+        ("curve_data.hair_id", np.arange(C + 1), "curve_data['hair_id']: expected shape (3,)"),
+        ("curve_data.", np.arange(C), "curve_data.: an attribute needs a name"),
+        (
+            "point_data.width",
+            np.array([np.nan] * P, np.float32),
+            "point_data['width']: contains NaN",
+        ),
+    ],
+)
 def test_wrong_dtypes_and_shapes_are_refused(tmp_path, key, value, message):
     _refused(_curves_file(tmp_path / "d.npz", **{key: value}), message)
 
 
-@pytest.mark.parametrize(("header", "message"), [
-    (_header("|O", (P,)), "has dtype object: Python objects, records and sub-arrays are not"),
-    (_header([("a", "<f4"), ("b", "<i4")], (P,)), "has dtype [('a', '<f4'), ('b', '<i4')]:"),
-    (_header("V8", (P,)), "has dtype |V8: Python objects"),
-    (_header(("<f4", (3,)), (P,)), "has dtype ('<f4', (3,)): Python objects"),
-])
+@pytest.mark.parametrize(
+    ("header", "message"),
+    [
+        (_header("|O", (P,)), "has dtype object: Python objects, records and sub-arrays are not"),
+        (_header([("a", "<f4"), ("b", "<i4")], (P,)), "has dtype [('a', '<f4'), ('b', '<i4')]:"),
+        (_header("V8", (P,)), "has dtype |V8: Python objects"),
+        (_header(("<f4", (3,)), (P,)), "has dtype ('<f4', (3,)): Python objects"),
+    ],
+)
 def test_object_and_record_members_are_refused(tmp_path, header, message):
-    path = _curves_file(tmp_path / "o.npz", **{"point_data.width": _npy(header=header,
-                                                                        data=bytes(8 * P))})
+    path = _curves_file(
+        tmp_path / "o.npz", **{"point_data.width": _npy(header=header, data=bytes(8 * P))}
+    )
     _refused(path, "member 'point_data.width.npy'", message)
 
 
@@ -170,31 +216,63 @@ def test_object_and_record_members_are_refused(tmp_path, header, message):
 TERA = 10**12
 
 
-@pytest.mark.parametrize(("npy", "message"), [
-    (_npy(header=_header("<f4", (TERA, 3)), data=bytes(36)),
-     "declares a float32 array of shape (1000000000000, 3) (12,000,000,000,000 bytes) but"
-     " holds 36"),
-    (_npy(header=_header("<f4", (TERA, 3)), data=bytes(36), version=(2, 0)),
-     "(12,000,000,000,000 bytes) but holds 36"),
-    (_npy(header=_header("<f4", (-1, -3)), data=bytes(12)), "negative dimension"),
-    (_npy(header=b"{'descr': '<f4', 'fortran_order': False, 'shape': (4, 3), "),
-     "has no valid .npy header (TokenError: ('EOF in multi-line statement'"),
-    (_npy(header=b"{'descr': <f4 garbage}}}", data=bytes(48)), "has no valid .npy header"),
-    (_npy(header=b"{'descr': '<f4', 'fortran_order': False, 'shape': " + b"(" * 300 + b"4,"
-          + b")" * 300 + b"}"), "has no valid .npy header"),
-    (_npy(header=b"{'descr': '<f4', 'fortran_order': False, 'shape': (" + b"-" * 5000 + b"4, 3)}"),
-     "has no valid .npy header"),
-    (_npy(header=b"{'descr': '\xff\xfe\x00', 'fortran_order': False, 'shape': (4, 3)}"),
-     "has no valid .npy header"),
-    (_npy(header=b"{'descr': '<f4', 'fortran_order': False, 'shape': (4, 3), 'x': 1}"),
-     "has no valid .npy header"),
-    (_npy(header=b"{'descr': 'q8', 'fortran_order': 0, 'shape': (4, 3)}"),
-     "has no valid .npy header"),
-    (np.lib.format.magic(2, 0) + struct.pack("<I", 2**32 - 1) + b"{", "has no valid .npy header"),
-    (np.lib.format.magic(3, 0) + struct.pack("<I", 10) + b"{}        ", ".npy version 3.0"),
-    (b"\x93NUMPY", "has no valid .npy header"),
-    (b"PK\x03\x04 not npy at all", "has no valid .npy header"),
-])
+@pytest.mark.parametrize(
+    ("npy", "message"),
+    [
+        (
+            _npy(header=_header("<f4", (TERA, 3)), data=bytes(36)),
+            "declares a float32 array of shape (1000000000000, 3) (12,000,000,000,000 bytes) but"
+            " holds 36",
+        ),
+        (
+            _npy(header=_header("<f4", (TERA, 3)), data=bytes(36), version=(2, 0)),
+            "(12,000,000,000,000 bytes) but holds 36",
+        ),
+        (_npy(header=_header("<f4", (-1, -3)), data=bytes(12)), "negative dimension"),
+        (
+            _npy(header=b"{'descr': '<f4', 'fortran_order': False, 'shape': (4, 3), "),
+            "has no valid .npy header (TokenError: ('EOF in multi-line statement'",
+        ),
+        (_npy(header=b"{'descr': <f4 garbage}}}", data=bytes(48)), "has no valid .npy header"),
+        (
+            _npy(
+                header=b"{'descr': '<f4', 'fortran_order': False, 'shape': "
+                + b"(" * 300
+                + b"4,"
+                + b")" * 300
+                + b"}"
+            ),
+            "has no valid .npy header",
+        ),
+        (
+            _npy(
+                header=b"{'descr': '<f4', 'fortran_order': False, 'shape': ("
+                + b"-" * 5000
+                + b"4, 3)}"
+            ),
+            "has no valid .npy header",
+        ),
+        (
+            _npy(header=b"{'descr': '\xff\xfe\x00', 'fortran_order': False, 'shape': (4, 3)}"),
+            "has no valid .npy header",
+        ),
+        (
+            _npy(header=b"{'descr': '<f4', 'fortran_order': False, 'shape': (4, 3), 'x': 1}"),
+            "has no valid .npy header",
+        ),
+        (
+            _npy(header=b"{'descr': 'q8', 'fortran_order': 0, 'shape': (4, 3)}"),
+            "has no valid .npy header",
+        ),
+        (
+            np.lib.format.magic(2, 0) + struct.pack("<I", 2**32 - 1) + b"{",
+            "has no valid .npy header",
+        ),
+        (np.lib.format.magic(3, 0) + struct.pack("<I", 10) + b"{}        ", ".npy version 3.0"),
+        (b"\x93NUMPY", "has no valid .npy header"),
+        (b"PK\x03\x04 not npy at all", "has no valid .npy header"),
+    ],
+)
 def test_crafted_npy_headers_are_refused(tmp_path, npy, message):
     _refused(_curves_file(tmp_path / "h.npz", points=npy), "member 'points.npy'", message)
 
@@ -217,24 +295,39 @@ def _central(data):
 def _patched(path, at, value, size=2):
     data = bytearray(path.read_bytes())
     start = _central(bytes(data)) + at
-    data[start: start + size] = value.to_bytes(size, "little")
+    data[start : start + size] = value.to_bytes(size, "little")
     path.write_bytes(bytes(data))
     return path
 
 
-@pytest.mark.parametrize(("at", "value", "message"), [
-    (10, 99, "member 'format_version.npy' uses zip compression method 99; follicle reads stored"),
-    (10, 14, "uses zip compression method 14"),  # LZMA: zipfile could, follicle need not
-    (6, 99, "not a readable .npz archive (NotImplementedError: zip file version 9.9)"),
-    (8, 0x01, "member 'format_version.npy' is encrypted; save it again without a password"),
-    (8, 0x20, "member 'format_version.npy': not a readable .npz archive (NotImplementedError:"
-              " compressed patched data"),
-    (8, 0x40, "(NotImplementedError: strong encryption"),
-    (24, 2**31, "stored uncompressed but declares 2,147,483,648 bytes in 136"),
-    (20, 2**31, "claims 2,147,483,648 bytes at offset 0, past the end"),
-    (42, 2**31, "past the end"),
-    (16, 0, "not a readable .npz archive (BadZipFile: Bad CRC-32 for file 'format_version.npy')"),
-])
+@pytest.mark.parametrize(
+    ("at", "value", "message"),
+    [
+        (
+            10,
+            99,
+            "member 'format_version.npy' uses zip compression method 99; follicle reads stored",
+        ),
+        (10, 14, "uses zip compression method 14"),  # LZMA: zipfile could, follicle need not
+        (6, 99, "not a readable .npz archive (NotImplementedError: zip file version 9.9)"),
+        (8, 0x01, "member 'format_version.npy' is encrypted; save it again without a password"),
+        (
+            8,
+            0x20,
+            "member 'format_version.npy': not a readable .npz archive (NotImplementedError:"
+            " compressed patched data",
+        ),
+        (8, 0x40, "(NotImplementedError: strong encryption"),
+        (24, 2**31, "stored uncompressed but declares 2,147,483,648 bytes in 136"),
+        (20, 2**31, "claims 2,147,483,648 bytes at offset 0, past the end"),
+        (42, 2**31, "past the end"),
+        (
+            16,
+            0,
+            "not a readable .npz archive (BadZipFile: Bad CRC-32 for file 'format_version.npy')",
+        ),
+    ],
+)
 def test_one_byte_in_the_zip_directory(tmp_path, at, value, message):
     path = follicle.save(_curves(), tmp_path / "z.npz")
     _refused(_patched(path, at, value, 4 if at in (16, 20, 24, 42) else 2), message)
@@ -303,8 +396,10 @@ def bombs(tmp_path_factory):
     """(folder, {name: path}): a 2 MB file declaring 7 GB, and a 2 MB one that truly
     inflates to 2 GiB (its directory honest but for the CRC)."""
     tmp = tmp_path_factory.mktemp("bombs")
-    made = {"liar": _bomb(tmp / "liar.npz", 128, declared=7 * 10**9),
-            "honest": _bomb(tmp / "honest.npz", 128)}
+    made = {
+        "liar": _bomb(tmp / "liar.npz", 128, declared=7 * 10**9),
+        "honest": _bomb(tmp / "honest.npz", 128),
+    }
     for path in made.values():
         assert 1.9e6 < path.stat().st_size < 2.2e6
     header = tmp / "tera.npz"
@@ -347,9 +442,16 @@ def test_a_directory_that_understates_reads_no_more(tmp_path):
     assert peak < 4 << 20, peak
 
 
-@pytest.mark.parametrize(("name", "how"), [
-    ("liar", "api"), ("liar", "info"), ("liar", "export"), ("honest", "info"), ("tera", "export"),
-])
+@pytest.mark.parametrize(
+    ("name", "how"),
+    [
+        ("liar", "api"),
+        ("liar", "info"),
+        ("liar", "export"),
+        ("honest", "info"),
+        ("tera", "export"),
+    ],
+)
 def test_bombs_in_a_child_under_the_limits(bombs, name, how):
     """Refused within 2 GiB and 30 s, one line naming the file and member, nothing written.
     (A child costs about 4 s here, so each file meets the ways it matters most.)"""
@@ -366,7 +468,7 @@ def test_bombs_in_a_child_under_the_limits(bombs, name, how):
 
 
 # ---------------------------------------------------------------------- simulation caches
-TOML = "[groom]\ncount = 100\n\n[sim]\nmotion = \"turn\"\n"
+TOML = '[groom]\ncount = 100\n\n[sim]\nmotion = "turn"\n'
 
 
 def _frames(count=3, strands=4, vertices=5):
@@ -401,38 +503,46 @@ def _text_npy(codes):
     return _npy(header=_header("<U1", ()), data=np.uint32(codes).tobytes())
 
 
-@pytest.mark.parametrize(("changes", "message"), [
-    ({"positions": _nan_positions()}, "positions: frame 1 contains NaN or inf"),
-    ({"transforms": _inf_transforms()}, "transforms: frame 2: expected a finite 4×4 matrix"),
-    ({"positions": _frames()[0].astype(np.complex64)}, "positions: expected a float32"),
-    ({"positions": _frames()[0].astype("U3")}, "positions: expected a float32 (F, S, N, 3)"),
-    ({"positions": _npy(header=_header("<f4", (TERA, 4, 5, 3)), data=bytes(240))},
-     "member 'positions.npy' declares a float32 array of shape (1000000000000, 4, 5, 3)"),
-    ({"fps": np.array(0.0)}, "fps: expected a finite number > 0, got 0.0"),
-    ({"fps": np.array(-24.0)}, "fps: expected a finite number > 0, got -24.0"),
-    ({"fps": np.array(np.nan)}, "fps: expected a finite number > 0, got nan"),
-    ({"fps": np.array(np.inf)}, "fps: expected a finite number > 0, got inf"),
-    ({"fps": np.array("24")}, "fps: expected a float, got <U2"),
-    ({"version": np.array(1.5)}, "version: expected an integer, got float64"),
-    ({"version": np.array(True)}, "version: expected an integer, got bool"),
-    ({"scene_toml": np.array(7)}, "scene_toml: expected a text string, got int64"),
-    ({"scene_toml": np.array(b"[groom]")}, "scene_toml: expected a text string, got |S7"),
-    ({"scene_toml": _text_npy(0xDFFF)}, "member 'scene_toml.npy' holds text that is not valid"),
-    ({"scene_toml": _text_npy(0x7FFFFFFF)}, "holds text that is not valid Unicode"),
-    ({"scene_toml": np.array("[groom]\0\ncount = 1")}, "scene_toml: contains a NUL character"),
-    ({"base_dir": np.array("a\0b")}, "base_dir: contains a NUL character"),
-    ({"format": _text_npy(0x110000)}, "member 'format.npy' holds text that is not valid"),
-])
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"positions": _nan_positions()}, "positions: frame 1 contains NaN or inf"),
+        ({"transforms": _inf_transforms()}, "transforms: frame 2: expected a finite 4×4 matrix"),
+        ({"positions": _frames()[0].astype(np.complex64)}, "positions: expected a float32"),
+        ({"positions": _frames()[0].astype("U3")}, "positions: expected a float32 (F, S, N, 3)"),
+        (
+            {"positions": _npy(header=_header("<f4", (TERA, 4, 5, 3)), data=bytes(240))},
+            "member 'positions.npy' declares a float32 array of shape (1000000000000, 4, 5, 3)",
+        ),
+        ({"fps": np.array(0.0)}, "fps: expected a finite number > 0, got 0.0"),
+        ({"fps": np.array(-24.0)}, "fps: expected a finite number > 0, got -24.0"),
+        ({"fps": np.array(np.nan)}, "fps: expected a finite number > 0, got nan"),
+        ({"fps": np.array(np.inf)}, "fps: expected a finite number > 0, got inf"),
+        ({"fps": np.array("24")}, "fps: expected a float, got <U2"),
+        ({"version": np.array(1.5)}, "version: expected an integer, got float64"),
+        ({"version": np.array(True)}, "version: expected an integer, got bool"),
+        ({"scene_toml": np.array(7)}, "scene_toml: expected a text string, got int64"),
+        ({"scene_toml": np.array(b"[groom]")}, "scene_toml: expected a text string, got |S7"),
+        ({"scene_toml": _text_npy(0xDFFF)}, "member 'scene_toml.npy' holds text that is not valid"),
+        ({"scene_toml": _text_npy(0x7FFFFFFF)}, "holds text that is not valid Unicode"),
+        ({"scene_toml": np.array("[groom]\0\ncount = 1")}, "scene_toml: contains a NUL character"),
+        ({"base_dir": np.array("a\0b")}, "base_dir: contains a NUL character"),
+        ({"format": _text_npy(0x110000)}, "member 'format.npy' holds text that is not valid"),
+    ],
+)
 def test_hostile_caches_are_refused(tmp_path, changes, message):
     path = _cache(tmp_path / "c.npz", **changes)
     _refused(path, message, read=load_cache)
     assert is_cache(path) == ("format" not in changes)
 
 
-@pytest.mark.parametrize(("toml", "message"), [
-    ("[groom\n", "c.npz: stored scene: TOML syntax error"),
-    ("a = " + "[" * 5000, "c.npz: stored scene: arrays or tables nested too deeply"),
-])
+@pytest.mark.parametrize(
+    ("toml", "message"),
+    [
+        ("[groom\n", "c.npz: stored scene: TOML syntax error"),
+        ("a = " + "[" * 5000, "c.npz: stored scene: arrays or tables nested too deeply"),
+    ],
+)
 def test_unparsable_stored_scene_is_refused_by_describe(tmp_path, toml, message):
     path = _cache(tmp_path / "c.npz", scene_toml=np.array(toml))
     assert isinstance(load_cache(path), SimCache)  # the scene is read when it is needed
@@ -450,9 +560,12 @@ def test_describe_cache(tmp_path):
 
 def test_a_cache_read_as_curves_says_what_it_is(tmp_path):
     path = _cache(tmp_path / "sim.npz")
-    _refused(path, "a follicle simulation cache (3 frames of 4 guides × 5 vertices), not a"
-             f" curves file; `follicle render {path} -o frames/` draws it and `follicle export"
-             f" {path} -o anim.usdc` writes it as animated USD")
+    _refused(
+        path,
+        "a follicle simulation cache (3 frames of 4 guides × 5 vertices), not a"
+        f" curves file; `follicle render {path} -o frames/` draws it and `follicle export"
+        f" {path} -o anim.usdc` writes it as animated USD",
+    )
     with pytest.raises(FormatError, match="a follicle simulation cache"):
         follicle.load_curves(path)
 
@@ -471,8 +584,9 @@ def _regions(data):
     """(start, end) byte ranges worth damaging: every local header with its .npy header,
     and the central directory with the end record."""
     with zipfile.ZipFile(io.BytesIO(data)) as zf:
-        local = [(i.header_offset, i.header_offset + 30 + len(i.filename) + 128)
-                 for i in zf.infolist()]
+        local = [
+            (i.header_offset, i.header_offset + 30 + len(i.filename) + 128) for i in zf.infolist()
+        ]
         return [*local, (zf.start_dir, len(data))]
 
 
@@ -508,7 +622,7 @@ def damaged(draw, data):
             out[at] ^= 1 << draw(st.integers(0, 7))
         else:
             value = draw(st.sampled_from([0, 1, 8, 99, 0xFFFF, 2**31, 2**32 - 1, len(data)]))
-            out[at: at + 4] = struct.pack("<I", value)[: len(out) - at]
+            out[at : at + 4] = struct.pack("<I", value)[: len(out) - at]
     return bytes(out[: len(data)])
 
 
@@ -534,8 +648,12 @@ def test_random_damage_gives_format_errors_only(tmp_path, kind):
     path = tmp_path / "fuzz.npz"
     read, ok = (load_cache, SimCache) if kind == "cache" else (load_npz, HairCurves)
 
-    @settings(max_examples=100, deadline=None, derandomize=True,
-              suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+    @settings(
+        max_examples=100,
+        deadline=None,
+        derandomize=True,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+    )
     @given(damaged(data))
     def check(bad):
         path.write_bytes(bad)

@@ -77,15 +77,25 @@ def test_oversized_scene_is_refused_before_parsing(tmp_path):
 def test_nested_scene_on_the_command_line(tmp_path):
     (tmp_path / "deep.toml").write_bytes(b"[groom]\ncount = " + b"[" * 200_000)
     before = files(tmp_path)
-    line = assert_cli_refused(run_cli("grow", "deep.toml", "-o", "h.npz", cwd=tmp_path),
-                              "deep.toml", "nested too deeply")
+    line = assert_cli_refused(
+        run_cli("grow", "deep.toml", "-o", "h.npz", cwd=tmp_path), "deep.toml", "nested too deeply"
+    )
     assert files(tmp_path) == before, line
 
 
 # ------------------------------------------------------------------ every number key
 SAMPLES: tuple[Any, ...] = (
-    0.5, 0.01, 1, 2, 12, [0.5, 0.5, 0.5], [0.25, 0.75], [64, 64], {"#ff0000": 12},
-    {"specular": 0.3}, {"value": 0.5, "texture": "t.png"},
+    0.5,
+    0.01,
+    1,
+    2,
+    12,
+    [0.5, 0.5, 0.5],
+    [0.25, 0.75],
+    [64, 64],
+    {"#ff0000": 12},
+    {"specular": 0.3},
+    {"value": 0.5, "texture": "t.png"},
 )
 # a section as it must be for one key to be valid (render: eye needs a target)
 CONTEXT = {"render": {"eye": [0, 0, 1], "target": [0, 0, 0]}}
@@ -100,8 +110,9 @@ def _valid(section: str, data: dict) -> bool:
     return True
 
 
-def _walk(section: str, model: type[BaseModel], base: dict, wrap=lambda d: d,
-          prefix: tuple = ()) -> tuple[list, list]:  # fmt: skip
+def _walk(
+    section: str, model: type[BaseModel], base: dict, wrap=lambda d: d, prefix: tuple = ()
+) -> tuple[list, list]:
     """(key path, valid section data with a number at it, the key takes a texture path)
     for every numeric key of ``model``, entries of ``[[lists]]`` of tables included
     (``wrap`` puts such an entry's table into its section); and the keys that took no
@@ -110,11 +121,19 @@ def _walk(section: str, model: type[BaseModel], base: dict, wrap=lambda d: d,
     for key, field in model.model_fields.items():
         if field.annotation is bool:
             continue
-        tables = [a for a in get_args(field.annotation) if isinstance(a, type)
-                  and issubclass(a, BaseModel)]  # fmt: skip
+        tables = [
+            a
+            for a in get_args(field.annotation)
+            if isinstance(a, type) and issubclass(a, BaseModel)
+        ]
         if tables:
-            sub = _walk(section, tables[0], {}, lambda d, key=key: wrap({**base, key: [d]}),
-                        (*prefix, key, 0))
+            sub = _walk(
+                section,
+                tables[0],
+                {},
+                lambda d, key=key: wrap({**base, key: [d]}),
+                (*prefix, key, 0),
+            )
             found += sub[0]
             missing += sub[1]
             continue
@@ -133,8 +152,13 @@ def _numbers(value: Any, at: tuple = ()) -> list[tuple]:
         return []
     if isinstance(value, (int, float)):
         return [at]
-    items = value.items() if isinstance(value, dict) else enumerate(value) \
-        if isinstance(value, list) else ()  # fmt: skip
+    items = (
+        value.items()
+        if isinstance(value, dict)
+        else enumerate(value)
+        if isinstance(value, list)
+        else ()
+    )
     return [p for k, v in items for p in _numbers(v, (*at, k))]
 
 
@@ -175,35 +199,68 @@ def test_every_number_key_refuses_non_finite_huge_bool_and_text():
 
 def test_walk_reaches_nested_and_optional_keys():
     """The walk above covers keys unset by default and those of [[lists]] of tables."""
-    keys = {f"{s}." + ".".join(map(str, p))
-            for s, m in SECTIONS.items() for p, _, _ in _walk(s, m, CONTEXT.get(s, {}))[0]}
-    assert {"render.eye", "render.target", "render.lights.0.direction", "render.size",
-            "render.msaa", "render.shading_params", "groom.density", "groom.vertices",
-            "groom.cut", "groom.group_vertices", "sim.colliders.0.centre",
-            "sim.wind", "sim.motion_pivot"} <= keys  # fmt: skip
+    keys = {
+        f"{s}." + ".".join(map(str, p))
+        for s, m in SECTIONS.items()
+        for p, _, _ in _walk(s, m, CONTEXT.get(s, {}))[0]
+    }
+    assert {
+        "render.eye",
+        "render.target",
+        "render.lights.0.direction",
+        "render.size",
+        "render.msaa",
+        "render.shading_params",
+        "groom.density",
+        "groom.vertices",
+        "groom.cut",
+        "groom.group_vertices",
+        "sim.colliders.0.centre",
+        "sim.wind",
+        "sim.motion_pivot",
+    } <= keys
 
 
 @pytest.mark.parametrize(
     ("data", "message"),
     [
-        ({"render": {"eye": [math.nan, 0, 1], "target": [0, 0, 0]}},
-         r"\[render\]\.eye\.0: Input should be a finite number \(got nan\)"),
+        (
+            {"render": {"eye": [math.nan, 0, 1], "target": [0, 0, 0]}},
+            r"\[render\]\.eye\.0: Input should be a finite number \(got nan\)",
+        ),
         ({"sim": {"wind": [math.inf, 0, 0]}}, r"\[sim\]\.wind\.0: Input should be a finite"),
         ({"groom": {"count": True}}, r"\[groom\]\.count: Input should be a valid integer"),
         ({"groom": {"count": "10"}}, r"\[groom\]\.count: Input should be a valid integer"),
         ({"render": {"msaa": True}}, r"\[render\]\.msaa: expected a number \(got true\)$"),
         ({"groom": {"count": False}}, r"\[groom\]\.count: .*valid integer \(got false\)$"),
         ({"render": {"size": ["64", 64]}}, r"\[render\]\.size\.0: Input should be a valid int"),
-        ({"groom": {"frizz_frequency": [1e7, 0, 0]}},
-         r"\[groom\]\.frizz_frequency\.0: Input should be less than or equal to 1000000"),
+        (
+            {"groom": {"frizz_frequency": [1e7, 0, 0]}},
+            r"\[groom\]\.frizz_frequency\.0: Input should be less than or equal to 1000000",
+        ),
         ({"groom": {"count": "x" * 10_000}}, r"\[groom\]\.count: .*\(got 'xxx.{40,60}\.\.\.\)$"),
         ({"groom": {"a\nb": 1}}, r"\[groom\]\.'a\\nb': unknown key"),
         ({"base_dir": "/etc"}, r"^scene\.toml: \[base_dir\]: unknown key; allowed keys: mesh,"),
-        ({"render": {"shading_params": {"specular": [1, 2]}}},
-         r"\[render\]\.shading_params\.specular: Input should be a valid number \(got \[1, 2\]\)$"),
+        (
+            {"render": {"shading_params": {"specular": [1, 2]}}},
+            r"\[render\]\.shading_params\.specular: Input should be a valid number"
+            r" \(got \[1, 2\]\)$",
+        ),
     ],
-    ids=["nan-eye", "inf-wind", "bool-count", "text-count", "bool-msaa", "false-count", "text-size",
-         "huge-vector", "long-value", "newline-key", "base-dir", "list-for-number"],
+    ids=[
+        "nan-eye",
+        "inf-wind",
+        "bool-count",
+        "text-count",
+        "bool-msaa",
+        "false-count",
+        "text-size",
+        "huge-vector",
+        "long-value",
+        "newline-key",
+        "base-dir",
+        "list-for-number",
+    ],
 )
 def test_bad_number_messages(data, message):
     with pytest.raises(ConfigError, match=message) as err:
@@ -212,9 +269,17 @@ def test_bad_number_messages(data, message):
 
 
 def test_lists_still_fill_tuples():
-    scene = parse_scene({"render": {"size": [64, 32], "eye": [0, 1, 2], "target": [0, 0, 0],
-                                    "lights": [{"direction": [0, 1, 0], "color": [1, 1, 1]}]},
-                         "groom": {"root_color": [0.1, 0.2, 0.3], "density": 2}})
+    scene = parse_scene(
+        {
+            "render": {
+                "size": [64, 32],
+                "eye": [0, 1, 2],
+                "target": [0, 0, 0],
+                "lights": [{"direction": [0, 1, 0], "color": [1, 1, 1]}],
+            },
+            "groom": {"root_color": [0.1, 0.2, 0.3], "density": 2},
+        }
+    )
     assert scene.render.size == (64, 32) and scene.render.eye == (0.0, 1.0, 2.0)
     assert scene.render.lights[0].color == (1.0, 1.0, 1.0) and scene.groom.density == 2.0
 
@@ -226,18 +291,30 @@ def _round_trip(scene: Scene) -> None:
     assert again.model_dump() == scene.model_dump()
 
 
-@pytest.mark.parametrize("value", ["a\nb", "\x00", '"', "\\", "a\\\"b\r\n\t\x7f\x1b", "é😀"])
+@pytest.mark.parametrize("value", ["a\nb", "\x00", '"', "\\", 'a\\"b\r\n\t\x7f\x1b', "é😀"])
 def test_control_characters_are_written_as_valid_toml(value):
-    _round_trip(parse_scene({"mesh": {"path": value}, "output": {"image": value},
-                             "groom": {"group_vertices": {value: 4}}}))
+    _round_trip(
+        parse_scene(
+            {
+                "mesh": {"path": value},
+                "output": {"image": value},
+                "groom": {"group_vertices": {value: 4}},
+            }
+        )
+    )
 
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(text=st.text(max_size=30), key=st.text(max_size=10))
 def test_any_string_round_trips_through_scene_to_toml(text, key):
-    scene = parse_scene({"mesh": {"path": text, "displacement": text},
-                         "guides": {"path": text}, "output": {"curves": text, "image": text},
-                         "groom": {"group_vertices": {key: 3}}})
+    scene = parse_scene(
+        {
+            "mesh": {"path": text, "displacement": text},
+            "guides": {"path": text},
+            "output": {"curves": text, "image": text},
+            "groom": {"group_vertices": {key: 3}},
+        }
+    )
     _round_trip(scene)
 
 
@@ -252,33 +329,54 @@ def _keys(model: type[BaseModel]) -> list[str]:
     out = []
     for key, field in model.model_fields.items():
         out.append(key)
-        out += [k for a in get_args(field.annotation) if isinstance(a, type)
-                and issubclass(a, BaseModel) for k in _keys(a)]  # fmt: skip
+        out += [
+            k
+            for a in get_args(field.annotation)
+            if isinstance(a, type) and issubclass(a, BaseModel)
+            for k in _keys(a)
+        ]
     return out
 
 
 KEYS = {s: _keys(m) for s, m in SECTIONS.items()}
 DEFAULTS = [v for m in SECTIONS.values() for v in m().model_dump().values() if v is not None]
 LEAVES = st.one_of(
-    st.booleans(), st.integers(-(2**63), 2**63 - 1), st.floats(), st.text(max_size=12),
-    st.datetimes(), st.dates(), st.times(), st.sampled_from(DEFAULTS + list(SAMPLES)),
+    st.booleans(),
+    st.integers(-(2**63), 2**63 - 1),
+    st.floats(),
+    st.text(max_size=12),
+    st.datetimes(),
+    st.dates(),
+    st.times(),
+    st.sampled_from(DEFAULTS + list(SAMPLES)),
     st.sampled_from([1e308, -1e308, 5e-324, 2**63 - 1, "builtin:head", "builtin:nope", ""]),
 )
 VALUES = st.recursive(
     LEAVES,
-    lambda inner: st.lists(inner, max_size=4)
-    | st.dictionaries(st.sampled_from(sorted({k for ks in KEYS.values() for k in ks}))
-                      | st.text(max_size=6), inner, max_size=4),  # fmt: skip
+    lambda inner: (
+        st.lists(inner, max_size=4)
+        | st.dictionaries(
+            st.sampled_from(sorted({k for ks in KEYS.values() for k in ks})) | st.text(max_size=6),
+            inner,
+            max_size=4,
+        )
+    ),
     max_leaves=12,
 )
 SECTION_DOCS = st.sampled_from(sorted(KEYS)).flatmap(
-    lambda s: st.tuples(st.just(s), st.dictionaries(
-        st.sampled_from(KEYS[s]) | st.text(max_size=6), VALUES, max_size=6)))
+    lambda s: st.tuples(
+        st.just(s),
+        st.dictionaries(st.sampled_from(KEYS[s]) | st.text(max_size=6), VALUES, max_size=6),
+    )
+)
 DOCUMENTS = st.lists(SECTION_DOCS | st.tuples(st.text(max_size=6), VALUES), max_size=5).map(dict)
 
 
-@settings(max_examples=200, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@settings(
+    max_examples=200,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 @given(doc=DOCUMENTS)
 def test_random_documents_give_a_scene_or_a_config_error(doc):
     try:
@@ -289,12 +387,45 @@ def test_random_documents_give_a_scene_or_a_config_error(doc):
     _round_trip(scene)  # whatever is accepted can be written and read back
 
 
-FRAGMENTS = st.sampled_from([
-    "[groom]\n", "[render]\n", "[sim]\n", "[[render.lights]]\n", "[[sim.colliders]]\n",
-    "[mesh]\n", "\n", " = ", "count", "eye", "size", "cut", "density", "1", "-0.5", "nan",
-    "inf", "1e999", "0x7fffffffffffffff", "true", "1979-05-27T07:32:00Z", '"t.png"', "[",
-    "]", "{", "}", ",", '"', "'''", "\\u0000", "\x00", "#", "a.b.c", "\udcff", "é",
-])
+FRAGMENTS = st.sampled_from(
+    [
+        "[groom]\n",
+        "[render]\n",
+        "[sim]\n",
+        "[[render.lights]]\n",
+        "[[sim.colliders]]\n",
+        "[mesh]\n",
+        "\n",
+        " = ",
+        "count",
+        "eye",
+        "size",
+        "cut",
+        "density",
+        "1",
+        "-0.5",
+        "nan",
+        "inf",
+        "1e999",
+        "0x7fffffffffffffff",
+        "true",
+        "1979-05-27T07:32:00Z",
+        '"t.png"',
+        "[",
+        "]",
+        "{",
+        "}",
+        ",",
+        '"',
+        "'''",
+        "\\u0000",
+        "\x00",
+        "#",
+        "a.b.c",
+        "\udcff",
+        "é",
+    ]
+)
 
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -348,7 +479,8 @@ def test_scene_paths_that_are_not_files_are_refused_at_once(tmp_path):
     guides) that is a FIFO, /dev/zero or a folder is refused naming it, not read: one
     child process (under the 2 GiB / 30 s limits) grows each scene in turn."""
     cases = _not_file_scenes(tmp_path)
-    res = run_api(f"""
+    res = run_api(
+        f"""
         import json
         from follicle.errors import FollicleError
         from follicle.pipeline import grow
@@ -362,7 +494,9 @@ def test_scene_paths_that_are_not_files_are_refused_at_once(tmp_path):
             else:
                 result.append(("grown", scene))
         print("@@@" + json.dumps(result))
-        """, tmp_path)
+        """,
+        tmp_path,
+    )
     assert res.kind == "ok", f"{res.kind} {res.error}: {res.message}"
     shown = next(line for line in res.outcome.stdout.splitlines() if line.startswith("@@@"))
     got = json.loads(shown[3:])
@@ -397,7 +531,8 @@ def test_readers_refuse_fifos_and_devices_in_python(tmp_path):
     for name in ("c.hair", "c.tfx", "c.obj", "c.txt"):
         os.mkfifo(tmp_path / name)
         os.symlink("/dev/zero", tmp_path / f"z{name}")
-    res = run_api("""
+    res = run_api(
+        """
         from follicle.io.dispatch import load_curves
         from follicle.errors import FormatError
         result = []
@@ -406,7 +541,9 @@ def test_readers_refuse_fifos_and_devices_in_python(tmp_path):
                 load_curves(name)
             except FormatError as exc:
                 result.append(str(exc))
-        """, tmp_path)
+        """,
+        tmp_path,
+    )
     assert res.kind == "ok", res.message
     shown = res.detail["result"]
     for name in ("c.hair", "c.tfx", "c.obj", "c.txt"):
@@ -435,8 +572,7 @@ def test_nul_in_a_curves_path_is_a_format_error(tmp_path):
 
 def test_scene_that_is_a_folder_on_the_command_line(tmp_path):
     (tmp_path / "d.toml").mkdir()
-    assert_cli_refused(run_cli("grow", "d.toml", "-o", "h.npz", cwd=tmp_path), "d.toml",
-                       "folder")
+    assert_cli_refused(run_cli("grow", "d.toml", "-o", "h.npz", cwd=tmp_path), "d.toml", "folder")
 
 
 # ------------------------------------------------------------------ meshes
@@ -447,8 +583,11 @@ def _obj(path: Path, scale: float) -> Path:
 
 @pytest.mark.parametrize("scale", [1e38, 3e38, 1e7, -2e6])
 def test_mesh_beyond_the_coordinate_limit_is_refused(tmp_path, scale):
-    with pytest.raises(InputError, match=r"far\.obj: mesh 'far': vertex 1 = .* lies beyond"
-                       r" the limit \|coordinate\| ≤ 1e\+06 m"):
+    with pytest.raises(
+        InputError,
+        match=r"far\.obj: mesh 'far': vertex 1 = .* lies beyond"
+        r" the limit \|coordinate\| ≤ 1e\+06 m",
+    ):
         load_mesh(_obj(tmp_path / "far.obj", scale))
     mesh = load_mesh(_obj(tmp_path / "near.obj", MAX_COORDINATE))
     with pytest.raises(InputError, match="pose vertex 1 .* lies beyond"):
@@ -467,17 +606,18 @@ def test_far_mesh_in_a_scene_on_the_command_line(tmp_path):
     _obj(tmp_path / "far.obj", 1e38)
     (tmp_path / "s.toml").write_text('[mesh]\npath = "far.obj"\n[groom]\ncount = 20\n')
     before = files(tmp_path)
-    assert_cli_refused(run_cli("grow", "s.toml", "-o", "h.npz", cwd=tmp_path), "far.obj",
-                       "1e+06")
+    assert_cli_refused(run_cli("grow", "s.toml", "-o", "h.npz", cwd=tmp_path), "far.obj", "1e+06")
     assert files(tmp_path) == before
 
 
 # ------------------------------------------------------------------ images
 def _png_header(path: Path, width: int, height: int) -> Path:
     """A PNG whose header promises ``width`` × ``height`` grey pixels and holds none."""
+
     def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(
-            ">I", zlib.crc32(kind + data))
+        return (
+            struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+        )
 
     ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
     path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IEND", b""))
@@ -485,7 +625,8 @@ def _png_header(path: Path, width: int, height: int) -> Path:
 
 
 @pytest.mark.parametrize(
-    "size", [(8193, 8192), (9500, 9500), (10_000, 10_000), (100_000, 100_000)],
+    "size",
+    [(8193, 8192), (9500, 9500), (10_000, 10_000), (100_000, 100_000)],
     ids=["just-over", "below-pillow-warning", "pillow-warning", "pillow-bomb"],
 )
 def test_image_over_the_pixel_limit_is_refused_before_decoding(tmp_path, size):
@@ -502,7 +643,8 @@ def test_image_at_the_limit_side_is_read(tmp_path):
 
 def test_truncated_image_is_a_format_error(tmp_path):
     Image.fromarray(np.random.default_rng(1).integers(0, 255, (64, 64), np.uint8)).save(
-        tmp_path / "cut.png")
+        tmp_path / "cut.png"
+    )
     data = (tmp_path / "cut.png").read_bytes()
     (tmp_path / "cut.png").write_bytes(data[: len(data) // 2])
     with pytest.raises(FormatError, match=r"cut\.png.*cannot be read"):
@@ -513,13 +655,13 @@ def test_huge_density_image_on_the_command_line(tmp_path):
     _png_header(tmp_path / "big.png", 12_000, 12_000)  # in pillow's warning range
     (tmp_path / "s.toml").write_text('[groom]\ncount = 20\ndensity = "big.png"\n')
     before = files(tmp_path)
-    assert_cli_refused(run_cli("grow", "s.toml", "-o", "h.npz", cwd=tmp_path), "big.png",
-                       "8192 × 8192")
+    assert_cli_refused(
+        run_cli("grow", "s.toml", "-o", "h.npz", cwd=tmp_path), "big.png", "8192 × 8192"
+    )
     assert files(tmp_path) == before
 
 
 def test_huge_texture_in_python_within_the_limits(tmp_path):
     _png_header(tmp_path / "big.png", 60_000, 60_000)
-    res = run_api("from follicle.mesh.texture import Texture\nTexture.load('big.png')",
-                  tmp_path)
+    res = run_api("from follicle.mesh.texture import Texture\nTexture.load('big.png')", tmp_path)
     assert_api_refused(res, "big.png", "pixels", error="FormatError")

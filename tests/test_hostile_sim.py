@@ -44,11 +44,20 @@ def sim() -> Simulator:
 
 # ------------------------------------------------------------------ step(dt)
 @pytest.mark.parametrize(
-    "dt", [np.float32(1 / 60), np.float64(1 / 60), np.array(1 / 60), np.array(1 / 60, np.float32),
-           1 / 60, 0, np.int64(0), np.array(0, np.int32), np.float16(0.0)],
-    ids=["float32", "float64", "0-d", "0-d float32", "float", "int", "int64", "0-d int",
-         "float16"],
-)  # fmt: skip
+    "dt",
+    [
+        np.float32(1 / 60),
+        np.float64(1 / 60),
+        np.array(1 / 60),
+        np.array(1 / 60, np.float32),
+        1 / 60,
+        0,
+        np.int64(0),
+        np.array(0, np.int32),
+        np.float16(0.0),
+    ],
+    ids=["float32", "float64", "0-d", "0-d float32", "float", "int", "int64", "0-d int", "float16"],
+)
 def test_step_takes_any_real_number_of_seconds(sim, dt):
     sim.step(dt)
     assert sim.state.time == pytest.approx(round(float(dt) / sim.params.substep) / 120.0)
@@ -57,12 +66,25 @@ def test_step_takes_any_real_number_of_seconds(sim, dt):
 
 @pytest.mark.parametrize(
     ("dt", "needle"),
-    [(float("nan"), "finite"), (float("inf"), "finite"), (-float("inf"), "finite"),
-     (np.float32("nan"), "finite"), (-1.0, "≥ 0"), (np.float64(-1e-9), "≥ 0"), (True, "dt"),
-     (np.bool_(True), "dt"), ("0.1", "dt"), (None, "dt"), (1j, "dt"), (np.array([0.1]), "dt"),
-     (np.array([0.1, 0.2]), "dt"), (np.array("0.1"), "dt"),
-     (1e9, "10,000"), (MAX_SUBSTEPS_PER_CALL / 120 + 1, "smaller pieces")],
-)  # fmt: skip
+    [
+        (float("nan"), "finite"),
+        (float("inf"), "finite"),
+        (-float("inf"), "finite"),
+        (np.float32("nan"), "finite"),
+        (-1.0, "≥ 0"),
+        (np.float64(-1e-9), "≥ 0"),
+        (True, "dt"),
+        (np.bool_(True), "dt"),
+        ("0.1", "dt"),
+        (None, "dt"),
+        (1j, "dt"),
+        (np.array([0.1]), "dt"),
+        (np.array([0.1, 0.2]), "dt"),
+        (np.array("0.1"), "dt"),
+        (1e9, "10,000"),
+        (MAX_SUBSTEPS_PER_CALL / 120 + 1, "smaller pieces"),
+    ],
+)
 def test_step_refuses_bad_seconds_with_an_input_error(sim, dt, needle):
     before = sim.positions.copy()
     with pytest.raises(InputError, match="dt") as info:
@@ -83,8 +105,14 @@ def test_the_substep_cap_counts_the_whole_step_and_says_the_fix():
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.one_of(st.floats(), st.floats(0.0, 0.5), st.integers(-10**30, 10**30),
-                 st.sampled_from([np.float32(0.01), np.float64(1e300), np.float16(-0.0)])))
+@given(
+    st.one_of(
+        st.floats(),
+        st.floats(0.0, 0.5),
+        st.integers(-(10**30), 10**30),
+        st.sampled_from([np.float32(0.01), np.float64(1e300), np.float16(-0.0)]),
+    )
+)
 def test_step_accepts_or_refuses_any_number(dt):
     sim = Simulator(_strands(1, 6), params=SimParams(substep=0.01))
     try:
@@ -135,8 +163,11 @@ BAD_TRANSFORMS = [
 
 
 @pytest.mark.parametrize("method", ["set_pose", "teleport"])
-@pytest.mark.parametrize(("transform", "needle"), BAD_TRANSFORMS,
-                         ids=[f"{i}-{n}" for i, (_, n) in enumerate(BAD_TRANSFORMS)])
+@pytest.mark.parametrize(
+    ("transform", "needle"),
+    BAD_TRANSFORMS,
+    ids=[f"{i}-{n}" for i, (_, n) in enumerate(BAD_TRANSFORMS)],
+)
 def test_bad_transforms_are_refused_and_leave_the_pose(sim, method, transform, needle):
     sim.set_pose(transform=_m(move=(0.1, 0.0, 0.0)))
     before = sim.positions.copy()
@@ -153,15 +184,16 @@ def test_a_rotation_and_a_far_but_sane_translation_are_taken():
     turn = _m([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], (1e5, 0.0, 0.0))
     sim.teleport(transform=turn.tolist())  # nested lists of ints and floats
     shape = sim.positions - sim.positions[:, :1]
-    np.testing.assert_allclose(np.linalg.norm(shape, axis=2),
-                               np.linalg.norm(Simulator(_strands()).positions - sim.model
-                                              .rest_roots[:, None], axis=2), atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        np.linalg.norm(shape, axis=2),
+        np.linalg.norm(Simulator(_strands()).positions - sim.model.rest_roots[:, None], axis=2),
+        atol=1e-9,
+    )
     assert float(sim.positions[0, 0, 0]) == pytest.approx(1e5)
 
 
 @settings(max_examples=80, deadline=None)
-@given(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=16,
-                max_size=16))
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=16, max_size=16))
 def test_any_4x4_is_a_rigid_motion_or_an_input_error(entries):
     sim = Simulator(_strands(1, 4))
     m = np.array(entries).reshape(4, 4)
@@ -189,11 +221,15 @@ def head():
 
 @pytest.mark.parametrize(
     ("make", "needle"),
-    [(lambda v: v[:-1], "shape"), (lambda v: v.ravel(), "shape"),
-     (lambda v: np.where(np.arange(len(v))[:, None] == 7, np.nan, v), "vertex 7"),
-     (lambda v: v.astype(str), "vertices"), (lambda v: v + 1e7, "beyond"),
-     (lambda v: "v", "vertices")],
-)  # fmt: skip
+    [
+        (lambda v: v[:-1], "shape"),
+        (lambda v: v.ravel(), "shape"),
+        (lambda v: np.where(np.arange(len(v))[:, None] == 7, np.nan, v), "vertex 7"),
+        (lambda v: v.astype(str), "vertices"),
+        (lambda v: v + 1e7, "beyond"),
+        (lambda v: "v", "vertices"),
+    ],
+)
 def test_bad_vertices_are_refused(head, make, needle):
     mesh, curves = head
     sim = Simulator(curves, mesh=mesh, params=SimParams(skin_collision=False))
@@ -216,8 +252,14 @@ def test_a_non_finite_state_is_a_simulation_error_that_says_what_to_soften(sim):
 
 
 def test_strands_flying_apart_are_a_simulation_error():
-    params = SimParams(stretch_stiffness=0.0, stretch_limit=None, bend_stiffness=0.0,
-                       shape_global=0.0, gravity=(0.0, -100.0, 0.0), volume_friction=0.0)
+    params = SimParams(
+        stretch_stiffness=0.0,
+        stretch_limit=None,
+        bend_stiffness=0.0,
+        shape_global=0.0,
+        gravity=(0.0, -100.0, 0.0),
+        volume_friction=0.0,
+    )
     sim = Simulator(_strands(), params=params)
     with pytest.raises(SimulationError, match="strand lengths from its root") as info:
         for _ in range(60):
@@ -230,8 +272,9 @@ def _extremes(schema: dict) -> list:
     """The smallest and largest values a JSON-schema number (or tuple of numbers, or
     optional one) accepts; an exclusive minimum is approached by 1e-9."""
     if "anyOf" in schema:
-        return [None] + [v for s in schema["anyOf"] if s.get("type") != "null"
-                         for v in _extremes(s)]  # fmt: skip
+        return [None] + [
+            v for s in schema["anyOf"] if s.get("type") != "null" for v in _extremes(s)
+        ]
     if "prefixItems" in schema:
         ends = [_extremes(s) for s in schema["prefixItems"]]
         return [tuple(e[k] for e in ends) for k in range(2)]
@@ -241,14 +284,20 @@ def _extremes(schema: dict) -> list:
     return [lo, schema["maximum"]]
 
 
-EXTREMES = [(name, value) for name, prop in SimParams.model_json_schema()["properties"].items()
-            for value in _extremes(prop)]  # fmt: skip
+EXTREMES = [
+    (name, value)
+    for name, prop in SimParams.model_json_schema()["properties"].items()
+    for value in _extremes(prop)
+]
 # refused before anything moves, naming the key: a frame at 24 fps would take more
 # substeps than one step() may run; the skin's SDF would have more than 256³ vertices; the
 # head would turn about a point a million metres away
-REFUSED = {("substep", 1e-9): r"\[sim\]\.substep", ("skin_voxel", 1e-9): r"\[sim\]\.skin_voxel",
-           ("motion_pivot", (-1e6,) * 3): r"\[sim\]\.motion_pivot",
-           ("motion_pivot", (1e6,) * 3): r"\[sim\]\.motion_pivot"}
+REFUSED = {
+    ("substep", 1e-9): r"\[sim\]\.substep",
+    ("skin_voxel", 1e-9): r"\[sim\]\.skin_voxel",
+    ("motion_pivot", (-1e6,) * 3): r"\[sim\]\.motion_pivot",
+    ("motion_pivot", (1e6,) * 3): r"\[sim\]\.motion_pivot",
+}
 # refused by SimParams itself: with the default turbulence (0.5) the wind's peak would
 # pass 100 m/s²
 PEAK_REFUSED = {("wind", (-100.0,) * 3), ("wind", (100.0,) * 3)}
@@ -262,15 +311,30 @@ STRETCH = {"stretch_limit": {None: 0.25, 1.0: 0.25}}  # off or loose: PBD's dist
 # and no damping → 2.84×; README: Dynamics)
 COMBINED = [  # extremes that only show together
     {"cone_angle": 1e-9, "drag": 1000.0},
-    {"wind": (0.09, 0.0, -0.09), "wind_gust": 100.0, "wind_turbulence": 10.0,
-     "wind_frequency": 1000.0},  # the wind's peak at its limit, 100 m/s²
+    {
+        "wind": (0.09, 0.0, -0.09),
+        "wind_gust": 100.0,
+        "wind_turbulence": 10.0,
+        "wind_frequency": 1000.0,
+    },  # the wind's peak at its limit, 100 m/s²
     {"substep": 1 / 30, "iterations": 1, "damping": 0.0, "gravity": (100.0, -100.0, 100.0)},
     {"solver": "dftl", "cone_angle": 1e-9, "dftl_damping": 1.0, "gravity": (-100.0,) * 3},
-    {"integrator": "euler", "drag": 1000.0, "substep": 1 / 30, "motion_amplitude": 180.0,
-     "motion_period": 1e-9},
-    {"stretch_stiffness": 0.0, "bend_stiffness": 1.0, "bend_scale": 10.0,
-     "bend_attenuation": 0.0, "shape_local": 1.0, "shape_global": 1.0},
-]  # fmt: skip
+    {
+        "integrator": "euler",
+        "drag": 1000.0,
+        "substep": 1 / 30,
+        "motion_amplitude": 180.0,
+        "motion_period": 1e-9,
+    },
+    {
+        "stretch_stiffness": 0.0,
+        "bend_stiffness": 1.0,
+        "bend_scale": 10.0,
+        "bend_attenuation": 0.0,
+        "shape_local": 1.0,
+        "shape_global": 1.0,
+    },
+]
 
 
 def test_gusts_and_turbulence_cannot_lift_the_wind_past_its_limit():
@@ -281,8 +345,11 @@ def test_gusts_and_turbulence_cannot_lift_the_wind_past_its_limit():
 
 def test_the_walk_covers_every_numeric_field():
     names = {name for name, _ in EXTREMES}
-    numeric = {name for name, f in SimParams.model_fields.items()
-               if "float" in str(f.annotation) or "int" in str(f.annotation)}  # fmt: skip
+    numeric = {
+        name
+        for name, f in SimParams.model_fields.items()
+        if "float" in str(f.annotation) or "int" in str(f.annotation)
+    }
     assert numeric <= names and len(names) >= 30
 
 
@@ -296,14 +363,14 @@ def _shake(mesh, curves, settings: dict) -> tuple[float, float]:
     length = sim.model.rest_length.sum(axis=1)
     stretch = reach = 0.0
     for f in range(1, 7):
-        sim.set_pose(transform=head_motion("shake", f / 24, p.motion_amplitude,
-                                           p.motion_period, pivot))  # fmt: skip
+        sim.set_pose(
+            transform=head_motion("shake", f / 24, p.motion_amplitude, p.motion_period, pivot)
+        )
         sim.step(1 / 24)
         x = sim.positions
         assert np.isfinite(x).all() and np.isfinite(sim.state.v).all()
         stretch = max(stretch, sim.stats["max_stretch"])
-        reach = max(reach, float((np.linalg.norm(x - x[:, :1], axis=2).max(axis=1)
-                                  / length).max()))  # fmt: skip
+        reach = max(reach, float((np.linalg.norm(x - x[:, :1], axis=2).max(axis=1) / length).max()))
     return stretch, reach
 
 
@@ -344,13 +411,15 @@ def warmed() -> None:
     warm()
 
 
-@pytest.mark.parametrize("sim_table", ["cone_angle = 1e-9", "drag = 1000.0",
-                                       "cone_angle = 1e-9\ndrag = 1000.0\nsolver = 'dftl'"])
-def test_cli_simulates_extreme_settings_to_a_finite_unstretched_cache(warmed, tmp_path,
-                                                                      sim_table):
+@pytest.mark.parametrize(
+    "sim_table",
+    ["cone_angle = 1e-9", "drag = 1000.0", "cone_angle = 1e-9\ndrag = 1000.0\nsolver = 'dftl'"],
+)
+def test_cli_simulates_extreme_settings_to_a_finite_unstretched_cache(warmed, tmp_path, sim_table):
     (tmp_path / "s.toml").write_text(f"[groom]\ncount = 50\n[sim]\n{sim_table}\n")
-    out = run_cli("simulate", "s.toml", "--motion", "shake", "--frames", 12, "-o", "sim.npz",
-                  cwd=tmp_path)  # fmt: skip
+    out = run_cli(
+        "simulate", "s.toml", "--motion", "shake", "--frames", 12, "-o", "sim.npz", cwd=tmp_path
+    )
     assert out.rc == 0 and not out.timed_out, out.stderr
     x = load_cache(tmp_path / "sim.npz").positions.astype(np.float64)
     assert np.isfinite(x).all()

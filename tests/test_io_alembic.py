@@ -70,8 +70,12 @@ def test_round_trip_is_exact(tmp_path):
 
 
 def test_an_empty_groom_round_trips(tmp_path):
-    empty = HairCurves(np.zeros((0, 3), np.float32), [0], {"width": np.zeros(0, np.float32)},
-                       {"root_uv": np.zeros((0, 2), np.float32)})
+    empty = HairCurves(
+        np.zeros((0, 3), np.float32),
+        [0],
+        {"width": np.zeros(0, np.float32)},
+        {"root_uv": np.zeros((0, 2), np.float32)},
+    )
     back = load_abc(save_abc(empty, tmp_path / "empty.abc"))
     assert back == empty and back.curve_count == 0
 
@@ -81,8 +85,14 @@ def test_the_built_in_groom_round_trips_with_every_attribute(tmp_path, grown):
     back = load_abc(path)
     assert back == grown
     assert sorted(back.point_data) == ["color", "normal", "opacity", "width"]
-    assert sorted(back.curve_data) == ["hair_id", "root_bary", "root_triangle", "root_uv",
-                                       "strand_id", "strand_uv"]
+    assert sorted(back.curve_data) == [
+        "hair_id",
+        "root_bary",
+        "root_triangle",
+        "root_uv",
+        "strand_id",
+        "strand_uv",
+    ]
 
 
 def test_layout_types_and_scopes(tmp_path, grown):
@@ -94,8 +104,10 @@ def test_layout_types_and_scopes(tmp_path, grown):
     schema = AbcGeom.ICurves(obj, EXISTING).getSchema()
     sample = schema.getValue()
     assert (sample.getType(), sample.getBasis(), sample.getWrap()) == (
-        AbcGeom.CurveType.kLinear, AbcGeom.BasisType.kNoBasis,
-        AbcGeom.CurvePeriodicity.kNonPeriodic)
+        AbcGeom.CurveType.kLinear,
+        AbcGeom.BasisType.kNoBasis,
+        AbcGeom.CurvePeriodicity.kNonPeriodic,
+    )
     assert np.array_equal(np.asarray(sample.getCurvesNumVertices()), grown.counts)
     assert np.array_equal(np.asarray(sample.getPositions()), grown.points)
     geom = _geom(obj)
@@ -103,13 +115,23 @@ def test_layout_types_and_scopes(tmp_path, grown):
     assert _meta(geom, "N").get("geoScope") == "vtx"
     assert _meta(geom, "uv").get("geoScope") == "uni"
     arb = Abc.ICompoundProperty(geom, ".arbGeomParams")
-    kinds = {h.getName(): (str(h.getDataType()), h.getMetaData().get("geoScope"),
-                           h.getMetaData().get("interpretation")) for h in arb.propertyheaders}
-    assert kinds == {"color": ("float32_t[3]", "vtx", "rgb"), "opacity": ("float32_t", "vtx", ""),
-                     "hair_id": ("int32_t", "uni", ""), "strand_id": ("int32_t", "uni", ""),
-                     "root_triangle": ("int32_t", "uni", ""),
-                     "root_bary": ("float32_t[2]", "uni", "vector"),
-                     "strand_uv": ("float32_t[2]", "uni", "vector")}
+    kinds = {
+        h.getName(): (
+            str(h.getDataType()),
+            h.getMetaData().get("geoScope"),
+            h.getMetaData().get("interpretation"),
+        )
+        for h in arb.propertyheaders
+    }
+    assert kinds == {
+        "color": ("float32_t[3]", "vtx", "rgb"),
+        "opacity": ("float32_t", "vtx", ""),
+        "hair_id": ("int32_t", "uni", ""),
+        "strand_id": ("int32_t", "uni", ""),
+        "root_triangle": ("int32_t", "uni", ""),
+        "root_bary": ("float32_t[2]", "uni", "vector"),
+        "strand_uv": ("float32_t[2]", "uni", "vector"),
+    }
     widths = np.asarray(AbcGeom.IFloatGeomParam(geom, "width").getExpandedValue().getVals())
     assert np.array_equal(widths, grown.point_data["width"])  # diameters, metres
     bounds = sample.getSelfBounds()
@@ -129,10 +151,14 @@ def test_same_curves_give_same_bytes(tmp_path, grown, groom):
 
 def test_chunks_become_objects_in_order_with_bounded_memory(tmp_path):
     rng = np.random.default_rng(3)
-    parts = [HairCurves.from_array(rng.random((500, 16, 3), dtype=np.float32) + i,
-                                   point_data={"width": np.full(8000, 1e-4, np.float32)},
-                                   curve_data={"hair_id": np.arange(500) + 500 * i})
-             for i in range(40)]
+    parts = [
+        HairCurves.from_array(
+            rng.random((500, 16, 3), dtype=np.float32) + i,
+            point_data={"width": np.full(8000, 1e-4, np.float32)},
+            curve_data={"hair_id": np.arange(500) + 500 * i},
+        )
+        for i in range(40)
+    ]
     chunk_bytes = parts[0].points.nbytes + 8000 * 4 + 500 * 8
     tracemalloc.start()
     try:
@@ -143,8 +169,11 @@ def test_chunks_become_objects_in_order_with_bounded_memory(tmp_path):
     # a few chunks' worth in flight at most, not the 40 of the stream (16 MB)
     assert peak < 4 * chunk_bytes, peak
     names = [n for n in _objects(path) if n.startswith("/Groom/Hair_")]
-    assert names == [n for i in range(40)
-                     for n in (f"/Groom/Hair_{i:04d}", f"/Groom/Hair_{i:04d}/Hair_{i:04d}Shape")]
+    assert names == [
+        n
+        for i in range(40)
+        for n in (f"/Groom/Hair_{i:04d}", f"/Groom/Hair_{i:04d}/Hair_{i:04d}Shape")
+    ]
     assert load_abc(path) == HairCurves.concatenate(parts)
 
 
@@ -155,7 +184,8 @@ def test_guides_are_skipped_unless_asked_or_alone(tmp_path, grown, groom):
     guides = groom.guides.curves  # written with widths: the default when they have none
     width = guides.point_data.get("width", np.full(guides.point_count, DEFAULT_WIDTH, "f4"))
     assert load_abc(path, guides=True) == HairCurves(
-        guides.points, guides.offsets, {**guides.point_data, "width": width}, guides.curve_data)
+        guides.points, guides.offsets, {**guides.point_data, "width": width}, guides.curve_data
+    )
     alone = save_abc(guides, tmp_path / "alone.abc")
     assert load_abc(alone) == guides
     with pytest.raises(FormatError, match="none.abc: no /Groom/Guides curves"):
@@ -163,8 +193,9 @@ def test_guides_are_skipped_unless_asked_or_alone(tmp_path, grown, groom):
 
 
 def test_the_unreal_target_writes_centimetres_and_the_groom_schema(tmp_path, grown, groom):
-    path = save_abc(grown, tmp_path / "ue.abc", guides=groom.guides, mesh=groom.mesh,
-                    target="unreal")
+    path = save_abc(
+        grown, tmp_path / "ue.abc", guides=groom.guides, mesh=groom.mesh, target="unreal"
+    )
     xform = Abc.ICompoundProperty(_objects(path)["/Groom"].getProperties(), ".xform")
     user = Abc.ICompoundProperty(xform, ".userProperties")  # where Unreal reads it
     for key, number in (("groom_version_major", 1), ("groom_version_minor", 5)):
@@ -175,8 +206,7 @@ def test_the_unreal_target_writes_centimetres_and_the_groom_schema(tmp_path, gro
     assert arb.getPropertyHeader("groom_version_major") is None  # strands' attributes there
     back = load_abc(path)  # Alembic declares no unit: these are Unreal's centimetres
     np.testing.assert_allclose(back.points, grown.points.astype(np.float64) * 100, rtol=1e-6)
-    np.testing.assert_allclose(back.point_data["width"], grown.point_data["width"] * 100,
-                               rtol=1e-6)
+    np.testing.assert_allclose(back.point_data["width"], grown.point_data["width"] * 100, rtol=1e-6)
     assert not back.curve_data["groom_guide"].any()
     assert load_abc(path, guides=True).curve_data["groom_guide"].all()
     assert np.array_equal(back.curve_data["groom_root_uv"], grown.curve_data["root_uv"])
@@ -193,11 +223,14 @@ def test_normals_can_be_left_out(tmp_path, grown):
 
 
 def test_unmappable_attributes_are_skipped_with_a_warning(tmp_path, caplog):
-    c = HairCurves.from_array(np.zeros((2, 3, 3)),
-                              point_data={"rgba4": np.zeros((6, 4), np.float32),
-                                          "flag": np.array([1, 0, 1, 1, 0, 0], bool)},
-                              curve_data={"label": np.array(["a", "b"]),
-                                          "big": np.array([2**40, 1])})
+    c = HairCurves.from_array(
+        np.zeros((2, 3, 3)),
+        point_data={
+            "rgba4": np.zeros((6, 4), np.float32),
+            "flag": np.array([1, 0, 1, 1, 0, 0], bool),
+        },
+        curve_data={"label": np.array(["a", "b"]), "big": np.array([2**40, 1])},
+    )
     with caplog.at_level(logging.WARNING, logger="follicle"):
         back = load_abc(save_abc(c, tmp_path / "x.abc"))
     for name in ("rgba4", "label", "big"):
@@ -244,8 +277,16 @@ def _strip():
     points = [[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 0, -1], [1, 0, -1], [2, 0, -1]]
     ccw = [[0, 1, 4, 3], [1, 2, 5, 4]]
     corners = [list(reversed(q)) for q in ccw]
-    corner_uv = {(0, 0): (0, 0), (0, 1): (0.5, 0), (0, 4): (0.5, 1), (0, 3): (0, 1),
-                 (1, 1): (0.6, 0), (1, 2): (1, 0), (1, 5): (1, 1), (1, 4): (0.6, 1)}
+    corner_uv = {
+        (0, 0): (0, 0),
+        (0, 1): (0.5, 0),
+        (0, 4): (0.5, 1),
+        (0, 3): (0, 1),
+        (1, 1): (0.6, 0),
+        (1, 2): (1, 0),
+        (1, 5): (1, 1),
+        (1, 4): (0.6, 1),
+    }
     uv = [corner_uv[(f, v)] for f, quad in enumerate(corners) for v in quad]
     return np.array(points, float), corners, np.array(uv, np.float32)
 
@@ -263,30 +304,58 @@ def _meshes(path, *meshes, chain=()):
 def test_alembic_mesh_with_a_uv_seam_is_split_at_it(tmp_path):
     points, corners, uv = _strip()
     strip = dict(points=points, indices_=np.ravel(corners), counts=[4, 4])
-    path = _meshes(tmp_path / "strip.abc", dict(name="Strip", uv=(uv, "faceVarying"), **strip),
-                   chain=[("Body", np.diag([0.5, 0.5, 0.5, 1.0]), True)])
+    path = _meshes(
+        tmp_path / "strip.abc",
+        dict(name="Strip", uv=(uv, "faceVarying"), **strip),
+        chain=[("Body", np.diag([0.5, 0.5, 0.5, 1.0]), True)],
+    )
     mesh = load_abc_mesh(path)
     assert mesh.vertex_count == 8 and mesh.face_count == 4
     assert np.array_equal(mesh.rest_vertices[:6], 0.5 * points)  # the Xform's scale
     assert np.array_equal(mesh.rest_vertices[6:], 0.5 * points[[1, 4]])  # the split ones
-    expected = {0: (0, 0), 1: (0.5, 0), 2: (1, 0), 3: (0, 1), 4: (0.5, 1), 5: (1, 1),
-                6: (0.6, 0), 7: (0.6, 1)}
+    expected = {
+        0: (0, 0),
+        1: (0.5, 0),
+        2: (1, 0),
+        3: (0, 1),
+        4: (0.5, 1),
+        5: (1, 1),
+        6: (0.6, 0),
+        7: (0.6, 1),
+    }
     np.testing.assert_allclose(mesh.uvs, [expected[i] for i in range(8)], atol=1e-7)
     # counter-clockwise triangles: normals point up (+Y), as the quads were drawn
     assert np.allclose(mesh.face_normals(), [0, 1, 0])
-    assert sorted(map(tuple, np.sort(mesh.faces, axis=1).tolist())) == \
-        [(0, 1, 4), (0, 3, 4), (2, 5, 6), (5, 6, 7)]
+    assert sorted(map(tuple, np.sort(mesh.faces, axis=1).tolist())) == [
+        (0, 1, 4),
+        (0, 3, 4),
+        (2, 5, 6),
+        (5, 6, 7),
+    ]
     # per-vertex UVs with indices, and a SubD cage, need no split
-    cage = load_abc_mesh(_meshes(tmp_path / "vertex.abc", dict(
-        name="Cage", uv=(points[[0, 1, 2]][:, :2], "vertex", [0, 1, 2, 0, 1, 2]), subd=True,
-        **strip)))
+    cage = load_abc_mesh(
+        _meshes(
+            tmp_path / "vertex.abc",
+            dict(
+                name="Cage",
+                uv=(points[[0, 1, 2]][:, :2], "vertex", [0, 1, 2, 0, 1, 2]),
+                subd=True,
+                **strip,
+            ),
+        )
+    )
     assert cage.vertex_count == 6 and cage.uvs[5].tolist() == [2.0, 0.0]
 
 
 def test_several_meshes_read_the_first_with_a_warning(tmp_path, caplog):
     points, corners, _ = _strip()
-    path = _meshes(tmp_path / "two.abc", *[dict(name=name, points=points, counts=[4, 4],
-                                                 indices_=np.ravel(corners)) for name in "AB"])
+    path = _meshes(
+        tmp_path / "two.abc",
+        *[
+            dict(name=name, points=points, counts=[4, 4], indices_=np.ravel(corners))
+            for name in "AB"
+        ],
+    )
     with caplog.at_level(logging.WARNING, logger="follicle"):
         mesh = load_abc_mesh(path)
     assert mesh.name == "A" and "two.abc: /A is the skin" in caplog.text and "/B" in caplog.text
@@ -294,8 +363,9 @@ def test_several_meshes_read_the_first_with_a_warning(tmp_path, caplog):
     np.testing.assert_allclose(scaled.rest_vertices, mesh.rest_vertices * 0.01)
 
 
-def _usd_mesh(path, st, interpolation, *, z_up=False, mpu=1.0, translate=None,
-              left=False, indices=None):
+def _usd_mesh(
+    path, st, interpolation, *, z_up=False, mpu=1.0, translate=None, left=False, indices=None
+):
     stage = Usd.Stage.CreateNew(str(path))
     UsdGeom.SetStageMetersPerUnit(stage, mpu)
     if z_up:
@@ -313,8 +383,9 @@ def _usd_mesh(path, st, interpolation, *, z_up=False, mpu=1.0, translate=None,
     mesh.CreateFaceVertexIndicesAttr(np.ravel(corners if left else ccw).tolist())
     if left:
         mesh.CreateOrientationAttr(UsdGeom.Tokens.leftHanded)
-    primvar = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(st, Sdf.ValueTypeNames.TexCoord2fArray,
-                                                      interpolation)
+    primvar = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+        st, Sdf.ValueTypeNames.TexCoord2fArray, interpolation
+    )
     primvar.Set(np.asarray(indices[0] if indices else _usd_uv(left), np.float32).tolist())
     if indices:
         primvar.SetIndices(indices[1])
@@ -334,22 +405,36 @@ def test_usd_meshes_with_vertex_and_face_varying_uvs(tmp_path):
     face = load_usd_mesh(_usd_mesh(tmp_path / "fv.usda", "st", UsdGeom.Tokens.faceVarying))
     points, _, _ = _strip()
     assert face.vertex_count == 8 and np.array_equal(face.rest_vertices[:6], points)
-    np.testing.assert_allclose(face.uvs[[1, 4, 6, 7]], [[0.5, 0], [0.5, 1], [0.6, 0], [0.6, 1]],
-                               atol=1e-7)
+    np.testing.assert_allclose(
+        face.uvs[[1, 4, 6, 7]], [[0.5, 0], [0.5, 1], [0.6, 0], [0.6, 1]], atol=1e-7
+    )
     assert np.allclose(face.face_normals(), [0, 1, 0])
     # leftHanded: the corners are listed clockwise, and still face +Y
-    left = load_usd_mesh(_usd_mesh(tmp_path / "left.usda", "UVMap", UsdGeom.Tokens.faceVarying,
-                                   left=True))
+    left = load_usd_mesh(
+        _usd_mesh(tmp_path / "left.usda", "UVMap", UsdGeom.Tokens.faceVarying, left=True)
+    )
     assert np.allclose(left.face_normals(), [0, 1, 0]) and left.vertex_count == 8
-    vertex = load_usd_mesh(_usd_mesh(tmp_path / "v.usdc", "uv", UsdGeom.Tokens.vertex,
-                                     indices=(points[:, [0, 2]], list(range(6)))))
+    vertex = load_usd_mesh(
+        _usd_mesh(
+            tmp_path / "v.usdc",
+            "uv",
+            UsdGeom.Tokens.vertex,
+            indices=(points[:, [0, 2]], list(range(6))),
+        )
+    )
     assert vertex.vertex_count == 6
     np.testing.assert_allclose(vertex.uvs, points[:, [0, 2]], atol=1e-7)
 
 
 def test_usd_mesh_units_z_up_and_transform(tmp_path):
-    path = _usd_mesh(tmp_path / "z.usda", "st", UsdGeom.Tokens.faceVarying, z_up=True,
-                     mpu=0.01, translate=(100, 0, 50))
+    path = _usd_mesh(
+        tmp_path / "z.usda",
+        "st",
+        UsdGeom.Tokens.faceVarying,
+        z_up=True,
+        mpu=0.01,
+        translate=(100, 0, 50),
+    )
     mesh = follicle.load_mesh(path)
     points, _, _ = _strip()
     # centimetres, Z up: (x, y, z) cm -> (x, z, -y) m, after the translation
@@ -370,8 +455,12 @@ def test_usd_mesh_units_z_up_and_transform(tmp_path):
 # ------------------------------------------------------------------ animation
 def _frames(curves, n):
     rng = np.random.default_rng(5)
-    return [curves.with_points(curves.points + rng.normal(0, 0.01, curves.points.shape)
-                               .astype(np.float32)) for _ in range(n)]
+    return [
+        curves.with_points(
+            curves.points + rng.normal(0, 0.01, curves.points.shape).astype(np.float32)
+        )
+        for _ in range(n)
+    ]
 
 
 def test_cache_samples_points_velocities_and_head_motion(tmp_path, grown, groom):
@@ -379,14 +468,16 @@ def test_cache_samples_points_velocities_and_head_motion(tmp_path, grown, groom)
     transforms = np.stack([np.eye(4)] * 4)
     transforms[:, :3, 3] = [[0.1 * f, 0, -0.05 * f] for f in range(4)]
     transforms[2, :3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
-    path = save_abc_cache(iter(frames), tmp_path / "sim.abc", fps=30, start=10,
-                          mesh=groom.mesh, transforms=transforms)
+    path = save_abc_cache(
+        iter(frames), tmp_path / "sim.abc", fps=30, start=10, mesh=groom.mesh, transforms=transforms
+    )
     objects = _objects(path)
     schema = AbcGeom.ICurves(objects[HAIR], EXISTING).getSchema()
     assert schema.getNumSamples() == 4
     timing = schema.getTimeSampling()
     assert [timing.getSampleTime(f) for f in range(4)] == pytest.approx(
-        [(10 + f) / 30 for f in range(4)], abs=1e-12)
+        [(10 + f) / 30 for f in range(4)], abs=1e-12
+    )
     for f, frame in enumerate(frames):  # (alembic3d reads a whole number as a time too)
         sample = schema.getValue(Abc.ISampleSelector((10 + f) / 30))
         assert np.array_equal(np.asarray(sample.getPositions()), frame.points)
@@ -421,8 +512,7 @@ def test_cache_takes_a_sim_cache_and_refuses_bad_frames(tmp_path, grown, groom):
     assert load_abc(early) != load_abc(early, time=0.0)  # no time: the first, at -2/24 s
     assert load_abc(early) == load_abc(early, time=-2 / 24)
     single = save_abc_cache([grown], tmp_path / "one.abc")
-    sample = AbcGeom.ICurves(_objects(single)[HAIR], EXISTING).getSchema() \
-        .getValue()
+    sample = AbcGeom.ICurves(_objects(single)[HAIR], EXISTING).getSchema().getValue()
     assert not np.asarray(sample.getVelocities()).any()  # one frame: no motion
     frames = _frames(grown, 3)
     frames[2] = frames[2][:-1]
@@ -433,8 +523,9 @@ def test_cache_takes_a_sim_cache_and_refuses_bad_frames(tmp_path, grown, groom):
     with pytest.raises(InputError, match="transforms: given without mesh"):
         save_abc_cache(frames[:2], tmp_path / "t.abc", transforms=np.stack([np.eye(4)] * 2))
     with pytest.raises(InputError, match="transforms: 3 matrices for 2 frames"):
-        save_abc_cache(frames[:2], tmp_path / "t.abc", mesh=groom.mesh,
-                       transforms=np.stack([np.eye(4)] * 3))
+        save_abc_cache(
+            frames[:2], tmp_path / "t.abc", mesh=groom.mesh, transforms=np.stack([np.eye(4)] * 3)
+        )
     with pytest.raises(InputError, match="fps"):
         save_abc_cache(frames[:2], tmp_path / "t.abc", fps=0)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["early.abc", "guides.abc", "one.abc"]
@@ -461,53 +552,93 @@ def test_linear_curves_with_widths_of_every_scope(tmp_path):
         ("vertex", np.arange(9) * 1e-4, np.arange(9) * 1e-4),
         ("varying", np.arange(9) * 1e-4, np.arange(9) * 1e-4),
     ):
-        path = _write(tmp_path / f"{scope}.abc", dict(counts=[4, 5], points=PTS,
-                                                      widths=(widths, scope)))
+        path = _write(
+            tmp_path / f"{scope}.abc", dict(counts=[4, 5], points=PTS, widths=(widths, scope))
+        )
         back = load_abc(path)
         assert np.array_equal(back.points, PTS) and back.counts.tolist() == [4, 5]
         np.testing.assert_allclose(back.point_data["width"], expected, rtol=1e-6)
 
 
 def test_cubic_bases_reduce_to_the_points_the_curves_pass_through(tmp_path):
-    cr = load_abc(_write(tmp_path / "cr.abc", dict(counts=[4, 5], points=PTS, kind="cubic",
-                                                   basis="catmullRom",
-                                                   widths=(np.arange(9), "vertex"))))
+    cr = load_abc(
+        _write(
+            tmp_path / "cr.abc",
+            dict(
+                counts=[4, 5],
+                points=PTS,
+                kind="cubic",
+                basis="catmullRom",
+                widths=(np.arange(9), "vertex"),
+            ),
+        )
+    )
     assert np.array_equal(cr.points, PTS[[1, 2, 5, 6, 7]])
     assert cr.point_data["width"].tolist() == [1, 2, 5, 6, 7]
-    bez = load_abc(_write(tmp_path / "bez.abc", dict(counts=[7], points=PTS[:7], kind="cubic",
-                                                     basis="bezier",
-                                                     widths=([1, 2, 3], "varying"))))
+    bez = load_abc(
+        _write(
+            tmp_path / "bez.abc",
+            dict(
+                counts=[7],
+                points=PTS[:7],
+                kind="cubic",
+                basis="bezier",
+                widths=([1, 2, 3], "varying"),
+            ),
+        )
+    )
     assert np.array_equal(bez.points, PTS[[0, 3, 6]])
     assert bez.point_data["width"].tolist() == [1, 2, 3]
     rng = np.random.default_rng(0)
     pts = rng.random((6, 3)).astype(np.float32)
-    bsp = load_abc(_write(tmp_path / "bsp.abc", dict(counts=[6], points=pts, kind="cubic",
-                                                     basis="bspline")))
+    bsp = load_abc(
+        _write(tmp_path / "bsp.abc", dict(counts=[6], points=pts, kind="cubic", basis="bspline"))
+    )
     p = pts.astype(np.float64)
     np.testing.assert_allclose(bsp.points, (p[:-2] + 4 * p[1:-1] + p[2:]) / 6, atol=1e-6)
     # Blender's Catmull-Rom curves are variable-order and pass through every vertex
-    blender = load_abc(_write(tmp_path / "blender.abc", dict(
-        counts=[4, 5], points=PTS, kind="variable", basis="catmullRom", orders=[4, 4])))
+    blender = load_abc(
+        _write(
+            tmp_path / "blender.abc",
+            dict(counts=[4, 5], points=PTS, kind="variable", basis="catmullRom", orders=[4, 4]),
+        )
+    )
     assert np.array_equal(blender.points, PTS)
     # a cubic curve of no basis is Blender's poly curve: every vertex
-    assert np.array_equal(load_abc(_write(tmp_path / "poly.abc", dict(
-        counts=[9], points=PTS, kind="cubic", basis="none"))).points, PTS)
+    assert np.array_equal(
+        load_abc(
+            _write(tmp_path / "poly.abc", dict(counts=[9], points=PTS, kind="cubic", basis="none"))
+        ).points,
+        PTS,
+    )
 
 
 def test_curves_that_cannot_be_read_are_format_errors_naming_the_object(tmp_path):
     cases = {
-        "periodic": (dict(counts=[4, 5], points=PTS, kind="cubic", basis="bspline",
-                          wrap="periodic"), r"/C0: periodic \(closed\) curves are not hair"),
-        "hermite": (dict(counts=[4, 5], points=PTS, kind="cubic", basis="hermite"),
-                    r"/C0: unknown basis 'hermite'"),
-        "short bezier": (dict(counts=[5, 4], points=PTS, kind="cubic", basis="bezier"),
-                         r"/C0: curve 0 has 5 vertices, invalid for cubic bezier"),
-        "widths": (dict(counts=[4, 5], points=PTS, widths=([1, 2, 3], "vertex")),
-                   r"/C0: width has 3 values; vertex scope needs 9"),
-        "orders": (dict(counts=[4, 5], points=PTS, kind="variable", basis="bspline",
-                        orders=[4]), r"/C0: \.orders has 1 values; 2 curves need one each"),
-        "high order": (dict(counts=[4, 5], points=PTS, kind="variable", basis="bspline",
-                            orders=[5, 4]), r"/C0: curve 0 has order 5 and 4 vertices"),
+        "periodic": (
+            dict(counts=[4, 5], points=PTS, kind="cubic", basis="bspline", wrap="periodic"),
+            r"/C0: periodic \(closed\) curves are not hair",
+        ),
+        "hermite": (
+            dict(counts=[4, 5], points=PTS, kind="cubic", basis="hermite"),
+            r"/C0: unknown basis 'hermite'",
+        ),
+        "short bezier": (
+            dict(counts=[5, 4], points=PTS, kind="cubic", basis="bezier"),
+            r"/C0: curve 0 has 5 vertices, invalid for cubic bezier",
+        ),
+        "widths": (
+            dict(counts=[4, 5], points=PTS, widths=([1, 2, 3], "vertex")),
+            r"/C0: width has 3 values; vertex scope needs 9",
+        ),
+        "orders": (
+            dict(counts=[4, 5], points=PTS, kind="variable", basis="bspline", orders=[4]),
+            r"/C0: \.orders has 1 values; 2 curves need one each",
+        ),
+        "high order": (
+            dict(counts=[4, 5], points=PTS, kind="variable", basis="bspline", orders=[5, 4]),
+            r"/C0: curve 0 has order 5 and 4 vertices",
+        ),
     }
     for name, (kw, message) in cases.items():
         path = _write(tmp_path / f"{name.replace(' ', '_')}.abc", kw)
@@ -524,8 +655,13 @@ def _nurbs_reference(ctrl, order, knots, weights=None):
     lo, hi = knots[k - 1], knots[n]
     breaks = np.unique(knots[(knots >= lo) & (knots <= hi)])
     steps = max(1, math.ceil((n - 1) / (len(breaks) - 1)))
-    params = np.concatenate([np.linspace(a, b, steps, endpoint=False)
-                             for a, b in zip(breaks[:-1], breaks[1:], strict=True)] + [[hi]])
+    params = np.concatenate(
+        [
+            np.linspace(a, b, steps, endpoint=False)
+            for a, b in zip(breaks[:-1], breaks[1:], strict=True)
+        ]
+        + [[hi]]
+    )
     w = np.ones(n) if weights is None else np.asarray(weights, float)
     homogeneous = np.concatenate([ctrl * w[:, None], w[:, None]], axis=1)
     values = BSpline(knots, homogeneous, k - 1, extrapolate=False)(params)
@@ -536,17 +672,35 @@ def _nurbs_reference(ctrl, order, knots, weights=None):
 def test_nurbs_curves_are_evaluated_on_the_curve(tmp_path):
     # a real-shaped strand in centimetres: unequal spans, a double knot, two coincident
     # control vertices, rational weights; and a quadratic one
-    ctrl = np.array([[0, 0, 0], [0.4, 1.1, 0.1], [0.4, 1.1, 0.1], [1.5, 2.9, -0.6],
-                     [2.1, 6.5, -1.2], [2.0, 9.0, -0.4], [3.2, 12.5, 0.9]], np.float64)
+    ctrl = np.array(
+        [
+            [0, 0, 0],
+            [0.4, 1.1, 0.1],
+            [0.4, 1.1, 0.1],
+            [1.5, 2.9, -0.6],
+            [2.1, 6.5, -1.2],
+            [2.0, 9.0, -0.4],
+            [3.2, 12.5, 0.9],
+        ],
+        np.float64,
+    )
     knots = np.array([0, 0, 0, 0, 0.15, 0.4, 0.4, 1, 1, 1, 1], np.float64)
     weights = [1, 1, 2, 0.5, 1, 1.5, 1]
     quad = np.array([[5, 0, 0], [5.5, 2, 0], [6, 3.5, 0.2], [7, 4, 0.1]], np.float64)
     quad_knots = np.array([0, 0, 0, 0.3, 1, 1, 1], np.float64)
-    path = _write(tmp_path / "nurbs.abc", dict(
-        counts=[7, 4], points=np.concatenate([ctrl, quad]), kind="variable", basis="bspline",
-        orders=[4, 3], knots=np.concatenate([knots, quad_knots]),
-        weights=np.concatenate([weights, np.ones(4)]),
-        widths=(np.linspace(0.01, 0.002, 11), "vertex")))
+    path = _write(
+        tmp_path / "nurbs.abc",
+        dict(
+            counts=[7, 4],
+            points=np.concatenate([ctrl, quad]),
+            kind="variable",
+            basis="bspline",
+            orders=[4, 3],
+            knots=np.concatenate([knots, quad_knots]),
+            weights=np.concatenate([weights, np.ones(4)]),
+            widths=(np.linspace(0.01, 0.002, 11), "vertex"),
+        ),
+    )
     back = load_abc(path)
     first = _nurbs_reference(ctrl, 4, knots, weights)
     second = _nurbs_reference(quad, 3, quad_knots)
@@ -555,31 +709,58 @@ def test_nurbs_curves_are_evaluated_on_the_curve(tmp_path):
     np.testing.assert_allclose(back.points[[0, len(first) - 1]], ctrl[[0, -1]], atol=1e-5)
     assert np.all(np.diff(back.point_data["width"][: len(first)]) < 0)  # evaluated, tapering
     # Maya writes knot vectors without their two outer knots; none means clamped uniform
-    maya = load_abc(_write(tmp_path / "maya.abc", dict(
-        counts=[7], points=ctrl, kind="variable", basis="bspline", orders=[4],
-        knots=knots[1:-1], weights=weights)))
+    maya = load_abc(
+        _write(
+            tmp_path / "maya.abc",
+            dict(
+                counts=[7],
+                points=ctrl,
+                kind="variable",
+                basis="bspline",
+                orders=[4],
+                knots=knots[1:-1],
+                weights=weights,
+            ),
+        )
+    )
     np.testing.assert_allclose(maya.points, first, atol=2e-5)
     clamped = np.array([0, 0, 0, 0, 1, 2, 3, 4, 4, 4, 4], np.float64)
-    plain = load_abc(_write(tmp_path / "plain.abc", dict(
-        counts=[7], points=ctrl, kind="variable", basis="bspline", orders=[4])))
+    plain = load_abc(
+        _write(
+            tmp_path / "plain.abc",
+            dict(counts=[7], points=ctrl, kind="variable", basis="bspline", orders=[4]),
+        )
+    )
     np.testing.assert_allclose(plain.points, _nurbs_reference(ctrl, 4, clamped), atol=2e-5)
     # a cubic B-spline with knots is a NURBS curve of order 4
-    cubic = load_abc(_write(tmp_path / "cubic.abc", dict(
-        counts=[7], points=ctrl, kind="cubic", basis="bspline", knots=knots)))
+    cubic = load_abc(
+        _write(
+            tmp_path / "cubic.abc",
+            dict(counts=[7], points=ctrl, kind="cubic", basis="bspline", knots=knots),
+        )
+    )
     np.testing.assert_allclose(cubic.points, _nurbs_reference(ctrl, 4, knots), atol=2e-5)
 
 
 def test_colours_uvs_and_params_of_every_scope(tmp_path):
     rgba = np.linspace(0, 1, 9 * 4).reshape(9, 4)
-    path = _write(tmp_path / "params.abc", dict(
-        counts=[4, 5], points=PTS, uv=([[0.1, 0.2], [0.3, 0.4]], "uniform", [1, 0]),
-        params=[("Cd", "c4f", rgba, "vertex"),
+    path = _write(
+        tmp_path / "params.abc",
+        dict(
+            counts=[4, 5],
+            points=PTS,
+            uv=([[0.1, 0.2], [0.3, 0.4]], "uniform", [1, 0]),
+            params=[
+                ("Cd", "c4f", rgba, "vertex"),
                 ("tint", "c3f", [[1, 0, 0], [0, 1, 0]], "uniform"),
                 ("clump", "int", [7, 8], "uniform"),
                 ("stiff", "float", np.arange(9), "varying"),
                 ("dir", "v3f", np.ones((9, 3)), "vertex"),
                 ("gain", "float", [2.0], "constant"),
-                ("rest", "double", np.arange(9) / 3, "vertex", list(range(9)))]))
+                ("rest", "double", np.arange(9) / 3, "vertex", list(range(9))),
+            ],
+        ),
+    )
     back = load_abc(path)
     np.testing.assert_allclose(back.point_data["color"], rgba[:, :3], atol=1e-7)
     np.testing.assert_allclose(back.point_data["opacity"], rgba[:, 3], atol=1e-7)
@@ -592,10 +773,19 @@ def test_colours_uvs_and_params_of_every_scope(tmp_path):
     assert back.point_data["rest"].dtype == np.float64
     np.testing.assert_allclose(back.point_data["rest"], np.arange(9) / 3)
     assert "gain" not in back.point_data and "gain" not in back.curve_data  # constant
-    uniform = load_abc(_write(tmp_path / "uni.abc", dict(
-        counts=[4, 5], points=PTS, params=[("color", "c3f", [[1, 0, 0], [0, 0, 1]],
-                                            "uniform"),
-                                           ("opacity", "float", [0.5], "constant")])))
+    uniform = load_abc(
+        _write(
+            tmp_path / "uni.abc",
+            dict(
+                counts=[4, 5],
+                points=PTS,
+                params=[
+                    ("color", "c3f", [[1, 0, 0], [0, 0, 1]], "uniform"),
+                    ("opacity", "float", [0.5], "constant"),
+                ],
+            ),
+        )
+    )
     assert uniform.point_data["color"].tolist() == [[1, 0, 0]] * 4 + [[0, 0, 1]] * 5
     assert uniform.point_data["opacity"].tolist() == [0.5] * 9
 
@@ -607,8 +797,11 @@ def test_xforms_move_points_widths_and_normals(tmp_path):
     scale[3, :3] = [1, 0, 0]
     chain = [("Root", scale, True), ("Head", turn, True)]
     normals = np.tile([1.0, 0, 0], (9, 1))
-    path = _write(tmp_path / "xf.abc", dict(counts=[4, 5], points=PTS, widths=([0.01], "constant"),
-                                            normals=(normals, "vertex")), chain=chain)
+    path = _write(
+        tmp_path / "xf.abc",
+        dict(counts=[4, 5], points=PTS, widths=([0.01], "constant"), normals=(normals, "vertex")),
+        chain=chain,
+    )
     back = load_abc(path)
     expected = (PTS.astype(np.float64) @ turn[:3, :3]) * 2 + [1, 0, 0]
     np.testing.assert_allclose(back.points, expected, atol=1e-6)
@@ -620,15 +813,26 @@ def test_xforms_move_points_widths_and_normals(tmp_path):
     np.testing.assert_allclose(back.points, PTS.astype(np.float64) @ turn[:3, :3], atol=1e-6)
     flat = [("Flat", np.diag([1.0, 0, 1, 1]), True)]
     with pytest.raises(FormatError, match=r"/Flat/C0: its transform is singular"):
-        load_abc(_write(tmp_path / "flat.abc", dict(counts=[4, 5], points=PTS,
-                                                    normals=(normals, "vertex")), chain=flat))
+        load_abc(
+            _write(
+                tmp_path / "flat.abc",
+                dict(counts=[4, 5], points=PTS, normals=(normals, "vertex")),
+                chain=flat,
+            )
+        )
 
 
 def test_several_objects_join_keeping_common_attributes(tmp_path, caplog):
-    path = _write(tmp_path / "two.abc",
-                  dict(counts=[4], points=PTS[:4], widths=([0.1], "constant"),
-                       params=[("a", "float", np.ones(4), "vertex")]),
-                  dict(counts=[5], points=PTS[4:], widths=([0.2], "constant")))
+    path = _write(
+        tmp_path / "two.abc",
+        dict(
+            counts=[4],
+            points=PTS[:4],
+            widths=([0.1], "constant"),
+            params=[("a", "float", np.ones(4), "vertex")],
+        ),
+        dict(counts=[5], points=PTS[4:], widths=([0.2], "constant")),
+    )
     with caplog.at_level(logging.WARNING, logger="follicle"):
         back = load_abc(path)
     assert back.counts.tolist() == [4, 5] and np.array_equal(back.points, PTS)

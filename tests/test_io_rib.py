@@ -93,8 +93,17 @@ def test_motion_block(tmp_path, hair):
     path = save_rib_motion(samples, [0.0, 0.25, 0.5], tmp_path / "blur.rib")
     reqs = parse_rib(path)
     names = [r[0] for r in reqs]
-    assert names == ["version", "AttributeBegin", "Basis", "MotionBegin", "Curves", "Curves",
-                     "Curves", "MotionEnd", "AttributeEnd"]
+    assert names == [
+        "version",
+        "AttributeBegin",
+        "Basis",
+        "MotionBegin",
+        "Curves",
+        "Curves",
+        "Curves",
+        "MotionEnd",
+        "AttributeEnd",
+    ]
     assert reqs[3][1] == ["0", "0.25", "0.5"]
     for (nverts, wrap, params), sample in zip(curves_requests(path), samples, strict=True):
         check_counts(nverts, wrap, params, sample)
@@ -123,11 +132,29 @@ def test_motion_arguments_are_checked(tmp_path, hair, samples, times, match):
 
 def test_numbers_print_like_c_percent_7g():
     rng = np.random.default_rng(5)
-    values = np.concatenate([
-        (rng.standard_normal(20000) * 10.0 ** rng.integers(-30, 30, 20000)).astype(np.float32),
-        np.float32([0, 1, -1, 1e-4, 9.9999999e-5, 1e7, 9999999.5, 123456.7, 0.5, 1e6, 1e-5,
-                    1e-45, 3.4e38, -2.5e-12]),
-    ])  # fmt: skip
+    values = np.concatenate(
+        [
+            (rng.standard_normal(20000) * 10.0 ** rng.integers(-30, 30, 20000)).astype(np.float32),
+            np.float32(
+                [
+                    0,
+                    1,
+                    -1,
+                    1e-4,
+                    9.9999999e-5,
+                    1e7,
+                    9999999.5,
+                    123456.7,
+                    0.5,
+                    1e6,
+                    1e-5,
+                    1e-45,
+                    3.4e38,
+                    -2.5e-12,
+                ]
+            ),
+        ]
+    )
     text = format_floats(values, 1).decode()
     assert text.split("\n") == [f"{float(v):.7g}" for v in values]
     assert format_floats(np.arange(1, 8, dtype=np.float32), 3) == b"1 2 3\n4 5 6\n7"

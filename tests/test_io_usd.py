@@ -51,19 +51,33 @@ def test_prims_attributes_and_stage_metadata(tmp_path, hair, ext):
     assert [str(p.GetPath()) for p in prims] == ["/Groom/Hair/chunk_0000"]
     curves = UsdGeom.BasisCurves(prims[0])
     t = Usd.TimeCode.Default()
-    assert (curves.GetTypeAttr().Get(), curves.GetBasisAttr().Get(), curves.GetWrapAttr().Get()) \
-        == ("cubic", "catmullRom", "pinned")
+    assert (
+        curves.GetTypeAttr().Get(),
+        curves.GetBasisAttr().Get(),
+        curves.GetWrapAttr().Get(),
+    ) == ("cubic", "catmullRom", "pinned")
     assert list(curves.GetCurveVertexCountsAttr().Get()) == hair.counts.tolist()
     # every attribute's length gives back the interpolation it was written with
-    sizes = {"points": (len(curves.GetPointsAttr().Get()), "vertex"),
-             "widths": (len(curves.GetWidthsAttr().Get()), curves.GetWidthsInterpolation()),
-             "normals": (len(curves.GetNormalsAttr().Get()), curves.GetNormalsInterpolation())}
+    sizes = {
+        "points": (len(curves.GetPointsAttr().Get()), "vertex"),
+        "widths": (len(curves.GetWidthsAttr().Get()), curves.GetWidthsInterpolation()),
+        "normals": (len(curves.GetNormalsAttr().Get()), curves.GetNormalsInterpolation()),
+    }
     for pv in UsdGeom.PrimvarsAPI(curves).GetPrimvarsWithAuthoredValues():
         sizes[pv.GetPrimvarName()] = (len(pv.Get()), pv.GetInterpolation())
-    expected = {"points": "vertex", "widths": "vertex", "normals": "vertex",
-                "displayColor": "vertex", "displayOpacity": "vertex", "root_uv": "uniform",
-                "hair_id": "uniform", "strand_id": "uniform", "strand_uv": "uniform",
-                "root_triangle": "uniform", "root_bary": "uniform"}
+    expected = {
+        "points": "vertex",
+        "widths": "vertex",
+        "normals": "vertex",
+        "displayColor": "vertex",
+        "displayOpacity": "vertex",
+        "root_uv": "uniform",
+        "hair_id": "uniform",
+        "strand_id": "uniform",
+        "strand_uv": "uniform",
+        "root_triangle": "uniform",
+        "root_bary": "uniform",
+    }
     assert {k: v[1] for k, v in sizes.items()} == expected
     for name, (n, interpolation) in sizes.items():
         assert curves.ComputeInterpolationForSize(n, t) == interpolation, name
@@ -78,8 +92,9 @@ def _pinned_catmull_rom(points, offsets, k=16):
     """Dense samples of USD's pinned Catmull-Rom curves (phantom ends 2·P0 − P1)."""
     out = []
     u = np.linspace(0, 1, k)[:, None]
-    w = 0.5 * np.hstack([-u + 2 * u**2 - u**3, 2 - 5 * u**2 + 3 * u**3,
-                         u + 4 * u**2 - 3 * u**3, -(u**2) + u**3])
+    w = 0.5 * np.hstack(
+        [-u + 2 * u**2 - u**3, 2 - 5 * u**2 + 3 * u**3, u + 4 * u**2 - 3 * u**3, -(u**2) + u**3]
+    )
     for a, b in zip(offsets[:-1], offsets[1:], strict=True):
         p = points[a:b].astype(np.float64)
         p = np.vstack([2 * p[0] - p[1], p, 2 * p[-1] - p[-2]])
@@ -191,8 +206,16 @@ def _stage_with(tmp_path, name, kind, basis, wrap, counts, points, **primvars):
 
 def test_bezier_keeps_every_third_control_point(tmp_path):
     pts = np.arange(7 * 3, dtype=np.float32).reshape(7, 3)
-    path, _ = _stage_with(tmp_path, "bez.usda", "cubic", "bezier", "nonperiodic", [7], pts,
-                          widths=(None, "varying", [1.0, 2.0, 3.0]))
+    path, _ = _stage_with(
+        tmp_path,
+        "bez.usda",
+        "cubic",
+        "bezier",
+        "nonperiodic",
+        [7],
+        pts,
+        widths=(None, "varying", [1.0, 2.0, 3.0]),
+    )
     back = load_usd(path)
     assert np.array_equal(back.points, pts[[0, 3, 6]])
     assert back.point_data["width"].tolist() == [1.0, 2.0, 3.0]
@@ -202,16 +225,24 @@ def test_bspline_is_read_at_its_knots(tmp_path):
     rng = np.random.default_rng(0)
     pts = rng.random((6, 3)).astype(np.float32)
     colours = rng.random((6, 3)).astype(np.float32)
-    path, _ = _stage_with(tmp_path, "bsp.usda", "cubic", "bspline", "nonperiodic", [6], pts,
-                          displayColor=(Sdf.ValueTypeNames.Color3fArray, "vertex",
-                                        Vt.Vec3fArray.FromNumpy(colours)))
+    path, _ = _stage_with(
+        tmp_path,
+        "bsp.usda",
+        "cubic",
+        "bspline",
+        "nonperiodic",
+        [6],
+        pts,
+        displayColor=(Sdf.ValueTypeNames.Color3fArray, "vertex", Vt.Vec3fArray.FromNumpy(colours)),
+    )
     back = load_usd(path)
     p = pts.astype(np.float64)
     knots = (p[:-2] + 4 * p[1:-1] + p[2:]) / 6
     np.testing.assert_allclose(back.points, knots, rtol=0, atol=1e-6)
     c = colours.astype(np.float64)
-    np.testing.assert_allclose(back.point_data["color"], (c[:-2] + 4 * c[1:-1] + c[2:]) / 6,
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        back.point_data["color"], (c[:-2] + 4 * c[1:-1] + c[2:]) / 6, atol=1e-6
+    )
     # pinned: phantom ends added, so the curve starts and ends at the end vertices
     path, _ = _stage_with(tmp_path, "bsp_pinned.usda", "cubic", "bspline", "pinned", [6], pts)
     pinned = load_usd(path)
@@ -222,17 +253,33 @@ def test_bspline_is_read_at_its_knots(tmp_path):
 
 def test_linear_and_nonperiodic_catmull_rom_with_widths_of_every_interpolation(tmp_path):
     pts = np.arange(9 * 3, dtype=np.float32).reshape(9, 3)
-    path, _ = _stage_with(tmp_path, "lin.usda", "linear", "catmullRom", "nonperiodic", [4, 5],
-                          pts, widths=(None, "uniform", [0.5, 0.25]),
-                          displayOpacity=(Sdf.ValueTypeNames.FloatArray, "constant", [0.7]),
-                          tag=(Sdf.ValueTypeNames.IntArray, "uniform", [3, 4]))
+    path, _ = _stage_with(
+        tmp_path,
+        "lin.usda",
+        "linear",
+        "catmullRom",
+        "nonperiodic",
+        [4, 5],
+        pts,
+        widths=(None, "uniform", [0.5, 0.25]),
+        displayOpacity=(Sdf.ValueTypeNames.FloatArray, "constant", [0.7]),
+        tag=(Sdf.ValueTypeNames.IntArray, "uniform", [3, 4]),
+    )
     back = load_usd(path)
     assert np.array_equal(back.points, pts) and back.counts.tolist() == [4, 5]
     assert back.point_data["width"].tolist() == [0.5] * 4 + [0.25] * 5
     np.testing.assert_allclose(back.point_data["opacity"], 0.7)
     assert back.curve_data["tag"].tolist() == [3, 4]
-    path, _ = _stage_with(tmp_path, "cr.usda", "cubic", "catmullRom", "nonperiodic", [4, 5], pts,
-                          widths=(None, "vertex", list(range(9))))
+    path, _ = _stage_with(
+        tmp_path,
+        "cr.usda",
+        "cubic",
+        "catmullRom",
+        "nonperiodic",
+        [4, 5],
+        pts,
+        widths=(None, "vertex", list(range(9))),
+    )
     back = load_usd(path)
     assert np.array_equal(back.points, pts[[1, 2, 5, 6, 7]])
     assert back.point_data["width"].tolist() == [1, 2, 5, 6, 7]
@@ -274,20 +321,31 @@ def test_bad_files_are_format_errors_naming_the_file(tmp_path):
     junk.write_text("this is not USD")
     with pytest.raises(FormatError, match="junk.usda"):
         load_usd(junk)
-    path, _ = _stage_with(tmp_path, "short.usda", "cubic", "bezier", "nonperiodic", [5],
-                          np.zeros((5, 3)))
+    path, _ = _stage_with(
+        tmp_path, "short.usda", "cubic", "bezier", "nonperiodic", [5], np.zeros((5, 3))
+    )
     with pytest.raises(FormatError, match="short.usda: /C: curve 0 has 5 vertices"):
         load_usd(path)
-    path, _ = _stage_with(tmp_path, "size.usda", "linear", "bezier", "nonperiodic", [2, 2],
-                          np.zeros((4, 3)), widths=(None, "vertex", [1.0, 2.0, 3.0]))
+    path, _ = _stage_with(
+        tmp_path,
+        "size.usda",
+        "linear",
+        "bezier",
+        "nonperiodic",
+        [2, 2],
+        np.zeros((4, 3)),
+        widths=(None, "vertex", [1.0, 2.0, 3.0]),
+    )
     with pytest.raises(FormatError, match="size.usda: /C: widths has 3 values; vertex"):
         load_usd(path)
 
 
 def test_unmappable_attributes_are_skipped_with_a_warning(tmp_path, caplog):
-    c = HairCurves.from_array(np.zeros((2, 3, 3)),
-                              point_data={"wide": np.zeros((6, 7), np.float32)},
-                              curve_data={"label": np.array(["a", "b"])})
+    c = HairCurves.from_array(
+        np.zeros((2, 3, 3)),
+        point_data={"wide": np.zeros((6, 7), np.float32)},
+        curve_data={"label": np.array(["a", "b"])},
+    )
     with caplog.at_level(logging.WARNING, logger="follicle"):
         back = load_usd(save_usd(c, tmp_path / "x.usda", normals=False))
     assert "wide" in caplog.text and "label" in caplog.text

@@ -67,31 +67,78 @@ def _bspline(knots, control, k, u):
 # Blender hair: pinned Catmull-Rom curves, radius 1 cm by default (widths 0.02), its
 # colour attribute as primvars:color color4f, its root UVs as surface_uv_coordinate;
 # Z up. Unequal segments and a repeated vertex, as a comb leaves them.
-HAIR = np.array([[0, 0, 0], [0, 0, 0.001], [0, 0, 0.001], [0.002, 0, 0.005],
-                 [0.01, 0, 0], [0.01, 0.003, 0.02], [0.01, 0.003, 0.021]], np.float32)
-RGBA = np.array([[0.1, 0.2, 0.3, 1.0], [0.4, 0.5, 0.6, 0.9], [0.7, 0.8, 0.9, 0.8],
-                 [0.15, 0.25, 0.35, 0.7], [0.5, 0.5, 0.5, 0.6], [0.45, 0.55, 0.65, 0.5],
-                 [0.75, 0.85, 0.95, 0.25]], np.float32)
-NURBS = np.array([[0.1, 0, 0], [0.1, 0, 0.01], [0.11, 0.002, 0.02], [0.13, 0.002, 0.02],
-                  [0.13, 0.005, 0.04]], np.float32)
+HAIR = np.array(
+    [
+        [0, 0, 0],
+        [0, 0, 0.001],
+        [0, 0, 0.001],
+        [0.002, 0, 0.005],
+        [0.01, 0, 0],
+        [0.01, 0.003, 0.02],
+        [0.01, 0.003, 0.021],
+    ],
+    np.float32,
+)
+RGBA = np.array(
+    [
+        [0.1, 0.2, 0.3, 1.0],
+        [0.4, 0.5, 0.6, 0.9],
+        [0.7, 0.8, 0.9, 0.8],
+        [0.15, 0.25, 0.35, 0.7],
+        [0.5, 0.5, 0.5, 0.6],
+        [0.45, 0.55, 0.65, 0.5],
+        [0.75, 0.85, 0.95, 0.25],
+    ],
+    np.float32,
+)
+NURBS = np.array(
+    [[0.1, 0, 0], [0.1, 0, 0.01], [0.11, 0.002, 0.02], [0.13, 0.002, 0.02], [0.13, 0.005, 0.04]],
+    np.float32,
+)
 NURBS_KNOTS = [0, 0, 0, 0, 0.3, 1, 1, 1, 1]  # order 4, clamped, one unequal inner knot
-NURBS_RGBA = np.array([[0.9, 0.1, 0.1, 1.0], [0.8, 0.2, 0.1, 0.8], [0.7, 0.3, 0.1, 0.6],
-                       [0.6, 0.4, 0.1, 0.4], [0.5, 0.5, 0.1, 0.2]], np.float32)
+NURBS_RGBA = np.array(
+    [
+        [0.9, 0.1, 0.1, 1.0],
+        [0.8, 0.2, 0.1, 0.8],
+        [0.7, 0.3, 0.1, 0.6],
+        [0.6, 0.4, 0.1, 0.4],
+        [0.5, 0.5, 0.1, 0.2],
+    ],
+    np.float32,
+)
 Z_TO_Y = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], np.float64)  # rows: (x, y, z) -> (x, z, -y)
 
 
 def _blender_file(path):
     stage = _stage(path, UsdGeom.Tokens.z)
-    _define(stage, ("cubic", "catmullRom", "pinned"), "/root/Curves/Curves", [4, 3], HAIR,
-            widths=([0.02] * 7, "vertex"),
-            color=(F4, "vertex", RGBA),
-            surface_uv_coordinate=(Sdf.ValueTypeNames.TexCoord2fArray, "uniform",
-                                   np.float32([[0.25, 0.5], [0.75, 0.125]])))
-    _define(stage, ([4], NURBS_KNOTS, None), "/root/Nurbs/Nurbs", [5], NURBS,
-            widths=([0.02] * 5, "vertex"),
-            color=(F4, "vertex", NURBS_RGBA),
-            surface_uv_coordinate=(Sdf.ValueTypeNames.TexCoord2fArray, "uniform",
-                                   np.float32([[0.5, 0.5]])))
+    _define(
+        stage,
+        ("cubic", "catmullRom", "pinned"),
+        "/root/Curves/Curves",
+        [4, 3],
+        HAIR,
+        widths=([0.02] * 7, "vertex"),
+        color=(F4, "vertex", RGBA),
+        surface_uv_coordinate=(
+            Sdf.ValueTypeNames.TexCoord2fArray,
+            "uniform",
+            np.float32([[0.25, 0.5], [0.75, 0.125]]),
+        ),
+    )
+    _define(
+        stage,
+        ([4], NURBS_KNOTS, None),
+        "/root/Nurbs/Nurbs",
+        [5],
+        NURBS,
+        widths=([0.02] * 5, "vertex"),
+        color=(F4, "vertex", NURBS_RGBA),
+        surface_uv_coordinate=(
+            Sdf.ValueTypeNames.TexCoord2fArray,
+            "uniform",
+            np.float32([[0.5, 0.5]]),
+        ),
+    )
     stage.Save()
     return path
 
@@ -104,8 +151,9 @@ def test_blender_hair_nurbs_beside_basis_rgba_colour_and_default_radius(tmp_path
     assert back.counts.tolist() == [4, 3, 5]
     np.testing.assert_allclose(back.points[:7], HAIR @ Z_TO_Y, atol=1e-9)
     u = np.array([0, 0.15, 0.3, 0.65, 1.0])  # knots 0, 0.3, 1; 2 steps a span: ≥ 5 points
-    np.testing.assert_allclose(back.points[7:], _bspline(NURBS_KNOTS, NURBS, 4, u) @ Z_TO_Y,
-                               atol=1e-7)
+    np.testing.assert_allclose(
+        back.points[7:], _bspline(NURBS_KNOTS, NURBS, 4, u) @ Z_TO_Y, atol=1e-7
+    )
     # colour: RGB from the first three channels, opacity from the fourth
     nurbs_rgba = _bspline(NURBS_KNOTS, NURBS_RGBA, 4, u)
     np.testing.assert_array_equal(back.point_data["color"][:7], RGBA[:, :3])
@@ -141,24 +189,39 @@ def test_houdini_cd_alpha_constant_and_uniform_widths(tmp_path, caplog):
     stage = _stage(path)
     pts = np.arange(15, dtype=np.float32).reshape(5, 3) * 1e-3
     cd = np.float32([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, 1, 1]])
-    _define(stage, ("linear", "bspline", "nonperiodic"), "/root/hair", [3, 2], pts,
-            widths=([1e-4, 2e-4], "uniform"),
-            Cd=(Sdf.ValueTypeNames.Color3fArray, "vertex", cd),
-            Alpha=(Sdf.ValueTypeNames.FloatArray, "vertex", np.float32([1, .5, .25, .125, 0])))
-    fur = _define(stage, ("linear", "bspline", "nonperiodic"), "/root/fur", [2], pts[:2],
-                  Cd=(Sdf.ValueTypeNames.Color3fArray, "constant", cd[:1]),
-                  Alpha=(Sdf.ValueTypeNames.FloatArray, "constant", np.float32([0.5])))
-    UsdGeom.PrimvarsAPI(fur).CreatePrimvar("widths", Sdf.ValueTypeNames.FloatArray,
-                                           "constant").Set(Vt.FloatArray([3e-5]))
+    _define(
+        stage,
+        ("linear", "bspline", "nonperiodic"),
+        "/root/hair",
+        [3, 2],
+        pts,
+        widths=([1e-4, 2e-4], "uniform"),
+        Cd=(Sdf.ValueTypeNames.Color3fArray, "vertex", cd),
+        Alpha=(Sdf.ValueTypeNames.FloatArray, "vertex", np.float32([1, 0.5, 0.25, 0.125, 0])),
+    )
+    fur = _define(
+        stage,
+        ("linear", "bspline", "nonperiodic"),
+        "/root/fur",
+        [2],
+        pts[:2],
+        Cd=(Sdf.ValueTypeNames.Color3fArray, "constant", cd[:1]),
+        Alpha=(Sdf.ValueTypeNames.FloatArray, "constant", np.float32([0.5])),
+    )
+    UsdGeom.PrimvarsAPI(fur).CreatePrimvar("widths", Sdf.ValueTypeNames.FloatArray, "constant").Set(
+        Vt.FloatArray([3e-5])
+    )
     stage.Save()
     with caplog.at_level(logging.WARNING, logger="follicle"):
         back = load_usd(path)
     assert back.counts.tolist() == [3, 2, 2]
-    np.testing.assert_array_equal(back.point_data["width"],
-                                  np.float32([1e-4] * 3 + [2e-4] * 2 + [3e-5] * 2))
+    np.testing.assert_array_equal(
+        back.point_data["width"], np.float32([1e-4] * 3 + [2e-4] * 2 + [3e-5] * 2)
+    )
     np.testing.assert_array_equal(back.point_data["color"], np.vstack([cd, cd[[0, 0]]]))
-    np.testing.assert_array_equal(back.point_data["opacity"],
-                                  np.float32([1, .5, .25, .125, 0, .5, .5]))
+    np.testing.assert_array_equal(
+        back.point_data["opacity"], np.float32([1, 0.5, 0.25, 0.125, 0, 0.5, 0.5])
+    )
     assert WARNING not in caplog.text  # 0.03-0.2 mm is hair
 
 
@@ -166,11 +229,17 @@ def test_display_color_wins_and_other_colours_are_kept_under_their_own_name(tmp_
     path = tmp_path / "two.usda"
     stage = _stage(path)
     rgba = np.float32([[0.1, 0.2, 0.3, 0.4], [0.5, 0.6, 0.7, 0.8]])
-    _define(stage, ("linear", "bspline", "nonperiodic"), "/root/c", [2], np.eye(3)[:2],
-            displayColor=(Sdf.ValueTypeNames.Color3fArray, "vertex", np.float32([[1, 0, 0]] * 2)),
-            displayOpacity=(Sdf.ValueTypeNames.FloatArray, "vertex", np.float32([0.9, 0.7])),
-            color=(F4, "vertex", rgba),
-            width=(Sdf.ValueTypeNames.FloatArray, "vertex", np.float32([5, 6])))
+    _define(
+        stage,
+        ("linear", "bspline", "nonperiodic"),
+        "/root/c",
+        [2],
+        np.eye(3)[:2],
+        displayColor=(Sdf.ValueTypeNames.Color3fArray, "vertex", np.float32([[1, 0, 0]] * 2)),
+        displayOpacity=(Sdf.ValueTypeNames.FloatArray, "vertex", np.float32([0.9, 0.7])),
+        color=(F4, "vertex", rgba),
+        width=(Sdf.ValueTypeNames.FloatArray, "vertex", np.float32([5, 6])),
+    )
     stage.Save()
     back = load_usd(path)
     assert back.point_data["color"].tolist() == [[1, 0, 0], [1, 0, 0]]
@@ -183,15 +252,22 @@ def test_display_color_wins_and_other_colours_are_kept_under_their_own_name(tmp_
 def test_nurbs_varying_constant_and_integer_primvars(tmp_path):
     path = tmp_path / "nurbs.usda"
     stage = _stage(path)
-    _define(stage, ([4], NURBS_KNOTS, None), "/root/n", [5], NURBS,
-            widths=([1e-4, 2e-4, 4e-4], "varying"),  # one per segment end: u = 0, 0.3, 1
-            strand=(Sdf.ValueTypeNames.IntArray, "vertex", np.int32([7, 8, 9, 10, 11])),
-            tint=(Sdf.ValueTypeNames.Float3Array, "constant", np.float32([[1, 2, 3]])))
+    _define(
+        stage,
+        ([4], NURBS_KNOTS, None),
+        "/root/n",
+        [5],
+        NURBS,
+        widths=([1e-4, 2e-4, 4e-4], "varying"),  # one per segment end: u = 0, 0.3, 1
+        strand=(Sdf.ValueTypeNames.IntArray, "vertex", np.int32([7, 8, 9, 10, 11])),
+        tint=(Sdf.ValueTypeNames.Float3Array, "constant", np.float32([[1, 2, 3]])),
+    )
     stage.Save()
     back = load_usd(path)
     # u = 0, 0.15, 0.3, 0.65, 1: linear in u between the segment ends
-    np.testing.assert_allclose(back.point_data["width"], [1e-4, 1.5e-4, 2e-4, 3e-4, 4e-4],
-                               rtol=1e-6)
+    np.testing.assert_allclose(
+        back.point_data["width"], [1e-4, 1.5e-4, 2e-4, 3e-4, 4e-4], rtol=1e-6
+    )
     # integers are not blended: each point takes its heaviest control vertex's value
     basis = _bspline(NURBS_KNOTS, np.eye(5), 4, [0, 0.15, 0.3, 0.65, 1.0])
     assert back.point_data["strand"].tolist() == (7 + basis.argmax(axis=1)).tolist()
@@ -199,14 +275,21 @@ def test_nurbs_varying_constant_and_integer_primvars(tmp_path):
     assert "tint" not in back.point_data  # constant primvars other than colours are skipped
 
 
-@pytest.mark.parametrize("attr, value, message", [
-    ("knots", [0, 0, 0, 0, 1, 1, 1, 1], "knots has 8 values; .* need 9"),
-    ("knots", [0, 0, 0, 0, 0.7, 0.3, 1, 1, 1], r"the knots of curve 0 decrease \(0.7 then 0.3\)"),
-    ("order", [6], "curve 0 has order 6 and 5 vertices: the order is more than its control"),
-    ("order", [1], "curve 0 has order 1 and 5 vertices: the order is below 2"),
-    ("pointWeights", [1, 1, 0, 1, 1], r"pointWeights\[2\] = 0; weights must be > 0"),
-    ("ranges", [(0.0, 2.0)], r"ranges of curve 0 \(0, 2\) reach outside its knots' domain"),
-])
+@pytest.mark.parametrize(
+    "attr, value, message",
+    [
+        ("knots", [0, 0, 0, 0, 1, 1, 1, 1], "knots has 8 values; .* need 9"),
+        (
+            "knots",
+            [0, 0, 0, 0, 0.7, 0.3, 1, 1, 1],
+            r"the knots of curve 0 decrease \(0.7 then 0.3\)",
+        ),
+        ("order", [6], "curve 0 has order 6 and 5 vertices: the order is more than its control"),
+        ("order", [1], "curve 0 has order 1 and 5 vertices: the order is below 2"),
+        ("pointWeights", [1, 1, 0, 1, 1], r"pointWeights\[2\] = 0; weights must be > 0"),
+        ("ranges", [(0.0, 2.0)], r"ranges of curve 0 \(0, 2\) reach outside its knots' domain"),
+    ],
+)
 def test_unreadable_nurbs_are_one_format_error_naming_the_prim(tmp_path, attr, value, message):
     path = tmp_path / "bad.usda"
     stage = _stage(path)
@@ -240,8 +323,12 @@ def test_a_single_span_of_n_vertices_gives_n_points_evenly_in_its_parameter():
     control = np.float64([[0, 0, 0], [1, 2, 0], [3, 2, 0], [4, 0, 0]])
     pts, counts = curve_basis.nurbs_points(control, [4], [4], [0, 0, 0, 0, 1, 1, 1, 1])
     t = np.linspace(0, 1, 4)[:, None]
-    bezier = ((1 - t) ** 3 * control[0] + 3 * t * (1 - t) ** 2 * control[1]
-              + 3 * t**2 * (1 - t) * control[2] + t**3 * control[3])
+    bezier = (
+        (1 - t) ** 3 * control[0]
+        + 3 * t * (1 - t) ** 2 * control[1]
+        + 3 * t**2 * (1 - t) * control[2]
+        + t**3 * control[3]
+    )
     assert counts.tolist() == [4]
     np.testing.assert_allclose(pts, bezier, atol=1e-12)
 
@@ -250,15 +337,27 @@ def test_rational_quadratic_nurbs_circle_lies_on_the_circle():
     """The 9-point rational quadratic circle (Piegl & Tiller 1997 §7.5): its points at the
     knots are the corner-free control points and halfway in each quarter is 45° on."""
     w = np.sqrt(0.5)
-    control = np.float64([[1, 0, 0], [1, 1, 0], [0, 1, 0], [-1, 1, 0], [-1, 0, 0],
-                          [-1, -1, 0], [0, -1, 0], [1, -1, 0], [1, 0, 0]])
+    control = np.float64(
+        [
+            [1, 0, 0],
+            [1, 1, 0],
+            [0, 1, 0],
+            [-1, 1, 0],
+            [-1, 0, 0],
+            [-1, -1, 0],
+            [0, -1, 0],
+            [1, -1, 0],
+            [1, 0, 0],
+        ]
+    )
     weights = [1, w, 1, w, 1, w, 1, w, 1]
     knots = [0, 0, 0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1, 1, 1]
     pts, counts = curve_basis.nurbs_points(control, [9], [3], knots, weights)
     angle = np.radians(45 * np.arange(9))
     assert counts.tolist() == [9]
-    np.testing.assert_allclose(pts, np.column_stack([np.cos(angle), np.sin(angle),
-                                                     np.zeros(9)]), atol=1e-12)
+    np.testing.assert_allclose(
+        pts, np.column_stack([np.cos(angle), np.sin(angle), np.zeros(9)]), atol=1e-12
+    )
     # without its weights it is a B-spline, off the circle at 45°: the weights are used
     flat, _ = curve_basis.nurbs_points(control, [9], [3], knots)
     assert abs(np.linalg.norm(flat[1]) - 1) > 0.05
@@ -300,8 +399,9 @@ def test_every_writer_takes_rgba_colour_as_rgb_and_opacity(tmp_path, fmt):
     elif fmt == "rib":
         ((_, _, params),) = curves_requests(path)
         np.testing.assert_allclose(params["Cs"].reshape(-1, 3), rgba[:, :3], rtol=1e-6)
-        np.testing.assert_allclose(params["Os"].reshape(-1, 3), np.repeat(rgba[:, 3:], 3, 1),
-                                   rtol=1e-6)
+        np.testing.assert_allclose(
+            params["Os"].reshape(-1, 3), np.repeat(rgba[:, 3:], 3, 1), rtol=1e-6
+        )
     elif fmt in ("obj", "txt"):  # positions only
         np.testing.assert_allclose(follicle.load_curves(path).points, hair.points, atol=1e-6)
     else:  # one Shape a curve, its (P, 1) widths flattened
@@ -331,16 +431,23 @@ def test_rgba_reaches_rib_motion_and_usd_cache_frames(tmp_path):
 
 
 @pytest.mark.parametrize("fmt", ["hair", "tfx", "usda", "npz", "rib", "pbrt", "txt"])
-@pytest.mark.parametrize("key, shape, message", [
-    ("color", (12, 2), r"point_data\['color'\]: expected RGB or RGBA .* \(12, 3\) or \(12, 4\),"
-                       r" got float32 of shape \(12, 2\)"),
-    ("width", (12, 2), r"point_data\['width'\]: expected one number a point, shape \(12,\)"),
-])
-def test_mis_shaped_attributes_are_input_errors_naming_them(tmp_path, fmt, key, shape,
-                                                            message):
+@pytest.mark.parametrize(
+    "key, shape, message",
+    [
+        (
+            "color",
+            (12, 2),
+            r"point_data\['color'\]: expected RGB or RGBA .* \(12, 3\) or \(12, 4\),"
+            r" got float32 of shape \(12, 2\)",
+        ),
+        ("width", (12, 2), r"point_data\['width'\]: expected one number a point, shape \(12,\)"),
+    ],
+)
+def test_mis_shaped_attributes_are_input_errors_naming_them(tmp_path, fmt, key, shape, message):
     hair, _ = _rgba_hair()
-    bad = HairCurves(hair.points, hair.offsets, {**hair.point_data, key: np.ones(shape,
-                                                                                 np.float32)})
+    bad = HairCurves(
+        hair.points, hair.offsets, {**hair.point_data, key: np.ones(shape, np.float32)}
+    )
     with pytest.raises(InputError, match=message):
         follicle.save(bad, tmp_path / f"bad.{fmt}")
     assert not list(tmp_path.iterdir())  # nothing half-written
@@ -355,8 +462,7 @@ def _skin():
 
 def _turn(angle, shift):
     c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, 0, s, shift[0]], [0, 1, 0, shift[1]], [-s, 0, c, shift[2]],
-                     [0, 0, 0, 1]])
+    return np.array([[c, 0, s, shift[0]], [0, 1, 0, shift[1]], [-s, 0, c, shift[2]], [0, 0, 0, 1]])
 
 
 def test_the_skin_is_a_usd_mesh_beside_the_hair(tmp_path):
@@ -366,8 +472,9 @@ def test_the_skin_is_a_usd_mesh_beside_the_hair(tmp_path):
     stage = Usd.Stage.Open(str(path))
     mesh = UsdGeom.Mesh.Get(stage, "/Groom/Skin")
     assert mesh and mesh.GetPrim().IsA(UsdGeom.Mesh)
-    np.testing.assert_array_equal(np.array(mesh.GetPointsAttr().Get()),
-                                  skin.rest_vertices.astype(np.float32))
+    np.testing.assert_array_equal(
+        np.array(mesh.GetPointsAttr().Get()), skin.rest_vertices.astype(np.float32)
+    )
     assert list(mesh.GetFaceVertexCountsAttr().Get()) == [3, 3]
     assert list(mesh.GetFaceVertexIndicesAttr().Get()) == [0, 1, 2, 1, 3, 2]
     st = UsdGeom.PrimvarsAPI(mesh).GetPrimvar("st")
@@ -376,13 +483,18 @@ def test_the_skin_is_a_usd_mesh_beside_the_hair(tmp_path):
     assert np.array(st.Get()).tolist() == [[0, 0], [1, 0], [0, 1], [1, 1]]
     assert mesh.GetSubdivisionSchemeAttr().Get() == "none"
     assert mesh.GetOrientationAttr().Get() == "rightHanded"
-    np.testing.assert_array_equal(np.array(mesh.GetExtentAttr().Get()),
-                                  np.float32([[0, 0, 0], [0.1, 0.1, 0.05]]))
+    np.testing.assert_array_equal(
+        np.array(mesh.GetExtentAttr().Get()), np.float32([[0, 0, 0], [0.1, 0.1, 0.05]])
+    )
     # usd-core's own bound of the mesh agrees, and the hair still reads alone
-    bound = UsdGeom.BBoxCache(Usd.TimeCode.Default(), ["default"]).ComputeWorldBound(
-        mesh.GetPrim()).ComputeAlignedRange()
-    np.testing.assert_allclose([bound.GetMin(), bound.GetMax()], [[0, 0, 0], [0.1, 0.1, 0.05]],
-                               atol=1e-7)
+    bound = (
+        UsdGeom.BBoxCache(Usd.TimeCode.Default(), ["default"])
+        .ComputeWorldBound(mesh.GetPrim())
+        .ComputeAlignedRange()
+    )
+    np.testing.assert_allclose(
+        [bound.GetMin(), bound.GetMax()], [[0, 0, 0], [0.1, 0.1, 0.05]], atol=1e-7
+    )
     assert load_usd(path).points.tolist() == hair.points.tolist()
     with pytest.raises(InputError, match="mesh: expected a SkinMesh"):
         save_usd(hair, tmp_path / "x.usda", mesh="builtin:head")
@@ -394,8 +506,7 @@ def test_the_cache_moves_the_skin_with_the_head(tmp_path):
     skin = _skin()
     transforms = np.stack([_turn(0.3 * f, (0.01 * f, 0.02, -0.01 * f)) for f in range(3)])
     frames = [hair.with_points(hair.points + 0.001 * f) for f in range(3)]
-    path = save_usd_cache(frames, tmp_path / "anim.usdc", start=5, mesh=skin,
-                          transforms=transforms)
+    path = save_usd_cache(frames, tmp_path / "anim.usdc", start=5, mesh=skin, transforms=transforms)
     stage = Usd.Stage.Open(str(path))
     head = UsdGeom.Xform.Get(stage, "/Groom/Head")
     (op,) = head.GetOrderedXformOps()
@@ -422,13 +533,16 @@ def test_a_sim_cache_gives_its_own_head_transforms(tmp_path):
     np.testing.assert_allclose(np.array(op.Get(1)), transforms[1].T, atol=1e-15)
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"transforms": np.stack([np.eye(4)] * 2)}, "transforms: given without mesh="),
-    ({"mesh": True, "transforms": np.stack([np.eye(4)] * 2)}, "transforms: 2 matrices for 3"),
-    ({"mesh": True, "transforms": np.stack([np.eye(4)] * 4)}, "transforms: 4 matrices for 3"),
-    ({"mesh": True, "transforms": np.zeros((3, 4, 4))}, "transforms: frame 0 is not a finite"),
-    ({"mesh": True, "transforms": np.zeros((3, 3, 3))}, r"shape \(F, 4, 4\), got \(3, 3, 3\)"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"transforms": np.stack([np.eye(4)] * 2)}, "transforms: given without mesh="),
+        ({"mesh": True, "transforms": np.stack([np.eye(4)] * 2)}, "transforms: 2 matrices for 3"),
+        ({"mesh": True, "transforms": np.stack([np.eye(4)] * 4)}, "transforms: 4 matrices for 3"),
+        ({"mesh": True, "transforms": np.zeros((3, 4, 4))}, "transforms: frame 0 is not a finite"),
+        ({"mesh": True, "transforms": np.zeros((3, 3, 3))}, r"shape \(F, 4, 4\), got \(3, 3, 3\)"),
+    ],
+)
 def test_bad_head_transforms_are_input_errors(tmp_path, kwargs, message):
     hair, _ = _rgba_hair()
     if kwargs.get("mesh"):

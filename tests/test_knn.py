@@ -169,8 +169,23 @@ def test_ties_go_to_the_lower_index():
     d, i = grid.query(np.array([[0.0, 0.0, 1000.0]]), 3)
     np.testing.assert_array_equal(i[0], [3, 0, 1])  # +z first, then the lowest of the tied
     # far along z again, 12 points tie (x² + y² = 25): more than the tree's k + 1
-    ring = np.array([[3, 4], [4, 3], [5, 0], [0, 5], [-3, 4], [-4, 3], [-5, 0], [0, -5],
-                     [3, -4], [4, -3], [-3, -4], [-4, -3]], float)  # fmt: skip
+    ring = np.array(
+        [
+            [3, 4],
+            [4, 3],
+            [5, 0],
+            [0, 5],
+            [-3, 4],
+            [-4, 3],
+            [-5, 0],
+            [0, -5],
+            [3, -4],
+            [4, -3],
+            [-3, -4],
+            [-4, -3],
+        ],
+        float,
+    )
     ring = np.column_stack([ring, np.zeros(12)])[np.random.default_rng(12).permutation(12)]
     for k in (1, 2, 5):
         d, i = PointGrid(ring).query(np.array([[0.0, 0.0, 1000.0], [0.0, 0.0, -50.0]]), k)

@@ -33,8 +33,11 @@ def head():
 def thick(hair: HairCurves, width: float = 1e-3, color=None) -> HairCurves:
     """The hair 1 mm thick (a fair share of a 9 mm pixel at 64²), optionally recoloured."""
     pd = {"width": np.full(hair.point_count, width, np.float32)}
-    pd["color"] = hair.point_data["color"] if color is None else \
-        np.broadcast_to(np.float32(color), (hair.point_count, 3))  # fmt: skip
+    pd["color"] = (
+        hair.point_data["color"]
+        if color is None
+        else np.broadcast_to(np.float32(color), (hair.point_count, 3))
+    )
     return HairCurves(hair.points, hair.offsets, pd)
 
 
@@ -131,15 +134,26 @@ def test_colour_follows_each_hair_and_its_length():
     """σ_a is a texture over the curve segments: two hairs side by side, one red, one
     blue at the root and green at the tip, keep their colours where they are."""
     n = 8
-    points = np.concatenate([np.linspace([-0.05, 0.1, 0], [-0.05, -0.1, 0], n),
-                             np.linspace([0.05, 0.1, 0], [0.05, -0.1, 0], n)])
+    points = np.concatenate(
+        [
+            np.linspace([-0.05, 0.1, 0], [-0.05, -0.1, 0], n),
+            np.linspace([0.05, 0.1, 0], [0.05, -0.1, 0], n),
+        ]
+    )
     red, blue, green = (0.6, 0.02, 0.02), (0.02, 0.02, 0.6), (0.02, 0.6, 0.02)
     colors = np.array([red] * n + [blue] * 4 + [green] * 4, np.float32)
-    hair = HairCurves(points, [0, n, 2 * n], {"width": np.full(2 * n, 0.01, np.float32),
-                                              "color": colors})
+    hair = HairCurves(
+        points, [0, n, 2 * n], {"width": np.full(2 * n, 0.01, np.float32), "color": colors}
+    )
     camera = Camera((0, 0, 1), (0, 0, 0), fov_y=30)
-    image = render_mitsuba(hair, camera=camera, size=(96, 96), spp=8, background=(0, 0, 0),
-                           lights=[Light((0, 0, 1)), Light.ambient(intensity=0.5)])
+    image = render_mitsuba(
+        hair,
+        camera=camera,
+        size=(96, 96),
+        spp=8,
+        background=(0, 0, 0),
+        lights=[Light((0, 0, 1)), Light.ambient(intensity=0.5)],
+    )
     rgb = image[..., :3].astype(int)
     left, right = rgb[:, 30:44], rgb[:, 52:66]  # x = ∓0.05 m lands at columns 38 and 57
     assert left[..., 0].sum() > 1.2 * left[..., 2].sum()
@@ -147,15 +161,18 @@ def test_colour_follows_each_hair_and_its_length():
     assert right[56:, :, 1].sum() > 1.2 * right[56:, :, 2].sum()  # tip half
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    ({"spp": 0}, "spp: expected a whole number in 1..65536"),
-    ({"spp": 2.5}, "spp"),
-    ({"seed": -1}, "seed"),
-    ({"size": (0, 10)}, "size"),
-    ({"camera": "front"}, "camera: expected a Camera"),
-    ({"lights": ["key"]}, "lights: expected Light objects"),
-    ({"hair_width": 0.0}, "hair_width"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"spp": 0}, "spp: expected a whole number in 1..65536"),
+        ({"spp": 2.5}, "spp"),
+        ({"seed": -1}, "seed"),
+        ({"size": (0, 10)}, "size"),
+        ({"camera": "front"}, "camera: expected a Camera"),
+        ({"lights": ["key"]}, "lights: expected Light objects"),
+        ({"hair_width": 0.0}, "hair_width"),
+    ],
+)
 def test_bad_input_is_named(head, kwargs, match):
     with pytest.raises(InputError, match=match):
         render_mitsuba(head[1], **kwargs)
@@ -192,10 +209,11 @@ def test_cli_engine_mitsuba(tmp_path):
     result = run("--engine", "mitsuba", "--spp", "2", "-o", str(out))
     assert result.exit_code == 0, result.output
     assert Image.open(out).size == (40, 30)
-    for args, words in ((["--engine", "mitsuba", "--msaa", "4"], "--msaa does not apply to"
-                         " --engine mitsuba"),
-                        (["--spp", "4"], "--spp does not apply to --engine opengl"),
-                        (["--engine", "mitsuba", "--spp", "0"], "spp: expected a whole number")):
+    for args, words in (
+        (["--engine", "mitsuba", "--msaa", "4"], "--msaa does not apply to --engine mitsuba"),
+        (["--spp", "4"], "--spp does not apply to --engine opengl"),
+        (["--engine", "mitsuba", "--spp", "0"], "spp: expected a whole number"),
+    ):
         result = run(*args, "-o", str(tmp_path / "bad.png"))
         assert result.exit_code == 2 and words in result.output, result.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml", "still.png"]

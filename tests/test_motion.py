@@ -162,10 +162,14 @@ def write(path, **changes):
     """A cache with some keys replaced (None: removed), written past save_cache's checks."""
     pos, tr = frames()
     arrays = {
-        "format": np.array("follicle-sim-cache"), "version": np.array(1),
-        "positions": pos, "transforms": tr, "fps": np.array(24.0),
-        "scene_toml": np.array(TOML), "base_dir": np.array("."),
-    }  # fmt: skip
+        "format": np.array("follicle-sim-cache"),
+        "version": np.array(1),
+        "positions": pos,
+        "transforms": tr,
+        "fps": np.array(24.0),
+        "scene_toml": np.array(TOML),
+        "base_dir": np.array("."),
+    }
     arrays.update(changes)
     save_arrays(path, {k: v for k, v in arrays.items() if v is not None})
     return path

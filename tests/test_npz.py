@@ -11,8 +11,10 @@ def _curves():
     rng = np.random.default_rng(3)
     return HairCurves.from_array(
         rng.normal(size=(5, 4, 3)),
-        point_data={"width": rng.random(20).astype(np.float32),
-                    "color": rng.random((20, 3)).astype(np.float32)},
+        point_data={
+            "width": rng.random(20).astype(np.float32),
+            "color": rng.random((20, 3)).astype(np.float32),
+        },
         curve_data={"hair_id": np.arange(5), "root_uv": rng.random((5, 2)).astype(np.float32)},
     )
 
@@ -24,9 +26,15 @@ def test_roundtrip_is_lossless_with_documented_keys(tmp_path):
     assert back == c
     assert back.point_data["color"].dtype == np.float32
     with np.load(path) as npz:
-        assert set(npz.files) == {"format_version", "points", "offsets", "point_data.width",
-                                  "point_data.color", "curve_data.hair_id",
-                                  "curve_data.root_uv"}
+        assert set(npz.files) == {
+            "format_version",
+            "points",
+            "offsets",
+            "point_data.width",
+            "point_data.color",
+            "curve_data.hair_id",
+            "curve_data.root_uv",
+        }
         assert int(npz["format_version"]) == 1
 
 
@@ -52,8 +60,12 @@ def test_missing_truncated_and_foreign_files_are_format_errors(tmp_path):
 
 def test_inconsistent_archive_names_the_problem(tmp_path):
     path = tmp_path / "broken.npz"
-    np.savez(path, format_version=np.array(1), points=np.zeros((3, 3), np.float32),
-             offsets=np.array([0, 2]))
+    np.savez(
+        path,
+        format_version=np.array(1),
+        points=np.zeros((3, 3), np.float32),
+        offsets=np.array([0, 2]),
+    )
     with pytest.raises(FormatError, match="broken.npz: offsets"):
         follicle.load_curves(path)
 

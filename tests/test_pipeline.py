@@ -93,7 +93,8 @@ def test_displacement_moves_roots_along_the_normal(tmp_path):
     roots = flat.curve_data["root_triangle"], flat.curve_data["root_bary"]
     normal = groom.mesh.evaluate(*roots).normal
     np.testing.assert_allclose(
-        lifted.points[lifted.offsets[:-1]], flat.points[flat.offsets[:-1]] + 0.004 * normal,
+        lifted.points[lifted.offsets[:-1]],
+        flat.points[flat.offsets[:-1]] + 0.004 * normal,
         atol=1e-5,
     )
 
@@ -111,8 +112,9 @@ def test_the_python_quick_start_grows_the_default_scenes_groom(tmp_path):
     groom = follicle.Groom(mesh, guides)
     follicle.save(groom.generate(20000), tmp_path / "python.npz")
     (tmp_path / "default.toml").write_text("")  # every key at its default
-    run = CliRunner().invoke(main, ["grow", str(tmp_path / "default.toml"), "-o",
-                                    str(tmp_path / "cli.npz")])  # fmt: skip
+    run = CliRunner().invoke(
+        main, ["grow", str(tmp_path / "default.toml"), "-o", str(tmp_path / "cli.npz")]
+    )
     assert run.exit_code == 0, run.output
     assert (tmp_path / "python.npz").read_bytes() == (tmp_path / "cli.npz").read_bytes()
     assert guides.groups.colors.tolist() == [[255, 0, 0], [0, 0, 255]]  # the parting
@@ -128,8 +130,9 @@ def test_the_python_quick_start_renders_the_scenes_picture(tmp_path):
     from follicle.cli import main
 
     (tmp_path / "small.toml").write_text("[groom]\ncount = 2000\n[render]\nsize = [160, 120]\n")
-    run = CliRunner().invoke(main, ["render", str(tmp_path / "small.toml"), "-o",
-                                    str(tmp_path / "cli.png")])  # fmt: skip
+    run = CliRunner().invoke(
+        main, ["render", str(tmp_path / "small.toml"), "-o", str(tmp_path / "cli.png")]
+    )
     assert run.exit_code == 0, run.output
     mesh = follicle.load_mesh("builtin:head")
     hair = follicle.Groom(mesh, follicle.load_guides("builtin:long", mesh)).generate(2000)

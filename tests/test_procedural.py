@@ -23,8 +23,16 @@ from follicle.pipeline import groom_scene
 from follicle.scene import parse_scene
 from hairfiles import check_counts, close7, curves_requests, strip_ends
 
-SCENE = {"groom": {"count": 3000, "clump_count": 40, "kink_tip": 0.002, "frizz_tip": 0.002,
-                   "hue_variation": 8.0, "cut": "builtin:parting"}}  # fmt: skip
+SCENE = {
+    "groom": {
+        "count": 3000,
+        "clump_count": 40,
+        "kink_tip": 0.002,
+        "frizz_tip": 0.002,
+        "hue_variation": 8.0,
+        "cut": "builtin:parting",
+    }
+}
 PROCEDURAL = Path(sys.executable).with_name("follicle-procedural")
 
 
@@ -84,16 +92,20 @@ def test_rib_names_each_voxel_its_box_and_counts(exported):
     done, whole = exported
     text = done.rib.read_text()
     assert text.startswith("##RenderMan RIB\nversion 3.04\n# follicle 3,000 hairs: ")
-    calls = re.findall(r'Procedural "RunProgram" \["follicle-procedural" "(.+) (\d+)"\] \[(.+)\]',
-                       text)  # fmt: skip
+    calls = re.findall(
+        r'Procedural "RunProgram" \["follicle-procedural" "(.+) (\d+)"\] \[(.+)\]', text
+    )
     assert [int(v) for _, v, _ in calls] == done.voxels and len(done.voxels) > 4
     assert {path for path, _, _ in calls} == {str(done.frame.resolve())}
     boxes = np.array([[float(x) for x in box.split()] for _, _, box in calls])
     assert np.array_equal(boxes.reshape(-1, 3, 2).transpose(0, 2, 1), done.boxes)  # exact repr
-    for v, roots, expect, curves in zip(done.voxels, done.roots, done.expected, done.curves,
-                                        strict=True):  # fmt: skip
-        assert f"# voxel {v} " in text and f": {roots} hairs (count × P(voxel) = {expect:.1f})"\
-            f", {curves} curves" in text  # fmt: skip
+    for v, roots, expect, curves in zip(
+        done.voxels, done.roots, done.expected, done.curves, strict=True
+    ):
+        assert (
+            f"# voxel {v} " in text
+            and f": {roots} hairs (count × P(voxel) = {expect:.1f}), {curves} curves" in text
+        )
         assert abs(roots - expect) < 4 * np.sqrt(expect) + 1  # binomial noise
     assert sum(FrameData.load(done.frame).roots.values()) == 3000  # some voxels' hair is all cut
     assert sum(done.curves) == whole.curve_count
@@ -115,9 +127,12 @@ def test_boxes_hold_the_curves_and_are_their_bezier_hulls(exported, procedural):
 
 
 def test_posed_mesh_and_time_are_regrown_exactly(tmp_path):
-    scene = parse_scene({"guides": {"path": "builtin:short"},
-                         "groom": {"count": 800, "frizz_tip": 0.003, "frizz_speed": 2.0,
-                                   "frizz_blend": 1.0}})  # fmt: skip
+    scene = parse_scene(
+        {
+            "guides": {"path": "builtin:short"},
+            "groom": {"count": 800, "frizz_tip": 0.003, "frizz_speed": 2.0, "frizz_blend": 1.0},
+        }
+    )
     groom = groom_scene(scene)
     turn = np.array([[0.8, 0.0, 0.6], [0.0, 1.0, 0.0], [-0.6, 0.0, 0.8]])
     pose = groom.mesh.rest_vertices @ turn.T + [0.1, 0.2, 0.0]
@@ -138,10 +153,17 @@ def test_posed_mesh_and_time_are_regrown_exactly(tmp_path):
 def test_protocol_answers_every_line_and_survives_bad_ones(exported):
     done, _ = exported
     lines = [
-        _request(done, done.voxels[0]), b"garbage\n", _request(done, done.voxels[1], "1e9"),
-        b"\n", b"1 " + b"x" * 70000 + b" 3\n", _request(done, 999), b"1.5 /no/such/frame 0\n",
-        b"2 \xff\xfe 1\n", b"nan " + _request(done, 0)[6:], _request(done, done.voxels[0])[:-1],
-    ]  # fmt: skip
+        _request(done, done.voxels[0]),
+        b"garbage\n",
+        _request(done, done.voxels[1], "1e9"),
+        b"\n",
+        b"1 " + b"x" * 70000 + b" 3\n",
+        _request(done, 999),
+        b"1.5 /no/such/frame 0\n",
+        b"2 \xff\xfe 1\n",
+        b"nan " + _request(done, 0)[6:],
+        _request(done, done.voxels[0])[:-1],
+    ]
     out, errors = io.BytesIO(), io.StringIO()
     serve(io.BytesIO(b"".join(lines)), out, errors)
     replies = out.getvalue().split(b"\xff")
@@ -155,8 +177,12 @@ def test_protocol_answers_every_line_and_survives_bad_ones(exported):
     assert replies[0] == replies[9]
     text = errors.getvalue()
     assert text.count("follicle-procedural: ") == len(lines) - len(good)
-    for message in ("malformed request 'garbage'", "longer than 65536 bytes", "voxels 0 … ",
-                    "/no/such/frame: cannot read the frame file"):  # fmt: skip
+    for message in (
+        "malformed request 'garbage'",
+        "longer than 65536 bytes",
+        "voxels 0 … ",
+        "/no/such/frame: cannot read the frame file",
+    ):
         assert message in text
 
 
@@ -165,13 +191,16 @@ def test_corrupt_frame_files_are_errors_not_crashes(exported, tmp_path):
     good = done.frame.read_bytes()
     header = zlib.decompress(good[17:])
     cases = {
-        "empty": b"", "magic": b"x" + good[1:], "truncated": good[:-5], "flipped": good[:40]
-        + bytes([good[40] ^ 1]) + good[41:], "trailing": good + b"\0",
+        "empty": b"",
+        "magic": b"x" + good[1:],
+        "truncated": good[:-5],
+        "flipped": good[:40] + bytes([good[40] ^ 1]) + good[41:],
+        "trailing": good + b"\0",
         "json": good[:17] + zlib.compress(b"{not json\n"),
         "fields": good[:17] + zlib.compress(b'{"scene_toml": ""}\n'),
         "pose": good[:17] + zlib.compress(header + b"\0" * 24),
         "scene": good[:17] + zlib.compress(header.replace(b"[groom]", b"[groom")),
-    }  # fmt: skip
+    }
     procedural = Procedural()
     for name, data in cases.items():
         path = tmp_path / f"{name}.follicle.z"
@@ -199,8 +228,14 @@ def test_any_request_line_parses_or_is_refused(line):
 
 
 @settings(max_examples=150, deadline=2000)
-@given(st.lists(st.one_of(st.binary(max_size=60), st.from_regex(
-    rb"\A[0-9.e+-]{1,6} [ -~]{1,20} [0-9]{1,3}\Z")), max_size=8))  # fmt: skip
+@given(
+    st.lists(
+        st.one_of(
+            st.binary(max_size=60), st.from_regex(rb"\A[0-9.e+-]{1,6} [ -~]{1,20} [0-9]{1,3}\Z")
+        ),
+        max_size=8,
+    )
+)
 def test_random_request_streams_get_one_answer_a_line(lines):
     stream = b"\n".join(lines)
     out = io.BytesIO()
@@ -211,15 +246,17 @@ def test_random_request_streams_get_one_answer_a_line(lines):
         assert reply.startswith(b"# follicle-procedural: ")
 
 
-@pytest.mark.parametrize("command", [[str(PROCEDURAL)], [sys.executable, "-m",
-                                                         "follicle.io.procedural"]])  # fmt: skip
+@pytest.mark.parametrize(
+    "command", [[str(PROCEDURAL)], [sys.executable, "-m", "follicle.io.procedural"]]
+)
 def test_the_program_speaks_runprogram(exported, procedural, command):
     if not Path(command[0]).exists():  # the console script: CI installs it (pip install -e)
         pytest.skip("follicle-procedural is not installed: pip install -e .")
     done, _ = exported
     v = done.voxels[-1]
-    proc = subprocess.run(command, input=_request(done, v) + b"0.5 bad request\n",
-                          capture_output=True, timeout=300)  # fmt: skip
+    proc = subprocess.run(
+        command, input=_request(done, v) + b"0.5 bad request\n", capture_output=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stderr
     first, second, rest = proc.stdout.split(b"\xff")
     assert first == procedural.reply(_request(done, v)) and rest == b""
@@ -244,21 +281,47 @@ def test_cli_export_rib(tmp_path):
     scene = tmp_path / "scene.toml"
     scene.write_text("[groom]\ncount = 400\n")
     runner = CliRunner()
-    result = runner.invoke(main, ["export-rib", str(scene), "-o", str(tmp_path / "f.rib"),
-                                  "--voxels", "3", "--count", "300", "--seed", "2"])  # fmt: skip
+    result = runner.invoke(
+        main,
+        [
+            "export-rib",
+            str(scene),
+            "-o",
+            str(tmp_path / "f.rib"),
+            "--voxels",
+            "3",
+            "--count",
+            "300",
+            "--seed",
+            "2",
+        ],
+    )
     assert result.exit_code == 0, result.output
-    assert re.match(r"300 hairs in \d+ voxels \(\d×\d×\d grid\) → .*f\.rib \([\d,]+ bytes\) \+"
-                    r" .*f\.follicle\.z \([\d,]+ bytes\)", result.output)  # fmt: skip
+    assert re.match(
+        r"300 hairs in \d+ voxels \(\d×\d×\d grid\) → .*f\.rib \([\d,]+ bytes\) \+"
+        r" .*f\.follicle\.z \([\d,]+ bytes\)",
+        result.output,
+    )
     stored = FrameData.load(tmp_path / "f.follicle.z").scene()
     assert (stored.groom.count, stored.groom.seed) == (300, 2)
     (tmp_path / "bad.toml").write_text("[groom]\ncount = -1\n")
-    proc = subprocess.run([sys.executable, "-m", "follicle.cli", "export-rib", "bad.toml", "-o",
-                           "g.rib"], cwd=tmp_path, capture_output=True, text=True)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "follicle.cli", "export-rib", "bad.toml", "-o", "g.rib"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert proc.stderr.startswith("error:") and "[groom].count" in proc.stderr, proc.stderr
-    for args, message in ((["-o", str(tmp_path / "g.txt")], "must end in .rib"),
-                          (["-o", str(tmp_path / "g.rib"), "--voxels", "0"], "voxels: expected")):
+    for args, message in (
+        (["-o", str(tmp_path / "g.txt")], "must end in .rib"),
+        (["-o", str(tmp_path / "g.rib"), "--voxels", "0"], "voxels: expected"),
+    ):
         result = runner.invoke(main, ["export-rib", str(scene), *args])
         assert result.exit_code == 2 and message in result.output, result.output
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml", "f.follicle.z", "f.rib",
-                                                           "scene.toml"]  # fmt: skip
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "bad.toml",
+        "f.follicle.z",
+        "f.rib",
+        "scene.toml",
+    ]

@@ -149,12 +149,16 @@ def test_bad_arguments_and_missing_file(tmp_path):
     textures = {"scalp": Texture(np.ones((1, 1)))}
     spec = {"texture": "nope.png"}
     with pytest.raises(FormatError, match=r"groom\.x\.texture: .*nope\.png.*\['scalp'\]"):
-        PropertyMap.from_spec(spec, name="groom.x", resolve_path=lambda p: str(tmp_path / p),
-                              textures=textures)
+        PropertyMap.from_spec(
+            spec, name="groom.x", resolve_path=lambda p: str(tmp_path / p), textures=textures
+        )
 
 
 def test_repr_names_the_parts():
-    text = repr(PropertyMap([1, 0, 0], Texture(np.ones((2, 2)), name="mask"), kind="color",
-                            name="groom.color"))
+    text = repr(
+        PropertyMap(
+            [1, 0, 0], Texture(np.ones((2, 2)), name="mask"), kind="color", name="groom.color"
+        )
+    )
     assert "groom.color" in text and "color" in text and "(1.0, 0.0, 0.0)" in text
     assert "mask" in text

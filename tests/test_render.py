@@ -90,8 +90,15 @@ def test_thin_strands_accumulate_coverage():
     many = HairCurves.concatenate(
         [strand((-0.1, 0.0, -0.01 * k), (0.1, 0.0, -0.01 * k), width=2e-4) for k in range(8)]
     )
-    kw = dict(camera=FRONT, size=size, background=BLACK, msaa=0, shading_params=FLAT,
-              hair_color=(1.0, 1.0, 1.0), lights=[Light.ambient(intensity=1.0)])
+    kw = dict(
+        camera=FRONT,
+        size=size,
+        background=BLACK,
+        msaa=0,
+        shading_params=FLAT,
+        hair_color=(1.0, 1.0, 1.0),
+        lights=[Light.ambient(intensity=1.0)],
+    )
     row = int(round(px((0, 0, 0), size)[1]))
     lum_one = render(one, **kw)[row, 24, 0].astype(int)
     lum_many = render(many, **kw)[row, 24, 0].astype(int)
@@ -106,8 +113,13 @@ def test_nearer_strand_stays_on_top_whatever_the_input_order():
     far = strand((-0.1, 0.0, -0.05), (0.1, 0.0, -0.05), width=0.02)
     near.point_data["color"] = np.tile([0.0, 1.0, 0.0], (8, 1)).astype(np.float32)
     far.point_data["color"] = np.tile([1.0, 0.0, 0.0], (8, 1)).astype(np.float32)
-    kw = dict(camera=FRONT, size=size, background=BLACK, shading_params=FLAT,
-              lights=[Light.ambient(intensity=1.0)])
+    kw = dict(
+        camera=FRONT,
+        size=size,
+        background=BLACK,
+        shading_params=FLAT,
+        lights=[Light.ambient(intensity=1.0)],
+    )
     for parts in ([near, far], [far, near]):
         img = render(HairCurves.concatenate(parts), **kw)
         r, g = img[24, 24, 0], img[24, 24, 1]
@@ -179,8 +191,14 @@ def test_kajiya_kay_diffuse_follows_tangent_light_angle():
     perpendicular = strand((-0.15, 0.05, 0.0), (-0.02, 0.05, 0.0), width=0.01)  # along x
     parallel = strand((0.08, -0.08, 0.0), (0.08, 0.1, 0.0), width=0.01)  # along y, the light
     curves = HairCurves.concatenate([perpendicular, parallel])
-    kw = dict(camera=FRONT, size=size, background=BLACK, hair_color=(0.5, 0.5, 0.5),
-              lights=light, shading_params=FLAT)
+    kw = dict(
+        camera=FRONT,
+        size=size,
+        background=BLACK,
+        hair_color=(0.5, 0.5, 0.5),
+        lights=light,
+        shading_params=FLAT,
+    )
     img = render(curves, **kw).astype(int)
     xa, ya = px((-0.085, 0.05, 0.0), size)
     xb, yb = px((0.08, 0.01, 0.0), size)

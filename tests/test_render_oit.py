@@ -15,9 +15,14 @@ from glmark import gl
 FRONT = Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0), fov_y=35.0)
 SIZE = (200, 200)
 WHITE_FLAT = dict(
-    camera=FRONT, size=SIZE, background=(0, 0, 0), hair_color=(1, 1, 1), msaa=0,
-    lights=[Light.ambient(intensity=1.0)], shading_params={"root_occlusion": 0.0,
-                                                          "roundness": 0.0})  # fmt: skip
+    camera=FRONT,
+    size=SIZE,
+    background=(0, 0, 0),
+    hair_color=(1, 1, 1),
+    msaa=0,
+    lights=[Light.ambient(intensity=1.0)],
+    shading_params={"root_occlusion": 0.0, "roundness": 0.0},
+)
 # measured: weighted blended OIT gives the same bytes in any order here (float sums may
 # round differently elsewhere); unsorted "over" blending differs by ~4/255 on average
 # and up to ~130/255, so these limits tell the two apart by a wide margin
@@ -32,9 +37,14 @@ def crossing_strands(count: int = 2000, seed: int = 1, width: float = 4e-3) -> H
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     pts = start[:, None] + np.linspace(0.0, 0.12, 8)[None, :, None] * d[:, None]
     n = count * 8
-    return HairCurves.from_array(pts, point_data={
-        "width": np.full(n, width), "opacity": np.full(n, 0.8),
-        "color": np.repeat(rng.uniform(0, 1, (count, 3)), 8, axis=0)})  # fmt: skip
+    return HairCurves.from_array(
+        pts,
+        point_data={
+            "width": np.full(n, width),
+            "opacity": np.full(n, 0.8),
+            "color": np.repeat(rng.uniform(0, 1, (count, 3)), 8, axis=0),
+        },
+    )
 
 
 def order_difference(curves: HairCurves, **kw) -> tuple[float, int]:
@@ -76,8 +86,10 @@ def region(spacing: float, rows: int = 12) -> tuple[slice, slice]:
     """Image rows and columns spanned by the strands: whole spacings, no border."""
     px = FRONT.pixel_scale(SIZE[1])
     half_h, half_w = rows * spacing / 2 / px, 0.09 / px
-    return (slice(int(100 - half_h + 0.5), int(100 + half_h + 0.5)),
-            slice(int(100 - half_w), int(100 + half_w)))  # fmt: skip
+    return (
+        slice(int(100 - half_h + 0.5), int(100 + half_h + 0.5)),
+        slice(int(100 - half_w), int(100 + half_w)),
+    )
 
 
 @gl
@@ -117,8 +129,12 @@ def test_sub_pixel_coverage_holds_at_any_angle(degrees, msaa):
     a = np.radians(degrees)
     along, across = np.array([np.cos(a), np.sin(a), 0.0]), np.array([-np.sin(a), np.cos(a), 0.0])
     spacing, width = 4.0 * px, 0.3 * px
-    pts = np.stack([k * spacing * across + np.linspace(-0.25, 0.25, 6)[:, None] * along
-                    for k in range(-16, 17)])  # fmt: skip
+    pts = np.stack(
+        [
+            k * spacing * across + np.linspace(-0.25, 0.25, 6)[:, None] * along
+            for k in range(-16, 17)
+        ]
+    )
     curves = HairCurves.from_array(pts, point_data={"width": np.full(pts.shape[0] * 6, width)})
     img = render(curves, **{**WHITE_FLAT, "msaa": msaa})
     box = srgb_to_linear(img[70:131, 70:131, 0] / 255.0)
@@ -126,12 +142,30 @@ def test_sub_pixel_coverage_holds_at_any_angle(degrees, msaa):
 
 
 def test_vertex_tangents_are_the_geometry_shaders_step_tangents():
-    pts = np.array([[0, 0, 0], [1, 0, 0], [3, 0, 0], [3, 2, 0],  # a curve of 4
-                    [5, 5, 5],  # a lone vertex
-                    [0, 0, 0], [1, 0, 0], [0, 0, 0]], float)  # a hairpin: P2 − P0 = 0 at P1
+    pts = np.array(
+        [
+            [0, 0, 0],
+            [1, 0, 0],
+            [3, 0, 0],
+            [3, 2, 0],  # a curve of 4
+            [5, 5, 5],  # a lone vertex
+            [0, 0, 0],
+            [1, 0, 0],
+            [0, 0, 0],
+        ],
+        float,
+    )  # a hairpin: P2 − P0 = 0 at P1
     got = vertex_tangents(pts, np.array([0, 4, 5, 8]))
-    want = [[0.5, 0, 0], [1.5, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 0],
-            [0.5, 0, 0], [-1, 0, 0], [-0.5, 0, 0]]  # fmt: skip
+    want = [
+        [0.5, 0, 0],
+        [1.5, 0, 0],
+        [1, 1, 0],
+        [0, 1, 0],
+        [0, 0, 0],
+        [0.5, 0, 0],
+        [-1, 0, 0],
+        [-0.5, 0, 0],
+    ]
     np.testing.assert_allclose(got, want, atol=1e-7)
     assert got.dtype == np.float32
 
@@ -148,8 +182,9 @@ def test_one_step_lines_without_a_geometry_shader_draw_its_picture(shading, monk
         with opengl.Renderer(size=(160, 160), msaa=0, background=(0.1, 0.1, 0.1)) as r:
             query = r.ctx.query(primitives=True)
             with query:
-                pictures.append(r.draw(thin, subdivisions=1, shading=shading,
-                                       shadows=False).astype(int))  # fmt: skip
+                pictures.append(
+                    r.draw(thin, subdivisions=1, shading=shading, shadows=False).astype(int)
+                )
             drawn.append(query.primitives)
     segments = thin.point_count - thin.curve_count  # + the background and composite triangles
     assert drawn[0] == drawn[1] == segments + 2

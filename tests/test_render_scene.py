@@ -27,10 +27,19 @@ BLACK = dict(background_top=(0, 0, 0), background_bottom=(0, 0, 0), msaa=0, size
 
 
 def test_lights_and_shading_round_trip_through_toml():
-    scene = parse_scene({"render": {
-        "shading": "marschner", "shading_params": {"alpha": -5.0, "tt": 2.0}, "shadows": False,
-        "lights": [{"direction": [1, 1, 0], "space": "world", "intensity": 2.0},
-                   {"type": "ambient", "color": [0.9, 0.9, 1.0], "intensity": 0.1}]}})  # fmt: skip
+    scene = parse_scene(
+        {
+            "render": {
+                "shading": "marschner",
+                "shading_params": {"alpha": -5.0, "tt": 2.0},
+                "shadows": False,
+                "lights": [
+                    {"direction": [1, 1, 0], "space": "world", "intensity": 2.0},
+                    {"type": "ambient", "color": [0.9, 0.9, 1.0], "intensity": 0.1},
+                ],
+            }
+        }
+    )
     again = parse_scene(tomllib.loads(scene_to_toml(scene)))
     assert again.render == scene.render
     key, ambient = again.render.light_list()
@@ -46,8 +55,10 @@ def test_lights_and_shading_round_trip_through_toml():
     ("render", "message"),
     [
         ({"shading": "phong"}, r"\[render\]\.shading: Input should be 'kajiya-kay', 'scheuermann'"),
-        ({"shading": "marschner", "shading_params": {"shininess": 9}},
-         r"\[render\]: shading_params: unknown key 'shininess' for shading 'marschner'"),
+        (
+            {"shading": "marschner", "shading_params": {"shininess": 9}},
+            r"\[render\]: shading_params: unknown key 'shininess' for shading 'marschner'",
+        ),
         ({"shading_params": {"specular": 99}}, r"shading_params\['specular'\]: must be in"),
         ({"lights": [{"type": "spot"}]}, r"\[render\]\.lights\.0\.type: Input should be"),
         ({"lights": [{"direction": [0, 0, 0]}]}, r"a directional light needs a non-zero"),
@@ -77,8 +88,11 @@ def test_scene_shading_and_shadows_reach_the_renderer():
         for m in ("kajiya-kay", "scheuermann", "marschner")
     }
     assert len({img.tobytes() for img in images.values()}) == 3
-    tuned = RenderParams(shading="marschner", shading_params={"diffuse": 0.0, "r": 0.0,
-                                                               "tt": 0.0, "trt": 0.0}, **BLACK)
+    tuned = RenderParams(
+        shading="marschner",
+        shading_params={"diffuse": 0.0, "r": 0.0, "tt": 0.0, "trt": 0.0},
+        **BLACK,
+    )
     dark = render_scene(HAIR, None, tuned)[..., :3]
     assert dark.mean() < images["marschner"][..., :3].mean()
     unshadowed = render_scene(HAIR, None, RenderParams(shadows=False, **BLACK))

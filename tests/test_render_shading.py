@@ -88,8 +88,9 @@ def marschner(T, N, E, L, base, p) -> np.ndarray:
     eta_2d = np.sqrt(eta**2 - sin_d**2) / cos_d
     f_centre = fresnel(cos_d)
     n_r = 0.25 * np.cos(phi / 2) * fresnel(cos_d * np.cos(phi / 2))
-    n_tt = (1 - f_centre) ** 2 * np.exp(-sigma / cos_t) * gauss(np.radians(p["tt_width"]),
-                                                                  np.pi - phi)  # fmt: skip
+    n_tt = (
+        (1 - f_centre) ** 2 * np.exp(-sigma / cos_t) * gauss(np.radians(p["tt_width"]), np.pi - phi)
+    )
     f_trt = fresnel(0.5 * cos_d)
     cos_gt = np.sqrt(1 - 0.75 / eta_2d**2)
     n_trt = 0.25 * (1 - f_trt) ** 2 * f_trt * np.exp(-sigma * 2 * cos_gt / cos_t)
@@ -134,7 +135,10 @@ def test_each_model_has_its_parameters_and_shared_ones():
         assert {"root_occlusion", "shadow_density", "shadow_layer", "oit_sharpness"} <= set(params)
     assert "alpha" in parse_shading("marschner", {"alpha": -10})
     assert parse_shading("scheuermann", {"specular_color": [1, 0.5, 0]})["specular_color"] == (
-        1.0, 0.5, 0.0)  # fmt: skip
+        1.0,
+        0.5,
+        0.0,
+    )
 
 
 @pytest.mark.parametrize(
@@ -180,16 +184,29 @@ def test_marschner_tt_lobe_brightens_a_back_lit_strand():
     assert lit.sum() > no_tt.sum() + 150, (lit, no_tt)
     assert lit[0] > lit[1] > lit[2]  # tinted by the hair colour: exp(-σa · path)
     # lit from the front, transmission adds (almost) nothing
-    assert np.abs(centre_pixel("marschner", front, width)
-                  - centre_pixel("marschner", front, width, {"tt": 0.0})).max() <= 2  # fmt: skip
+    assert (
+        np.abs(
+            centre_pixel("marschner", front, width)
+            - centre_pixel("marschner", front, width, {"tt": 0.0})
+        ).max()
+        <= 2
+    )
 
 
 @gl
 def test_scheuermann_noise_varies_the_highlight_along_the_strand():
     """Shift noise and the sparkle mask vary along the strand, the same way every time."""
     strand = horizontal_strand(6.0 * FRONT.pixel_scale(SIZE[1]))
-    kw = dict(camera=FRONT, size=SIZE, background=(0, 0, 0), msaa=0, hair_color=BASE,
-              lights=[Light((0.0, 0.6, 0.8))], shading="scheuermann", shading_params=PLAIN)
+    kw = dict(
+        camera=FRONT,
+        size=SIZE,
+        background=(0, 0, 0),
+        msaa=0,
+        hair_color=BASE,
+        lights=[Light((0.0, 0.6, 0.8))],
+        shading="scheuermann",
+        shading_params=PLAIN,
+    )
     row = render(strand, **kw)[100, 60:141, :3].astype(int)
     again = render(strand, **kw)[100, 60:141, :3].astype(int)
     smooth = render(strand, **{**kw, "shading_params": {**PLAIN, **NO_NOISE["scheuermann"]}})

@@ -47,8 +47,9 @@ def columns(x0: float, x1: float) -> slice:
 def test_light_projection_fits_the_box_with_linear_depth():
     lo, hi = np.array([-0.1, -0.2, -0.05]), np.array([0.1, 0.2, 0.05])
     m, texel, depth_range = light_projection(np.array([0.0, 0.0, 1.0]), lo, hi, 512)
-    corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                        for z in (lo[2], hi[2])])  # fmt: skip
+    corners = np.array(
+        [[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
     clip = corners @ m.T
     assert np.all(np.abs(clip[:, :3]) < 1.0) and np.allclose(clip[:, 3], 1.0)
     assert np.abs(clip[:, :2]).max() > 0.98  # the longer side fills the map
@@ -63,8 +64,15 @@ def test_light_projection_fits_the_box_with_linear_depth():
 def test_hair_behind_dense_hair_is_darker_with_shadows():
     """The light comes from +x through a dense sheet onto a second sheet at -x."""
     curves = HairCurves.concatenate([sheet(0.03, 0.08, 400, 1), sheet(-0.08, -0.03, 400, 2)])
-    kw = dict(camera=FRONT, size=SIZE, background=BLACK, msaa=0, hair_color=(0.5, 0.4, 0.3),
-              lights=side_light((1.0, 0.0, 0.0)), shading_params=PLAIN)
+    kw = dict(
+        camera=FRONT,
+        size=SIZE,
+        background=BLACK,
+        msaa=0,
+        hair_color=(0.5, 0.4, 0.3),
+        lights=side_light((1.0, 0.0, 0.0)),
+        shading_params=PLAIN,
+    )
     lit, shadowed = render(curves, shadows=False, **kw), render(curves, shadows=True, **kw)
     rows = slice(90, 111)
     behind = columns(-0.075, -0.035)
@@ -81,8 +89,15 @@ def test_a_lone_strand_does_not_shadow_itself(model, width_px):
     width = width_px * FRONT.pixel_scale(SIZE[1])
     pts = np.linspace([-0.15, 0.02, 0.0], [0.15, -0.02, 0.0], 8)
     curves = HairCurves.from_array(pts[None], point_data={"width": np.full(8, width)})
-    kw = dict(camera=FRONT, size=SIZE, background=BLACK, msaa=0, shading=model,
-              lights=[Light((0.3, 0.6, 0.74))], hair_color=(0.5, 0.3, 0.15))
+    kw = dict(
+        camera=FRONT,
+        size=SIZE,
+        background=BLACK,
+        msaa=0,
+        shading=model,
+        lights=[Light((0.3, 0.6, 0.74))],
+        hair_color=(0.5, 0.3, 0.15),
+    )
     a = render(curves, shadows=False, **kw).astype(int)
     b = render(curves, shadows=True, **kw).astype(int)
     assert a.max() > 40
@@ -99,8 +114,15 @@ def test_hair_shadows_the_skin_and_the_skin_shadows_hair():
     pts[..., 0], pts[..., 1] = xy[:, None, 0], xy[:, None, 1]
     pts[..., 2] = np.linspace(-0.06, 0.08, 6)[None]
     cap = HairCurves.from_array(pts, point_data={"width": np.full(3000, 1e-3)})
-    kw = dict(camera=FRONT, size=SIZE, background=BLACK, msaa=0, skin_color=(0.6, 0.6, 0.6),
-              lights=side_light((0.0, 1.0, 0.0)), shading_params={**PLAIN, "skin_wrap": 0.0})
+    kw = dict(
+        camera=FRONT,
+        size=SIZE,
+        background=BLACK,
+        msaa=0,
+        skin_color=(0.6, 0.6, 0.6),
+        lights=side_light((0.0, 1.0, 0.0)),
+        shading_params={**PLAIN, "skin_wrap": 0.0},
+    )
     lit, shadowed = render(cap, mesh, shadows=False, **kw), render(cap, mesh, shadows=True, **kw)
     xy, _ = FRONT.project([(0.0, 0.085, 0.05)], SIZE)  # on the sphere, under the patch
     r, c = int(xy[0, 1]), int(xy[0, 0])
@@ -112,8 +134,9 @@ def test_hair_shadows_the_skin_and_the_skin_shadows_hair():
     assert brightness(shadowed, *beside) == pytest.approx(brightness(lit, *beside), rel=0.05)
 
     # strands left of the sphere, lit from +x: the ones level with it are in its shadow
-    strands = HairCurves.concatenate([sheet(-0.16, -0.13, 60, 4, y=(-0.05, 0.05)),
-                                      sheet(-0.16, -0.13, 60, 5, y=(0.15, 0.25))])
+    strands = HairCurves.concatenate(
+        [sheet(-0.16, -0.13, 60, 4, y=(-0.05, 0.05)), sheet(-0.16, -0.13, 60, 5, y=(0.15, 0.25))]
+    )
     kw["lights"] = side_light((1.0, 0.0, 0.0))
     lit, shadowed = render(strands, mesh, shadows=False, **kw), render(strands, mesh, **kw)
     cols = columns(-0.155, -0.135)
@@ -125,8 +148,15 @@ def test_hair_shadows_the_skin_and_the_skin_shadows_hair():
 
 @gl
 def test_the_lit_side_of_the_skin_has_no_shadow_acne():
-    kw = dict(camera=FRONT, size=SIZE, background=BLACK, msaa=0, skin_color=(0.6, 0.6, 0.6),
-              lights=[Light((0.4, 0.5, 0.77), space="world")], shading_params={"skin_wrap": 0.0})
+    kw = dict(
+        camera=FRONT,
+        size=SIZE,
+        background=BLACK,
+        msaa=0,
+        skin_color=(0.6, 0.6, 0.6),
+        lights=[Light((0.4, 0.5, 0.77), space="world")],
+        shading_params={"skin_wrap": 0.0},
+    )
     a = render(None, sphere(0.1), shadows=False, **kw).astype(int)
     b = render(None, sphere(0.1), shadows=True, **kw).astype(int)
     lit = a[..., 0] > 60  # away from the terminator
@@ -139,8 +169,14 @@ def test_the_lit_side_of_the_skin_has_no_shadow_acne():
 @gl
 def test_shadow_density_and_layer_parameters():
     curves = HairCurves.concatenate([sheet(0.03, 0.08, 400, 1), sheet(-0.08, -0.03, 400, 2)])
-    kw = dict(camera=FRONT, size=SIZE, background=BLACK, msaa=0, hair_color=(0.5, 0.4, 0.3),
-              lights=side_light((1.0, 0.0, 0.0)))
+    kw = dict(
+        camera=FRONT,
+        size=SIZE,
+        background=BLACK,
+        msaa=0,
+        hair_color=(0.5, 0.4, 0.3),
+        lights=side_light((1.0, 0.0, 0.0)),
+    )
     rows, behind = slice(90, 111), columns(-0.075, -0.035)
     none = render(curves, shadows=False, **kw)
     zero = render(curves, shading_params={**PLAIN, "shadow_density": 0.0}, **kw)

@@ -7,7 +7,7 @@ from follicle.scene import Scene, load_scene, parse_scene, scene_to_toml
 def test_defaults_and_partial_sections(tmp_path):
     path = tmp_path / "s.toml"
     path.write_text(
-        '[groom]\ncount = 500\nroot_color = [0.5, 0.4, 0.3]\n[render]\nsize = [64, 32]\n'
+        "[groom]\ncount = 500\nroot_color = [0.5, 0.4, 0.3]\n[render]\nsize = [64, 32]\n"
     )
     scene = load_scene(path)
     assert scene.groom.count == 500
@@ -79,10 +79,13 @@ def test_eye_and_target_go_together():
     assert scene.render.target == (0.0, 0.0, 0.0)
 
 
-@pytest.mark.parametrize(("data", "allowed"), [
-    ({"render": {"lights": [{"bogus": 1}]}}, "type, direction, space, color, intensity"),
-    ({"sim": {"colliders": [{"bogus": 1}]}}, "kind, centre, a, b, radius, follow"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("data", "allowed"),
+    [
+        ({"render": {"lights": [{"bogus": 1}]}}, "type, direction, space, color, intensity"),
+        ({"sim": {"colliders": [{"bogus": 1}]}}, "kind, centre, a, b, radius, follow"),
+    ],
+)
 def test_an_unknown_key_in_a_list_of_tables_lists_that_tables_keys(data, allowed):
     with pytest.raises(ConfigError, match=f"unknown key; allowed keys: {allowed}$"):
         parse_scene(data)

@@ -129,8 +129,15 @@ def test_frizz_animation_blends_static_and_offset_noise(blend):
         np.testing.assert_allclose(local[h, 2] - before[h, 2], 0.3 * f, rtol=0, atol=1e-15)
     # per-hair offsets and blends (n, 3) and (n,) give the same as the shared ones
     per_hair = _straight(3, 3)
-    frizz(per_hair, ROOTS, [0.1] * 3, [0.3] * 3, np.tile(FREQ, (3, 1)),
-          offset=np.tile(offset, (3, 1)), blend=np.full(3, blend))
+    frizz(
+        per_hair,
+        ROOTS,
+        [0.1] * 3,
+        [0.3] * 3,
+        np.tile(FREQ, (3, 1)),
+        offset=np.tile(offset, (3, 1)),
+        blend=np.full(3, blend),
+    )
     np.testing.assert_array_equal(per_hair, local)
 
 
@@ -221,8 +228,9 @@ def test_curl_winds_a_straight_hair_into_a_helix_of_radius_a():
     assert np.all(np.diff(dist[~out]) > 0)
     # θ = 2π f s; the first normal is the root tangent (local x)
     angle = np.arctan2(hair[1:, 1], hair[1:, 0])
-    np.testing.assert_allclose(np.angle(np.exp(1j * (angle - 2 * np.pi * freq * z[1:]))), 0.0,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        np.angle(np.exp(1j * (angle - 2 * np.pi * freq * z[1:]))), 0.0, atol=1e-12
+    )
     theta = _winding(hair[out])
     turns = (theta[-1] - theta[0]) / (2 * np.pi)
     assert turns == pytest.approx(freq * (length - z[out][0]), abs=1e-9)  # 4.5 turns

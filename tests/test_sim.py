@@ -65,8 +65,7 @@ def test_caller_frame_rate_does_not_change_the_motion():
 def test_stiffness_gives_the_same_sag_at_any_iteration_count():
     tips = []
     for iterations in (2, 4, 8):
-        params = SimParams(solver="dftl", iterations=iterations, bend_stiffness=0.6,
-                           damping=4.0)  # fmt: skip
+        params = SimParams(solver="dftl", iterations=iterations, bend_stiffness=0.6, damping=4.0)
         sim = Simulator(_strands(), params=params)
         _run(sim, 3.0)
         tips.append(-float(sim.positions[0, -1, 1]))
@@ -131,8 +130,9 @@ def test_a_collider_sweeping_into_lagging_tips_pushes_them_out(speed):
     pts[:, :, 1] = -np.linspace(0.0, 0.3, n)
     pts[:, :, 2] = np.arange(5)[:, None] * 0.01
     ball = ColliderParams(kind="sphere", centre=(-0.15, -0.27, 0.02), radius=0.06, follow=True)
-    sim = Simulator(HairCurves.from_array(pts),
-                    params=SimParams(colliders=[ball], collision_margin=0.002))  # fmt: skip
+    sim = Simulator(
+        HairCurves.from_array(pts), params=SimParams(colliders=[ball], collision_margin=0.002)
+    )
     _run(sim, 0.5, rate=120)
     for k in range(1, 30):
         move = np.eye(4)
@@ -150,8 +150,10 @@ def test_global_shape_keeps_a_standing_style_under_gravity():
     loose = Simulator(style, params=SimParams(bend_stiffness=0.0))
     for sim in (kept, loose):
         _run(sim, 2.0)
-    rms = {k: float(np.sqrt(np.mean(np.sum((s.positions - rest) ** 2, axis=2))))
-           for k, s in (("kept", kept), ("loose", loose))}  # fmt: skip
+    rms = {
+        k: float(np.sqrt(np.mean(np.sum((s.positions - rest) ** 2, axis=2))))
+        for k, s in (("kept", kept), ("loose", loose))
+    }
     assert rms["kept"] < 0.01
     assert rms["loose"] > 0.04
 
@@ -186,9 +188,13 @@ def test_adversarial_settings_never_give_nan():
     pts = np.zeros((3, 12, 3))
     pts[:, :, 0] = np.linspace(0, 0.2, 12)
     pts[:, 5] = pts[:, 4]  # a zero-length segment in the input
-    params = SimParams(wind=(25.0, 0.0, 0.0), wind_turbulence=3.0, drag=5.0,  # peak: 100
-                       substep=1 / 30,
-                       colliders=[ColliderParams(radius=0.05, centre=(0.1, -0.1, 0.0))])
+    params = SimParams(
+        wind=(25.0, 0.0, 0.0),
+        wind_turbulence=3.0,
+        drag=5.0,  # peak: 100
+        substep=1 / 30,
+        colliders=[ColliderParams(radius=0.05, centre=(0.1, -0.1, 0.0))],
+    )
     sim = Simulator(HairCurves.from_array(pts), params=params)
     for k in range(10_000):
         sim.step(1 / 15)
@@ -286,8 +292,7 @@ def test_hairs_follow_the_simulated_guides(head_groom):
     try:
         sim.teleport(transform=turn)
         moved = head_groom.follow(sim.positions.copy(), count=2000)
-        np.testing.assert_allclose(moved.points, head_groom.generate(count=2000).points,
-                                   atol=1e-5)  # fmt: skip
+        np.testing.assert_allclose(moved.points, head_groom.generate(count=2000).points, atol=1e-5)
         _run(sim, 0.5)  # the guides swing: hairs near a guide's root follow that guide
         follow = head_groom.follow(sim, count=2000)
     finally:
@@ -319,8 +324,11 @@ def test_changed_params_apply_from_the_next_step_and_in_place_changes_are_refuse
     _run(sim, 0.25)
     falling = sim.positions[0, -1, 1]
     assert falling < -0.05  # the tip has dropped under gravity
-    with pytest.raises(ConfigError, match=r"SimParams.gravity: settings are values .*replace\("
-                                          r"gravity=\.\.\.\), and give it to Simulator.params"):
+    with pytest.raises(
+        ConfigError,
+        match=r"SimParams.gravity: settings are values .*replace\("
+        r"gravity=\.\.\.\), and give it to Simulator.params",
+    ):
         sim.params.gravity = (0.0, 9.81, 0.0)
     sim.params = sim.params.replace(gravity=(0.0, 9.81, 0.0), damping=5.0)
     _run(sim, 0.5)

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 import trimesh
+from benchmarks.sim_baseline import BaselinePBD, _SDFSampler, _VolumeGrid
 
 from follicle.curves import HairCurves
 from follicle.scene import SimParams
@@ -15,9 +13,6 @@ from follicle.sim import Simulator
 from follicle.sim.model import Model
 from follicle.sim.sdf import SDF
 from follicle.sim.volume import apply_volume
-
-sys.path.append(str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from sim_baseline import BaselinePBD, _SDFSampler, _VolumeGrid  # noqa: E402
 
 DT = 1 / 120
 
@@ -54,8 +49,9 @@ def test_distance_constraints_bring_a_stretched_strand_back_to_rest_lengths():
     model = _model(pts)
     errors = []
     for iterations in (20, 200):
-        params = SimParams(iterations=iterations, gravity=(0, 0, 0), bend_stiffness=0.0,
-                           stretch_limit=None)  # fmt: skip
+        params = SimParams(
+            iterations=iterations, gravity=(0, 0, 0), bend_stiffness=0.0, stretch_limit=None
+        )
         x = pts.copy()
         x[:, :, 0] *= 1.3  # stretched 30 %, root in place
         v = np.zeros_like(x)
@@ -86,8 +82,14 @@ def test_a_pinned_strand_falls_under_gravity_and_its_root_stays():
 def test_the_baseline_matches_the_numba_solver():
     pts = _line(4, 12)
     pts[:, :, 1] = 0.1 * np.sin(7.0 * pts[:, :, 0])  # curled: local shape has work to do
-    params = SimParams(iterations=4, bend_stiffness=0.3, shape_local=0.2, shape_global=0.1,
-                       shape_global_range=(0.2, 0.8), volume_friction=0.0)  # fmt: skip
+    params = SimParams(
+        iterations=4,
+        bend_stiffness=0.3,
+        shape_local=0.2,
+        shape_global=0.1,
+        shape_global_range=(0.2, 0.8),
+        volume_friction=0.0,
+    )
     sim = Simulator(HairCurves.from_array(pts), params=params)
     model = sim.model
     x, v = sim.state.x.copy(), sim.state.v.copy()
@@ -104,8 +106,14 @@ def test_sdf_collision_pushes_a_point_inside_the_sphere_out_to_the_margin(ball_s
     pts = np.array([[[0.3, 0.0, 0.0], [0.05, 0.01, 0.0]]])  # the tip 5 cm deep in the ball
     model = _model(pts)
     margin = 0.004
-    params = SimParams(iterations=2, gravity=(0, 0, 0), stretch_stiffness=0.0, stretch_limit=None,
-                       bend_stiffness=0.0, collision_margin=margin)  # fmt: skip
+    params = SimParams(
+        iterations=2,
+        gravity=(0, 0, 0),
+        stretch_stiffness=0.0,
+        stretch_limit=None,
+        bend_stiffness=0.0,
+        collision_margin=margin,
+    )
     solver = BaselinePBD(model, params, sdf=ball_sdf)
     x, v = pts.copy(), np.zeros_like(pts)
     solver.substep(x, v, model.rest_roots, model.rest_frames, DT)
@@ -135,8 +143,14 @@ def _pair() -> tuple[Model, np.ndarray, np.ndarray, SimParams]:
     pts = np.array([[[-0.1, 0.0, 0.0], [0.0, 0.0, 0.0]], [[0.1, 0.0, 0.0], [0.0, 0.0, 0.0]]])
     v = np.zeros_like(pts)
     v[0, 1, 1], v[1, 1, 1] = 1.0, -1.0
-    params = SimParams(iterations=1, gravity=(0, 0, 0), damping=0.0, stretch_stiffness=0.0,
-                       stretch_limit=None, bend_stiffness=0.0)  # fmt: skip
+    params = SimParams(
+        iterations=1,
+        gravity=(0, 0, 0),
+        damping=0.0,
+        stretch_stiffness=0.0,
+        stretch_limit=None,
+        bend_stiffness=0.0,
+    )
     model = _model(pts)
     return model, _rest(model), v, params
 
@@ -147,8 +161,9 @@ def test_volume_friction_pulls_the_velocities_of_neighbours_together(friction):
     gaps = []
     for volume in ((0.0, 0.0), (friction, 0.0)):
         x, vel = pts.copy(), v.copy()
-        BaselinePBD(model, params, volume=volume).substep(x, vel, model.rest_roots,
-                                                          model.rest_frames, 1e-4)  # fmt: skip
+        BaselinePBD(model, params, volume=volume).substep(
+            x, vel, model.rest_roots, model.rest_frames, 1e-4
+        )
         gaps.append(np.linalg.norm(vel[0, 1] - vel[1, 1]))
         np.testing.assert_array_equal(vel[:, 0], 0.0)  # pinned roots splat but keep theirs
     assert gaps[0] == pytest.approx(2.0)
@@ -164,11 +179,17 @@ def test_volume_repulsion_pushes_hair_away_from_a_dense_tuft():
     pts[:-1, 1] = rng.uniform(-0.0015, 0.0015, (count - 1, 3))  # 100 tips in a 3 mm tuft …
     pts[-1, 1] = (0.008, 0.0, 0.0)  # … and one 8 mm (1.3 voxels) beside it
     model = _model(pts)
-    params = SimParams(iterations=1, gravity=(0, 0, 0), stretch_stiffness=0.0, stretch_limit=None,
-                       bend_stiffness=0.0)  # fmt: skip
+    params = SimParams(
+        iterations=1,
+        gravity=(0, 0, 0),
+        stretch_stiffness=0.0,
+        stretch_limit=None,
+        bend_stiffness=0.0,
+    )
     x, v = _rest(model), np.zeros_like(pts)
-    BaselinePBD(model, params, volume=(0.0, 0.5)).substep(x, v, model.rest_roots,
-                                                          model.rest_frames, DT)  # fmt: skip
+    BaselinePBD(model, params, volume=(0.0, 0.5)).substep(
+        x, v, model.rest_roots, model.rest_frames, DT
+    )
     voxel = np.ptp(x.reshape(-1, 3), axis=0).max() / 32  # the grid spans the ring
     push = 0.5 * voxel / DT  # half a voxel per substep
     np.testing.assert_allclose(np.linalg.norm(v[:, 1], axis=1), push, rtol=1e-9)

@@ -78,8 +78,9 @@ def test_sphere_centre_and_radial_normals(sphere):
     sdf = SDF.from_mesh(sphere.vertices, sphere.faces)
     centre = sdf.distance(np.zeros((1, 3)))[0]
     assert centre == pytest.approx(-0.1, abs=0.002)  # faces sit inside the sphere
-    assert centre == pytest.approx(convex_signed_distance(sphere, np.zeros((1, 3)))[0],
-                                   abs=0.5 * sdf.voxel)  # fmt: skip
+    assert centre == pytest.approx(
+        convex_signed_distance(sphere, np.zeros((1, 3)))[0], abs=0.5 * sdf.voxel
+    )
     rng = np.random.default_rng(2)
     direction = rng.normal(size=(2000, 3))
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
@@ -119,14 +120,16 @@ def test_box_edges_and_corners():
     sdf = SDF.from_mesh(cube.vertices, cube.faces)
     delta = 1.5 * sdf.voxel
     s = 0.1 + delta
-    points = np.array([
-        [0.0, 0.0, 0.0],  # centre
-        [s, 0.0, 0.0],  # off a face
-        [s, s, 0.0],  # off an edge
-        [s, s, s],  # off a corner
-        [0.1 - delta, 0.1 - delta, 0.0],  # inside, near an edge
-        [0.1 - delta, 0.1 - delta, 0.1 - delta],  # inside, near a corner
-    ])  # fmt: skip
+    points = np.array(
+        [
+            [0.0, 0.0, 0.0],  # centre
+            [s, 0.0, 0.0],  # off a face
+            [s, s, 0.0],  # off an edge
+            [s, s, s],  # off a corner
+            [0.1 - delta, 0.1 - delta, 0.0],  # inside, near an edge
+            [0.1 - delta, 0.1 - delta, 0.1 - delta],  # inside, near a corner
+        ]
+    )
     expected = [-0.1, delta, delta * np.sqrt(2), delta * np.sqrt(3), -delta, -delta]
     d = sdf.distance(points)
     np.testing.assert_allclose(d, expected, rtol=0, atol=0.5 * sdf.voxel)
@@ -207,8 +210,9 @@ def test_outside_the_grid_is_positive_and_grows(head_sdf):
         if n < 6:  # off a face: the box normal plus the slope of |d| along the face
             assert (normal @ direction).min() > 0.6
         else:  # off a corner: straight away from it
-            np.testing.assert_allclose(normal, np.broadcast_to(direction, normal.shape),
-                                       rtol=0, atol=1e-12)  # fmt: skip
+            np.testing.assert_allclose(
+                normal, np.broadcast_to(direction, normal.shape), rtol=0, atol=1e-12
+            )
 
 
 def test_same_bytes_with_one_or_two_threads(head):
@@ -233,8 +237,9 @@ def test_same_bytes_with_one_or_two_threads(head):
 def sample_all(values, origin, inv_voxel, local_from_world, points):
     out = np.empty((points.shape[0], 4))
     for i in range(points.shape[0]):
-        out[i] = sdf_sample(values, origin, inv_voxel, local_from_world,
-                            points[i, 0], points[i, 1], points[i, 2])  # fmt: skip
+        out[i] = sdf_sample(
+            values, origin, inv_voxel, local_from_world, points[i, 0], points[i, 1], points[i, 2]
+        )
     return out
 
 

@@ -69,8 +69,12 @@ def test_splat_matches_the_tent_sums_and_is_a_partition_of_unity():
     # sums are fixed point (see follicle.sim.volume): each of a vertex's at most
     # S·N contributions is rounded by at most half a unit, 2⁻⁴¹ in weight, 2⁻³⁷ in momentum
     filled = dens > 1e-12
-    np.testing.assert_allclose(grid.velocity[filled] * grid.density[filled, None], mom[filled],
-                               rtol=0, atol=x.shape[0] * x.shape[1] * 2.0**-37)  # fmt: skip
+    np.testing.assert_allclose(
+        grid.velocity[filled] * grid.density[filled, None],
+        mom[filled],
+        rtol=0,
+        atol=x.shape[0] * x.shape[1] * 2.0**-37,
+    )
     solid = dens > 0.1  # there V = momentum / D keeps 1e-9
     np.testing.assert_allclose(grid.velocity[solid], mom[solid] / dens[solid, None], atol=1e-9)
     assert not grid.velocity[~filled].any()

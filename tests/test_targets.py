@@ -41,18 +41,21 @@ def test_what_a_target_writes_is_what_it_reads(hair, name):
     assert out.curve_count == hair.curve_count and np.array_equal(out.offsets, hair.offsets)
     scale = 100.0 if name == "unreal" else 1.0
     np.testing.assert_allclose(out.points, hair.points * scale, rtol=1e-6, atol=1e-7)
-    np.testing.assert_allclose(out.point_data["width"], hair.point_data["width"] * scale,
-                               rtol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(out.point_data["width"], hair.point_data["width"] * scale, rtol=1e-6)
 
 
 def test_ids_become_int32_for_blender_and_unreal(hair):
-    assert [k for k, v in hair.curve_data.items() if v.dtype == np.int64] == \
-        ["hair_id", "strand_id", "root_triangle"]  # fmt: skip
+    assert [k for k, v in hair.curve_data.items() if v.dtype == np.int64] == [
+        "hair_id",
+        "strand_id",
+        "root_triangle",
+    ]
     blender = for_target(hair, "blender")
     assert blender.curve_data["hair_id"].dtype == np.int32
     np.testing.assert_array_equal(blender.curve_data["hair_id"], hair.curve_data["hair_id"])
-    np.testing.assert_array_equal(blender.curve_data["surface_uv_coordinate"],
-                                  hair.curve_data["root_uv"])  # fmt: skip
+    np.testing.assert_array_equal(
+        blender.curve_data["surface_uv_coordinate"], hair.curve_data["root_uv"]
+    )
     unreal = for_target(hair, "unreal")
     assert set(unreal.curve_data) == {"groom_id", "groom_root_uv", "groom_guide"}
     assert set(unreal.point_data) == {"groom_color", "width"}
@@ -61,8 +64,10 @@ def test_ids_become_int32_for_blender_and_unreal(hair):
 
 
 def test_an_id_too_big_for_int32_is_left_out_with_a_warning(caplog):
-    c = HairCurves.from_array(np.zeros((2, 3, 3)), curve_data={
-        "hair_id": np.array([0, 2**40]), "small": np.array([1, 2], np.int64)})
+    c = HairCurves.from_array(
+        np.zeros((2, 3, 3)),
+        curve_data={"hair_id": np.array([0, 2**40]), "small": np.array([1, 2], np.int64)},
+    )
     with caplog.at_level(logging.WARNING, "follicle"):
         out = for_target(c, "blender")
     assert set(out.curve_data) == {"small"} and out.curve_data["small"].dtype == np.int32
@@ -85,7 +90,8 @@ def test_unreal_resamples_curves_beyond_255_points(caplog):
     t = np.linspace(0.0, 1.0, 300) ** 1.5  # a curl with unequal segments
     long = np.stack([0.01 * np.cos(40 * t), 0.3 * t, 0.01 * np.sin(40 * t)], axis=1)
     c = HairCurves.from_polylines(
-        [long, long[:10]], point_data={"width": np.linspace(1e-4, 2e-5, 310).astype(np.float32)},
+        [long, long[:10]],
+        point_data={"width": np.linspace(1e-4, 2e-5, 310).astype(np.float32)},
         curve_data={"hair_id": np.array([7, 8])},
     )
     with caplog.at_level(logging.WARNING, "follicle"):
@@ -161,8 +167,10 @@ def test_check_finds_widths_in_the_wrong_unit(tmp_path):
     save(c, tmp_path / "b.usda")
     run = CliRunner().invoke(main, ["check", str(tmp_path / "b.usda"), "--target", "unity"])
     assert run.exit_code == 1
-    assert "widths look like a tool's default radius, not hair: the median width" \
-        " (diameter) is 0.02 m" in run.output  # fmt: skip
+    assert (
+        "widths look like a tool's default radius, not hair: the median width"
+        " (diameter) is 0.02 m" in run.output
+    )
 
 
 def test_check_lists_curves_the_reader_left_out(tmp_path):
@@ -197,12 +205,22 @@ def _broken_for_unreal(hair: HairCurves) -> HairCurves:
     t = np.linspace(0.0, 0.3, 300)
     long = HairCurves.from_array(np.stack([0 * t, t, 0 * t], axis=1)[None])
     bad = for_target(hair, "houdini")
-    return HairCurves.concatenate([
-        HairCurves(bad.points, bad.offsets, {"Cd": bad.point_data["Cd"]},
-                   {"uv": bad.curve_data["uv"], "id": np.arange(300, dtype=np.int64)}),
-        HairCurves(long.points, long.offsets, {"Cd": np.zeros((300, 3), np.float32)},
-                   {"uv": np.zeros((1, 2), np.float32), "id": np.array([300])}),
-    ])  # fmt: skip
+    return HairCurves.concatenate(
+        [
+            HairCurves(
+                bad.points,
+                bad.offsets,
+                {"Cd": bad.point_data["Cd"]},
+                {"uv": bad.curve_data["uv"], "id": np.arange(300, dtype=np.int64)},
+            ),
+            HairCurves(
+                long.points,
+                long.offsets,
+                {"Cd": np.zeros((300, 3), np.float32)},
+                {"uv": np.zeros((1, 2), np.float32), "id": np.array([300])},
+            ),
+        ]
+    )
 
 
 def test_check_names_each_problem_of_a_file_broken_for_unreal(tmp_path, hair):
@@ -229,8 +247,7 @@ def test_check_names_each_problem_of_an_alembic_file_broken_for_unreal(tmp_path,
     attribute), and the guides too."""
     from follicle.io.alembic import save_abc
 
-    save_abc(_broken_for_unreal(hair), tmp_path / "bad.abc", target="houdini",
-             guides=hair[:2])  # fmt: skip
+    save_abc(_broken_for_unreal(hair), tmp_path / "bad.abc", target="houdini", guides=hair[:2])
     run = CliRunner().invoke(main, ["check", str(tmp_path / "bad.abc"), "--target", "unreal"])
     assert run.exit_code == 1
     lines = [x.split(": ", 1)[1] for x in run.output.splitlines()]
@@ -239,7 +256,8 @@ def test_check_names_each_problem_of_an_alembic_file_broken_for_unreal(tmp_path,
     assert lines[-1] == (
         "1 of 1 curves objects (/Groom/Hair_0000/Hair_0000Shape): no groom_version_major /"
         " groom_version_minor where Unreal reads them (user properties of the curves or an"
-        " Xform above): it imports their curves without any groom_* attribute")
+        " Xform above): it imports their curves without any groom_* attribute"
+    )
 
 
 @pytest.mark.parametrize("ext", [".usda", ".abc"])
@@ -258,18 +276,36 @@ def test_a_groom_schema_above_the_curves_is_found(tmp_path, hair, ext):
 
         def build(top):
             groom, held = AbcGeom.OXform(top, "Groom"), []
-            add_params(groom.getSchema().getArbGeomParams(), [
-                ("groom_version_major", "short", [1], "constant"),
-                ("groom_version_minor", "short", [5], "constant")], held)  # fmt: skip
-            return groom, add_curves(AbcGeom.OXform(groom, "Hair"), "HairShape", [2, 2],
-                                     hair.points[:4] * 100)  # fmt: skip
+            add_params(
+                groom.getSchema().getArbGeomParams(),
+                [
+                    ("groom_version_major", "short", [1], "constant"),
+                    ("groom_version_minor", "short", [5], "constant"),
+                ],
+                held,
+            )
+            return groom, add_curves(
+                AbcGeom.OXform(groom, "Hair"), "HairShape", [2, 2], hair.points[:4] * 100
+            )
 
         _, found = check_file(write(tmp_path / "top.abc", build), "unreal")
         assert not [x for x in found if "groom_version" in x], found
-        _, found = check_file(write(tmp_path / "none.abc", lambda top: add_curves(
-            top, "Hair", [2, 2], hair.points[:4] * 100, params=[
-                ("groom_version_major", "short", [1], "constant"),
-                ("groom_version_minor", "short", [5], "constant")])), "unreal")  # fmt: skip
+        _, found = check_file(
+            write(
+                tmp_path / "none.abc",
+                lambda top: add_curves(
+                    top,
+                    "Hair",
+                    [2, 2],
+                    hair.points[:4] * 100,
+                    params=[
+                        ("groom_version_major", "short", [1], "constant"),
+                        ("groom_version_minor", "short", [5], "constant"),
+                    ],
+                ),
+            ),
+            "unreal",
+        )
         assert [x for x in found if "groom_version" in x], found
     run = CliRunner().invoke(main, ["check", str(path), "--target", "unreal"])
     assert run.exit_code == 0, run.output
@@ -304,12 +340,15 @@ def test_a_cache_is_written_for_unreal(tmp_path, groom, ext):
     assert back.curve_data["groom_guide"].tolist() == [1] * 20
     np.testing.assert_allclose(back.point_data["width"], 1e-4 * 100, rtol=1e-6)
     skin = load_abc_mesh(path)  # the head at frame 0, in centimetres
-    np.testing.assert_allclose(skin.rest_vertices, groom.mesh.rest_vertices * 100, rtol=1e-5,
-                               atol=1e-4)  # fmt: skip
+    np.testing.assert_allclose(
+        skin.rest_vertices, groom.mesh.rest_vertices * 100, rtol=1e-5, atol=1e-4
+    )
     from alembic3d import Abc, AbcGeom
 
-    head = AbcGeom.IXform(Abc.IArchive(str(path)).getTop().getChild("Groom").getChild("Head"),
-                          Abc.WrapExistingFlag.kWrapExisting).getSchema()  # fmt: skip
+    head = AbcGeom.IXform(
+        Abc.IArchive(str(path)).getTop().getChild("Groom").getChild("Head"),
+        Abc.WrapExistingFlag.kWrapExisting,
+    ).getSchema()
     matrix = np.array(head.getValue(Abc.ISampleSelector(1 / 12)).getMatrix())
     np.testing.assert_allclose(matrix[3, :3], (0.0, 1.0, 2.0), atol=1e-9)  # cm, row vectors
 

@@ -28,9 +28,16 @@ def _write_tiff(path: Path, arr: np.ndarray) -> None:
     ifd_end = 8 + 2 + 12 * 11 + 4
     overflow_size = 0 if spp == 1 else 2 * 2 * spp  # bits and sample format, 2 bytes each
     tags = [  # (tag, SHORT "H" or LONG "I", values), in ascending tag order
-        (256, "I", [w]), (257, "I", [h]), (258, "H", bits), (259, "H", [1]),
-        (262, "H", [2 if spp == 3 else 1]), (273, "I", [ifd_end + overflow_size]),
-        (277, "H", [spp]), (278, "I", [h]), (279, "I", [len(pixels)]), (284, "H", [1]),
+        (256, "I", [w]),
+        (257, "I", [h]),
+        (258, "H", bits),
+        (259, "H", [1]),
+        (262, "H", [2 if spp == 3 else 1]),
+        (273, "I", [ifd_end + overflow_size]),
+        (277, "H", [spp]),
+        (278, "I", [h]),
+        (279, "I", [len(pixels)]),
+        (284, "H", [1]),
         (339, "H", sample_format),
     ]
     entries, overflow = b"", b""

@@ -40,9 +40,13 @@ def test_chained_passes_state_in_order_and_finishes_every_item() -> None:
             written[item] = at
 
     last = chained(
-        list(range(len(sizes))), lambda k: sizes[k], lambda at, size: at + size, finish, 10,
+        list(range(len(sizes))),
+        lambda k: sizes[k],
+        lambda at, size: at + size,
+        finish,
+        10,
         done.append,
-    )  # fmt: skip
+    )
     assert last == 10 + sum(sizes)
     assert written == {k: 10 + sum(sizes[:k]) for k in range(len(sizes))}
     assert done == list(range(len(sizes)))
@@ -58,7 +62,10 @@ def test_chained_error_in_one_item_is_raised_and_later_items_do_not_hang() -> No
 
     with pytest.raises(ValueError, match="bad chunk 3"):
         chained(
-            list(range(12)), prepare, lambda at, r: at + r,
-            lambda k, r, at: finished.append(k), 0,
-        )  # fmt: skip
+            list(range(12)),
+            prepare,
+            lambda at, r: at + r,
+            lambda k, r, at: finished.append(k),
+            0,
+        )
     assert sorted(finished) == [0, 1, 2]  # the items before it, never one after

@@ -54,14 +54,23 @@ def warnings_of(caplog) -> list[str]:
 
 # ---------------------------------------------------------------- accepted units
 
+
 def test_named_units_and_numbers_of_metres():
     assert [metres_per_unit(u) for u in ("m", "cm", "mm", "in")] == [1.0, 0.01, 0.001, 0.0254]
     assert metres_per_unit(0.3048) == 0.3048 and metres_per_unit(2) == 2.0
     assert metres_per_unit(np.float32(0.5)) == 0.5
 
 
-BAD = [("furlong", "'furlong'"), (-1, "-1"), (0, "0"), (math.nan, "nan"), (math.inf, "inf"),
-       (["cm"], "['cm']"), (True, "true"), ("CM", "'CM'")]
+BAD = [
+    ("furlong", "'furlong'"),
+    (-1, "-1"),
+    (0, "0"),
+    (math.nan, "nan"),
+    (math.inf, "inf"),
+    (["cm"], "['cm']"),
+    (True, "true"),
+    ("CM", "'CM'"),
+]
 
 
 @pytest.mark.parametrize("section", ["mesh", "guides"])
@@ -73,13 +82,14 @@ def test_bad_units_are_one_line_naming_the_key_and_the_accepted_values(section, 
 
 
 @pytest.mark.parametrize(("value", "shown"), BAD)
-def test_bad_units_on_the_python_functions_are_input_errors_before_reading(tmp_path, value,
-                                                                            shown):
+def test_bad_units_on_the_python_functions_are_input_errors_before_reading(tmp_path, value, shown):
     missing = tmp_path / "missing"  # units are checked first: no FormatError for the file
-    for call in (lambda: load_mesh(missing.with_suffix(".obj"), units=value),
-                 lambda: load_curves(missing.with_suffix(".hair"), units=value),
-                 lambda: load_guides(missing.with_suffix(".obj"), floor(), units=value),
-                 lambda: load_guides(strands([[1, 0, 1]], 0.1), floor(), units=value)):
+    for call in (
+        lambda: load_mesh(missing.with_suffix(".obj"), units=value),
+        lambda: load_curves(missing.with_suffix(".hair"), units=value),
+        lambda: load_guides(missing.with_suffix(".obj"), floor(), units=value),
+        lambda: load_guides(strands([[1, 0, 1]], 0.1), floor(), units=value),
+    ):
         with pytest.raises(InputError) as err:
             call()
         assert str(err.value) == f"units: expected {ACCEPTED} (got {shown})"
@@ -92,8 +102,9 @@ def test_bad_units_in_a_scene_file(text):
 
 
 def test_units_of_a_scene_read_back_and_write_out():
-    scene = scene_from_toml('[mesh]\npath = "a.obj"\nunits = "cm"\n[guides]\npath = "g.tfx"\n'
-                            "units = 0.0254\n", "s.toml")
+    scene = scene_from_toml(
+        '[mesh]\npath = "a.obj"\nunits = "cm"\n[guides]\npath = "g.tfx"\nunits = 0.0254\n', "s.toml"
+    )
     assert (scene.mesh.units, scene.guides.units) == ("cm", 0.0254)
     assert Scene().mesh.units == "m" and Scene().guides.units == "m"
     from follicle.scene import scene_to_toml
@@ -104,8 +115,14 @@ def test_units_of_a_scene_read_back_and_write_out():
 def test_the_viewer_saves_units_as_names_not_as_paths(tmp_path):
     from follicle.view.scenefile import save_scene
 
-    scene = parse_scene({"mesh": {"path": "head.obj", "units": "cm"},
-                         "guides": {"path": "g.hair", "units": 0.0254}}, "s", tmp_path)
+    scene = parse_scene(
+        {
+            "mesh": {"path": "head.obj", "units": "cm"},
+            "guides": {"path": "g.hair", "units": 0.0254},
+        },
+        "s",
+        tmp_path,
+    )
     back = load_scene(save_scene(scene, tmp_path / "sub" / "saved.toml"))
     assert (back.mesh.path, back.mesh.units, back.guides.units) == ("../head.obj", "cm", 0.0254)
 
@@ -113,8 +130,10 @@ def test_the_viewer_saves_units_as_names_not_as_paths(tmp_path):
 def test_builtins_are_metres_and_take_no_other_units():
     with pytest.raises(ConfigError) as err:
         parse_scene({"mesh": {"units": "cm"}}, "s.toml")
-    assert str(err.value) == ('s.toml: [mesh].units: builtin:head is in metres; units apply to'
-                              ' files only: remove it (got "cm")')
+    assert str(err.value) == (
+        "s.toml: [mesh].units: builtin:head is in metres; units apply to"
+        ' files only: remove it (got "cm")'
+    )
     with pytest.raises(ConfigError, match=r"^s\.toml: \[guides\]\.units: builtin:short is in"):
         parse_scene({"guides": {"path": "builtin:short", "units": 0.001}}, "s.toml")
     parse_scene({"mesh": {"units": "m"}, "guides": {"units": 1.0}})  # metres: fine
@@ -131,7 +150,8 @@ def test_formats_that_declare_a_unit_refuse_another():
     assert str(err.value).startswith(
         "s.toml: [guides].units: USD files declare their own unit (metersPerUnit; unset means"
         " centimetres), which follicle applies when reading 'groom.usda'; more units would"
-        " count twice: remove them")
+        " count twice: remove them"
+    )
     with pytest.raises(ConfigError, match=r"^s\.toml: \[mesh\]\.units: glTF files are in metres"):
         parse_scene({"mesh": {"path": "head.glb", "units": 0.01}}, "s.toml")
     with pytest.raises(InputError, match=r"^units: USD files declare their own unit"):
@@ -147,6 +167,7 @@ def test_every_usd_suffix_is_a_declared_unit_format():
 
 
 # ---------------------------------------------------------------- conversion at load
+
 
 def test_load_mesh_converts_vertices_to_metres(tmp_path):
     p = plane(2)
@@ -167,11 +188,12 @@ def test_load_curves_converts_points_and_widths(tmp_path, suffix):
         got = load_curves(path, units=units)
         np.testing.assert_array_equal(got.offsets, as_is.offsets)
         # float32 of the exact product: within half a float32 step (6e-8 relative)
-        np.testing.assert_allclose(got.points, as_is.points.astype(np.float64) * factor,
-                                   rtol=6e-8)
-        np.testing.assert_allclose(got.point_data["width"],  # a diameter: a length
-                                   as_is.point_data["width"].astype(np.float64) * factor,
-                                   rtol=6e-8)
+        np.testing.assert_allclose(got.points, as_is.points.astype(np.float64) * factor, rtol=6e-8)
+        np.testing.assert_allclose(
+            got.point_data["width"],  # a diameter: a length
+            as_is.point_data["width"].astype(np.float64) * factor,
+            rtol=6e-8,
+        )
         np.testing.assert_array_equal(got.point_data["color"], as_is.point_data["color"])
         assert got.points.dtype == np.float32 and got.point_data["width"].dtype == np.float32
 
@@ -182,11 +204,11 @@ def test_load_guides_converts_hair_curves_too():
     cm = given.with_points(given.points * 100)
     guides = load_guides(cm, mesh, units="cm")
     np.testing.assert_allclose(guides.curves.points, given.points, rtol=1e-7)
-    np.testing.assert_allclose(guides.rest_shapes(5)[:, -1], [[0, 0.3, 0], [0, 0.3, 0]],
-                               atol=1e-7)
+    np.testing.assert_allclose(guides.rest_shapes(5)[:, -1], [[0, 0.3, 0], [0, 0.3, 0]], atol=1e-7)
 
 
 # ---------------------------------------------------------------- the acceptance check
+
 
 @pytest.fixture(scope="module")
 def twins(tmp_path_factory) -> Path:
@@ -209,9 +231,13 @@ def twin_scene(folder: Path, mesh: str, guides: str, units: str | None = None) -
     def section(name: str) -> dict:
         return {"path": str(folder / name), **({"units": units} if units else {})}
 
-    return parse_scene({"mesh": section(mesh), "guides": section(guides),
-                        "groom": {"count": 400, "density": "builtin:scalp",
-                                  "groups": "builtin:parting"}})
+    return parse_scene(
+        {
+            "mesh": section(mesh),
+            "guides": section(guides),
+            "groom": {"count": 400, "density": "builtin:scalp", "groups": "builtin:parting"},
+        }
+    )
 
 
 def test_a_centimetre_scene_with_units_grows_the_metre_scene_hair(twins, caplog):
@@ -271,25 +297,47 @@ def test_one_file_in_centimetres_gets_one_warning_naming_its_key(twins, caplog):
 
 # ---------------------------------------------------------------- plausibility
 
+
 @pytest.mark.parametrize(
     ("scale", "units", "expected"),
     [
-        (30.0, "m", 'is 42.4 m across, outside 1 cm to 20 m: if the mesh is in centimetres, set'
-                    ' [mesh].units = "cm" (load_mesh(..., units="cm"))'),
-        (3000.0, "m", 'is 4.24e+03 m across, outside 1 cm to 20 m: if the mesh is in'
-                      ' millimetres, set [mesh].units = "mm" (load_mesh(..., units="mm"))'),
-        (0.25, "cm", 'is 0.00354 m across (read with units = "cm"), outside 1 cm to 20 m: if'
-                     ' the mesh is in metres, set [mesh].units = "m" (load_mesh(..., units="m"))'),
+        (
+            30.0,
+            "m",
+            "is 42.4 m across, outside 1 cm to 20 m: if the mesh is in centimetres, set"
+            ' [mesh].units = "cm" (load_mesh(..., units="cm"))',
+        ),
+        (
+            3000.0,
+            "m",
+            "is 4.24e+03 m across, outside 1 cm to 20 m: if the mesh is in"
+            ' millimetres, set [mesh].units = "mm" (load_mesh(..., units="mm"))',
+        ),
+        (
+            0.25,
+            "cm",
+            'is 0.00354 m across (read with units = "cm"), outside 1 cm to 20 m: if'
+            ' the mesh is in metres, set [mesh].units = "m" (load_mesh(..., units="m"))',
+        ),
         # a metre mesh read as millimetres is 1000× too small: "m", not units of 0.1 m
-        (0.25, "mm", 'is 0.000354 m across (read with units = "mm"), outside 1 cm to 20 m: if'
-                     ' the mesh is in metres, set [mesh].units = "m" (load_mesh(..., units="m"))'),
-        (0.25, 0.0001, 'is 3.54e-05 m across (read with units = 0.0001), outside 1 cm to 20 m:'
-                       ' if the mesh is in units of 0.1 m, set [mesh].units = 0.1'
-                       ' (load_mesh(..., units=0.1))'),
+        (
+            0.25,
+            "mm",
+            'is 0.000354 m across (read with units = "mm"), outside 1 cm to 20 m: if'
+            ' the mesh is in metres, set [mesh].units = "m" (load_mesh(..., units="m"))',
+        ),
+        (
+            0.25,
+            0.0001,
+            "is 3.54e-05 m across (read with units = 0.0001), outside 1 cm to 20 m:"
+            " if the mesh is in units of 0.1 m, set [mesh].units = 0.1"
+            " (load_mesh(..., units=0.1))",
+        ),
     ],
 )
-def test_a_mesh_of_implausible_size_warns_with_the_likely_units(tmp_path, caplog, scale, units,
-                                                                 expected):
+def test_a_mesh_of_implausible_size_warns_with_the_likely_units(
+    tmp_path, caplog, scale, units, expected
+):
     p = plane(1)  # the unit square, 1.41 across
     path = save_mesh(p.rest_vertices * scale, p.faces, p.uvs, tmp_path / "square.obj")
     with caplog.at_level(logging.WARNING, logger="follicle"):
@@ -297,8 +345,9 @@ def test_a_mesh_of_implausible_size_warns_with_the_likely_units(tmp_path, caplog
     assert warnings_of(caplog) == [f"{path}: the mesh {expected}"]
 
 
-@pytest.mark.parametrize(("scale", "units"), [(1.0, "m"), (1000.0, "mm"), (14.0, "m"),
-                                              (0.008, "m"), (1.0, "in")])
+@pytest.mark.parametrize(
+    ("scale", "units"), [(1.0, "m"), (1000.0, "mm"), (14.0, "m"), (0.008, "m"), (1.0, "in")]
+)
 def test_a_mesh_of_plausible_size_does_not_warn(tmp_path, caplog, scale, units):
     p = plane(1)
     path = save_mesh(p.rest_vertices * scale, p.faces, p.uvs, tmp_path / "square.obj")
@@ -313,25 +362,50 @@ ROOTS = [[1.0, 0.0, 1.0], [3.0, 0.0, 7.0], [8.0, 0.0, 2.0]]
 @pytest.mark.parametrize(
     ("mesh_size", "in_file", "length", "units", "expected"),
     [
-        (10.0, 100.0, 30.0, "m", "the guides' median length is 30 m, outside 1 mm to 2 m: if the"
-                                 ' guides are in centimetres, set [guides].units = "cm"'
-                                 ' (load_guides(..., units="cm"))'),
-        (10.0, 1.0, 0.3, "mm", "the guides' median length is 0.0003 m (read with units ="
-                               ' "mm"), outside 1 mm to 2 m: if the guides are in metres, set'
-                               ' [guides].units = "m"'),
+        (
+            10.0,
+            100.0,
+            30.0,
+            "m",
+            "the guides' median length is 30 m, outside 1 mm to 2 m: if the"
+            ' guides are in centimetres, set [guides].units = "cm"'
+            ' (load_guides(..., units="cm"))',
+        ),
+        (
+            10.0,
+            1.0,
+            0.3,
+            "mm",
+            "the guides' median length is 0.0003 m (read with units ="
+            ' "mm"), outside 1 mm to 2 m: if the guides are in metres, set'
+            ' [guides].units = "m"',
+        ),
         # far longer than the mesh: centimetre guides on a small metre mesh
-        (0.5, 1.0, 1.5, "m", "the guides' median length 1.5 m is 2.12× the mesh's size (0.707 m"
-                             " across): if the guides are in centimetres, set [guides].units"
-                             ' = "cm"'),
+        (
+            0.5,
+            1.0,
+            1.5,
+            "m",
+            "the guides' median length 1.5 m is 2.12× the mesh's size (0.707 m"
+            " across): if the guides are in centimetres, set [guides].units"
+            ' = "cm"',
+        ),
         # far shorter: metre guides on a centimetre mesh read as metres
-        (10.0, 1.0, 0.005, "m", "the guides' median length 0.005 m is 0.000354× the mesh's size"
-                                " (14.1 m across): if the mesh was read as metres but is in"
-                                ' centimetres, set [mesh].units = "cm" (load_mesh(...,'
-                                ' units="cm"))'),
+        (
+            10.0,
+            1.0,
+            0.005,
+            "m",
+            "the guides' median length 0.005 m is 0.000354× the mesh's size"
+            " (14.1 m across): if the mesh was read as metres but is in"
+            ' centimetres, set [mesh].units = "cm" (load_mesh(...,'
+            ' units="cm"))',
+        ),
     ],
 )
 def test_guides_of_implausible_size_warn_once_with_the_likely_units(
-        tmp_path, caplog, mesh_size, in_file, length, units, expected):  # fmt: skip
+    tmp_path, caplog, mesh_size, in_file, length, units, expected
+):
     """``in_file``: how many file units make a metre of the mesh (100: a centimetre file)."""
     roots = np.array(ROOTS) * mesh_size / 10 * in_file
     path = save(strands(roots, length), tmp_path / "guides.hair")
@@ -349,11 +423,15 @@ def test_roots_off_the_mesh_by_100_name_the_units(tmp_path, caplog):
     with caplog.at_level(logging.WARNING, logger="follicle"):
         load_guides(path, floor(5.0))
     (line,) = warnings_of(caplog)
-    assert line.startswith(f"{path}: 3 root(s) lie off mesh 'floor' (farthest: guide 2, 406.3"
-                           " away, 5745.4% of the mesh size)")
-    assert line.endswith("they are bound to the closest surface point; scaled by 0.01 they lie"
-                         ' on it: if the guides are in centimetres, set [guides].units = "cm"'
-                         ' (load_guides(..., units="cm"))')
+    assert line.startswith(
+        f"{path}: 3 root(s) lie off mesh 'floor' (farthest: guide 2, 406.3"
+        " away, 5745.4% of the mesh size)"
+    )
+    assert line.endswith(
+        "they are bound to the closest surface point; scaled by 0.01 they lie"
+        ' on it: if the guides are in centimetres, set [guides].units = "cm"'
+        ' (load_guides(..., units="cm"))'
+    )
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="follicle"):
         guides = load_guides(path, floor(5.0), units="cm")
@@ -366,8 +444,10 @@ def test_roots_off_the_mesh_for_no_units_reason_warn_as_before(caplog):
     with caplog.at_level(logging.WARNING, logger="follicle"):
         load_guides(shifted, floor())
     (line,) = warnings_of(caplog)
-    assert line == ("guides: 3 root(s) lie off mesh 'floor' (farthest: guide 0, 2 away, 14.1% of"
-                    " the mesh size); they are bound to the closest surface point")
+    assert line == (
+        "guides: 3 root(s) lie off mesh 'floor' (farthest: guide 0, 2 away, 14.1% of"
+        " the mesh size); they are bound to the closest surface point"
+    )
 
 
 def test_no_units_warning_for_the_defaults_and_the_examples(caplog):
@@ -382,11 +462,24 @@ def test_no_units_warning_for_the_defaults_and_the_examples(caplog):
 def test_follicle_grow_prints_the_warning_without_units_and_nothing_with(twins, tmp_path):
     def grow_cli(units: str) -> subprocess.CompletedProcess:
         scene = tmp_path / "cm.toml"
-        scene.write_text(f'[mesh]\npath = "{twins / "head_cm.obj"}"\n{units}'
-                         f'[guides]\npath = "{twins / "long_cm.obj"}"\n{units}'
-                         "[groom]\ncount = 50\n")
-        return subprocess.run([sys.executable, "-m", "follicle.cli", "grow", str(scene), "-o",
-                               str(tmp_path / "h.npz")], capture_output=True, text=True)
+        scene.write_text(
+            f'[mesh]\npath = "{twins / "head_cm.obj"}"\n{units}'
+            f'[guides]\npath = "{twins / "long_cm.obj"}"\n{units}'
+            "[groom]\ncount = 50\n"
+        )
+        return subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "follicle.cli",
+                "grow",
+                str(scene),
+                "-o",
+                str(tmp_path / "h.npz"),
+            ],
+            capture_output=True,
+            text=True,
+        )
 
     bare = grow_cli("")
     assert bare.returncode == 0, bare.stderr

@@ -64,8 +64,12 @@ def _run(*args: object) -> None:
 def _bound(ref: Reference, hair: HairCurves) -> HairCurves:
     """``hair`` with the binding the CLI gives Unreal hair (closest_guides, guide_weights)."""
     index, weight = ref.groom.guide_binding(hair.curve_data["hair_id"])
-    return HairCurves(hair.points, hair.offsets, hair.point_data,
-                      {**hair.curve_data, "closest_guides": index, "guide_weights": weight})
+    return HairCurves(
+        hair.points,
+        hair.offsets,
+        hair.point_data,
+        {**hair.curve_data, "closest_guides": index, "guide_weights": weight},
+    )
 
 
 @pytest.fixture(scope="module")
@@ -112,8 +116,12 @@ def long_curves() -> HairCurves:
     points = np.stack([0.01 * np.cos(8 * t), 0.2 * t, 0.01 * np.sin(8 * t)], axis=1)
     points += np.repeat([[0.0, 0, 0], [0.05, 0, 0], [0.1, 0, 0]], counts, axis=0)
     width = (1e-4 - 5e-5 * t).astype(np.float32)
-    return HairCurves(points.astype(np.float32), np.concatenate([[0], np.cumsum(counts)]),
-                      {"width": width}, {"hair_id": np.arange(3, dtype=np.int64)})
+    return HairCurves(
+        points.astype(np.float32),
+        np.concatenate([[0], np.cumsum(counts)]),
+        {"width": width},
+        {"hair_id": np.arange(3, dtype=np.int64)},
+    )
 
 
 @pytest.fixture(scope="module")
@@ -133,8 +141,14 @@ def animated(files, reference) -> tuple[Path, list[HairCurves]]:
     frames = [HairCurves.from_array(base + np.float32(d), point_data=width) for d in FRAME_SHIFTS]
     moves = np.stack([np.eye(4)] * len(frames))
     moves[2:, 0, 3], moves[3:, 1, 3] = 0.5, 0.25
-    path = save_abc_cache(frames, files / "animated.abc", fps=24, mesh=reference.groom.mesh,
-                          transforms=moves, target="unreal")  # fmt: skip
+    path = save_abc_cache(
+        frames,
+        files / "animated.abc",
+        fps=24,
+        mesh=reference.groom.mesh,
+        transforms=moves,
+        target="unreal",
+    )
     return path, frames
 
 
@@ -159,7 +173,8 @@ def _write_kinds(path: Path) -> None:
         for v in values:
             prop.setValue(v)
     Abc.OUInt32ArrayProperty(Abc.OCompoundProperty(props, "sub"), "u").setValue(
-        imath.UnsignedIntArray(2))
+        imath.UnsignedIntArray(2)
+    )
 
 
 @pytest.fixture(scope="module")
@@ -199,10 +214,14 @@ def _joined(objects: list[Object], name: str) -> np.ndarray:
 
 
 # name -> (pod, extent, geoScope) as the spec types them (int: follicle writes int32)
-_SPEC = {"groom_id": ("int32", 1, "uni"), "groom_guide": ("int32", 1, "uni"),
-         "groom_root_uv": ("float32", 2, "uni"), "groom_color": ("float32", 3, "vtx"),
-         "groom_closest_guides": ("int32", 3, "uni"),
-         "groom_guide_weights": ("float32", 3, "uni")}  # fmt: skip
+_SPEC = {
+    "groom_id": ("int32", 1, "uni"),
+    "groom_guide": ("int32", 1, "uni"),
+    "groom_root_uv": ("float32", 2, "uni"),
+    "groom_color": ("float32", 3, "vtx"),
+    "groom_closest_guides": ("int32", 3, "uni"),
+    "groom_guide_weights": ("float32", 3, "uni"),
+}
 VERSION = {"groom_version_major": 1, "groom_version_minor": 5}
 GUIDE_PARAMS = {"groom_guide", "groom_id", "groom_root_uv"}
 
@@ -237,8 +256,9 @@ def _theirs(value: object) -> np.ndarray:
         return np.asarray(value).reshape(-1)
     if items and isinstance(items[0], str):
         return np.array(items, dtype=object)
-    return np.array([list(r) if hasattr(r, "__len__") else r for r in items],
-                    dtype=np.float64).reshape(-1)  # fmt: skip
+    return np.array(
+        [list(r) if hasattr(r, "__len__") else r for r in items], dtype=np.float64
+    ).reshape(-1)
 
 
 def _compare(theirs: Abc.ICompoundProperty, ours: Compound) -> int:
@@ -319,26 +339,31 @@ def test_repeated_samples_read_the_sample_they_repeat(animated):
     assert [points.stored_index(i) for i in range(6)] == [0, 0, 1, 2, 2, 2]
     assert points.digest(0) == points.digest(1) != points.digest(2) != points.digest(3)
     for i, frame in enumerate(frames):
-        np.testing.assert_allclose(points.value(i), frame.points.astype(np.float64) * CM,
-                                   rtol=1e-6, atol=1e-5)  # fmt: skip
+        np.testing.assert_allclose(
+            points.value(i), frame.points.astype(np.float64) * CM, rtol=1e-6, atol=1e-5
+        )
     speeds = hair.find(".geom/.velocities")  # cm/s from each frame to the next
     steps = np.diff(FRAME_SHIFTS + (FRAME_SHIFTS[-1],)) * 24 * CM
     for i, step in enumerate(steps):
         np.testing.assert_allclose(speeds.value(i), np.full((18, 3), step), atol=1e-3)
     assert hair.find(".geom/width").is_constant
-    (head,) = [o.find(".xform/.vals") for o in archive.walk() if ".xform/.vals" in o.properties
-               and o.find(".xform/.vals").num_samples > 1]  # the moving head's Xform
+    (head,) = [
+        o.find(".xform/.vals")
+        for o in archive.walk()
+        if ".xform/.vals" in o.properties and o.find(".xform/.vals").num_samples > 1
+    ]  # the moving head's Xform
     # its matrix: a scalar, 4x4 row-major (Alembic's row vectors: translation last row)
-    assert head.kind == "scalar" and [head.stored_index(i) for i in range(6)] == \
-        [0, 0, 1, 2, 2, 2]  # fmt: skip
+    assert head.kind == "scalar" and [head.stored_index(i) for i in range(6)] == [0, 0, 1, 2, 2, 2]
     assert head.value(5).reshape(4, 4)[3, :3].tolist() == [50.0, 25.0, 0.0]
 
 
 def test_the_decoder_reads_every_kind_of_property(kinds):
     archive = Archive(kinds)
     thing = archive.object("/thing")
-    assert _compare(Abc.IArchive(str(kinds)).getTop().children[0].getProperties(),
-                    thing.properties) == 15  # fmt: skip
+    assert (
+        _compare(Abc.IArchive(str(kinds)).getTop().children[0].getProperties(), thing.properties)
+        == 15
+    )
     values = {p.name: p.value() for p in thing.properties.walk() if isinstance(p, Property)}
     assert values["s"].tolist() == ["héllo"] and values["w"].tolist() == ["wide ✓"]
     assert values["sa"].tolist() == ["a", "", "ccc"]
@@ -348,8 +373,7 @@ def test_the_decoder_reads_every_kind_of_property(kinds):
     assert values["u"].dtype == np.uint32 and values["u"].shape == (2,)
     for name, expected, changed in (("f", [1, 2, 2, 3, 3], (1, 3)), ("g", [1, 2, 3], (1, 2))):
         prop = thing.find(name)
-        assert [prop.value(i).tolist() for i in range(prop.num_samples)] == \
-            [[v] for v in expected]  # fmt: skip
+        assert [prop.value(i).tolist() for i in range(prop.num_samples)] == [[v] for v in expected]
         assert (prop.first_changed, prop.last_changed) == changed
         assert archive.time_samplings[prop.time_sampling].time_per_cycle == 1 / 24
 
@@ -367,14 +391,18 @@ def _field_offsets(path: Path) -> dict[str, tuple[int, int]]:
     data = ogawa.group(points._ref)[0] & ~(1 << 63)
     parent = archive.object(curves.full_name.rsplit("/", 1)[0])
     slot = [c.name for c in parent.children].index(curves.name) + 1
-    return {"root position": (8, 4), "root count": (root, 5),
-            "root child 0": (root + 8, 4), "top object (kind bit)": (root + 8 + 2 * 8, 7),
-            "top object": (root + 8 + 2 * 8, 4),
-            "curves object": (parent._ref + 8 + 8 * slot, 4),
-            "curves object (kind bit)": (parent._ref + 8 + 8 * slot, 7),
-            "P data reference": (points._ref + 8, 5),
-            "P data (kind bit)": (points._ref + 8, 7),
-            "P data size": (data, 4)}  # fmt: skip
+    return {
+        "root position": (8, 4),
+        "root count": (root, 5),
+        "root child 0": (root + 8, 4),
+        "top object (kind bit)": (root + 8 + 2 * 8, 7),
+        "top object": (root + 8 + 2 * 8, 4),
+        "curves object": (parent._ref + 8 + 8 * slot, 4),
+        "curves object (kind bit)": (parent._ref + 8 + 8 * slot, 7),
+        "P data reference": (points._ref + 8, 5),
+        "P data (kind bit)": (points._ref + 8, 7),
+        "P data size": (data, 4),
+    }
 
 
 @pytest.mark.parametrize("cut", [0, 10, 15, 16, 100, 0.5, -8, -1])
@@ -388,9 +416,18 @@ def test_the_decoder_refuses_a_truncated_file(long_file, tmp_path, cut):
         _decode_everything(bad)
 
 
-FIELDS = ["root position", "root count", "root child 0", "top object (kind bit)",
-          "top object", "curves object", "curves object (kind bit)", "P data reference",
-          "P data (kind bit)", "P data size"]  # fmt: skip
+FIELDS = [
+    "root position",
+    "root count",
+    "root child 0",
+    "top object (kind bit)",
+    "top object",
+    "curves object",
+    "curves object (kind bit)",
+    "P data reference",
+    "P data (kind bit)",
+    "P data size",
+]
 
 
 @pytest.mark.parametrize("field", FIELDS)
@@ -452,16 +489,19 @@ def test_points_widths_and_counts_are_centimetres_of_the_groom(grown, reference)
     guides, (hair,) = _curves(Archive(grown))
     ref = reference
     assert _geom(hair, "nVertices").tolist() == ref.hair.counts.tolist()
-    np.testing.assert_allclose(_geom(hair, "P"), ref.hair.points.astype(np.float64) * CM,
-                               rtol=1e-6, atol=1e-5)  # fmt: skip
+    np.testing.assert_allclose(
+        _geom(hair, "P"), ref.hair.points.astype(np.float64) * CM, rtol=1e-6, atol=1e-5
+    )
     width = hair.find(".geom/width")
     assert (width.pod, width.extent, width.metadata["geoScope"]) == ("float32", 1, "vtx")
-    np.testing.assert_allclose(width.value(), ref.hair.point_data["width"] * np.float32(CM),
-                               rtol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(
+        width.value(), ref.hair.point_data["width"] * np.float32(CM), rtol=1e-6
+    )
     assert 0.001 < width.value().min() and width.value().max() < 0.1  # 10 µm - 1 mm, in cm
     assert _geom(guides, "nVertices").tolist() == ref.guides.counts.tolist()
-    np.testing.assert_allclose(_geom(guides, "P"), ref.guides.points.astype(np.float64) * CM,
-                               rtol=1e-6, atol=1e-5)  # fmt: skip
+    np.testing.assert_allclose(
+        _geom(guides, "P"), ref.guides.points.astype(np.float64) * CM, rtol=1e-6, atol=1e-5
+    )
     np.testing.assert_allclose(_geom(guides, "width"), DEFAULT_WIDTH * CM, rtol=1e-6)
 
 
@@ -474,12 +514,15 @@ def test_groom_id_root_uv_and_colour_are_the_hairs(grown, reference):
     assert guide_ids.tolist() == list(range(ref.guides.curve_count))  # what closest names
     assert len(set(guide_ids.tolist())) == len(guide_ids) and guide_ids.min() >= 0
     for obj, curves in ((hair, ref.hair), (guides, ref.guides)):
-        np.testing.assert_array_equal(_param(obj, "groom_root_uv", *_SPEC["groom_root_uv"]),
-                                      curves.curve_data["root_uv"])  # fmt: skip
+        np.testing.assert_array_equal(
+            _param(obj, "groom_root_uv", *_SPEC["groom_root_uv"]), curves.curve_data["root_uv"]
+        )
     color = _param(hair, "groom_color", *_SPEC["groom_color"])
     np.testing.assert_array_equal(color, ref.hair.point_data["color"])
-    assert color.min() >= 0 and hair.find(".geom/.arbGeomParams/groom_color").metadata[
-        "interpretation"] == "rgb"  # fmt: skip
+    assert (
+        color.min() >= 0
+        and hair.find(".geom/.arbGeomParams/groom_color").metadata["interpretation"] == "rgb"
+    )
 
 
 def test_groom_guide_flags_guides_1_and_hair_0(grown):
@@ -510,9 +553,12 @@ def test_every_chunk_is_an_icurves_of_the_schema(chunked, reference):
     assert _joined(hair, "groom_id").tolist() == reference.hair.curve_data["hair_id"].tolist()
     np.testing.assert_array_equal(_joined(hair, "groom_closest_guides"), reference.closest)
     assert set(_joined(hair, "groom_guide").tolist()) == {0}
-    np.testing.assert_allclose(np.concatenate([_geom(o, "P") for o in hair]),
-                               reference.hair.points.astype(np.float64) * CM, rtol=1e-6,
-                               atol=1e-5)  # fmt: skip
+    np.testing.assert_allclose(
+        np.concatenate([_geom(o, "P") for o in hair]),
+        reference.hair.points.astype(np.float64) * CM,
+        rtol=1e-6,
+        atol=1e-5,
+    )
 
 
 def test_no_curve_has_more_than_255_points(long_file, long_curves):
@@ -523,7 +569,7 @@ def test_no_curve_has_more_than_255_points(long_file, long_curves):
     assert len(points) == len(width) == counts.sum()
     ends = np.concatenate([[0], np.cumsum(counts)])
     source = long_curves.points.astype(np.float64) * CM
-    np.testing.assert_allclose(points[ends[1]:], source[300:], rtol=1e-6, atol=1e-5)  # kept
+    np.testing.assert_allclose(points[ends[1] :], source[300:], rtol=1e-6, atol=1e-5)  # kept
     # the 300-point curve resampled: same ends, same helix
     np.testing.assert_allclose(points[[0, 254]], source[[0, 299]], atol=1e-3)
     np.testing.assert_allclose(np.hypot(points[:255, 0], points[:255, 2]), 1.0, atol=1e-3)

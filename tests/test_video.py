@@ -50,8 +50,9 @@ def test_even_sizes_kept_and_rgb_accepted(tmp_path):
     assert frames[0][:, :10].max() < 20 and frames[0][:, 14:].min() > 180
 
 
-@pytest.mark.parametrize("name, error", [("a.avi", FormatError), ("dir.mp4", FormatError),
-                                         ("file/x.mp4", FormatError)])
+@pytest.mark.parametrize(
+    "name, error", [("a.avi", FormatError), ("dir.mp4", FormatError), ("file/x.mp4", FormatError)]
+)
 def test_bad_paths_fail_and_leave_nothing(tmp_path, name, error):
     (tmp_path / "dir.mp4").mkdir()
     (tmp_path / "file").write_text("not a folder")
@@ -63,14 +64,17 @@ def test_bad_paths_fail_and_leave_nothing(tmp_path, name, error):
     assert not any((tmp_path / "dir.mp4").iterdir())
 
 
-@pytest.mark.parametrize("frames, fps, match", [
-    ([], 24, "no frames"),
-    (greys(2), 0, "fps"),
-    (greys(2), float("nan"), "fps"),
-    (greys(2) + [np.zeros((20, 33, 4), np.uint8)], 24, "frame 2: size 33×20 differs"),
-    ([np.zeros((8, 8, 4), np.float32)], 24, "frame 0: expected an .* uint8"),
-    ([np.zeros((8, 8), np.uint8)], 24, "frame 0"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "frames, fps, match",
+    [
+        ([], 24, "no frames"),
+        (greys(2), 0, "fps"),
+        (greys(2), float("nan"), "fps"),
+        (greys(2) + [np.zeros((20, 33, 4), np.uint8)], 24, "frame 2: size 33×20 differs"),
+        ([np.zeros((8, 8, 4), np.float32)], 24, "frame 0: expected an .* uint8"),
+        ([np.zeros((8, 8), np.uint8)], 24, "frame 0"),
+    ],
+)
 def test_bad_frames_fail_and_leave_nothing(tmp_path, frames, fps, match):
     with pytest.raises(InputError, match=match):
         write_mp4(iter(frames), tmp_path / "v.mp4", fps)
@@ -91,8 +95,7 @@ def cache_path(tmp_path_factory):
     folder = tmp_path_factory.mktemp("video")
     cache, _ = simulate_scene(parse_scene(SCENE, "video test", folder), frames=3, fps=12.0)
     path = folder / "sim.npz"
-    save_cache(path, cache.positions, cache.transforms, cache.fps, cache.scene_toml,
-               cache.base_dir)
+    save_cache(path, cache.positions, cache.transforms, cache.fps, cache.scene_toml, cache.base_dir)
     return path
 
 

@@ -36,8 +36,13 @@ shadows = false
 
 
 def small_scene():
-    return parse_scene({"guides": {"path": "builtin:long"}, "groom": {"count": 1500},
-                        "render": {"msaa": 0, "shadows": False}})  # fmt: skip
+    return parse_scene(
+        {
+            "guides": {"path": "builtin:long"},
+            "groom": {"count": 1500},
+            "render": {"msaa": 0, "shadows": False},
+        }
+    )
 
 
 @pytest.fixture(scope="module")
@@ -146,8 +151,10 @@ def test_save_scene_reads_back_with_paths_for_the_new_folder(tmp_path):
     src = tmp_path / "src"
     src.mkdir()
     Image.fromarray(np.full((4, 4, 3), 200, np.uint8)).save(src / "tint.png")
-    (src / "scene.toml").write_text('[guides]\npath = "builtin:long"\n[groom]\ncount = 200\n'
-                                    'root_color = {texture = "tint.png"}\n')  # fmt: skip
+    (src / "scene.toml").write_text(
+        '[guides]\npath = "builtin:long"\n[groom]\ncount = 200\n'
+        'root_color = {texture = "tint.png"}\n'
+    )
     c = Controller(src / "scene.toml", size=(64, 36))
     c.set_param("sim", "damping", 2.5)
     c.set_param("groom", "frizz_tip", 0.004)
@@ -342,8 +349,7 @@ def test_bad_parameters_name_the_field(ctl):
 
 @gl
 def test_view_offscreen_runs_frames(tmp_path):
-    ctl = view(small_scene(), frames=3, screenshot=tmp_path / "o.png", size=(96, 54),
-               window=False)  # fmt: skip
+    ctl = view(small_scene(), frames=3, screenshot=tmp_path / "o.png", size=(96, 54), window=False)
     assert ctl.frame == 3 and ctl.loop_fps > 0
     assert Image.open(tmp_path / "o.png").size == (96, 54)
 
@@ -362,9 +368,21 @@ def test_cli_bad_input_exits_2(tmp_path):
 def test_cli_offscreen(tmp_path):
     (tmp_path / "scene.toml").write_text(SCENE)
     out = tmp_path / "shot.png"
-    result = CliRunner().invoke(main, ["view", str(tmp_path / "scene.toml"), "--offscreen",
-                                       "--frames", "2", "--size", "64", "36",
-                                       "--screenshot", str(out)])  # fmt: skip
+    result = CliRunner().invoke(
+        main,
+        [
+            "view",
+            str(tmp_path / "scene.toml"),
+            "--offscreen",
+            "--frames",
+            "2",
+            "--size",
+            "64",
+            "36",
+            "--screenshot",
+            str(out),
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert "2 frames of 1,500 hairs" in result.output and out.is_file()
 
@@ -385,9 +403,21 @@ def _display_command() -> list[str] | None:
 def test_window_runs_frames_and_exits(tmp_path):
     (tmp_path / "scene.toml").write_text(SCENE)
     out = tmp_path / "window.png"
-    command = [*(_display_command() or []), sys.executable, "-m", "follicle.cli", "view",
-               str(tmp_path / "scene.toml"), "--frames", "4", "--size", "160", "90",
-               "--screenshot", str(out)]  # fmt: skip
+    command = [
+        *(_display_command() or []),
+        sys.executable,
+        "-m",
+        "follicle.cli",
+        "view",
+        str(tmp_path / "scene.toml"),
+        "--frames",
+        "4",
+        "--size",
+        "160",
+        "90",
+        "--screenshot",
+        str(out),
+    ]
     env = {**os.environ, "NUMBA_NUM_THREADS": os.environ.get("NUMBA_NUM_THREADS", "1")}
     done = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
     assert done.returncode == 0, done.stderr
@@ -425,8 +455,13 @@ win.close()
 )
 def test_window_is_resizable_and_the_render_follows(tmp_path):
     (tmp_path / "scene.toml").write_text(SCENE)
-    command = [*(_display_command() or []), sys.executable, "-c", RESIZE,
-               str(tmp_path / "scene.toml")]  # fmt: skip
+    command = [
+        *(_display_command() or []),
+        sys.executable,
+        "-c",
+        RESIZE,
+        str(tmp_path / "scene.toml"),
+    ]
     env = {**os.environ, "NUMBA_NUM_THREADS": os.environ.get("NUMBA_NUM_THREADS", "1")}
     done = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
     assert done.returncode == 0, done.stderr

@@ -42,8 +42,16 @@ _LAZY = {
 }
 
 __all__ = [
-    "HairCurves", "FollicleError", "InputError", "FormatError", "ConfigError", "SimulationError",
-    "Camera", "Light", "render", *_LAZY,
+    "HairCurves",
+    "FollicleError",
+    "InputError",
+    "FormatError",
+    "ConfigError",
+    "SimulationError",
+    "Camera",
+    "Light",
+    "render",
+    *_LAZY,
 ]
 
 

@@ -85,8 +85,11 @@ def _first_run() -> bool:
     from numba.core.config import CACHE_DIR
     from numba.misc.appdirs import AppDirs
 
-    roots = [Path(CACHE_DIR)] if CACHE_DIR else \
-        [Path(__file__).parent, Path(AppDirs("numba", appauthor=False).user_cache_dir)]
+    roots = (
+        [Path(CACHE_DIR)]
+        if CACHE_DIR
+        else [Path(__file__).parent, Path(AppDirs("numba", appauthor=False).user_cache_dir)]
+    )
     return not any(next(root.rglob("*.nbi"), None) for root in roots if root.is_dir())
 
 
@@ -99,10 +102,18 @@ def _progress(label: str) -> Iterator[Callable[[int, int], None]]:
     if not _err.is_terminal:
         yield lambda done, total: None
         return
-    waiting = f"{label} (first run: compiling follicle's kernels, cached for later runs)" \
-        if _first_run() else label  # fmt: skip
-    columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), _Count(),
-               TimeElapsedColumn())
+    waiting = (
+        f"{label} (first run: compiling follicle's kernels, cached for later runs)"
+        if _first_run()
+        else label
+    )
+    columns = (
+        SpinnerColumn(),
+        TextColumn("{task.description}"),
+        BarColumn(),
+        _Count(),
+        TimeElapsedColumn(),
+    )
     with Progress(*columns, console=_err, transient=True) as bar:
         task = bar.add_task(waiting, total=None)
 
@@ -149,12 +160,19 @@ def _handle_signals() -> None:
 _NAMED_FORMATS = (".usd", ".usda", ".usdc", ".usdz", ".abc")  # formats with attribute names
 _MESH_ONLY = (".ply", ".glb", ".gltf", ".stl", ".off")  # written only as meshes
 _TARGET_OPTION = click.option(
-    "--target", "target_name", type=click.Choice(TARGET_NAMES), default=None,
+    "--target",
+    "target_name",
+    type=click.Choice(TARGET_NAMES),
+    default=None,
     help="The tool the USD / Alembic file is for: its attribute names, types and units"
-    " (default [output].target, else generic; README: Formats, Targets).")
+    " (default [output].target, else generic; README: Formats, Targets).",
+)
 _SKIN_OPTION = click.option(
-    "--skin/--no-skin", default=True, show_default=True,
-    help="Write the skin mesh beside the hair (USD and Alembic).")
+    "--skin/--no-skin",
+    default=True,
+    show_default=True,
+    help="Write the skin mesh beside the hair (USD and Alembic).",
+)
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -169,13 +187,24 @@ def main(verbose: int) -> None:
 
 
 @main.command()
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="follicle-demo",
-              show_default=True, help="Folder for demo.png and demo.npz.")
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False),
+    default="follicle-demo",
+    show_default=True,
+    help="Folder for demo.png and demo.npz.",
+)
 @click.option("--count", type=int, default=None, help="Number of hairs (default 20,000).")
-@click.option("--guides", default="builtin:long", show_default=True,
-              help="Guide set: builtin:long, builtin:short or builtin:curly.")
-@click.option("--size", type=(int, int), default=(960, 960), show_default=True,
-              help="Image width and height.")
+@click.option(
+    "--guides",
+    default="builtin:long",
+    show_default=True,
+    help="Guide set: builtin:long, builtin:short or builtin:curly.",
+)
+@click.option(
+    "--size", type=(int, int), default=(960, 960), show_default=True, help="Image width and height."
+)
 def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) -> None:
     """Grow hair on the built-in head and render it: DIR/demo.png and DIR/demo.npz."""
     from .io.dispatch import save
@@ -185,8 +214,9 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
     groom: dict[str, object] = {}
     if count is not None:
         groom["count"] = count
-    scene = parse_scene({"guides": {"path": guides}, "groom": groom,
-                         "render": {"size": list(size)}}, "demo")
+    scene = parse_scene(
+        {"guides": {"path": guides}, "groom": groom, "render": {"size": list(size)}}, "demo"
+    )
     out = Path(out_dir)
     with _step("grow"), _progress("growing hair") as progress:
         mesh, curves = grow(scene, progress)
@@ -199,16 +229,27 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
 
 @main.command()
 @click.argument("scene_path", metavar="SCENE", type=click.Path())
-@click.option("-o", "--out", type=click.Path(dir_okay=False), default=None,
-              help="Output curves file: .npz, or .hair, .tfx, .obj, .pbrt, .txt (Mitsuba), …"
-              " written chunk by chunk as the hair grows; default [output].curves of the"
-              " scene.")
+@click.option(
+    "-o",
+    "--out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Output curves file: .npz, or .hair, .tfx, .obj, .pbrt, .txt (Mitsuba), …"
+    " written chunk by chunk as the hair grows; default [output].curves of the"
+    " scene.",
+)
 @click.option("--count", type=int, default=None, help="Override [groom].count.")
 @click.option("--seed", type=int, default=None, help="Override [groom].seed.")
 @_TARGET_OPTION
 @_SKIN_OPTION
-def grow(scene_path: str, out: str | None, count: int | None, seed: int | None,
-         target_name: str | None, skin: bool) -> None:  # fmt: skip
+def grow(
+    scene_path: str,
+    out: str | None,
+    count: int | None,
+    seed: int | None,
+    target_name: str | None,
+    skin: bool,
+) -> None:
     """Grow the hair of a scene file and save the curves.
 
     Formats other than .npz are streamed: the hair is grown and written in chunks, so
@@ -246,8 +287,10 @@ def _check_target(path: str, target: str) -> None:
     from .errors import FormatError
 
     if target != "generic" and Path(path).suffix.lower() not in _NAMED_FORMATS:
-        raise FormatError(f"{path}: --target {target} is for USD and Alembic files"
-                          f" ({', '.join(_NAMED_FORMATS)}); drop it or write one of those")
+        raise FormatError(
+            f"{path}: --target {target} is for USD and Alembic files"
+            f" ({', '.join(_NAMED_FORMATS)}); drop it or write one of those"
+        )
 
 
 def _extras(path: str, target: str, guides: HairCurves | None, mesh: object) -> dict:
@@ -257,8 +300,9 @@ def _extras(path: str, target: str, guides: HairCurves | None, mesh: object) -> 
     return {"target": target, "guides": guides, "mesh": mesh}
 
 
-def _grown_chunks(groom: Groom, progress: Callable[[int, int], None], tally: list[int],
-                  target: str = "generic") -> Iterator[HairCurves]:  # fmt: skip
+def _grown_chunks(
+    groom: Groom, progress: Callable[[int, int], None], tally: list[int], target: str = "generic"
+) -> Iterator[HairCurves]:
     """The groom's hairs chunk by chunk, reporting progress and adding up (hairs, points)
     in ``tally``; one empty chunk for a count of 0, so the file is still written. For
     Unreal each hair also carries the three guides it blends most and their weights."""
@@ -270,8 +314,12 @@ def _grown_chunks(groom: Groom, progress: Callable[[int, int], None], tally: lis
     for i, chunk in enumerate(groom.chunks(CHUNK) if total else [groom.generate(count=0)]):
         if "closest_guides" in TARGETS[target].curve_names:  # the target reads the binding
             index, weight = groom.guide_binding(chunk.curve_data["hair_id"])
-            chunk = HairCurves(chunk.points, chunk.offsets, chunk.point_data, {
-                **chunk.curve_data, "closest_guides": index, "guide_weights": weight})
+            chunk = HairCurves(
+                chunk.points,
+                chunk.offsets,
+                chunk.point_data,
+                {**chunk.curve_data, "closest_guides": index, "guide_weights": weight},
+            )
         tally[0] += chunk.curve_count
         tally[1] += chunk.point_count
         yield chunk
@@ -280,9 +328,14 @@ def _grown_chunks(groom: Groom, progress: Callable[[int, int], None], tally: lis
 
 @main.command()
 @click.argument("source", metavar="IN", type=click.Path())
-@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
-              help="Output file; its extension picks the format (.npz, .hair, .tfx, .obj,"
-              " .pbrt, .txt, .usd*, .abc, …; for a mesh .obj, .ply, .glb, .stl, .off).")
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Output file; its extension picks the format (.npz, .hair, .tfx, .obj,"
+    " .pbrt, .txt, .usd*, .abc, …; for a mesh .obj, .ply, .glb, .stl, .off).",
+)
 @_TARGET_OPTION
 @_SKIN_OPTION
 def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
@@ -298,8 +351,11 @@ def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
     from .sim.cache import is_cache
 
     tool = target_name or "generic"
-    if source.startswith("builtin:") and source[len("builtin:"):] in BUILTIN_MESHES or \
-            Path(out).suffix.lower() in _MESH_ONLY:  # fmt: skip
+    if (
+        source.startswith("builtin:")
+        and source[len("builtin:") :] in BUILTIN_MESHES
+        or Path(out).suffix.lower() in _MESH_ONLY
+    ):
         _export_mesh(source, out, tool)
         return
     _check_writable_suffix(out, _curve_suffixes())
@@ -308,8 +364,7 @@ def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
         _export_cache(source, out, skin, tool)
         return
     curves = load_curves(source)
-    save(curves, out, **({"target": tool} if Path(out).suffix.lower() in _NAMED_FORMATS
-                         else {}))  # fmt: skip
+    save(curves, out, **({"target": tool} if Path(out).suffix.lower() in _NAMED_FORMATS else {}))
     click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {out}")
 
 
@@ -327,13 +382,14 @@ def _export_mesh(source: str, out: str, target: str) -> None:
 
         from .curves import HairCurves
 
-        save(HairCurves.from_array(np.zeros((0, 2, 3), np.float32)), out, target=target,
-             mesh=mesh)  # fmt: skip
+        save(HairCurves.from_array(np.zeros((0, 2, 3), np.float32)), out, target=target, mesh=mesh)
     else:
         _check_writable_suffix(out, MESH_WRITE_EXTENSIONS)
         save_mesh(mesh, out)
-    click.echo(f"mesh '{mesh.name}': {len(mesh.rest_vertices):,} vertices,"
-               f" {len(mesh.faces):,} triangles → {out}")
+    click.echo(
+        f"mesh '{mesh.name}': {len(mesh.rest_vertices):,} vertices,"
+        f" {len(mesh.faces):,} triangles → {out}"
+    )
 
 
 def _export_cache(source: str, out: str, skin: bool = True, target: str = "generic") -> None:
@@ -362,6 +418,7 @@ def _export_cache(source: str, out: str, skin: bool = True, target: str = "gener
         mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
     write = save_abc_cache if suffix == ".abc" else save_usd_cache
     with _step("export"), _progress("writing frames") as progress:
+
         def frames() -> Iterator[HairCurves]:
             from .curves import HairCurves
 
@@ -369,23 +426,41 @@ def _export_cache(source: str, out: str, skin: bool = True, target: str = "gener
                 yield HairCurves.from_array(strands)
                 progress(f + 1, cache.frame_count)
 
-        write(frames(), out, fps=cache.fps, mesh=mesh, role="guides", target=target,
-              transforms=cache.transforms if skin else None)  # fmt: skip
-    click.echo(f"{cache.frame_count} frames of {cache.strand_count:,} guides ×"
-               f" {cache.vertex_count} vertices at {cache.fps:g} fps"
-               f"{' with the moving skin' if skin else ''} → {out}")
+        write(
+            frames(),
+            out,
+            fps=cache.fps,
+            mesh=mesh,
+            role="guides",
+            target=target,
+            transforms=cache.transforms if skin else None,
+        )
+    click.echo(
+        f"{cache.frame_count} frames of {cache.strand_count:,} guides ×"
+        f" {cache.vertex_count} vertices at {cache.fps:g} fps"
+        f"{' with the moving skin' if skin else ''} → {out}"
+    )
 
 
 @main.command("export-rib")
 @click.argument("scene_path", metavar="SCENE", type=click.Path())
-@click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
-              help="Output .rib; the frame file is written beside it (.follicle.z).")
-@click.option("--voxels", type=int, default=8, show_default=True,
-              help="Voxel cells along the rest mesh's longest side (cubic cells, 1–256).")
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Output .rib; the frame file is written beside it (.follicle.z).",
+)
+@click.option(
+    "--voxels",
+    type=int,
+    default=8,
+    show_default=True,
+    help="Voxel cells along the rest mesh's longest side (cubic cells, 1–256).",
+)
 @click.option("--count", type=int, default=None, help="Override [groom].count.")
 @click.option("--seed", type=int, default=None, help="Override [groom].seed.")
-def export_rib(scene_path: str, out: str, voxels: int, count: int | None,
-               seed: int | None) -> None:
+def export_rib(scene_path: str, out: str, voxels: int, count: int | None, seed: int | None) -> None:
     """Write a RenderMan RIB that grows the scene's hair at render time: one
     `Procedural "RunProgram"` per voxel, run by follicle-procedural (README § Formats)."""
     from .io.procedural import export_rib as export
@@ -396,9 +471,11 @@ def export_rib(scene_path: str, out: str, voxels: int, count: int | None,
     with _step("grow and bound"), _progress("bounding voxels") as progress:
         done = export(scene, out, voxels, progress=progress)
     sizes = [p.stat().st_size for p in (done.rib, done.frame)]
-    click.echo(f"{sum(done.roots):,} hairs in {len(done.voxels)} voxels"
-               f" ({'×'.join(map(str, done.grid.dims))} grid) → {done.rib} ({sizes[0]:,} bytes)"
-               f" + {done.frame} ({sizes[1]:,} bytes)")
+    click.echo(
+        f"{sum(done.roots):,} hairs in {len(done.voxels)} voxels"
+        f" ({'×'.join(map(str, done.grid.dims))} grid) → {done.rib} ({sizes[0]:,} bytes)"
+        f" + {done.frame} ({sizes[1]:,} bytes)"
+    )
 
 
 def _curve_suffixes() -> tuple[str, ...]:
@@ -413,18 +490,37 @@ MOTIONS = ("none", "turn", "nod", "shake")  # follicle.sim.motion.MOTIONS (not i
 
 @main.command()
 @click.argument("scene_path", metavar="SCENE", type=click.Path())
-@click.option("-o", "--out", type=click.Path(dir_okay=False), default=None,
-              help="Output cache (.npz); default sim.npz in the scene's folder.")
-@click.option("--frames", type=int, default=48, show_default=True,
-              help="Frames to store; frame 0 is the rest state.")
+@click.option(
+    "-o",
+    "--out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Output cache (.npz); default sim.npz in the scene's folder.",
+)
+@click.option(
+    "--frames",
+    type=int,
+    default=48,
+    show_default=True,
+    help="Frames to store; frame 0 is the rest state.",
+)
 @click.option("--fps", type=float, default=24.0, show_default=True, help="Frames per second.")
-@click.option("--motion", type=click.Choice(MOTIONS), default=None,
-              help="Head animation, overrides [sim].motion: turn (look left and back), nod,"
-              " shake (a fading \"no\"); each takes [sim].motion_period, then holds still.")
-@click.option("--count", type=int, default=None,
-              help="Override [groom].count: the hairs `follicle render` grows from the cache.")
-def simulate(scene_path: str, out: str | None, frames: int, fps: float, motion: str | None,
-             count: int | None) -> None:
+@click.option(
+    "--motion",
+    type=click.Choice(MOTIONS),
+    default=None,
+    help="Head animation, overrides [sim].motion: turn (look left and back), nod,"
+    ' shake (a fading "no"); each takes [sim].motion_period, then holds still.',
+)
+@click.option(
+    "--count",
+    type=int,
+    default=None,
+    help="Override [groom].count: the hairs `follicle render` grows from the cache.",
+)
+def simulate(
+    scene_path: str, out: str | None, frames: int, fps: float, motion: str | None, count: int | None
+) -> None:
     """Simulate the guide hairs of a scene under a head animation; save a cache.
 
     Writes the guides of every frame, the head transforms and the scene itself (.npz);
@@ -443,6 +539,7 @@ def simulate(scene_path: str, out: str | None, frames: int, fps: float, motion: 
     stepping = [start]  # when frame 0 was ready: the set-up (groom, SDF, simulator) is done
 
     with _step("simulate"), _progress("simulating") as progress:
+
         def report(done: int, total: int) -> None:
             if done == 1:
                 stepping[0] = time.perf_counter()
@@ -453,8 +550,9 @@ def simulate(scene_path: str, out: str | None, frames: int, fps: float, motion: 
     steps = cache.frame_count - 1
     rate = f"{steps / (end - stepping[0]):.1f} frames/s" if steps else "no steps"
     with _step("save"):
-        save_cache(target, cache.positions, cache.transforms, cache.fps, cache.scene_toml,
-                   cache.base_dir)
+        save_cache(
+            target, cache.positions, cache.transforms, cache.fps, cache.scene_toml, cache.base_dir
+        )
     click.echo(
         f"{cache.frame_count} frames at {cache.fps:g} fps ({scene.sim.motion}),"
         f" {cache.strand_count} guides × {cache.vertex_count} vertices,"
@@ -466,29 +564,63 @@ def simulate(scene_path: str, out: str | None, frames: int, fps: float, motion: 
 
 @main.command()
 @click.argument("source", metavar="SCENE|CURVES|CACHE", type=click.Path())
-@click.option("-o", "--out", type=click.Path(), default=None,
-              help="Output PNG; default [output].image of the scene, or CURVES with .png. For a"
-              " CACHE, a folder of frame_0000.png, … or an .mp4 video; default CACHE's name +"
-              " _frames.")
-@click.option("--mesh", "mesh_path", default=None,
-              help="Mesh to draw under a curves file (e.g. builtin:head).")
+@click.option(
+    "-o",
+    "--out",
+    type=click.Path(),
+    default=None,
+    help="Output PNG; default [output].image of the scene, or CURVES with .png. For a"
+    " CACHE, a folder of frame_0000.png, … or an .mp4 video; default CACHE's name +"
+    " _frames.",
+)
+@click.option(
+    "--mesh",
+    "mesh_path",
+    default=None,
+    help="Mesh to draw under a curves file (e.g. builtin:head).",
+)
 @click.option("--size", type=(int, int), default=None, help="Image width and height.")
-@click.option("--engine", type=click.Choice(["opengl", "mitsuba"]), default=None,
-              help="opengl (default) or mitsuba: a path-traced reference still (pbr extra).")
-@click.option("--shading", type=click.Choice(["kajiya-kay", "scheuermann", "marschner"]),
-              default=None, help="Hair shading (opengl).")
-@click.option("--msaa", type=click.Choice(["0", "1", "2", "4", "8", "16"]), default=None,
-              help="Multisample anti-aliasing samples (opengl).")
-@click.option("--spp", type=int, default=None,
-              help="Samples per pixel (mitsuba; default 64).")
-@click.option("--count", type=int, default=None,
-              help="Override [groom].count (a scene or a cache).")
-@click.option("--frames", "frame_range", default=None, metavar="START:STOP",
-              help="A cache's frames to render, STOP excluded (0:24, 10:, or one frame: 5);"
-              " default all.")
-def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int, int] | None,
-           engine: str | None, shading: str | None, msaa: str | None, spp: int | None,
-           count: int | None, frame_range: str | None) -> None:
+@click.option(
+    "--engine",
+    type=click.Choice(["opengl", "mitsuba"]),
+    default=None,
+    help="opengl (default) or mitsuba: a path-traced reference still (pbr extra).",
+)
+@click.option(
+    "--shading",
+    type=click.Choice(["kajiya-kay", "scheuermann", "marschner"]),
+    default=None,
+    help="Hair shading (opengl).",
+)
+@click.option(
+    "--msaa",
+    type=click.Choice(["0", "1", "2", "4", "8", "16"]),
+    default=None,
+    help="Multisample anti-aliasing samples (opengl).",
+)
+@click.option("--spp", type=int, default=None, help="Samples per pixel (mitsuba; default 64).")
+@click.option(
+    "--count", type=int, default=None, help="Override [groom].count (a scene or a cache)."
+)
+@click.option(
+    "--frames",
+    "frame_range",
+    default=None,
+    metavar="START:STOP",
+    help="A cache's frames to render, STOP excluded (0:24, 10:, or one frame: 5); default all.",
+)
+def render(
+    source: str,
+    out: str | None,
+    mesh_path: str | None,
+    size: tuple[int, int] | None,
+    engine: str | None,
+    shading: str | None,
+    msaa: str | None,
+    spp: int | None,
+    count: int | None,
+    frame_range: str | None,
+) -> None:
     """Render a scene (grown on the fly) or a saved curves file to PNG, or each frame of a
     simulation cache (`follicle simulate`) to a PNG sequence or an MP4, seen through one
     camera. `--engine mitsuba` path-traces a still with Mitsuba 3 instead."""
@@ -500,9 +632,15 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
     from .scene import Scene, load_scene
     from .sim.cache import is_cache
 
-    overrides = {k: v for k, v in {"size": size, "shading": shading,
-                                   "msaa": None if msaa is None else int(msaa)}.items()
-                 if v is not None}
+    overrides = {
+        k: v
+        for k, v in {
+            "size": size,
+            "shading": shading,
+            "msaa": None if msaa is None else int(msaa),
+        }.items()
+        if v is not None
+    }
     if engine == "mitsuba":
         _not_for(source, "--engine mitsuba", shading=shading, msaa=msaa)
     else:
@@ -519,8 +657,9 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
     elif is_cache(source):
         _not_for(source, "a simulation cache", mesh=mesh_path)
         if engine == "mitsuba":
-            raise InputError(f"{source}: --engine mitsuba renders stills; a simulation cache"
-                             " renders with opengl")
+            raise InputError(
+                f"{source}: --engine mitsuba renders stills; a simulation cache renders with opengl"
+            )
         _render_cache(source, out, overrides, count, frame_range)
         return
     else:
@@ -534,16 +673,27 @@ def render(source: str, out: str | None, mesh_path: str | None, size: tuple[int,
     with _step("render"):
         if engine == "mitsuba":
             with _progress("path tracing (%)") as progress:
-                render_scene_mitsuba(curves, mesh, params, out=target,
-                                     spp=64 if spp is None else spp, progress=progress)
+                render_scene_mitsuba(
+                    curves,
+                    mesh,
+                    params,
+                    out=target,
+                    spp=64 if spp is None else spp,
+                    progress=progress,
+                )
         else:
             with _progress("rendering"):
                 render_scene(curves, mesh, params, out=target)
     click.echo(f"→ {target}")
 
 
-def _render_cache(source: str, out: str | None, overrides: dict[str, object], count: int | None,
-                  frame_range: str | None) -> None:  # fmt: skip
+def _render_cache(
+    source: str,
+    out: str | None,
+    overrides: dict[str, object],
+    count: int | None,
+    frame_range: str | None,
+) -> None:
     """`follicle render CACHE`: every (or --frames) frame to OUT/frame_0000.png, …, or to
     the video OUT.mp4 (frames encoded as they are rendered)."""
     from .errors import InputError
@@ -569,16 +719,16 @@ def _render_cache(source: str, out: str | None, overrides: dict[str, object], co
             paths = render_cache(cache, target, scene, frames, progress)
     wall = time.perf_counter() - start
     w, h = scene.render.size
-    written = target if video else \
-        f"{paths[0]}{f' … {paths[-1].name}' if len(paths) > 1 else ''}"  # fmt: skip
+    written = target if video else f"{paths[0]}{f' … {paths[-1].name}' if len(paths) > 1 else ''}"
     click.echo(
         f"{len(frames)} frames ({frames.start}–{frames.stop - 1}) of {scene.groom.count:,} hairs,"
         f" {w}×{h}, {wall:.2f} s ({len(frames) / wall:.1f} frames/s) → {written}"
     )
 
 
-def _cache_video(cache: SimCache, target: Path, scene: Scene, frames: range,
-                 progress: Callable[[int, int], None]) -> None:  # fmt: skip
+def _cache_video(
+    cache: SimCache, target: Path, scene: Scene, frames: range, progress: Callable[[int, int], None]
+) -> None:
     """Frames of ``cache`` as an H.264 MP4 at the cache's fps, handed to the encoder as
     they are rendered. The rendering starts when the encoder asks for the first frame,
     after it has checked the path, the fps and that ffmpeg is there."""
@@ -622,24 +772,54 @@ def _not_for(source: str, what: str, **options: object) -> None:
 
 
 @main.command()
-@click.argument("scene_path", metavar="[SCENE]", type=click.Path(),
-                required=False)
-@click.option("--frames", type=int, default=None,
-              help="Run this many frames, then exit (default: until the window closes).")
-@click.option("--screenshot", type=click.Path(dir_okay=False), default=None,
-              help="Write the last frame's render to this PNG.")
-@click.option("--size", type=(int, int), default=(960, 540), show_default=True,
-              help="Render width and height.")
-@click.option("--fps", type=float, default=30.0, show_default=True,
-              help="Simulated frames per second (each frame steps 1/fps s).")
+@click.argument("scene_path", metavar="[SCENE]", type=click.Path(), required=False)
+@click.option(
+    "--frames",
+    type=int,
+    default=None,
+    help="Run this many frames, then exit (default: until the window closes).",
+)
+@click.option(
+    "--screenshot",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the last frame's render to this PNG.",
+)
+@click.option(
+    "--size",
+    type=(int, int),
+    default=(960, 540),
+    show_default=True,
+    help="Render width and height.",
+)
+@click.option(
+    "--fps",
+    type=float,
+    default=30.0,
+    show_default=True,
+    help="Simulated frames per second (each frame steps 1/fps s).",
+)
 @click.option("--count", type=int, default=None, help="Override [groom].count (displayed hairs).")
-@click.option("--offscreen", is_flag=True,
-              help="No window or panel: run the loop headless (needs --frames).")
-@click.option("--quality", type=click.Choice(["full", "fast"]), default="full", show_default=True,
-              help="fast: no MSAA, no shadows, one curve step per segment.")
-def view(scene_path: str | None, frames: int | None, screenshot: str | None,
-         size: tuple[int, int], fps: float, count: int | None, offscreen: bool,
-         quality: str) -> None:
+@click.option(
+    "--offscreen", is_flag=True, help="No window or panel: run the loop headless (needs --frames)."
+)
+@click.option(
+    "--quality",
+    type=click.Choice(["full", "fast"]),
+    default="full",
+    show_default=True,
+    help="fast: no MSAA, no shadows, one curve step per segment.",
+)
+def view(
+    scene_path: str | None,
+    frames: int | None,
+    screenshot: str | None,
+    size: tuple[int, int],
+    fps: float,
+    count: int | None,
+    offscreen: bool,
+    quality: str,
+) -> None:
     """Live viewer: the scene's hair simulated and rendered in a window, with a parameter
     panel (README § Viewer). Needs the view extra: pip install 'follicle[view]'."""
     from .errors import InputError
@@ -651,19 +831,28 @@ def view(scene_path: str | None, frames: int | None, screenshot: str | None,
     if screenshot is not None:
         _check_writable_suffix(screenshot, (".png",))
     scene = _with_overrides(load_scene(scene_path), count=count)
-    ctl = run_viewer(scene, frames, screenshot, size, fps, window=not offscreen,
-                     quality=quality, source=scene_path)
+    ctl = run_viewer(
+        scene,
+        frames,
+        screenshot,
+        size,
+        fps,
+        window=not offscreen,
+        quality=quality,
+        source=scene_path,
+    )
     w, h = size
     s = ctl.stats()
-    click.echo(f"{ctl.frame} frames of {s['hairs']:,} hairs from {s['guides']:,} guides,"
-               f" {w}×{h}: {ctl.loop_fps:.2f} frames/s (last frame: step {s['step_ms']:.0f} ms,"
-               f" groom {s['groom_ms']:.0f} ms, render {s['render_ms']:.0f} ms)"
-               + (f" → {screenshot}" if screenshot else ""))
+    click.echo(
+        f"{ctl.frame} frames of {s['hairs']:,} hairs from {s['guides']:,} guides,"
+        f" {w}×{h}: {ctl.loop_fps:.2f} frames/s (last frame: step {s['step_ms']:.0f} ms,"
+        f" groom {s['groom_ms']:.0f} ms, render {s['render_ms']:.0f} ms)"
+        + (f" → {screenshot}" if screenshot else "")
+    )
 
 
 @main.command()
-@click.argument("source", metavar="SCENE|CURVES", type=click.Path(),
-                required=False)
+@click.argument("source", metavar="SCENE|CURVES", type=click.Path(), required=False)
 def info(source: str | None) -> None:
     """Print a scene with every default filled in, or describe a curves file."""
     from .io.dispatch import load_curves
@@ -682,8 +871,14 @@ def info(source: str | None) -> None:
 
 @main.command()
 @click.argument("source", metavar="FILE", type=click.Path())
-@click.option("--target", "target_name", type=click.Choice(TARGET_NAMES), default="generic",
-              show_default=True, help="The tool that will open FILE.")
+@click.option(
+    "--target",
+    "target_name",
+    type=click.Choice(TARGET_NAMES),
+    default="generic",
+    show_default=True,
+    help="The tool that will open FILE.",
+)
 def check(source: str, target_name: str) -> None:
     """List, one line each, what TARGET would drop or refuse in a hair file.
 
@@ -699,8 +894,10 @@ def check(source: str, target_name: str) -> None:
         click.echo(f"{source}: {line}".translate(_ESCAPES))
     if found:
         sys.exit(1)
-    click.echo(f"{source}: {target.tool} reads all of it ({curves.curve_count:,} curves,"
-               f" {curves.point_count:,} points)".translate(_ESCAPES))
+    click.echo(
+        f"{source}: {target.tool} reads all of it ({curves.curve_count:,} curves,"
+        f" {curves.point_count:,} points)".translate(_ESCAPES)
+    )
 
 
 def _with_overrides(scene: Scene, **groom: object) -> Scene:

@@ -136,12 +136,15 @@ def noise3(x: float, y: float, z: float) -> tuple[float, float, float]:
     w = _fade(z)
     c = _CELLS
     p = _PERM
-    n0 = _corners(p, (ix + c[0, 0]) & 255, (iy + c[0, 1]) & 255, (iz + c[0, 2]) & 255,
-                  x, y, z, u, v, w)  # fmt: skip
-    n1 = _corners(p, (ix + c[1, 0]) & 255, (iy + c[1, 1]) & 255, (iz + c[1, 2]) & 255,
-                  x, y, z, u, v, w)  # fmt: skip
-    n2 = _corners(p, (ix + c[2, 0]) & 255, (iy + c[2, 1]) & 255, (iz + c[2, 2]) & 255,
-                  x, y, z, u, v, w)  # fmt: skip
+    n0 = _corners(
+        p, (ix + c[0, 0]) & 255, (iy + c[0, 1]) & 255, (iz + c[0, 2]) & 255, x, y, z, u, v, w
+    )
+    n1 = _corners(
+        p, (ix + c[1, 0]) & 255, (iy + c[1, 1]) & 255, (iz + c[1, 2]) & 255, x, y, z, u, v, w
+    )
+    n2 = _corners(
+        p, (ix + c[2, 0]) & 255, (iy + c[2, 1]) & 255, (iz + c[2, 2]) & 255, x, y, z, u, v, w
+    )
     return _clamp1(n0), _clamp1(n1), _clamp1(n2)
 
 

@@ -23,8 +23,14 @@ from .scene import RenderParams, Scene, scene_to_toml
 if TYPE_CHECKING:
     from .sim.cache import SimCache
 
-__all__ = ["groom_scene", "grow", "render_scene", "render_scene_mitsuba", "simulate_scene",
-           "render_cache"]
+__all__ = [
+    "groom_scene",
+    "grow",
+    "render_scene",
+    "render_scene_mitsuba",
+    "simulate_scene",
+    "render_cache",
+]
 
 Progress = Callable[[int, int], None]
 
@@ -38,14 +44,19 @@ def groom_scene(scene: Scene) -> Groom:
     else:
         texture = None if spec in (None, "none") else load_texture(spec, scene.resolve)
         groups = InterpolationGroups(texture, vertices)
-    guides = load_guides(scene.resolve(scene.guides.path), mesh, groups=groups,
-                         units=scene.guides.units)
+    guides = load_guides(
+        scene.resolve(scene.guides.path), mesh, groups=groups, units=scene.guides.units
+    )
     density = resolve_density(mesh, scene.groom.density, scene.resolve)
     displacement = scene.mesh.displacement
     return Groom(
-        mesh, guides, scene.groom, density=density,
+        mesh,
+        guides,
+        scene.groom,
+        density=density,
         displacement=load_texture(displacement, scene.resolve) if displacement else None,
-        displacement_scale=scene.mesh.displacement_scale, resolve_path=scene.resolve,
+        displacement_scale=scene.mesh.displacement_scale,
+        resolve_path=scene.resolve,
     )
 
 
@@ -94,18 +105,31 @@ def render_scene(
 
 
 def render_scene_mitsuba(
-    curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None,
-    spp: int = 64, seed: int = 0, progress: Progress | None = None,
-) -> np.ndarray:  # fmt: skip
+    curves: HairCurves | None,
+    mesh: SkinMesh | None,
+    params: RenderParams,
+    out: str | None = None,
+    spp: int = 64,
+    seed: int = 0,
+    progress: Progress | None = None,
+) -> np.ndarray:
     """Path-trace hair and mesh with Mitsuba 3 (the pbr extra) under a scene's [render]
     size, camera, lights and background; writes PNG when ``out``; ``progress(done, 100)``
     hears the render's progress."""
     from .render.mitsuba import render_mitsuba
 
     return render_mitsuba(
-        curves, mesh=mesh, camera=scene_camera(params), size=params.size,
-        lights=params.light_list(), spp=spp, out=out, seed=seed, fov=params.fov,
-        background=(params.background_top, params.background_bottom), progress=progress,
+        curves,
+        mesh=mesh,
+        camera=scene_camera(params),
+        size=params.size,
+        lights=params.light_list(),
+        spp=spp,
+        out=out,
+        seed=seed,
+        fov=params.fov,
+        background=(params.background_top, params.background_bottom),
+        progress=progress,
     )
 
 
@@ -154,8 +178,12 @@ def simulate_scene(
     return cache, sim.stats
 
 
-def _sequence_camera(cache: SimCache, groom: Groom, first: HairCurves, params: RenderParams,
-                     ) -> Camera:  # fmt: skip
+def _sequence_camera(
+    cache: SimCache,
+    groom: Groom,
+    first: HairCurves,
+    params: RenderParams,
+) -> Camera:
     """One camera for every frame of ``cache``: the scene's eye/target, else framed on
     frame 0's hair and the head and guides of all frames (no jumps, nothing leaves view)."""
     fixed = scene_camera(params)
@@ -176,8 +204,13 @@ def _sequence_camera(cache: SimCache, groom: Groom, first: HairCurves, params: R
 def _check_frames(cache: SimCache, frames: range | None) -> range:
     count = cache.frame_count
     frames = range(count) if frames is None else frames
-    if not isinstance(frames, range) or frames.step != 1 or len(frames) == 0 \
-            or frames.start < 0 or frames.stop > count:  # fmt: skip
+    if (
+        not isinstance(frames, range)
+        or frames.step != 1
+        or len(frames) == 0
+        or frames.start < 0
+        or frames.stop > count
+    ):
         raise InputError(
             f"frames: expected a non-empty range within 0..{count - 1} (the cache has"
             f" {count} frames), got {frames!r}"
@@ -186,9 +219,11 @@ def _check_frames(cache: SimCache, frames: range | None) -> range:
 
 
 def render_frames(
-    cache: SimCache, scene: Scene | None = None, frames: range | None = None,
+    cache: SimCache,
+    scene: Scene | None = None,
+    frames: range | None = None,
     progress: Progress | None = None,
-) -> Iterator[tuple[int, np.ndarray]]:  # fmt: skip
+) -> Iterator[tuple[int, np.ndarray]]:
     """Render frames of a simulation cache one by one: yields (cache frame, (H, W, 4)
     uint8 sRGB image), all seen through one camera. ``scene`` (default: the cache's own)
     sets the hair and [render]; ``frames`` (default all) picks cache frames. Nothing is
@@ -208,19 +243,29 @@ def render_frames(
     with Renderer(size=params.size, msaa=params.msaa, background=background) as renderer:
         for done, f in enumerate(frames, 1):
             curves = hair(f)
-            image = renderer.draw(curves, groom.mesh, camera=camera, shading=params.shading,
-                                  subdivisions=params.subdivisions, fov=params.fov,
-                                  shading_params=params.shading_params,
-                                  lights=params.light_list(), shadows=params.shadows)
+            image = renderer.draw(
+                curves,
+                groom.mesh,
+                camera=camera,
+                shading=params.shading,
+                subdivisions=params.subdivisions,
+                fov=params.fov,
+                shading_params=params.shading_params,
+                lights=params.light_list(),
+                shadows=params.shadows,
+            )
             yield f, image
             if progress is not None:
                 progress(done, len(frames))
 
 
 def render_cache(
-    cache: SimCache, out_dir: str | os.PathLike[str], scene: Scene | None = None,
-    frames: range | None = None, progress: Progress | None = None,
-) -> list[Path]:  # fmt: skip
+    cache: SimCache,
+    out_dir: str | os.PathLike[str],
+    scene: Scene | None = None,
+    frames: range | None = None,
+    progress: Progress | None = None,
+) -> list[Path]:
     """Render frames of a simulation cache to ``out_dir/frame_0000.png``, … (atomically).
 
     ``scene`` (default: the cache's own) sets the hair and [render]; ``frames`` (default

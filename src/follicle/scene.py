@@ -135,10 +135,14 @@ def _units_apply(value: str | float, info: ValidationInfo) -> str | float:
 
 # "m", "cm", "mm", "in" or metres per unit (follicle.units), as written in the scene; a
 # name, not a path (the viewer's save_scene rewrites keys typed str)
-UnitsSetting = Annotated[Literal[tuple(UNITS)] | float,  # type: ignore[valid-type]
-                         PlainValidator(_units, json_schema_input_type=Any)]
-_UNITS_HELP = ("the file's units, converted to metres when loaded: \"m\", \"cm\", \"mm\","
-               " \"in\" or metres per unit; not for builtins or USD/glTF (they declare theirs)")
+UnitsSetting = Annotated[
+    Literal[tuple(UNITS)] | float,  # type: ignore[valid-type]
+    PlainValidator(_units, json_schema_input_type=Any),
+]
+_UNITS_HELP = (
+    'the file\'s units, converted to metres when loaded: "m", "cm", "mm",'
+    ' "in" or metres per unit; not for builtins or USD/glTF (they declare theirs)'
+)
 
 
 class MeshParams(_StrictSection):
@@ -211,9 +215,9 @@ def _prop(color: bool = False, **bounds: float) -> Any:
                     f"unknown key(s) {_shown(unknown)}; a table takes value, texture, wrap"
                 )
             if not isinstance(v.get("texture"), str) or not v["texture"]:
-                raise ValueError("a table needs texture = \"image path or builtin:name\"")
+                raise ValueError('a table needs texture = "image path or builtin:name"')
             if v.get("wrap") not in (None, "repeat", "clamp"):
-                raise ValueError(f"wrap must be \"repeat\" or \"clamp\" (got {_shown(v['wrap'])})")
+                raise ValueError(f'wrap must be "repeat" or "clamp" (got {_shown(v["wrap"])})')
             out = dict(v)
             out["value"] = _prop_value(v.get("value", (1.0,) * 3 if color else 1.0), color, bounds)
             return out
@@ -255,7 +259,7 @@ class GroomParams(_StrictSection):
     )
     group_vertices: dict[str, Annotated[int, Field(ge=2, le=256)]] = Field(
         default_factory=dict,
-        description="vertices per hair of a group, by colour: {\"#ff0000\" = 12}",
+        description='vertices per hair of a group, by colour: {"#ff0000" = 12}',
     )
     interpolation: Literal["idw", "barycentric", "offset"] = Field(
         "idw",
@@ -358,19 +362,29 @@ class SimParams(_StrictSection):
     integrator: Literal["verlet", "euler"] = Field(
         "verlet", description="Verlet (Le Muzic 2012 eq. 5.1) or semi-implicit Euler"
     )
-    substep: float = Field(1 / 120, gt=0, le=1 / 30, description="internal fixed time step, s"
-                           " (at most 1/30: longer steps let the skin sweep through the hair)")
+    substep: float = Field(
+        1 / 120,
+        gt=0,
+        le=1 / 30,
+        description="internal fixed time step, s"
+        " (at most 1/30: longer steps let the skin sweep through the hair)",
+    )
     iterations: int = Field(8, ge=1, le=200, description="constraint iterations per substep")
     vertices: int | None = Field(
         None, ge=2, le=256, description="vertices per simulated strand; unset = the guides'"
     )
-    gravity: Acceleration = Field((0.0, -9.81, 0.0), description="gravity, m/s² (each"
-                                  " component within ±100, about 10 g)")
+    gravity: Acceleration = Field(
+        (0.0, -9.81, 0.0), description="gravity, m/s² (each component within ±100, about 10 g)"
+    )
     damping: float = Field(0.5, ge=0, le=100, description="velocity damping per second")
-    drag: float = Field(0.0, ge=0, le=1000, description="air drag b of −b·v (Le Muzic 2012"
-                       " eq. 5.3), 1/s")
-    wind: Acceleration = Field((0.0, 0.0, 0.0), description="wind acceleration w of Le Muzic"
-                               " 2012 eq. 5.2, m/s² (each component within ±100)")
+    drag: float = Field(
+        0.0, ge=0, le=1000, description="air drag b of −b·v (Le Muzic 2012 eq. 5.3), 1/s"
+    )
+    wind: Acceleration = Field(
+        (0.0, 0.0, 0.0),
+        description="wind acceleration w of Le Muzic"
+        " 2012 eq. 5.2, m/s² (each component within ±100)",
+    )
     wind_turbulence: float = Field(
         0.5, ge=0, le=10, description="noise added to the wind, relative to its strength"
     )
@@ -379,22 +393,29 @@ class SimParams(_StrictSection):
         (1.0, 0.0, 0.0), description="speed the turbulence pattern drifts with, m/s"
     )
     wind_gust: float = Field(
-        0.0, ge=0, le=100, description="gusts: the wind × (1 + gust·g(t)), g a smooth noise"
-        " in [0, 1]; 0 = steady",
+        0.0,
+        ge=0,
+        le=100,
+        description="gusts: the wind × (1 + gust·g(t)), g a smooth noise in [0, 1]; 0 = steady",
     )
     wind_gust_period: float = Field(2.0, gt=0, le=1000, description="typical gust length, s")
     stretch_stiffness: Unit = Field(1.0, description="PBD distance constraint stiffness")
     stretch_limit: float | None = Field(
-        1e-4, ge=0, le=1, description="PBD: afterwards no segment longer than (1 + limit) × rest;"
-        " unset = off",
+        1e-4,
+        ge=0,
+        le=1,
+        description="PBD: afterwards no segment longer than (1 + limit) × rest; unset = off",
     )
     stretch_limit_damping: Unit = Field(
-        0.8, description="PBD: the limit's moves leave velocities like DFTL's (Almeida 2014"
-        " eq. 3.1)"
+        0.8,
+        description="PBD: the limit's moves leave velocities like DFTL's (Almeida 2014 eq. 3.1)",
     )
     bend_stiffness: Unit = Field(0.2, description="bending (Le Muzic 2012 eq. 5.6) stiffness")
     bend_scale: float = Field(
-        1.0, ge=0.5, le=10, description="bending rest distances × scale (> 1 stiffens; below"
+        1.0,
+        ge=0.5,
+        le=10,
+        description="bending rest distances × scale (> 1 stiffens; below"
         " 0.5 the rest distances pull the strand into its root and fight inextensibility)",
     )
     bend_attenuation: float = Field(
@@ -407,11 +428,13 @@ class SimParams(_StrictSection):
         0.0, description="stiffness towards each segment's rest direction (local shape)"
     )
     shape_global: Unit = Field(
-        0.05, description="stiffness towards the skinned rest pose (0.05 keeps a groom's"
+        0.05,
+        description="stiffness towards the skinned rest pose (0.05 keeps a groom's"
         " style under gravity and still lets it swing; 0 = hair falls freely)",
     )
     shape_global_range: Annotated[tuple[Unit, Unit], Field(strict=False)] = Field(
-        (0.0, 1.0), description="global shape: full up to the first, zero from the second"
+        (0.0, 1.0),
+        description="global shape: full up to the first, zero from the second"
         " (root-to-tip fractions)",
     )
     dftl_damping: Unit = Field(0.9, description="DFTL velocity correction s (Almeida 2014 eq. 3.1)")
@@ -426,15 +449,20 @@ class SimParams(_StrictSection):
         True, description="collide with the skin mesh through its signed distance field"
     )
     skin_voxel: float | None = Field(
-        None, gt=0, le=1, description="skin SDF voxel size, m; unset = the mesh's longest"
-        " side / 64",
+        None,
+        gt=0,
+        le=1,
+        description="skin SDF voxel size, m; unset = the mesh's longest side / 64",
     )
     volume_friction: Unit = Field(
-        0.05, description="hair-hair friction: velocities pulled to the grid's (Almeida 2014"
-        " eq. 3.4)"
+        0.05,
+        description="hair-hair friction: velocities pulled to the grid's (Almeida 2014 eq. 3.4)",
     )
     volume_repulsion: float = Field(
-        0.0, ge=0, le=1, description="hair-hair repulsion down the density gradient, voxels"
+        0.0,
+        ge=0,
+        le=1,
+        description="hair-hair repulsion down the density gradient, voxels"
         " per substep (Almeida 2014 eq. 3.5–3.7)",
     )
     volume_resolution: int = Field(
@@ -444,9 +472,7 @@ class SimParams(_StrictSection):
     motion: Literal["none", "turn", "nod", "shake"] = Field(
         "none", description="`follicle simulate`: the built-in head animation"
     )
-    motion_amplitude: float = Field(
-        40.0, ge=0, le=180, description="head animation angle, degrees"
-    )
+    motion_amplitude: float = Field(40.0, ge=0, le=180, description="head animation angle, degrees")
     motion_period: float = Field(2.0, gt=0, le=100, description="head animation period, s")
     motion_pivot: Vec3 | None = Field(
         None, description="head animation pivot; unset = the neck (bottom centre of the mesh)"
@@ -474,11 +500,13 @@ class LightParams(_StrictSection):
     """A light of the render: `[[render.lights]]` tables, in order; the first
     directional one is the key light, the one that casts shadows."""
 
-    type: Literal["directional", "ambient"] = Field("directional", description="directional or"
-                                                    " ambient (uniform, from everywhere)")
+    type: Literal["directional", "ambient"] = Field(
+        "directional", description="directional or ambient (uniform, from everywhere)"
+    )
     direction: Vec3 = Field((0.0, 1.0, 0.0), description="towards the light (directional only)")
     space: Literal["camera", "world"] = Field(
-        "camera", description="direction in camera space (x right, y up, z towards the viewer;"
+        "camera",
+        description="direction in camera space (x right, y up, z towards the viewer;"
         " the light follows the camera) or world space",
     )
     color: RGB = Field((1.0, 1.0, 1.0), description="linear RGB")
@@ -502,25 +530,30 @@ class RenderParams(_StrictSection):
         "kajiya-kay", description="hair shading model"
     )
     shading_params: dict[str, float | Vec3] = Field(
-        default_factory=dict, description="the model's parameters, e.g. {specular = 0.3}"
-        " (README: Rendering)",
+        default_factory=dict,
+        description="the model's parameters, e.g. {specular = 0.3} (README: Rendering)",
     )
     shadows: bool = Field(True, description="the key light casts hair and skin shadows")
     lights: list[LightParams] = Field(
-        default_factory=list, description="[[render.lights]] tables; none: key, fill and rim"
+        default_factory=list,
+        description="[[render.lights]] tables; none: key, fill and rim"
         " lights that follow the camera, and a little ambient",
     )
     msaa: Annotated[Literal[0, 1, 2, 4, 8, 16], BeforeValidator(_not_bool)] = Field(
         4, description="multisample anti-aliasing samples"
     )
-    subdivisions: int = Field(4, ge=1, le=16, description="most Catmull-Rom steps per segment"
-                              " (fewer where it is short and straight on screen)")
+    subdivisions: int = Field(
+        4,
+        ge=1,
+        le=16,
+        description="most Catmull-Rom steps per segment"
+        " (fewer where it is short and straight on screen)",
+    )
     eye: Vec3 | None = Field(None, description="camera position; unset = framed automatically")
     target: Vec3 | None = Field(None, description="camera target; unset = framed automatically")
     fov: float = Field(DEFAULT_FOV, gt=1, lt=170, description="vertical field of view, degrees")
     background_top: RGB = Field(DEFAULT_BACKGROUND[0], description="background gradient top")
-    background_bottom: RGB = Field(DEFAULT_BACKGROUND[1],
-                                   description="background gradient bottom")
+    background_bottom: RGB = Field(DEFAULT_BACKGROUND[1], description="background gradient bottom")
 
     @model_validator(mode="after")
     def _eye_and_target_together(self) -> RenderParams:
@@ -555,8 +588,9 @@ class OutputParams(_StrictSection):
     curves: str = Field("hair.npz", description="grown curves file")
     image: str = Field("hair.png", description="rendered image")
     target: Literal[TARGET_NAMES] = Field(  # type: ignore[valid-type]
-        "generic", description="the tool USD / Alembic output is written for: its attribute"
-        " names, types and units (README: Formats, Targets)"
+        "generic",
+        description="the tool USD / Alembic output is written for: its attribute"
+        " names, types and units (README: Formats, Targets)",
     )
 
 
@@ -577,12 +611,15 @@ class Scene(_StrictSection):
         for key, value in changes.items():
             field = Scene.model_fields.get(key)
             if field is None:
-                raise ConfigError(f"{source}: {key}: unknown scene section; allowed:"
-                                  f" {', '.join(Scene.model_fields)}")  # fmt: skip
+                raise ConfigError(
+                    f"{source}: {key}: unknown scene section; allowed:"
+                    f" {', '.join(Scene.model_fields)}"
+                )
             want = Path if key == "base_dir" else field.annotation
             if not isinstance(value, want):
-                raise ConfigError(f"{source}: {key}: expected {want.__name__}, got"
-                                  f" {type(value).__name__}")  # fmt: skip
+                raise ConfigError(
+                    f"{source}: {key}: expected {want.__name__}, got {type(value).__name__}"
+                )
         return self.model_copy(update=changes)
 
     def resolve(self, path: str) -> str:
@@ -594,9 +631,10 @@ class Scene(_StrictSection):
 
 # each section's class and its [name] in a scene file
 _SECTION_NAMES: dict[type, str] = {
-    f.annotation: name for name, f in Scene.model_fields.items()
+    f.annotation: name
+    for name, f in Scene.model_fields.items()
     if isinstance(f.annotation, type) and issubclass(f.annotation, _Section)
-}  # fmt: skip
+}
 _OWNERS = {"SimParams": "Simulator.params", "GroomParams": "Groom.params"}
 
 
@@ -630,8 +668,11 @@ def _format_errors(source: str, err: ValidationError) -> str:
             by_place[where] = f"{source}: {where}: {msg}{shown}"
     # a union of a number and a list reports the value and an item of it: keep the value's
     # one line, problems joined: the CLI promises one line
-    return "; ".join(line for where, line in by_place.items()
-                     if not any(where.startswith(other + ".") for other in by_place))
+    return "; ".join(
+        line
+        for where, line in by_place.items()
+        if not any(where.startswith(other + ".") for other in by_place)
+    )
 
 
 def _allowed_keys(loc: list[str]) -> str:

@@ -34,9 +34,18 @@ if TYPE_CHECKING:
     from .mesh.skin import SkinMesh
 
 __all__ = [
-    "Units", "UNITS", "DECLARED_UNITS", "metres_per_unit", "units_for", "scale_curves",
-    "median_length", "mesh_factors", "warn_mesh_size", "warn_guide_size",
-    "off_mesh_factor", "units_fix",
+    "Units",
+    "UNITS",
+    "DECLARED_UNITS",
+    "metres_per_unit",
+    "units_for",
+    "scale_curves",
+    "median_length",
+    "mesh_factors",
+    "warn_mesh_size",
+    "warn_guide_size",
+    "off_mesh_factor",
+    "units_fix",
 ]
 
 log = logging.getLogger("follicle")
@@ -49,8 +58,10 @@ _ACCEPTED = '"m", "cm", "mm", "in" or a positive number of metres per unit'
 # formats whose files say what their numbers mean, by suffix: their readers convert
 _USD = "USD files declare their own unit (metersPerUnit; unset means centimetres)"
 _GLTF = "glTF files are in metres by the glTF specification"
-DECLARED_UNITS: dict[str, str] = {**dict.fromkeys((".usd", ".usda", ".usdc", ".usdz"), _USD),
-                                  **dict.fromkeys((".glb", ".gltf"), _GLTF)}
+DECLARED_UNITS: dict[str, str] = {
+    **dict.fromkeys((".usd", ".usda", ".usdc", ".usdz"), _USD),
+    **dict.fromkeys((".glb", ".gltf"), _GLTF),
+}
 
 # plausible sizes, metres: a mesh's bounding-box diagonal, a guide's length
 MESH_SIZE = (0.01, 20.0)
@@ -97,9 +108,11 @@ def units_for(path: str | os.PathLike[str], units: object, key: str | None = "un
         raise InputError(f"{prefix}{text} is in metres; units apply to files only: remove it {got}")
     suffix = os.path.splitext(text)[1].lower()
     if suffix in DECLARED_UNITS:
-        raise InputError(f"{prefix}{DECLARED_UNITS[suffix]}, which follicle applies when reading"
-                         f" {os.path.basename(text)!r}; more units would count twice: remove"
-                         f" them {got}")
+        raise InputError(
+            f"{prefix}{DECLARED_UNITS[suffix]}, which follicle applies when reading"
+            f" {os.path.basename(text)!r}; more units would count twice: remove"
+            f" them {got}"
+        )
     return mpu
 
 
@@ -184,8 +197,12 @@ def warn_mesh_size(diagonal: float, units: Units, source: str) -> None:
     if factor is not None:
         lo, hi = MESH_SIZE
         log.warning(
-            "%s: the mesh is %.3g m across%s, outside %g cm to %g m: %s", source, diagonal,
-            _read_as(units), lo * 100, hi,
+            "%s: the mesh is %.3g m across%s, outside %g cm to %g m: %s",
+            source,
+            diagonal,
+            _read_as(units),
+            lo * 100,
+            hi,
             units_fix("the mesh is", "[mesh].units", "load_mesh", units, factor),
         )
 
@@ -199,8 +216,15 @@ def warn_guide_size(curves: HairCurves, mesh_diagonal: float, units: Units, sour
     factor = _likely_factor(length, GUIDE_LENGTH, units)
     if factor is not None:
         lo, hi = GUIDE_LENGTH
-        log.warning("%s: the guides' median length is %.3g m%s, outside %g mm to %g m: %s",
-                    source, length, _read_as(units), lo * 1000, hi, units_fix(*fix, factor))
+        log.warning(
+            "%s: the guides' median length is %.3g m%s, outside %g mm to %g m: %s",
+            source,
+            length,
+            _read_as(units),
+            lo * 1000,
+            hi,
+            units_fix(*fix, factor),
+        )
         return True
     if mesh_factors(mesh_diagonal):  # the mesh's own warning says what to set
         return False
@@ -211,10 +235,18 @@ def warn_guide_size(curves: HairCurves, mesh_diagonal: float, units: Units, sour
     if _named(metres_per_unit(units) * factor):
         hint = units_fix(*fix, factor)
     else:  # metre guides far too short for the mesh: more likely a mesh in cm read as metres
-        hint = units_fix("the mesh was read as metres but is", "[mesh].units", "load_mesh", "m",
-                         1 / factor)  # fmt: skip
-    log.warning("%s: the guides' median length %.3g m%s is %.3g× the mesh's size (%.3g m"
-                " across): %s", source, length, _read_as(units), ratio, mesh_diagonal, hint)
+        hint = units_fix(
+            "the mesh was read as metres but is", "[mesh].units", "load_mesh", "m", 1 / factor
+        )
+    log.warning(
+        "%s: the guides' median length %.3g m%s is %.3g× the mesh's size (%.3g m across): %s",
+        source,
+        length,
+        _read_as(units),
+        ratio,
+        mesh_diagonal,
+        hint,
+    )
     return True
 
 
@@ -225,7 +257,9 @@ def off_mesh_factor(roots: np.ndarray, mesh: SkinMesh, tolerance: float) -> floa
     the mesh by such a factor were written in other units."""
     for factor in (1e-2, 1e-3, 1e2, 1e3):
         scaled = np.asarray(roots, dtype=np.float64) * factor
-        if np.linalg.norm(np.ptp(scaled, axis=0)) > tolerance and \
-                np.median(mesh.closest_points(scaled, pose="rest")[2]) <= tolerance:  # fmt: skip
+        if (
+            np.linalg.norm(np.ptp(scaled, axis=0)) > tolerance
+            and np.median(mesh.closest_points(scaled, pose="rest")[2]) <= tolerance
+        ):
             return factor
     return None

@@ -20,10 +20,25 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-_COMPONENTS = {"FLOAT": 1, "INT": 1, "INT8": 1, "BOOLEAN": 1, "FLOAT2": 2, "INT32_2D": 2,
-               "FLOAT_VECTOR": 3, "FLOAT_COLOR": 4, "BYTE_COLOR": 4, "QUATERNION": 4}
-_FIELD = {"FLOAT_VECTOR": "vector", "FLOAT2": "vector", "FLOAT_COLOR": "color",
-          "BYTE_COLOR": "color", "QUATERNION": "value"}  # others: "value"
+_COMPONENTS = {
+    "FLOAT": 1,
+    "INT": 1,
+    "INT8": 1,
+    "BOOLEAN": 1,
+    "FLOAT2": 2,
+    "INT32_2D": 2,
+    "FLOAT_VECTOR": 3,
+    "FLOAT_COLOR": 4,
+    "BYTE_COLOR": 4,
+    "QUATERNION": 4,
+}
+_FIELD = {
+    "FLOAT_VECTOR": "vector",
+    "FLOAT2": "vector",
+    "FLOAT_COLOR": "color",
+    "BYTE_COLOR": "color",
+    "QUATERNION": "value",
+}  # others: "value"
 
 
 def _values(attribute, count):
@@ -81,10 +96,17 @@ def _mesh(obj, key, arrays):
         uv = np.empty(len(mesh.loops) * 2, np.float32)
         layer.data.foreach_get("uv", uv)
         arrays[f"{key}/uv:{layer.name}"] = uv.reshape(-1, 2)
-    return {"vertices": len(mesh.vertices), "faces": len(mesh.polygons),
-            "corners": len(mesh.loops), "uv_maps": [u.name for u in mesh.uv_layers],
-            "attributes": [{"name": a.name, "domain": a.domain, "type": a.data_type}
-                           for a in mesh.attributes if not a.name.startswith(".")]}
+    return {
+        "vertices": len(mesh.vertices),
+        "faces": len(mesh.polygons),
+        "corners": len(mesh.loops),
+        "uv_maps": [u.name for u in mesh.uv_layers],
+        "attributes": [
+            {"name": a.name, "domain": a.domain, "type": a.data_type}
+            for a in mesh.attributes
+            if not a.name.startswith(".")
+        ],
+    }
 
 
 def main():
@@ -100,9 +122,13 @@ def main():
         objects = []
         for obj in sorted(bpy.data.objects, key=lambda o: o.name):
             data_name = obj.data.name if obj.data is not None else None
-            entry = {"name": obj.name, "type": obj.type, "data": data_name,
-                     "parent": obj.parent.name if obj.parent else None,
-                     "matrix_world": [list(row) for row in obj.matrix_world]}
+            entry = {
+                "name": obj.name,
+                "type": obj.type,
+                "data": data_name,
+                "parent": obj.parent.name if obj.parent else None,
+                "matrix_world": [list(row) for row in obj.matrix_world],
+            }
             key = f"{Path(name).name}/{data_name}"
             if obj.type == "CURVES":
                 entry.update(_curves(obj, key, arrays))

@@ -72,13 +72,18 @@ def _hair(head):
     rng = np.random.default_rng(21)
     color = rng.random((len(roots) * HAIR_POINTS, 4)).astype(np.float32)
     color[:, 3] = 0.5 + 0.5 * color[:, 3]  # alpha in [0.5, 1]: an opacity to carry
-    curves.attributes.new("color", "FLOAT_COLOR", "POINT").data.foreach_set("color",
-                                                                           color.ravel())
+    curves.attributes.new("color", "FLOAT_COLOR", "POINT").data.foreach_set("color", color.ravel())
     return _link("Hair", curves)
 
 
-_SPLINE = [(0.0, 0.0, RADIUS), (0.0, 0.03, 0.12), (0.02, 0.06, 0.11), (0.02, 0.08, 0.08),
-           (0.03, 0.09, 0.03), (0.03, 0.095, -0.02)]
+_SPLINE = [
+    (0.0, 0.0, RADIUS),
+    (0.0, 0.03, 0.12),
+    (0.02, 0.06, 0.11),
+    (0.02, 0.08, 0.08),
+    (0.03, 0.09, 0.03),
+    (0.03, 0.095, -0.02),
+]
 
 
 def _legacy(kind):
@@ -115,8 +120,11 @@ def _truth(obj, arrays):
     if obj.type == "CURVES":
         data = obj.data
         n = len(data.points)
-        for name, field, comps in (("position", "vector", 3), ("radius", "value", 1),
-                                   ("color", "color", 4)):
+        for name, field, comps in (
+            ("position", "vector", 3),
+            ("radius", "value", 1),
+            ("color", "color", 4),
+        ):
             flat = np.empty(n * comps, np.float32)
             data.attributes[name].data.foreach_get(field, flat)
             arrays[f"{obj.name}/{name}"] = flat.reshape(n, comps) if comps > 1 else flat
@@ -141,10 +149,14 @@ def _truth(obj, arrays):
         corners = [loop.vertex_index for loop in mesh.loops]
         arrays[f"{obj.name}/corner_position"] = arrays[f"{obj.name}/position"][corners]
         arrays[f"{obj.name}/corner_uv"] = np.array(
-            [d.uv[:] for d in mesh.uv_layers.active.data], dtype=np.float64)
-        info.update(vertices=len(mesh.vertices), faces=len(mesh.polygons),
-                    uv_maps=[u.name for u in mesh.uv_layers],
-                    area=sum(p.area for p in mesh.polygons))  # a rigid transform keeps it
+            [d.uv[:] for d in mesh.uv_layers.active.data], dtype=np.float64
+        )
+        info.update(
+            vertices=len(mesh.vertices),
+            faces=len(mesh.polygons),
+            uv_maps=[u.name for u in mesh.uv_layers],
+            area=sum(p.area for p in mesh.polygons),
+        )  # a rigid transform keeps it
     return info
 
 
@@ -162,12 +174,16 @@ def main():
             other.select_set(other is obj)
         bpy.context.view_layer.objects.active = obj
         usd, abc = folder / f"{obj.name}.usda", folder / f"{obj.name}.abc"
-        done_usd = bpy.ops.wm.usd_export(filepath=str(usd), selected_objects_only=True,
-                                         export_materials=False)
-        done_abc = bpy.ops.wm.alembic_export(filepath=str(abc), selected=True,
-                                             as_background_job=False)
-        report["files"][obj.name] = {"usd": [str(usd), sorted(done_usd)],
-                                     "abc": [str(abc), sorted(done_abc)]}
+        done_usd = bpy.ops.wm.usd_export(
+            filepath=str(usd), selected_objects_only=True, export_materials=False
+        )
+        done_abc = bpy.ops.wm.alembic_export(
+            filepath=str(abc), selected=True, as_background_job=False
+        )
+        report["files"][obj.name] = {
+            "usd": [str(usd), sorted(done_usd)],
+            "abc": [str(abc), sorted(done_abc)],
+        }
     np.savez(out.with_suffix(".npz"), **arrays)
     report["arrays"] = str(out.with_suffix(".npz"))
     out.write_text(json.dumps(report, indent=1))

@@ -39,8 +39,12 @@ def _args():
     parser.add_argument("out", help="PNG to write")
     parser.add_argument("--size", type=int, default=640, help="image width and height")
     parser.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel")
-    parser.add_argument("--melanin", type=float, default=None,
-                        help="colour the hair by melanin (0-1) instead of its own colour")
+    parser.add_argument(
+        "--melanin",
+        type=float,
+        default=None,
+        help="colour the hair by melanin (0-1) instead of its own colour",
+    )
     return parser.parse_args(sys.argv[1:])
 
 
@@ -152,14 +156,14 @@ def main():
     distance = float(np.max(np.maximum(across, height) / half + depth))
     eye = centre + back * distance
     cam.location = eye.tolist()
-    cam.rotation_euler = (Vector(centre.tolist()) - Vector(eye.tolist())).to_track_quat(
-        "-Z", "Y").to_euler()
+    cam.rotation_euler = (
+        (Vector(centre.tolist()) - Vector(eye.tolist())).to_track_quat("-Z", "Y").to_euler()
+    )
     scene.camera = cam
     r = radius
     c = centre
     _area_light("key", (c[0] + 2.0 * r, c[1] - 2.5 * r, c[2] + 2.0 * r), c, 60.0 * r * r, r)
-    _area_light("fill", (c[0] - 3.0 * r, c[1] - 1.5 * r, c[2] + 0.3 * r), c, 18.0 * r * r,
-                2 * r)
+    _area_light("fill", (c[0] - 3.0 * r, c[1] - 1.5 * r, c[2] + 0.3 * r), c, 18.0 * r * r, 2 * r)
     _area_light("rim", (c[0] - 0.8 * r, c[1] + 3.0 * r, c[2] + 2.5 * r), c, 80.0 * r * r, r)
 
     world = bpy.data.worlds.new("world")
@@ -182,8 +186,10 @@ def main():
     scene.render.filepath = args.out
     start = time.perf_counter()
     bpy.ops.render.render(write_still=True)
-    print(f"render_groom: {args.out} ({args.size}×{args.size}, {args.samples} samples) in"
-          f" {time.perf_counter() - start:.1f} s")
+    print(
+        f"render_groom: {args.out} ({args.size}×{args.size}, {args.samples} samples) in"
+        f" {time.perf_counter() - start:.1f} s"
+    )
 
 
 main()

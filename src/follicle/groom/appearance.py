@@ -42,8 +42,22 @@ ENDS = 10
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _ends_kernel(ids, seed, root_rgb, tip_rgb, hue_var, sat_var, val_var, mutant_fraction,
-                 mutant_rgb, root_w, tip_w, root_op, tip_op, ends):  # fmt: skip
+def _ends_kernel(
+    ids,
+    seed,
+    root_rgb,
+    tip_rgb,
+    hue_var,
+    sat_var,
+    val_var,
+    mutant_fraction,
+    mutant_rgb,
+    root_w,
+    tip_w,
+    root_op,
+    tip_op,
+    ends,
+):
     """Fill ``ends`` (n, ENDS) for hairs ``ids``; inputs have n rows or one shared row."""
     for i in prange(ids.shape[0]):
         hair = ids[i]

@@ -140,7 +140,7 @@ def _in_circle(i0, i1, i2, d, p, n):
     bu, bv = bx * ex + by * ey + bz * ez, bx * fx + by * fy + bz * fz
     cu, cv = cx * ex + cy * ey + cz * ez, cx * fx + cy * fy + cz * fz
     a2, b2, c2 = au * au + av * av, bu * bu + bv * bv, cu * cu + cv * cv
-    det = (au * (bv * c2 - b2 * cv) - av * (bu * c2 - b2 * cu) + a2 * (bu * cv - bv * cu))
+    det = au * (bv * c2 - b2 * cv) - av * (bu * c2 - b2 * cu) + a2 * (bu * cv - bv * cu)
     # orientation of the triangle itself (the three of j0..j3 other than d, in order)
     pu, pv, qu, qv, ru, rv = au, av, bu, bv, cu, cv
     if d == j0:
@@ -173,8 +173,11 @@ def _shape(i0, i1, i2, p, n, spacing):
     lab = (bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2
     if c2 <= 0.0 or 2.0 * np.sqrt(3.0 * c2) < _FLAT * (la + lb + lab):
         return False, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    flipped = (cx * (n[i0, 0] + n[i1, 0] + n[i2, 0]) + cy * (n[i0, 1] + n[i1, 1] + n[i2, 1])
-               + cz * (n[i0, 2] + n[i1, 2] + n[i2, 2])) < 0.0
+    flipped = (
+        cx * (n[i0, 0] + n[i1, 0] + n[i2, 0])
+        + cy * (n[i0, 1] + n[i1, 1] + n[i2, 1])
+        + cz * (n[i0, 2] + n[i1, 2] + n[i2, 2])
+    ) < 0.0
     s = (-1.0 if flipped else 1.0) / np.sqrt(c2)
     ux, uy, uz = cx * s, cy * s, cz * s  # unit normal, wound with the guide normals
     for v in (i0, i1, i2):
@@ -450,8 +453,26 @@ def _write(out_idx, out_w, h, tris, t, g, b0, b1, b2):
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _weights_kernel(order, q, qn, origin, cell, dims, tri_ptr, tri_items, loose_ptr,
-                    loose_items, p, hit2, tris, tv, tc, tn, out_idx, out_w):
+def _weights_kernel(
+    order,
+    q,
+    qn,
+    origin,
+    cell,
+    dims,
+    tri_ptr,
+    tri_items,
+    loose_ptr,
+    loose_items,
+    p,
+    hit2,
+    tris,
+    tv,
+    tc,
+    tn,
+    out_idx,
+    out_w,
+):
     """Fast path: q (H, 3) on a guide without triangles, or projected along its normal qn
     into a triangle binned to its cell (the one with the nearest plane). Misses get
     out_idx[h, 0] = -1. Hairs are visited in ``order`` (empty: as given).
@@ -482,8 +503,11 @@ def _weights_kernel(order, q, qn, origin, cell, dims, tri_ptr, tri_items, loose_
                 continue
             l0, l1, l2 = _bary(tv, tc, t, q0, q1, q2, n0, n1, n2)
             if min(l0, min(l1, l2)) >= _INSIDE:
-                plane = abs((q0 - tv[t, 0, 0]) * tn[t, 0] + (q1 - tv[t, 0, 1]) * tn[t, 1]
-                            + (q2 - tv[t, 0, 2]) * tn[t, 2])
+                plane = abs(
+                    (q0 - tv[t, 0, 0]) * tn[t, 0]
+                    + (q1 - tv[t, 0, 1]) * tn[t, 1]
+                    + (q2 - tv[t, 0, 2]) * tn[t, 2]
+                )
                 if plane < best_plane:
                     best, best_plane = t, plane
                     b0, b1, b2 = l0, l1, l2
@@ -494,8 +518,25 @@ def _weights_kernel(order, q, qn, origin, cell, dims, tri_ptr, tri_items, loose_
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _search_kernel(rows, q, qn, nearest, dist2, gn, has_tri, hit2, tris, tv, tc, tn, adj,
-                   vt_ptr, vt_idx, out_idx, out_w):
+def _search_kernel(
+    rows,
+    q,
+    qn,
+    nearest,
+    dist2,
+    gn,
+    has_tri,
+    hit2,
+    tris,
+    tv,
+    tc,
+    tn,
+    adj,
+    vt_ptr,
+    vt_idx,
+    out_idx,
+    out_w,
+):
     """Slow path for hairs ``rows``: start at the triangles around the nearest guide facing
     the hair (``nearest`` (M, k) guides by distance), take one that holds the hair's
     projection, else walk across edges towards it, keeping the triangle that comes
@@ -535,8 +576,11 @@ def _search_kernel(rows, q, qn, nearest, dist2, gn, has_tri, hit2, tris, tv, tc,
                 else:
                     l0, l1, l2 = _bary(tv, tc, t, q0, q1, q2, tc[t, 0], tc[t, 1], tc[t, 2])
                 mn = min(l0, min(l1, l2))
-                plane = abs((q0 - tv[t, 0, 0]) * tn[t, 0] + (q1 - tv[t, 0, 1]) * tn[t, 1]
-                            + (q2 - tv[t, 0, 2]) * tn[t, 2])
+                plane = abs(
+                    (q0 - tv[t, 0, 0]) * tn[t, 0]
+                    + (q1 - tv[t, 0, 1]) * tn[t, 1]
+                    + (q2 - tv[t, 0, 2]) * tn[t, 2]
+                )
                 if mn >= _INSIDE and best_min >= _INSIDE:
                     better = plane < best_plane
                 else:
@@ -643,8 +687,14 @@ class GuideTriangulation:
             rows = np.flatnonzero(rim)
             if len(rows) and _GROW * k > k:
                 _, idx = tree.query(p[rows], k=min(s, 2 * _GROW * k + 1))
-                _fill_neighbours(near, rows, idx.reshape(len(rows), -1).astype(np.int64), n,
-                                 active, np.full(len(rows), _GROW * k, np.int64))
+                _fill_neighbours(
+                    near,
+                    rows,
+                    idx.reshape(len(rows), -1).astype(np.int64),
+                    n,
+                    active,
+                    np.full(len(rows), _GROW * k, np.int64),
+                )
                 lists = rim | (rim[near] & (near >= 0)).any(axis=1)
                 again = _propose(np.flatnonzero(lists & active), rim, jog, n, near, spacing)
                 tris = _thin_edges(p, np.concatenate([tris[~rim[tris].any(axis=1)], again]))
@@ -692,8 +742,9 @@ class GuideTriangulation:
         ptr, items = _bin_boxes(p[loose], p[loose], lo, cell, dims)
         self._loose_ptr, self._loose_items = ptr, loose[items].astype(np.int64)
         grow = (_MARGIN * edges.max(axis=1, initial=0.0) + 1e-9 * diag)[:, None]
-        self._tri_ptr, self._tri_items = _bin_boxes(tv.min(axis=1) - grow, tv.max(axis=1) + grow,
-                                                    lo, cell, dims)
+        self._tri_ptr, self._tri_items = _bin_boxes(
+            tv.min(axis=1) - grow, tv.max(axis=1) + grow, lo, cell, dims
+        )
         self._hit2 = (1e-9 * max(cell, diag)) ** 2
         self._tree: cKDTree | None = None
 
@@ -727,9 +778,26 @@ class GuideTriangulation:
             cells = np.clip(np.floor((q - self._origin) / self._cell), 0, self._dims - 1)
             key = (cells[:, 0] * self._dims[1] + cells[:, 1]) * self._dims[2] + cells[:, 2]
             order = np.argsort(key.astype(np.int64), kind="stable")
-        _weights_kernel(order, q, qn, self._origin, self._cell, self._dims, self._tri_ptr,
-                        self._tri_items, self._loose_ptr, self._loose_items, self.roots,
-                        self._hit2, self.triangles, self._tv, self._tc, self._tn, idx, w)
+        _weights_kernel(
+            order,
+            q,
+            qn,
+            self._origin,
+            self._cell,
+            self._dims,
+            self._tri_ptr,
+            self._tri_items,
+            self._loose_ptr,
+            self._loose_items,
+            self.roots,
+            self._hit2,
+            self.triangles,
+            self._tv,
+            self._tc,
+            self._tn,
+            idx,
+            w,
+        )
         rows = np.flatnonzero(idx[:, 0] < 0)
         if len(rows):  # off the binned triangles: a border, a hole, far from the guides
             if self._tree is None:
@@ -737,9 +805,25 @@ class GuideTriangulation:
             dist, nearest = self._tree.query(q[rows], k=min(s, _SEARCH))
             nearest = nearest.reshape(len(rows), -1).astype(np.int64)
             dist2 = dist.reshape(len(rows), -1)[:, 0] ** 2
-            _search_kernel(rows, q, qn, nearest, dist2, self.normals, self._has_tri,
-                           self._hit2, self.triangles, self._tv, self._tc, self._tn, self._adj,
-                           self._vt_ptr, self._vt_idx, idx, w)
+            _search_kernel(
+                rows,
+                q,
+                qn,
+                nearest,
+                dist2,
+                self.normals,
+                self._has_tri,
+                self._hit2,
+                self.triangles,
+                self._tv,
+                self._tc,
+                self._tn,
+                self._adj,
+                self._vt_ptr,
+                self._vt_idx,
+                idx,
+                w,
+            )
         return idx, w
 
     def _segment(self, q: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

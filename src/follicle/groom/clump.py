@@ -38,8 +38,22 @@ def assign_clumps(
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _clump_kernel(local, centre, which, root, tangent, binormal, normal, a_root, a_tip,
-                  profile, noise, ids, seed, t):  # fmt: skip
+def _clump_kernel(
+    local,
+    centre,
+    which,
+    root,
+    tangent,
+    binormal,
+    normal,
+    a_root,
+    a_tip,
+    profile,
+    noise,
+    ids,
+    seed,
+    t,
+):
     n = local.shape[1]
     for h in prange(local.shape[0]):
         c = which[h]
@@ -83,9 +97,15 @@ def clump(
     """
     m = len(local)
     _clump_kernel(
-        local, np.ascontiguousarray(centre, dtype=np.float64), which,
+        local,
+        np.ascontiguousarray(centre, dtype=np.float64),
+        which,
         *(np.ascontiguousarray(a, dtype=np.float64) for a in rest_frame),
         per_hair(attract_root, m, "clump_root", 0.0, 1.0),
-        per_hair(attract_tip, m, "clump_tip", 0.0, 1.0), float(profile),
-        per_hair(noise, m, "clump_noise", 0.0, 1.0), ids, np.uint64(seed), t,
-    )  # fmt: skip
+        per_hair(attract_tip, m, "clump_tip", 0.0, 1.0),
+        float(profile),
+        per_hair(noise, m, "clump_noise", 0.0, 1.0),
+        ids,
+        np.uint64(seed),
+        t,
+    )

@@ -58,8 +58,9 @@ def _concentric(u0, u1):
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _fibres_kernel(local, ids, seed, count, s_root, s_centre, s_tip, twist, aspect, offset,
-                   randomize, out, uv):
+def _fibres_kernel(
+    local, ids, seed, count, s_root, s_centre, s_tip, twist, aspect, offset, randomize, out, uv
+):
     n, nv = local.shape[0], local.shape[1]
     inv = 1.0 / (nv - 1)
     ucount = np.uint64(count)
@@ -244,7 +245,16 @@ def make_fibres(
             np.ascontiguousarray(pts),
             np.ascontiguousarray(ids, dtype=np.int64).view(np.uint64),
             np.uint64(int(seed) & 0xFFFFFFFFFFFFFFFF),
-            count, s_root, s_centre, s_tip, tw, asp, off, rnd, fibres, uv,
+            count,
+            s_root,
+            s_centre,
+            s_tip,
+            tw,
+            asp,
+            off,
+            rnd,
+            fibres,
+            uv,
         )
     parent = np.repeat(np.arange(n, dtype=np.int64), count)
     strand_id = np.tile(np.arange(count, dtype=np.int64), n)

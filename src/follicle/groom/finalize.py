@@ -107,19 +107,29 @@ def _keep_kernel(p, length, threshold, keep):
         q = p[h]
         total = 0.0
         for i in range(1, m):
-            total += np.sqrt((q[i, 0] - q[i - 1, 0]) ** 2 + (q[i, 1] - q[i - 1, 1]) ** 2
-                             + (q[i, 2] - q[i - 1, 2]) ** 2)  # fmt: skip
+            total += np.sqrt(
+                (q[i, 0] - q[i - 1, 0]) ** 2
+                + (q[i, 1] - q[i - 1, 1]) ** 2
+                + (q[i, 2] - q[i - 1, 2]) ** 2
+            )
         eps = 1e-6 * total / (m - 1)  # "equal" vertices: per hair, chunk independent
         keep[h, 0] = True
         last = 0
         kept = 1
         for i in range(1, m):
-            d = np.sqrt((q[i, 0] - q[last, 0]) ** 2 + (q[i, 1] - q[last, 1]) ** 2
-                        + (q[i, 2] - q[last, 2]) ** 2)  # fmt: skip
+            d = np.sqrt(
+                (q[i, 0] - q[last, 0]) ** 2
+                + (q[i, 1] - q[last, 1]) ** 2
+                + (q[i, 2] - q[last, 2]) ** 2
+            )
             if d <= eps:
                 continue  # §2.2.2 remove degenerate vertices
-            if (i < m - 1 and threshold <= 1.0 and _similar(q, i, last, m, threshold)
-                    and _similar(q, i, i + 1, m, threshold)):  # fmt: skip
+            if (
+                i < m - 1
+                and threshold <= 1.0
+                and _similar(q, i, last, m, threshold)
+                and _similar(q, i, i + 1, m, threshold)
+            ):
                 continue  # §2.2.9 skip: the tangent is like both neighbours'
             keep[h, i] = True
             last = i
@@ -148,8 +158,26 @@ _BLOCK = 128  # curves per scratch buffer in the pack kernel
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _pack_kernel(p, length, keep, rows, origin, tangent, binormal, normal, start, first,
-                 ends, t_end, n_total, out_p, out_n, out_c, out_w, out_o):  # fmt: skip
+def _pack_kernel(
+    p,
+    length,
+    keep,
+    rows,
+    origin,
+    tangent,
+    binormal,
+    normal,
+    start,
+    first,
+    ends,
+    t_end,
+    n_total,
+    out_p,
+    out_n,
+    out_c,
+    out_w,
+    out_o,
+):
     m, n = p.shape[0], p.shape[1]
     step = 1.0 / (n_total - 1)
     for blk in prange((m + _BLOCK - 1) // _BLOCK):
@@ -169,8 +197,9 @@ def _pack_kernel(p, length, keep, rows, origin, tangent, binormal, normal, start
                 x, y, z = p[h, i, 0], p[h, i, 1], p[h, i, 2]
                 nx, ny, nz = nor[i, 0], nor[i, 1], nor[i, 2]
                 for a in range(3):
-                    out_p[k, a] = (origin[r, a] + x * tangent[r, a] + y * binormal[r, a]
-                                   + z * normal[r, a])  # fmt: skip
+                    out_p[k, a] = (
+                        origin[r, a] + x * tangent[r, a] + y * binormal[r, a] + z * normal[r, a]
+                    )
                     out_n[k, a] = nx * tangent[r, a] + ny * binormal[r, a] + nz * normal[r, a]
                 t = i * step if i < L - 1 else t_end[h]
                 out_c[k, 0], out_c[k, 1], out_c[k, 2], out_w[k], out_o[k] = vertex_look(ends[h], t)
@@ -199,6 +228,19 @@ def pack(
     ``n_total``-vertex curve (``t_end`` for the last one, from :func:`cut_in_place`).
     """
     _pack_kernel(
-        p, length, keep, rows, *frame, start, _ROOT_TANGENT, ends, t_end, int(n_total),
-        out["points"], out["normal"], out["color"], out["width"], out["opacity"],
-    )  # fmt: skip
+        p,
+        length,
+        keep,
+        rows,
+        *frame,
+        start,
+        _ROOT_TANGENT,
+        ends,
+        t_end,
+        int(n_total),
+        out["points"],
+        out["normal"],
+        out["color"],
+        out["width"],
+        out["opacity"],
+    )

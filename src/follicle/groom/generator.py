@@ -53,13 +53,22 @@ log = logging.getLogger("follicle")
 CHUNK = 32768
 BUILTIN_TEXTURES = {"builtin:scalp": scalp_texture, "builtin:parting": parting_texture}
 # the output arrays: name -> (dtype, shape per vertex or per curve)
-_POINT_FIELDS = {"points": (np.float32, (3,)), "normal": (np.float32, (3,)),
-                 "color": (np.float32, (3,)), "width": (np.float32, ()),
-                 "opacity": (np.float32, ())}  # fmt: skip
-_CURVE_FIELDS = {"counts": (np.int64, ()), "hair_id": (np.int64, ()),
-                 "strand_id": (np.int64, ()), "root_uv": (np.float32, (2,)),
-                 "strand_uv": (np.float32, (2,)), "root_triangle": (np.int64, ()),
-                 "root_bary": (np.float32, (2,))}  # fmt: skip
+_POINT_FIELDS = {
+    "points": (np.float32, (3,)),
+    "normal": (np.float32, (3,)),
+    "color": (np.float32, (3,)),
+    "width": (np.float32, ()),
+    "opacity": (np.float32, ()),
+}
+_CURVE_FIELDS = {
+    "counts": (np.int64, ()),
+    "hair_id": (np.int64, ()),
+    "strand_id": (np.int64, ()),
+    "root_uv": (np.float32, (2,)),
+    "strand_uv": (np.float32, (2,)),
+    "root_triangle": (np.int64, ()),
+    "root_bary": (np.float32, (2,)),
+}
 
 
 def _bytes(fields: dict[str, tuple[type, tuple[int, ...]]]) -> int:
@@ -160,8 +169,9 @@ class _Shaped:
         self.buckets = buckets
         self.counts = (
             np.concatenate([b.keep.sum(axis=1) for b in buckets])
-            if buckets else np.zeros(0, np.int64)
-        )  # fmt: skip
+            if buckets
+            else np.zeros(0, np.int64)
+        )
         self.vertices = int(self.counts.sum())
         self.curves = int(np.count_nonzero(self.counts))
 
@@ -247,9 +257,10 @@ class Groom:
         if old is None or any(getattr(old, k) != getattr(params, k) for k in _SAMPLER_KEYS):
             spec = self._density if self._density is not None else params.density
             self.sampler = DensitySampler(
-                self.mesh, resolve_density(self.mesh, spec, self._resolve),
+                self.mesh,
+                resolve_density(self.mesh, spec, self._resolve),
                 refine=params.density_refine,
-            )  # fmt: skip
+            )
             self._layouts.clear()
         if old is None or any(getattr(old, k) != getattr(params, k) for k in _LAYOUT_KEYS):
             self._layouts.clear()
@@ -288,10 +299,13 @@ class Groom:
         bound = sum(self._vertex_bound(lay) for lay in layouts)
         out = _allocate(bound, count * self.params.strand_count)
         v, c = chained(
-            layouts, lambda lay: self._shape(lay, time), lambda at, shaped: shaped.after(at),
-            lambda lay, shaped, at: self._assemble(lay, shaped, out, *at), (0, 0),
+            layouts,
+            lambda lay: self._shape(lay, time),
+            lambda at, shaped: shaped.after(at),
+            lambda lay, shaped, at: self._assemble(lay, shaped, out, *at),
+            (0, 0),
             None if progress is None else lambda k: progress(spans[k][1] - start, count),
-        )  # fmt: skip
+        )
         return _curves(out, v, c)
 
     def follow(
@@ -363,9 +377,12 @@ class Groom:
         return index.astype(np.int32), weight.astype(np.float32)
 
     def generate_at(
-        self, triangles: np.ndarray, bary: np.ndarray, ids: np.ndarray | None = None,
+        self,
+        triangles: np.ndarray,
+        bary: np.ndarray,
+        ids: np.ndarray | None = None,
         time: float = 0.0,
-    ) -> HairCurves:  # fmt: skip
+    ) -> HairCurves:
         """Hairs rooted at given (triangle, barycentric) points of the mesh, e.g. picked roots.
 
         ``ids`` (default 0, 1, …; distinct, ≥ 0) key each hair's random choices.
@@ -476,9 +493,12 @@ class Groom:
         if len(members) < want:
             log.warning(
                 "interpolation group %s has %d guide(s), fewer than the %d its hairs"
-                " blend (%s): they blend all of them", label, len(members), want,
+                " blend (%s): they blend all of them",
+                label,
+                len(members),
+                want,
                 self.params.interpolation,
-            )  # fmt: skip
+            )
         roots = self.guides.root_positions[members]
         if self.params.interpolation == "barycentric":
             return members, GuideTriangulation(roots, self.guides.normals[members])
@@ -516,9 +536,12 @@ class Groom:
             sel = np.flatnonzero(group == g)
             n = int(self._vertices[g])
             local = blend_guides(
-                self.guides.local_shapes(n), index[sel], weight[sel], n,
+                self.guides.local_shapes(n),
+                index[sel],
+                weight[sel],
+                n,
                 _rows(props["scale"], sel),
-            )  # fmt: skip
+            )
             self._curl(local, props, sel, ids[sel], np.linspace(0.0, 1.0, n)[None])
             frame = np.stack([rest.tangent[sel], rest.binormal[sel], rest.normal[sel]], 1)
             world[sel, :n] = rest.position[sel, None] + np.einsum("hna,hab->hnb", local, frame)
@@ -557,9 +580,14 @@ class Groom:
         return _Shaped(_turned(cur, lay.turn), buckets)
 
     def _bucket(
-        self, lay: _Layout, props: dict[str, np.ndarray], rows: np.ndarray, n_total: int,
-        n: int, time: float,
-    ) -> _Bucket:  # fmt: skip
+        self,
+        lay: _Layout,
+        props: dict[str, np.ndarray],
+        rows: np.ndarray,
+        n_total: int,
+        n: int,
+        time: float,
+    ) -> _Bucket:
         """Hairs ``rows`` (one group, ``n`` of ``n_total`` vertices needed) shaped, finished."""
         p = self.params
         pick = _run(rows)  # one run of rows (the common case): gathers below are views
@@ -589,39 +617,74 @@ class Groom:
         if lay.clump is not None:
             centre = self._centres()[2]
             clump(
-                local, centre, lay.clump[pick], (root, *frame), prop("clump_root"),
-                prop("clump_tip"), p.clump_profile, prop("clump_noise"), ids, p.seed, t,
-            )  # fmt: skip
+                local,
+                centre,
+                lay.clump[pick],
+                (root, *frame),
+                prop("clump_root"),
+                prop("clump_tip"),
+                p.clump_profile,
+                prop("clump_noise"),
+                ids,
+                p.seed,
+                t,
+            )
         if (props["frizz_root"] > 0).any() or (props["frizz_tip"] > 0).any():
             drift = np.asarray(p.frizz_direction) * (p.frizz_speed * time)
             frizz(
-                local, root, prop("frizz_root"), prop("frizz_tip"),
-                np.asarray(p.frizz_frequency), drift, prop("frizz_blend"), t, check=False,
-            )  # fmt: skip
+                local,
+                root,
+                prop("frizz_root"),
+                prop("frizz_tip"),
+                np.asarray(p.frizz_frequency),
+                drift,
+                prop("frizz_blend"),
+                t,
+                check=False,
+            )
         if (props["kink_root"] > 0).any() or (props["kink_tip"] > 0).any():
             kink(
-                local, root, prop("kink_root"), prop("kink_tip"),
-                np.asarray(p.kink_frequency), frame, t, check=False,
-            )  # fmt: skip
+                local,
+                root,
+                prop("kink_root"),
+                prop("kink_tip"),
+                np.asarray(p.kink_frequency),
+                frame,
+                t,
+                check=False,
+            )
         return self._finish(local, rows, ids, prop, n_total)
 
     def _curl(
-        self, local: np.ndarray, props: dict[str, np.ndarray], rows: np.ndarray | slice,
-        ids: np.ndarray, t: np.ndarray,
-    ) -> None:  # fmt: skip
+        self,
+        local: np.ndarray,
+        props: dict[str, np.ndarray],
+        rows: np.ndarray | slice,
+        ids: np.ndarray,
+        t: np.ndarray,
+    ) -> None:
         """Almeida 2014 §3.1.2 curl on ``local`` when any hair has a curl radius."""
         if not (props["curl_radius"] > 0).any():
             return
         p = self.params
         curl(
-            local, _rows(props["curl_radius"], rows), _rows(props["curl_frequency"], rows),
-            p.curl_frequency_tip, curl_phase(p.seed, ids), t=t, check=False,
-        )  # fmt: skip
+            local,
+            _rows(props["curl_radius"], rows),
+            _rows(props["curl_frequency"], rows),
+            p.curl_frequency_tip,
+            curl_phase(p.seed, ids),
+            t=t,
+            check=False,
+        )
 
     def _finish(
-        self, local: np.ndarray, rows: np.ndarray, ids: np.ndarray,
-        prop: Callable[[str], np.ndarray], n_total: int,
-    ) -> _Bucket:  # fmt: skip
+        self,
+        local: np.ndarray,
+        rows: np.ndarray,
+        ids: np.ndarray,
+        prop: Callable[[str], np.ndarray],
+        n_total: int,
+    ) -> _Bucket:
         """Fibres, cut, appearance, normals and vertex removal of shaped hairs."""
         p = self.params
         m, n = local.shape[:2]
@@ -630,11 +693,18 @@ class Groom:
         strand_uv = np.zeros((m, 2), dtype=np.float32)
         if p.strand_count > 1:
             local, parent, strand, strand_uv = make_fibres(
-                local, ids, p.seed, p.strand_count, prop("strand_splay_root"),
-                prop("strand_splay_centre"), prop("strand_splay_tip"),
-                np.radians(prop("strand_twist")), prop("strand_aspect"), prop("strand_offset"),
+                local,
+                ids,
+                p.seed,
+                p.strand_count,
+                prop("strand_splay_root"),
+                prop("strand_splay_centre"),
+                prop("strand_splay_tip"),
+                np.radians(prop("strand_twist")),
+                prop("strand_aspect"),
+                prop("strand_offset"),
                 prop("strand_randomize"),
-            )  # fmt: skip
+            )
 
         def per_curve(name: str) -> np.ndarray:
             value = prop(name)
@@ -645,12 +715,20 @@ class Groom:
         tcut = np.broadcast_to(per_curve("cut"), (len(local),))
         length, t_end = cut_in_place(local, tcut, n_total)
         ends = hair_ends(
-            ids, p.seed, per_curve("root_color"), per_curve("tip_color"),
-            per_curve("hue_variation"), per_curve("saturation_variation"),
-            per_curve("value_variation"), per_curve("mutant_fraction"),
-            per_curve("mutant_color"), per_curve("root_width"), per_curve("tip_width"),
-            per_curve("root_opacity"), per_curve("tip_opacity"),
-        )  # fmt: skip
+            ids,
+            p.seed,
+            per_curve("root_color"),
+            per_curve("tip_color"),
+            per_curve("hue_variation"),
+            per_curve("saturation_variation"),
+            per_curve("value_variation"),
+            per_curve("mutant_fraction"),
+            per_curve("mutant_color"),
+            per_curve("root_width"),
+            per_curve("tip_width"),
+            per_curve("root_opacity"),
+            per_curve("tip_opacity"),
+        )
         keep = finish(local, length, p.skip_threshold)
         return _Bucket(rows, strand, strand_uv, local, n_total, length, keep, t_end, ends)
 
@@ -673,9 +751,17 @@ class Groom:
         for b in buckets:
             m = len(b.rows)
             pack(
-                b.points, b.length, b.keep, b.rows, frame, start[first : first + m], b.ends,
-                b.t_end, b.n_total, out,
-            )  # fmt: skip
+                b.points,
+                b.length,
+                b.keep,
+                b.rows,
+                frame,
+                start[first : first + m],
+                b.ends,
+                b.t_end,
+                b.n_total,
+                out,
+            )
             first += m
         kept = order[counts[order] > 0]
         rows = np.concatenate([b.rows for b in buckets])[kept]
@@ -722,7 +808,8 @@ def _curves(out: dict[str, np.ndarray], v: int, c: int) -> HairCurves:
     offsets = np.zeros(c + 1, dtype=np.int64)
     np.cumsum(out["counts"][:c], out=offsets[1:])
     return HairCurves(
-        fit(out["points"], v), offsets,
+        fit(out["points"], v),
+        offsets,
         point_data={k: fit(out[k], v) for k in _POINT_FIELDS if k != "points"},
         curve_data={k: fit(out[k], c) for k in _CURVE_FIELDS if k != "counts"},
-    )  # fmt: skip
+    )

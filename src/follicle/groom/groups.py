@@ -45,8 +45,9 @@ class InterpolationGroups:
                 rgb = np.repeat(rgb, 3, axis=2)
             packed = (rgb[:, :, 0].astype(np.int32) << 16) | (rgb[:, :, 1].astype(np.int32) << 8)
             packed |= rgb[:, :, 2]
-            values, first, inverse = np.unique(packed.ravel(), return_index=True,
-                                               return_inverse=True)
+            values, first, inverse = np.unique(
+                packed.ravel(), return_index=True, return_inverse=True
+            )
             order = np.argsort(first)  # first appearance, row-major
             rank = np.empty_like(order)
             rank[order] = np.arange(len(order))

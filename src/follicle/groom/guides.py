@@ -89,8 +89,9 @@ def _bound(curves: HairCurves) -> bool:
     return "root_triangle" in curves.curve_data and "root_bary" in curves.curve_data
 
 
-def bind_roots(curves: HairCurves, mesh: SkinMesh, name: str = "guides", units: Units = "m",
-               warn: bool = True) -> HairCurves:  # fmt: skip
+def bind_roots(
+    curves: HairCurves, mesh: SkinMesh, name: str = "guides", units: Units = "m", warn: bool = True
+) -> HairCurves:
     """``curves`` with ``curve_data['root_triangle']``/``['root_bary']``: each guide's first
     vertex bound to the closest point of ``mesh``'s rest pose.
 
@@ -109,8 +110,9 @@ def bind_roots(curves: HairCurves, mesh: SkinMesh, name: str = "guides", units: 
     return HairCurves(curves.points, curves.offsets, curves.point_data, data)
 
 
-def _warn_off_mesh(roots: np.ndarray, dist: np.ndarray, mesh: SkinMesh, size: float, name: str,
-                   units: Units) -> None:  # fmt: skip
+def _warn_off_mesh(
+    roots: np.ndarray, dist: np.ndarray, mesh: SkinMesh, size: float, name: str, units: Units
+) -> None:
     """Log the roots farther than ``_FAR`` × ``size`` from the mesh, with the units that
     would put them on it; nothing when the mesh is off by that factor (its own size
     warning says what to set)."""
@@ -120,12 +122,18 @@ def _warn_off_mesh(roots: np.ndarray, dist: np.ndarray, mesh: SkinMesh, size: fl
         if any(math.isclose(factor * f, 1.0) for f in mesh_factors(size)):
             return
         hint = f"; scaled by {factor:g} they lie on it: " + units_fix(
-            "the guides are", "[guides].units", "load_guides", units, factor)
+            "the guides are", "[guides].units", "load_guides", units, factor
+        )
     log.warning(
         "%s: %d root(s) lie off mesh '%s' (farthest: guide %d, %.4g away, %.1f%% of the mesh"
-        " size); they are bound to the closest surface point%s", name,
-        int((dist > _FAR * size).sum()), mesh.name, int(np.argmax(dist)), float(dist.max()),
-        100.0 * float(dist.max()) / size, hint,
+        " size); they are bound to the closest surface point%s",
+        name,
+        int((dist > _FAR * size).sum()),
+        mesh.name,
+        int(np.argmax(dist)),
+        float(dist.max()),
+        100.0 * float(dist.max()) / size,
+        hint,
     )
 
 
@@ -207,8 +215,7 @@ class Guides:
         local = np.einsum("sna,ska->snk", x - cur.position[:, None], now)
         shapes = self.root_positions[:, None] + np.einsum("snk,ska->sna", local, rest)
         data = {"root_triangle": self.triangles, "root_bary": self.bary}
-        return Guides(HairCurves.from_array(shapes, curve_data=data), self.mesh,
-                      groups=self.groups)  # fmt: skip
+        return Guides(HairCurves.from_array(shapes, curve_data=data), self.mesh, groups=self.groups)
 
     @property
     def count(self) -> int:

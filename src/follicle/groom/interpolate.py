@@ -84,9 +84,12 @@ def _turn_kernel(index, weight, guide_tangents, tangent, binormal, out):
 
 
 def guide_turn(
-    index: np.ndarray, weight: np.ndarray, guide_tangents: np.ndarray, tangent: np.ndarray,
+    index: np.ndarray,
+    weight: np.ndarray,
+    guide_tangents: np.ndarray,
+    tangent: np.ndarray,
     binormal: np.ndarray,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """(cos, sin) (H, 2) of the angle about the normal from each root's ``tangent`` to the
     ``weight``-ed sum of its guides' root tangents, projected on its tangent plane.
 
@@ -97,10 +100,13 @@ def guide_turn(
     """
     out = np.empty((len(index), 2), dtype=np.float64)
     _turn_kernel(
-        np.ascontiguousarray(index, np.int64), np.ascontiguousarray(weight, np.float32),
-        np.ascontiguousarray(guide_tangents, np.float64), np.ascontiguousarray(tangent),
-        np.ascontiguousarray(binormal), out,
-    )  # fmt: skip
+        np.ascontiguousarray(index, np.int64),
+        np.ascontiguousarray(weight, np.float32),
+        np.ascontiguousarray(guide_tangents, np.float64),
+        np.ascontiguousarray(tangent),
+        np.ascontiguousarray(binormal),
+        out,
+    )
     return out
 
 
@@ -125,9 +131,12 @@ def _blend_kernel(local, idx, w, scale, out):
 
 
 def blend_guides(
-    local: np.ndarray, indices: np.ndarray, weights: np.ndarray, vertices: int,
+    local: np.ndarray,
+    indices: np.ndarray,
+    weights: np.ndarray,
+    vertices: int,
     scale: float | np.ndarray = 1.0,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """Weighted guide shapes in root-local frames, times ``scale``: (H, vertices, 3) float64.
 
     ``local`` (S, N, 3) holds the guides in their root frames (Šik 2012 §2.2.4); only the
@@ -135,9 +144,12 @@ def blend_guides(
     """
     out = np.empty((len(indices), vertices, 3), dtype=np.float64)
     _blend_kernel(
-        np.ascontiguousarray(local, np.float32), np.ascontiguousarray(indices, np.int64),
-        np.ascontiguousarray(weights, np.float32), per_hair(scale, len(indices), "scale"), out,
-    )  # fmt: skip
+        np.ascontiguousarray(local, np.float32),
+        np.ascontiguousarray(indices, np.int64),
+        np.ascontiguousarray(weights, np.float32),
+        per_hair(scale, len(indices), "scale"),
+        out,
+    )
     return out
 
 
@@ -175,16 +187,21 @@ def _reframe_kernel(rel, idx, tangent, binormal, normal, scale, out):
 
 
 def translate_guides(
-    rel: np.ndarray, indices: np.ndarray, rest_frame: tuple[np.ndarray, np.ndarray, np.ndarray],
-    vertices: int, scale: float | np.ndarray = 1.0,
-) -> np.ndarray:  # fmt: skip
+    rel: np.ndarray,
+    indices: np.ndarray,
+    rest_frame: tuple[np.ndarray, np.ndarray, np.ndarray],
+    vertices: int,
+    scale: float | np.ndarray = 1.0,
+) -> np.ndarray:
     """Le Muzic 2012 §5.1.4 single-strand offset by displacement: guide ``indices[h]``'s rest shape
     ``rel`` (S, N, 3, world axes, root at 0) moved to hair h's root unturned, in the
     hair's root-local frame (T, B, N rows of ``rest_frame``), times ``scale``."""
     out = np.empty((len(indices), vertices, 3), dtype=np.float64)
     _reframe_kernel(
-        np.ascontiguousarray(rel, np.float32), np.ascontiguousarray(indices, np.int64),
+        np.ascontiguousarray(rel, np.float32),
+        np.ascontiguousarray(indices, np.int64),
         *(np.ascontiguousarray(a, np.float64) for a in rest_frame),
-        per_hair(scale, len(indices), "scale"), out,
-    )  # fmt: skip
+        per_hair(scale, len(indices), "scale"),
+        out,
+    )
     return out

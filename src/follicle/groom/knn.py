@@ -38,10 +38,12 @@ _REL_SLACK = 1e-12  # the stopping test treats a bound as this much (relative) s
 _REACH = 2  # Chebyshev radius (in cells) searched around a query before the k-d tree
 _LIST_MAX = 256  # a query whose cell lists more points goes to the k-d tree
 _NEIGHBOURS = np.array(  # the 27 cell offsets of a 3×3×3 block, nearest first
-    sorted(((x, y, z) for z in (-1, 0, 1) for y in (-1, 0, 1) for x in (-1, 0, 1)),
-           key=lambda o: (o[0] ** 2 + o[1] ** 2 + o[2] ** 2, o[2], o[1], o[0])),
+    sorted(
+        ((x, y, z) for z in (-1, 0, 1) for y in (-1, 0, 1) for x in (-1, 0, 1)),
+        key=lambda o: (o[0] ** 2 + o[1] ** 2 + o[2] ** 2, o[2], o[1], o[0]),
+    ),
     dtype=np.int64,
-)  # fmt: skip
+)
 
 
 class PointGrid:
@@ -133,10 +135,25 @@ class PointGrid:
             return dist, index
         hard = np.empty(q.shape[0], dtype=np.uint8)
         _query_kernel(
-            q, self._points, self._index, self._starts, self._list_starts, self._list_pos,
-            self._list_dist, self._dims, self._lo, self._hi, self._h, self._inv_h, self._eps,
-            _REACH, _LIST_MAX, dist, index, hard,
-        )  # fmt: skip
+            q,
+            self._points,
+            self._index,
+            self._starts,
+            self._list_starts,
+            self._list_pos,
+            self._list_dist,
+            self._dims,
+            self._lo,
+            self._hi,
+            self._h,
+            self._inv_h,
+            self._eps,
+            _REACH,
+            _LIST_MAX,
+            dist,
+            index,
+            hard,
+        )
         rows = np.flatnonzero(hard)
         if rows.size:
             self._tree_query(q, rows, dist, index)
@@ -329,8 +346,9 @@ def _unvisited_bound2(qx, qy, qz, cx, cy, cz, r, dims, lo, hi, h, eps):
 
 
 @njit(cache=True, nogil=True)
-def _shells(qx, qy, qz, cx, cy, cz, pts, index, starts, dims, lo, hi, h, eps, reach, worst,
-            out_d, out_i, qi):  # fmt: skip
+def _shells(
+    qx, qy, qz, cx, cy, cz, pts, index, starts, dims, lo, hi, h, eps, reach, worst, out_d, out_i, qi
+):
     """Search the shells of cells at Chebyshev distance 2 … reach around (cx, cy, cz).
 
     Row qi holds the top-k of the 3×3×3 block (k-th distance² ``worst``). Returns True
@@ -366,14 +384,36 @@ def _shells(qx, qy, qz, cx, cy, cz, pts, index, starts, dims, lo, hi, h, eps, re
                         x0 += 1
                     while x1 > cx and (g2 + _gap2(qx, x1, lo[0], h, eps)) * keep > worst:
                         x1 -= 1
-                    worst = _scan(pts, index, starts[row + x0], starts[row + x1 + 1],
-                                  qx, qy, qz, out_d, out_i, qi, k)  # fmt: skip
+                    worst = _scan(
+                        pts,
+                        index,
+                        starts[row + x0],
+                        starts[row + x1 + 1],
+                        qx,
+                        qy,
+                        qz,
+                        out_d,
+                        out_i,
+                        qi,
+                        k,
+                    )
                 else:
                     for x in (cx - r, cx + r):
                         if 0 <= x < nx and (g2 + _gap2(qx, x, lo[0], h, eps)) * keep <= worst:
                             c = row + x
-                            worst = _scan(pts, index, starts[c], starts[c + 1],
-                                          qx, qy, qz, out_d, out_i, qi, k)  # fmt: skip
+                            worst = _scan(
+                                pts,
+                                index,
+                                starts[c],
+                                starts[c + 1],
+                                qx,
+                                qy,
+                                qz,
+                                out_d,
+                                out_i,
+                                qi,
+                                k,
+                            )
         b2 = _unvisited_bound2(qx, qy, qz, cx, cy, cz, r, dims, lo, hi, h, eps)
         if b2 == np.inf or b2 * keep > worst:
             return True
@@ -381,8 +421,26 @@ def _shells(qx, qy, qz, cx, cy, cz, pts, index, starts, dims, lo, hi, h, eps, re
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _query_kernel(queries, pts, index, starts, list_starts, list_pos, list_dist, dims, lo, hi,
-                  h, inv_h, eps, reach, list_max, out_d, out_i, hard):  # fmt: skip
+def _query_kernel(
+    queries,
+    pts,
+    index,
+    starts,
+    list_starts,
+    list_pos,
+    list_dist,
+    dims,
+    lo,
+    hi,
+    h,
+    inv_h,
+    eps,
+    reach,
+    list_max,
+    out_d,
+    out_i,
+    hard,
+):
     """Top-k rows from the grid; hard[q] = 1 marks rows left to the k-d tree."""
     nx, ny, nz = dims[0], dims[1], dims[2]
     k = out_d.shape[1]
@@ -433,8 +491,27 @@ def _query_kernel(queries, pts, index, starts, list_starts, list_pos, list_dist,
             b2 = _unvisited_bound2(qx, qy, qz, cx, cy, cz, 1, dims, lo, hi, h, eps)
             done = b2 == np.inf or b2 * keep > worst
         if not done and worst < np.inf:  # fewer than k points in the block: far from all
-            done = _shells(qx, qy, qz, cx, cy, cz, pts, index, starts, dims, lo, hi, h, eps,
-                           reach, worst, out_d, out_i, qi)  # fmt: skip
+            done = _shells(
+                qx,
+                qy,
+                qz,
+                cx,
+                cy,
+                cz,
+                pts,
+                index,
+                starts,
+                dims,
+                lo,
+                hi,
+                h,
+                eps,
+                reach,
+                worst,
+                out_d,
+                out_i,
+                qi,
+            )
         if done:
             hard[qi] = 0
             for j in range(k):

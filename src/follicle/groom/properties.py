@@ -19,19 +19,52 @@ from ..scene import GroomParams
 __all__ = ["SCALARS", "COLORS", "FRACTIONS", "GroomProperties"]
 
 SCALARS = (
-    "cut", "scale", "random_scale", "curl_radius", "curl_frequency", "clump_root", "clump_tip",
-    "clump_noise", "frizz_root", "frizz_tip", "frizz_blend", "kink_root", "kink_tip",
-    "root_width", "tip_width", "hue_variation", "saturation_variation", "value_variation",
-    "mutant_fraction", "root_opacity", "tip_opacity", "strand_splay_root",
-    "strand_splay_centre", "strand_splay_tip", "strand_twist", "strand_aspect",
-    "strand_offset", "strand_randomize",
-)  # fmt: skip
+    "cut",
+    "scale",
+    "random_scale",
+    "curl_radius",
+    "curl_frequency",
+    "clump_root",
+    "clump_tip",
+    "clump_noise",
+    "frizz_root",
+    "frizz_tip",
+    "frizz_blend",
+    "kink_root",
+    "kink_tip",
+    "root_width",
+    "tip_width",
+    "hue_variation",
+    "saturation_variation",
+    "value_variation",
+    "mutant_fraction",
+    "root_opacity",
+    "tip_opacity",
+    "strand_splay_root",
+    "strand_splay_centre",
+    "strand_splay_tip",
+    "strand_twist",
+    "strand_aspect",
+    "strand_offset",
+    "strand_randomize",
+)
 COLORS = ("root_color", "tip_color", "mutant_color")
 FRACTIONS = frozenset(
-    ("cut", "random_scale", "clump_root", "clump_tip", "clump_noise", "frizz_blend",
-     "saturation_variation", "value_variation", "mutant_fraction", "root_opacity",
-     "tip_opacity", "strand_randomize")
-)  # fmt: skip
+    (
+        "cut",
+        "random_scale",
+        "clump_root",
+        "clump_tip",
+        "clump_noise",
+        "frizz_blend",
+        "saturation_variation",
+        "value_variation",
+        "mutant_fraction",
+        "root_opacity",
+        "tip_opacity",
+        "strand_randomize",
+    )
+)
 
 
 class GroomProperties:

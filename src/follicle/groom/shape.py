@@ -59,8 +59,9 @@ def _frizz_kernel(local, roots, amp_root, amp_tip, freq, offset, blend, t):
             fy = (1.0 - a) * sy
             fz = (1.0 - a) * sz
         if a != 0.0:  # F_dynamic = noise3D(frequency ⊙ (rest root + offset))
-            dx, dy, dz = noise3(fq[0] * (rt[0] + off[0]), fq[1] * (rt[1] + off[1]),
-                                fq[2] * (rt[2] + off[2]))
+            dx, dy, dz = noise3(
+                fq[0] * (rt[0] + off[0]), fq[1] * (rt[1] + off[1]), fq[2] * (rt[2] + off[2])
+            )
             fx += a * dx
             fy += a * dy
             fz += a * dz

@@ -93,8 +93,17 @@ from .targets import Target, for_target, get_target
 if TYPE_CHECKING:
     from ..sim.cache import SimCache
 
-__all__ = ["save_abc", "save_abc_cache", "load_abc", "abc_parts", "load_abc_mesh",
-           "GROOM", "GUIDES", "SKIN", "HEAD"]
+__all__ = [
+    "save_abc",
+    "save_abc_cache",
+    "load_abc",
+    "abc_parts",
+    "load_abc_mesh",
+    "GROOM",
+    "GUIDES",
+    "SKIN",
+    "HEAD",
+]
 
 log = logging.getLogger("follicle")
 
@@ -103,9 +112,18 @@ GROOM_VERSION = (1, 5)  # Unreal's Alembic groom schema: /Groom's user propertie
 _SCRIPT = Path(__file__).with_name("guard_server.py")
 _INT32 = np.iinfo(np.int32)
 # (dtype, components) -> the geometry parameter kind the writer makes of it
-_KINDS = {("f4", 1): "float", ("f4", 2): "v2f", ("f4", 3): "v3f", ("f8", 1): "double",
-          ("f8", 2): "v2d", ("f8", 3): "v3d", ("i4", 1): "int", ("i4", 2): "v2i",
-          ("i4", 3): "v3i", ("u1", 1): "uchar"}  # fmt: skip
+_KINDS = {
+    ("f4", 1): "float",
+    ("f4", 2): "v2f",
+    ("f4", 3): "v3f",
+    ("f8", 1): "double",
+    ("f8", 2): "v2d",
+    ("f8", 3): "v3d",
+    ("i4", 1): "int",
+    ("i4", 2): "v2i",
+    ("i4", 3): "v3i",
+    ("u1", 1): "uchar",
+}
 
 
 # ------------------------------------------------------------------ values
@@ -137,17 +155,23 @@ def _curves_arrays(curves: HairCurves, normals: bool) -> tuple[list, dict[str, n
     normals, uv and every other attribute as an arbGeomParam (warning of those that
     have no Alembic type)."""
     width = column(curves, "width", 1)
-    arrays = {"points": curves.points, "counts": curves.counts.astype(np.int32),
-              "bounds": _bounds(curves.points, width)}  # fmt: skip
-    for key, value in (("width", width), ("normal", column(curves, "normal", 3)
-                                          if normals else None)):  # fmt: skip
+    arrays = {
+        "points": curves.points,
+        "counts": curves.counts.astype(np.int32),
+        "bounds": _bounds(curves.points, width),
+    }
+    for key, value in (
+        ("width", width),
+        ("normal", column(curves, "normal", 3) if normals else None),
+    ):
         if value is not None:
             arrays[key] = value
     uv = curves.curve_data.get("root_uv")
     if uv is not None:
         if uv.shape != (curves.curve_count, 2):
-            raise InputError(f"curve_data['root_uv']: expected shape ({curves.curve_count}, 2),"
-                             f" got {uv.shape}")  # fmt: skip
+            raise InputError(
+                f"curve_data['root_uv']: expected shape ({curves.curve_count}, 2), got {uv.shape}"
+            )
         arrays["uv"] = uv.astype(np.float32)
     params = []
     pd = curves.point_data
@@ -155,17 +179,25 @@ def _curves_arrays(curves: HairCurves, normals: bool) -> tuple[list, dict[str, n
         for name, arr in sorted(data.items()):
             if name in (("width", "normal") if data is pd else ("root_uv",)):
                 continue
-            if data is pd and name.lower() in COLOR_NAMES and arr.dtype.kind == "f" \
-                    and arr.shape == (curves.point_count, 3):  # color, or a target's Cd, …
+            if (
+                data is pd
+                and name.lower() in COLOR_NAMES
+                and arr.dtype.kind == "f"
+                and arr.shape == (curves.point_count, 3)
+            ):  # color, or a target's Cd, …
                 arrays[f"param{len(params)}"] = arr.astype(np.float32)
                 params.append([name, "c3f", scope])
                 continue
             stored = _as_stored(arr)
             if stored is None or name.startswith("."):  # names with a dot are Alembic's own
-                log.warning("Alembic: %s '%s' (%s %s) not written: no Alembic type for it,"
-                            " integers beyond int32, or a name starting with '.'",
-                            "point_data" if data is pd else "curve_data", name, arr.dtype,
-                            arr.shape)  # fmt: skip
+                log.warning(
+                    "Alembic: %s '%s' (%s %s) not written: no Alembic type for it,"
+                    " integers beyond int32, or a name starting with '.'",
+                    "point_data" if data is pd else "curve_data",
+                    name,
+                    arr.dtype,
+                    arr.shape,
+                )
                 continue
             kind = _KINDS[(stored.dtype.str[1:], 1 if stored.ndim == 1 else stored.shape[1])]
             arrays[f"param{len(params)}"] = stored
@@ -178,11 +210,16 @@ def _mesh_arrays(mesh: object, scale: float) -> dict[str, np.ndarray]:
     triangles wound clockwise, as Alembic keeps polygons, and its per-vertex UVs as the
     indexed, faceVarying ``uv`` every importer reads."""
     if not isinstance(mesh, SkinMesh):
-        raise InputError(f"mesh: expected a SkinMesh (the skin to write beside the hair), got"
-                         f" {type(mesh).__name__}")  # fmt: skip
+        raise InputError(
+            f"mesh: expected a SkinMesh (the skin to write beside the hair), got"
+            f" {type(mesh).__name__}"
+        )
     corners = np.ascontiguousarray(mesh.faces[:, ::-1], dtype=np.int32).reshape(-1)
-    arrays = {"points": (mesh.rest_vertices * scale).astype(np.float32), "indices": corners,
-              "counts": np.full(mesh.face_count, 3, np.int32)}  # fmt: skip
+    arrays = {
+        "points": (mesh.rest_vertices * scale).astype(np.float32),
+        "indices": corners,
+        "counts": np.full(mesh.face_count, 3, np.int32),
+    }
     if mesh.uvs is not None:
         arrays["uv"] = np.asarray(mesh.uvs, dtype=np.float32)
         arrays["uv_index"] = corners
@@ -202,9 +239,12 @@ class _Sink:
 
     def __init__(self) -> None:
         self.stderr = tempfile.TemporaryFile()
-        self.proc = subprocess.Popen([sys.executable, "-I", "-B", str(_SCRIPT), "abc-sink"],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=self.stderr)  # fmt: skip
+        self.proc = subprocess.Popen(
+            [sys.executable, "-I", "-B", str(_SCRIPT), "abc-sink"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self.stderr,
+        )
         self.target = Path()
 
     @classmethod
@@ -258,8 +298,9 @@ class _Sink:
             text = self.stderr.read().decode(errors="replace").split()
             how = f"crashed with {signal.Signals(-code).name}" if code < 0 else f"exit {code}"
             why = f"its writer process {how}: {' '.join(text)[-200:] or 'no output'}"
-        return FormatError(f"{self.target}: could not write it ({why}); free disk space or"
-                           " write elsewhere")  # fmt: skip
+        return FormatError(
+            f"{self.target}: could not write it ({why}); free disk space or write elsewhere"
+        )
 
     def kill(self) -> None:
         self.proc.kill()
@@ -282,8 +323,10 @@ def _write(target: Path, fill: Callable[[_Sink], None], groom_schema: bool = Fal
         try:
             check_archive(tmp)
         except FormatError:
-            raise FormatError(f"{target}: could not write it (the archive came out"
-                              " incomplete); free disk space or write elsewhere") from None
+            raise FormatError(
+                f"{target}: could not write it (the archive came out"
+                " incomplete); free disk space or write elsewhere"
+            ) from None
 
 
 def _check_suffix(path: str | os.PathLike[str]) -> Path:
@@ -351,21 +394,32 @@ def _velocities(frame: HairCurves, later: HairCurves, fps: float) -> np.ndarray:
     return ((later.points.astype(np.float64) - frame.points) * fps).astype(np.float32)
 
 
-def _send_frame(sink: _Sink, path: str, frame: HairCurves, first: HairCurves,
-                velocities: np.ndarray, timing: dict | None) -> None:  # fmt: skip
+def _send_frame(
+    sink: _Sink,
+    path: str,
+    frame: HairCurves,
+    first: HairCurves,
+    velocities: np.ndarray,
+    timing: dict | None,
+) -> None:
     """Frame 0 (``timing`` given) with everything: topology, widths, uv and
     arbGeomParams stay as it has them; later frames with points, velocities, bounds and
     normals."""
-    arrays = {"points": frame.points, "velocities": velocities,
-              "bounds": _bounds(frame.points, column(first, "width", 1))}  # fmt: skip
+    arrays = {
+        "points": frame.points,
+        "velocities": velocities,
+        "bounds": _bounds(frame.points, column(first, "width", 1)),
+    }
     if "normal" in first.point_data:
         arrays["normal"] = column(frame, "normal", 3)
     if timing is None:
         sink.send({"op": "sample", "path": path}, arrays)
         return
     params, everything = _curves_arrays(frame, True)
-    sink.send({"op": "curves", "path": path, "params": params, "keep": True, **timing},
-              {**everything, **arrays})  # fmt: skip
+    sink.send(
+        {"op": "curves", "path": path, "params": params, "keep": True, **timing},
+        {**everything, **arrays},
+    )
 
 
 def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None) -> None:
@@ -387,8 +441,7 @@ def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None
             first = frame
         else:
             velocities = _velocities(previous, frame, anim.fps)
-            _send_frame(sink, path, previous, first, velocities,
-                        timing if count == 2 else None)  # fmt: skip
+            _send_frame(sink, path, previous, first, velocities, timing if count == 2 else None)
         previous = frame
     if velocities is None:
         velocities = np.zeros_like(first.points)
@@ -432,7 +485,9 @@ def save_abc_cache(
 
 # ------------------------------------------------------------------ reading
 def load_abc(
-    path: str | os.PathLike[str], time: float | None = None, guides: bool = False,
+    path: str | os.PathLike[str],
+    time: float | None = None,
+    guides: bool = False,
     stored: bool = False,
 ) -> HairCurves:
     """Hair curves from every curves object of an Alembic archive, joined in archive
@@ -471,19 +526,27 @@ def load_abc(
     return curves_from_parts(parts, source, bool(stored))
 
 
-def abc_parts(path: str | os.PathLike[str], time: float | None = None, guides: bool = False,
-              stored: bool = False) -> tuple[Path, list[dict]]:  # fmt: skip
+def abc_parts(
+    path: str | os.PathLike[str],
+    time: float | None = None,
+    guides: bool = False,
+    stored: bool = False,
+) -> tuple[Path, list[dict]]:
     """(the file, its chosen curves objects as dicts of arrays) as :func:`load_abc`
     reads and then joins them; ``stored`` parts also say whether Unreal's groom schema
     version is on the object or an Xform above it (``groom_schema``), for `follicle
     check`."""
-    if time is not None and (isinstance(time, bool) or not isinstance(
-            time, (int, float, np.integer, np.floating)) or not np.isfinite(time)):  # fmt: skip
+    if time is not None and (
+        isinstance(time, bool)
+        or not isinstance(time, (int, float, np.integer, np.floating))
+        or not np.isfinite(time)
+    ):
         raise InputError(f"time: expected a finite number of seconds or None, got {time!r}")
     source = input_file(path, "Alembic file (.abc)")
     check_archive(source)
-    return source, read_curves(source, None if time is None else float(time), bool(guides),
-                               bool(stored))  # fmt: skip
+    return source, read_curves(
+        source, None if time is None else float(time), bool(guides), bool(stored)
+    )
 
 
 def load_abc_mesh(path: str | os.PathLike[str]) -> SkinMesh:

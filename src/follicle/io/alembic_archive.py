@@ -32,27 +32,55 @@ GROOM_VERSION_KEYS = ("groom_version_major", "groom_version_minor")  # Unreal's 
 HINT = "is it a valid Alembic file?"
 # what alembic3d raises on an archive it cannot make sense of (the C++ library's
 # exceptions arrive as RuntimeError, a missing child as KeyError, bad values otherwise)
-ERRORS = (RuntimeError, ValueError, TypeError, IndexError, KeyError, OverflowError,
-          np.linalg.LinAlgError)  # fmt: skip
+ERRORS = (
+    RuntimeError,
+    ValueError,
+    TypeError,
+    IndexError,
+    KeyError,
+    OverflowError,
+    np.linalg.LinAlgError,
+)
 _EXISTING = Abc.WrapExistingFlag.kWrapExisting
-_POD = {Util.POD.kBooleanPOD: np.bool_, Util.POD.kUint8POD: np.uint8,
-        Util.POD.kInt8POD: np.int8, Util.POD.kUint16POD: np.uint16,
-        Util.POD.kInt16POD: np.int16, Util.POD.kUint32POD: np.uint32,
-        Util.POD.kInt32POD: np.int32, Util.POD.kUint64POD: np.uint64,
-        Util.POD.kInt64POD: np.int64, Util.POD.kFloat16POD: np.float32,
-        Util.POD.kFloat32POD: np.float32, Util.POD.kFloat64POD: np.float64}  # fmt: skip
-_KIND = {AbcGeom.CurveType.kLinear: "linear", AbcGeom.CurveType.kCubic: "cubic",
-         AbcGeom.CurveType.kVariableOrder: "variable"}  # fmt: skip
-_BASIS = {AbcGeom.BasisType.kNoBasis: "none", AbcGeom.BasisType.kBezierBasis: "bezier",
-          AbcGeom.BasisType.kBsplineBasis: "bspline",
-          AbcGeom.BasisType.kCatmullromBasis: "catmullRom",
-          AbcGeom.BasisType.kHermiteBasis: "hermite",
-          AbcGeom.BasisType.kPowerBasis: "power"}  # fmt: skip
-_WRAP = {AbcGeom.CurvePeriodicity.kNonPeriodic: "nonperiodic",
-         AbcGeom.CurvePeriodicity.kPeriodic: "periodic"}  # fmt: skip
+_POD = {
+    Util.POD.kBooleanPOD: np.bool_,
+    Util.POD.kUint8POD: np.uint8,
+    Util.POD.kInt8POD: np.int8,
+    Util.POD.kUint16POD: np.uint16,
+    Util.POD.kInt16POD: np.int16,
+    Util.POD.kUint32POD: np.uint32,
+    Util.POD.kInt32POD: np.int32,
+    Util.POD.kUint64POD: np.uint64,
+    Util.POD.kInt64POD: np.int64,
+    Util.POD.kFloat16POD: np.float32,
+    Util.POD.kFloat32POD: np.float32,
+    Util.POD.kFloat64POD: np.float64,
+}
+_KIND = {
+    AbcGeom.CurveType.kLinear: "linear",
+    AbcGeom.CurveType.kCubic: "cubic",
+    AbcGeom.CurveType.kVariableOrder: "variable",
+}
+_BASIS = {
+    AbcGeom.BasisType.kNoBasis: "none",
+    AbcGeom.BasisType.kBezierBasis: "bezier",
+    AbcGeom.BasisType.kBsplineBasis: "bspline",
+    AbcGeom.BasisType.kCatmullromBasis: "catmullRom",
+    AbcGeom.BasisType.kHermiteBasis: "hermite",
+    AbcGeom.BasisType.kPowerBasis: "power",
+}
+_WRAP = {
+    AbcGeom.CurvePeriodicity.kNonPeriodic: "nonperiodic",
+    AbcGeom.CurvePeriodicity.kPeriodic: "periodic",
+}
 # Alembic's geoScope metadata -> follicle's scope names
-_SCOPE = {"con": "constant", "uni": "uniform", "var": "varying", "vtx": "vertex",
-          "fvr": "faceVarying"}  # fmt: skip
+_SCOPE = {
+    "con": "constant",
+    "uni": "uniform",
+    "var": "varying",
+    "vtx": "vertex",
+    "fvr": "faceVarying",
+}
 COLOR_NAMES = ("color", "cd", "displaycolor", "groom_color", "col")  # by priority, lower case
 
 
@@ -78,8 +106,9 @@ def _optional(values: object) -> np.ndarray:
     return np.zeros(0) if values is None else _numpy(values).reshape(-1)
 
 
-def _array(compound: Abc.ICompoundProperty, header: object, sel: Abc.ISampleSelector,
-           where: str) -> np.ndarray | None:  # fmt: skip
+def _array(
+    compound: Abc.ICompoundProperty, header: object, sel: Abc.ISampleSelector, where: str
+) -> np.ndarray | None:
     """The numeric array property ``header`` of ``compound`` as rows of 1-4 components
     (float16 widened to float32), or None when it holds strings or wider rows."""
     kind = header.getDataType()
@@ -90,13 +119,16 @@ def _array(compound: Abc.ICompoundProperty, header: object, sel: Abc.ISampleSele
     if extent > 1 and arr.ndim == 1 and arr.size % extent == 0:
         arr = arr.reshape(-1, extent)
     if arr.shape[1:] != ((extent,) if extent > 1 else ()):
-        raise Refused(f"{where}: {header.getName()} has values of shape {arr.shape[1:]};"
-                      f" its type says {extent} components")  # fmt: skip
+        raise Refused(
+            f"{where}: {header.getName()} has values of shape {arr.shape[1:]};"
+            f" its type says {extent} components"
+        )
     return arr
 
 
-def _param(compound: Abc.ICompoundProperty, name: str, sel: Abc.ISampleSelector,
-           where: str) -> tuple[np.ndarray, str, str] | None:  # fmt: skip
+def _param(
+    compound: Abc.ICompoundProperty, name: str, sel: Abc.ISampleSelector, where: str
+) -> tuple[np.ndarray, str, str] | None:
     """Geometry parameter ``name`` of ``compound`` as (values, scope, interpretation),
     indexed ones expanded; None when absent or not numeric."""
     header = compound.getPropertyHeader(name)
@@ -116,8 +148,13 @@ def _param(compound: Abc.ICompoundProperty, name: str, sel: Abc.ISampleSelector,
     return values, _SCOPE.get(meta.get("geoScope"), ""), meta.get("interpretation")
 
 
-def _indices(compound: Abc.ICompoundProperty, header: object, sel: Abc.ISampleSelector,
-             count: int, where: str) -> np.ndarray:  # fmt: skip
+def _indices(
+    compound: Abc.ICompoundProperty,
+    header: object,
+    sel: Abc.ISampleSelector,
+    count: int,
+    where: str,
+) -> np.ndarray:
     """An indexed parameter's indices, each checked to pick one of its ``count`` values."""
     index = _array(compound, header, sel, where)
     if index is None or index.ndim != 1 or index.dtype.kind not in "iu":
@@ -125,8 +162,7 @@ def _indices(compound: Abc.ICompoundProperty, header: object, sel: Abc.ISampleSe
     bad = (index < 0) | (index >= count)
     if np.any(bad):
         i = int(np.argmax(bad))
-        raise Refused(f"{where}.indices[{i}] = {int(index[i])} is outside its {count}"
-                      " values")  # fmt: skip
+        raise Refused(f"{where}.indices[{i}] = {int(index[i])} is outside its {count} values")
     return index
 
 
@@ -135,8 +171,9 @@ class _Curves:
     """A curves object's control vertices reduced to the points its curves pass
     through, and any scope of values mapped to those points."""
 
-    def __init__(self, sample: AbcGeom.ICurvesSchemaSample, where: str,
-                 stored: bool = False) -> None:  # fmt: skip
+    def __init__(
+        self, sample: AbcGeom.ICurvesSchemaSample, where: str, stored: bool = False
+    ) -> None:
         self.where = where
         self.stored = stored  # names as stored: no colour aliases taken for ours
         counts = _numpy(sample.getCurvesNumVertices())
@@ -149,10 +186,16 @@ class _Curves:
             self.points = self.stencil.vertex(points.astype(np.float32))
         else:
             self.out = varying = curve_basis.out_counts(self.mapping, self.counts)
-            self.points = curve_basis.through_points(points.astype(np.float32), self.counts,
-                                                     self.mapping)  # fmt: skip
-        self.sizes = {"constant": 1, "uniform": len(self.counts), "vertex": len(points),
-                      "varying": int(varying.sum()), "faceVarying": int(varying.sum())}
+            self.points = curve_basis.through_points(
+                points.astype(np.float32), self.counts, self.mapping
+            )
+        self.sizes = {
+            "constant": 1,
+            "uniform": len(self.counts),
+            "vertex": len(points),
+            "varying": int(varying.sum()),
+            "faceVarying": int(varying.sum()),
+        }
 
     def _reduction(self, sample: AbcGeom.ICurvesSchemaSample) -> None:
         """Set the :func:`curve_basis.rule` mapping or the NURBS stencil of the curves.
@@ -166,8 +209,9 @@ class _Curves:
         basis = _BASIS.get(sample.getBasis(), str(sample.getBasis()))
         wrap = _WRAP.get(sample.getWrap(), str(sample.getWrap()))
         if kind not in _KIND.values():
-            raise Refused(f"{self.where}: unknown curve type {kind} (linear, cubic or"
-                          " variable order)")  # fmt: skip
+            raise Refused(
+                f"{self.where}: unknown curve type {kind} (linear, cubic or variable order)"
+            )
         if wrap != "nonperiodic":  # curve_basis refuses it with the reason
             curve_basis.rule(kind, basis, wrap, self.counts, self.where)
         if kind == "linear" or basis == "none":
@@ -179,8 +223,9 @@ class _Curves:
         else:
             self.mapping = curve_basis.rule(kind, basis, wrap, self.counts, self.where)
 
-    def _nurbs(self, sample: AbcGeom.ICurvesSchemaSample,
-               order: int | None) -> curve_basis.NurbsStencil:  # fmt: skip
+    def _nurbs(
+        self, sample: AbcGeom.ICurvesSchemaSample, order: int | None
+    ) -> curve_basis.NurbsStencil:
         """NURBS curves: orders per curve (or ``order``), knots as Alembic batches them
         (vertices + order per curve; Maya's vertices + order − 2, ends repeated; none:
         clamped uniform knots, as Blender makes them), optional position weights."""
@@ -188,8 +233,9 @@ class _Curves:
         orders = np.full(c, order) if order else _optional(sample.getOrders())
         orders = orders.astype(np.int64)
         if orders.shape != (c,):
-            raise Refused(f"{self.where}: .orders has {orders.size} values; {c} curves need"
-                          " one each")  # fmt: skip
+            raise Refused(
+                f"{self.where}: .orders has {orders.size} values; {c} curves need one each"
+            )
         knots = _optional(sample.getKnots()).astype(np.float64)
         if knots.size == 0:
             knots = _clamped_knots(self.counts, orders)
@@ -207,8 +253,7 @@ class _Curves:
                 return self.stencil.vertex(values)
             return curve_basis.through_points(values, self.counts, self.mapping)
         if scope in ("constant", "uniform"):
-            return np.repeat(values, self.out if scope == "uniform" else len(self.points),
-                             axis=0)  # fmt: skip
+            return np.repeat(values, self.out if scope == "uniform" else len(self.points), axis=0)
         return values if self.stencil is None else self.stencil.varying(values)
 
     def _scope(self, name: str, values: np.ndarray, scope: str) -> str:
@@ -217,12 +262,15 @@ class _Curves:
         if not scope:
             scope = next((s for s, n in self.sizes.items() if n == len(values)), "")
         if scope not in self.sizes or len(values) != self.sizes[scope]:
-            raise Refused(f"{self.where}: {name} has {len(values)} values; {scope or 'no'}"
-                          f" scope needs {self.sizes.get(scope, 'a known scope')}")
+            raise Refused(
+                f"{self.where}: {name} has {len(values)} values; {scope or 'no'}"
+                f" scope needs {self.sizes.get(scope, 'a known scope')}"
+            )
         return scope
 
-    def read(self, geom: Abc.ICompoundProperty,
-             sel: Abc.ISampleSelector) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    def read(
+        self, geom: Abc.ICompoundProperty, sel: Abc.ISampleSelector
+    ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """(point_data, curve_data): widths, normals, uv and every numeric arbGeomParam."""
         point_data: dict[str, np.ndarray] = {}
         curve_data: dict[str, np.ndarray] = {}
@@ -231,16 +279,19 @@ class _Curves:
             if param is not None:
                 values = param[0].astype(np.float32)
                 if values.shape[1:] != comps:
-                    raise Refused(f"{self.where}: {name} has values of shape"
-                                  f" {values.shape[1:]}; it needs {comps or 'one number'}")
+                    raise Refused(
+                        f"{self.where}: {name} has values of shape"
+                        f" {values.shape[1:]}; it needs {comps or 'one number'}"
+                    )
                 point_data[key] = self.per_point(name, values, param[1])
         uv = _param(geom, "uv", sel, self.where)
         if uv is not None:
             self._put("uv", uv, point_data, curve_data, rename="root_uv")
         if geom.getPropertyHeader(".arbGeomParams") is not None:
             arb = Abc.ICompoundProperty(geom, ".arbGeomParams")
-            params = {h.getName(): _param(arb, h.getName(), sel, self.where)
-                      for h in arb.propertyheaders}
+            params = {
+                h.getName(): _param(arb, h.getName(), sel, self.where) for h in arb.propertyheaders
+            }
             self._colour(params, point_data)
             for name, param in params.items():
                 if param is not None and name not in point_data and name not in curve_data:
@@ -251,22 +302,36 @@ class _Curves:
         """The colour parameter (C3f or C4f; by name priority, else the first; only one
         named ``color`` when the names are read as ``stored``) as ``color`` per point,
         its alpha as ``opacity`` unless an ``opacity`` parameter gives that."""
-        colours = [n for n, p in params.items() if p is not None
-                   and p[2] in ("rgb", "rgba") and p[0].dtype.kind == "f"
-                   and (not self.stored or n == "color")]  # fmt: skip
+        colours = [
+            n
+            for n, p in params.items()
+            if p is not None
+            and p[2] in ("rgb", "rgba")
+            and p[0].dtype.kind == "f"
+            and (not self.stored or n == "color")
+        ]
         if not colours:
             return
-        name = min(colours, key=lambda n: COLOR_NAMES.index(n.lower())
-                   if n.lower() in COLOR_NAMES else len(COLOR_NAMES))  # fmt: skip
+        name = min(
+            colours,
+            key=lambda n: (
+                COLOR_NAMES.index(n.lower()) if n.lower() in COLOR_NAMES else len(COLOR_NAMES)
+            ),
+        )
         values, scope, _ = params.pop(name)
         rgba = self.per_point(name, values.astype(np.float32), scope)
         point_data["color"] = np.ascontiguousarray(rgba[:, :3])
         if rgba.shape[1] == 4 and params.get("opacity") is None:
             point_data["opacity"] = np.ascontiguousarray(rgba[:, 3])
 
-    def _put(self, name: str, param: tuple[np.ndarray, str, str],
-             point_data: dict[str, np.ndarray], curve_data: dict[str, np.ndarray],
-             rename: str | None = None) -> None:  # fmt: skip
+    def _put(
+        self,
+        name: str,
+        param: tuple[np.ndarray, str, str],
+        point_data: dict[str, np.ndarray],
+        curve_data: dict[str, np.ndarray],
+        rename: str | None = None,
+    ) -> None:
         """A parameter per curve (uniform, under ``rename`` if given: a constant one is
         repeated) or per point (opacity always, as follicle keeps it); other constant
         ones are skipped, as USD's."""
@@ -275,8 +340,9 @@ class _Curves:
         if name == "opacity":
             point_data[name] = self.per_point(name, values.astype(np.float32), scope)
         elif scope == "uniform" or rename and scope == "constant":
-            curve_data[rename or name] = np.repeat(values, len(self.counts), axis=0) \
-                if scope == "constant" else values  # fmt: skip
+            curve_data[rename or name] = (
+                np.repeat(values, len(self.counts), axis=0) if scope == "constant" else values
+            )
         elif scope != "constant":
             point_data[name] = self.per_point(name, values, scope)
 
@@ -297,13 +363,15 @@ def _pad_knots(knots: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     those ends repeated back."""
     ends = np.cumsum(lengths)
     parts = np.split(knots, ends[:-1])
-    return np.concatenate([np.concatenate([p[:1], p, p[-1:]]) for p in parts if p.size]
-                          or [np.zeros(0)])  # fmt: skip
+    return np.concatenate(
+        [np.concatenate([p[:1], p, p[-1:]]) for p in parts if p.size] or [np.zeros(0)]
+    )
 
 
 # ------------------------------------------------------------------ archive
-def _objects(archive: Abc.IArchive, sel: Abc.ISampleSelector,
-             source: str) -> Iterator[tuple[Abc.IObject, np.ndarray]]:  # fmt: skip
+def _objects(
+    archive: Abc.IArchive, sel: Abc.ISampleSelector, source: str
+) -> Iterator[tuple[Abc.IObject, np.ndarray]]:
     """Every object of the archive, depth first in archive order, with its world matrix
     (row vectors); a stack, not recursion, so a deep hierarchy cannot overflow."""
     stack = [(child, np.eye(4)) for child in reversed(list(archive.getTop().children))]
@@ -313,8 +381,10 @@ def _objects(archive: Abc.IArchive, sel: Abc.ISampleSelector,
             schema = AbcGeom.IXform(obj, _EXISTING).getSchema()
             local = np.array(schema.getValue(sel).getMatrix(), dtype=np.float64)
             if local.shape != (4, 4) or not np.isfinite(local).all():
-                raise Refused(f"{source}: {obj.getFullName()}: its transform is not finite"
-                              " (NaN or inf); fix the Xform")  # fmt: skip
+                raise Refused(
+                    f"{source}: {obj.getFullName()}: its transform is not finite"
+                    " (NaN or inf); fix the Xform"
+                )
             world = local @ world if schema.getInheritsXforms(sel) else local
         yield obj, world
         stack.extend((child, world) for child in reversed(list(obj.children)))
@@ -329,8 +399,12 @@ def _selector(time: float | None) -> Abc.ISampleSelector:
 def _scalar_int(compound: Abc.ICompoundProperty, name: str) -> int | None:
     """The whole number that scalar property ``name`` of ``compound`` holds, or None."""
     header = compound.getPropertyHeader(name)
-    if header is None or not header.isScalar() or _POD.get(header.getDataType().getPod()) \
-            not in (np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32):  # fmt: skip
+    if (
+        header is None
+        or not header.isScalar()
+        or _POD.get(header.getDataType().getPod())
+        not in (np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32)
+    ):
         return None
     value = compound.getProperty(name).getValue()
     return int(value) if isinstance(value, (int, np.integer)) else None
@@ -362,37 +436,45 @@ def _groom_version(obj: Abc.IObject, sel: Abc.ISampleSelector, where: str) -> li
     return None
 
 
-def _curves_part(obj: Abc.IObject, world: np.ndarray, sel: Abc.ISampleSelector,
-                 source: str, stored: bool) -> dict:  # fmt: skip
+def _curves_part(
+    obj: Abc.IObject, world: np.ndarray, sel: Abc.ISampleSelector, source: str, stored: bool
+) -> dict:
     where = f"{source}: {obj.getFullName()}"
     sample = AbcGeom.ICurves(obj, _EXISTING).getSchema().getValue(sel)
     try:
         part = _Curves(sample, where, stored)
-        point_data, curve_data = part.read(Abc.ICompoundProperty(obj.getProperties(), ".geom"),
-                                           sel)  # fmt: skip
+        point_data, curve_data = part.read(Abc.ICompoundProperty(obj.getProperties(), ".geom"), sel)
         points = to_world(part.points, point_data, world, where, "fix its Xforms")
     except (curve_basis.CurveBasisError, SpaceError) as exc:
         raise Refused(str(exc)) from None
-    found = {"where": where, "points": points,
-             "offsets": np.concatenate([[0], np.cumsum(part.out)]),
-             "point_data": point_data, "curve_data": curve_data}  # fmt: skip
+    found = {
+        "where": where,
+        "points": points,
+        "offsets": np.concatenate([[0], np.cumsum(part.out)]),
+        "point_data": point_data,
+        "curve_data": curve_data,
+    }
     if stored:  # what `follicle check` also asks: does Unreal see its groom schema?
         found["groom_schema"] = _groom_version(obj, sel, where) is not None
     return found
 
 
-def read_curves(path: str, source: str, time: float | None, guides: bool,
-                stored: bool = False) -> list[dict]:  # fmt: skip
+def read_curves(
+    path: str, source: str, time: float | None, guides: bool, stored: bool = False
+) -> list[dict]:
     """Every chosen curves object of the archive at ``path`` as a dict of arrays (see
     the module): those outside /Groom/Guides, or those inside when ``guides`` or when
     there are no others. Messages name it ``source``. ``stored``: parameters under the
     names the file gives them (for `follicle check`), no colour aliases taken as ours."""
     sel = _selector(time)
     archive = Abc.IArchive(path)
-    found = [(o, m) for o, m in _objects(archive, sel, source)
-             if AbcGeom.ICurves.matches(o.getHeader())]  # fmt: skip
-    is_guide = [o.getFullName() == GUIDES_PATH or o.getFullName().startswith(GUIDES_PATH + "/")
-                for o, _ in found]  # fmt: skip
+    found = [
+        (o, m) for o, m in _objects(archive, sel, source) if AbcGeom.ICurves.matches(o.getHeader())
+    ]
+    is_guide = [
+        o.getFullName() == GUIDES_PATH or o.getFullName().startswith(GUIDES_PATH + "/")
+        for o, _ in found
+    ]
     hair = [f for f, g in zip(found, is_guide, strict=True) if not g]
     guide = [f for f, g in zip(found, is_guide, strict=True) if g]
     chosen = guide if guides else hair or guide
@@ -408,8 +490,11 @@ def _shape_name(obj: Abc.IObject) -> str:
     nothing else (Maya's ``head/headShape``, follicle's ``Skin/SkinShape``), as Blender
     names the object it imports; else its own."""
     parent = obj.getParent()
-    if parent.valid() and AbcGeom.IXform.matches(parent.getHeader()) \
-            and parent.getNumChildren() == 1:  # fmt: skip
+    if (
+        parent.valid()
+        and AbcGeom.IXform.matches(parent.getHeader())
+        and parent.getNumChildren() == 1
+    ):
         return parent.getName()
     return obj.getName()
 
@@ -419,8 +504,11 @@ def read_mesh(path: str, source: str) -> list[dict]:
     as polygons with their UVs, and the names of the meshes after it."""
     sel = _selector(None)
     archive = Abc.IArchive(path)
-    meshes = [(o, m) for o, m in _objects(archive, sel, source)
-              if AbcGeom.IPolyMesh.matches(o.getHeader()) or AbcGeom.ISubD.matches(o.getHeader())]
+    meshes = [
+        (o, m)
+        for o, m in _objects(archive, sel, source)
+        if AbcGeom.IPolyMesh.matches(o.getHeader()) or AbcGeom.ISubD.matches(o.getHeader())
+    ]
     if not meshes:
         raise Refused(f"{source}: no PolyMesh or SubD objects; is this a mesh file?")
     obj, world = meshes[0]
@@ -434,12 +522,16 @@ def read_mesh(path: str, source: str) -> list[dict]:
         points = to_world(points, {}, world, where, "fix its Xforms")
     except SpaceError as exc:
         raise Refused(str(exc)) from None
-    part = {"where": where, "name": _shape_name(obj), "points": points,
-            "face_counts": _numpy(sample.getFaceCounts()).reshape(-1),
-            "face_indices": _numpy(sample.getFaceIndices()).reshape(-1),
-            # Alembic winds faces clockwise; a mirroring transform turns them back
-            "flip": bool(np.linalg.det(world[:3, :3]) > 0),
-            "others": [o.getFullName() for o, _ in meshes[1:]]}  # fmt: skip
+    part = {
+        "where": where,
+        "name": _shape_name(obj),
+        "points": points,
+        "face_counts": _numpy(sample.getFaceCounts()).reshape(-1),
+        "face_indices": _numpy(sample.getFaceIndices()).reshape(-1),
+        # Alembic winds faces clockwise; a mirroring transform turns them back
+        "flip": bool(np.linalg.det(world[:3, :3]) > 0),
+        "others": [o.getFullName() for o, _ in meshes[1:]],
+    }
     uv = _param(Abc.ICompoundProperty(obj.getProperties(), ".geom"), "uv", sel, where)
     if uv is not None:
         part["uv"], part["uv_scope"] = uv[0], {"varying": "vertex"}.get(uv[1], uv[1])
@@ -453,11 +545,15 @@ def read_request(request: dict) -> list[dict]:
     try:
         if request["kind"] == "abc-mesh":
             return read_mesh(request["source"], source)
-        return read_curves(request["source"], source, request["time"], request["guides"],
-                           request.get("stored", False))  # fmt: skip
+        return read_curves(
+            request["source"],
+            source,
+            request["time"],
+            request["guides"],
+            request.get("stored", False),
+        )
     except Refused as exc:
         raise guard_server.Refused(str(exc)) from None
     except ERRORS as exc:
         why = " ".join(str(exc).split())[:300] or type(exc).__name__
-        raise guard_server.Refused(f"{source}: Alembic could not read it ({why}); {HINT}") \
-            from None  # fmt: skip
+        raise guard_server.Refused(f"{source}: Alembic could not read it ({why}); {HINT}") from None

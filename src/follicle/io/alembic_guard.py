@@ -53,11 +53,14 @@ def _check_ogawa(path: Path, mm: mmap.mmap, size: int) -> None:
     """Every group reachable from the root lies in the file, with its children."""
     head = mm[:16]
     if head[5] != 0xFF:
-        raise FormatError(f"{path}: the Alembic archive was never finished (its writer"
-                          " stopped before closing it); write it again")  # fmt: skip
+        raise FormatError(
+            f"{path}: the Alembic archive was never finished (its writer"
+            " stopped before closing it); write it again"
+        )
     if head[6:8] != b"\x00\x01":
-        raise FormatError(f"{path}: Ogawa version {int.from_bytes(head[6:8], 'big')} is not 1;"
-                          f" {HINT}")  # fmt: skip
+        raise FormatError(
+            f"{path}: Ogawa version {int.from_bytes(head[6:8], 'big')} is not 1; {HINT}"
+        )
     groups, seen, entries = [int.from_bytes(head[8:16], "little")], set(), 0
     while groups:
         at = groups.pop()
@@ -65,23 +68,31 @@ def _check_ogawa(path: Path, mm: mmap.mmap, size: int) -> None:
             continue
         seen.add(at)
         if not 16 <= at <= size - 8:
-            raise FormatError(f"{path}: an Ogawa group at byte {at} lies outside the {size}-byte"
-                              f" file (truncated or corrupt); {HINT}")  # fmt: skip
+            raise FormatError(
+                f"{path}: an Ogawa group at byte {at} lies outside the {size}-byte"
+                f" file (truncated or corrupt); {HINT}"
+            )
         count = int(_u64(mm, np.array([at]))[0])
         entries += count
         if count > (size - at - 8) // 8 or entries > size // 8:
-            raise FormatError(f"{path}: an Ogawa group at byte {at} lists {count} children,"
-                              f" more than fit in the file (corrupt); {HINT}")  # fmt: skip
+            raise FormatError(
+                f"{path}: an Ogawa group at byte {at} lists {count} children,"
+                f" more than fit in the file (corrupt); {HINT}"
+            )
         children = _u64(mm, at + 8 + 8 * np.arange(count))
         data = (children & _DATA) != 0
         blocks = (children[data] & ~_DATA).astype(np.int64)
         blocks = blocks[blocks != 0]  # 0: an empty block
         if np.any((blocks < 16) | (blocks > size - 8)):
-            raise FormatError(f"{path}: an Ogawa data block lies outside the {size}-byte file"
-                              f" (truncated or corrupt); {HINT}")  # fmt: skip
+            raise FormatError(
+                f"{path}: an Ogawa data block lies outside the {size}-byte file"
+                f" (truncated or corrupt); {HINT}"
+            )
         if np.any(_u64(mm, blocks) > (size - 8 - blocks).astype(np.uint64)):
-            raise FormatError(f"{path}: an Ogawa data block runs past the end of the file"
-                              f" (truncated or corrupt); {HINT}")  # fmt: skip
+            raise FormatError(
+                f"{path}: an Ogawa data block runs past the end of the file"
+                f" (truncated or corrupt); {HINT}"
+            )
         groups.extend(int(g) for g in children[~data])
 
 
@@ -93,12 +104,15 @@ def check_archive(path: Path) -> None:
         with open(path, "rb") as f:
             head = f.read(16)
             if head.startswith(HDF5_MAGIC):
-                raise FormatError(f"{path}: an HDF5 Alembic archive (Alembic before 1.5); only"
-                                  " Ogawa archives are read: export it again from a current"
-                                  " application, or convert it with 'abcconvert -toOgawa'")
+                raise FormatError(
+                    f"{path}: an HDF5 Alembic archive (Alembic before 1.5); only"
+                    " Ogawa archives are read: export it again from a current"
+                    " application, or convert it with 'abcconvert -toOgawa'"
+                )
             if len(head) < 16 or not head.startswith(OGAWA_MAGIC):
-                raise FormatError(f"{path}: not an Alembic archive (no {OGAWA_MAGIC.decode()}"
-                                  f" header); {HINT}")  # fmt: skip
+                raise FormatError(
+                    f"{path}: not an Alembic archive (no {OGAWA_MAGIC.decode()} header); {HINT}"
+                )
             with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
                 _check_ogawa(path, mm, size)
     except OSError as exc:
@@ -110,14 +124,27 @@ def limits(size: int) -> tuple[int, float]:
     return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
 
 
-def read_curves(path: Path, time: float | None, guides: bool, stored: bool = False,
-                ) -> list[dict]:  # fmt: skip
+def read_curves(
+    path: Path,
+    time: float | None,
+    guides: bool,
+    stored: bool = False,
+) -> list[dict]:
     """The chosen curves objects of ``path`` (see :mod:`follicle.io.alembic_archive`;
     ``stored``: under the file's own names), read in a child process; FormatError
     naming the file on any failure."""
     memory, seconds = limits(path.stat().st_size)
-    return read_guarded("abc-curves", path, memory, seconds, "Alembic", HINT, time=time,
-                        guides=guides, stored=stored)  # fmt: skip
+    return read_guarded(
+        "abc-curves",
+        path,
+        memory,
+        seconds,
+        "Alembic",
+        HINT,
+        time=time,
+        guides=guides,
+        stored=stored,
+    )
 
 
 def read_mesh(path: Path) -> dict:

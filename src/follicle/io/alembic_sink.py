@@ -104,8 +104,9 @@ class _Writer:
         self.held.append(out)
         return out
 
-    def _param(self, kind: str, arr: np.ndarray, scope: str,
-               index: np.ndarray | None = None) -> object:  # fmt: skip
+    def _param(
+        self, kind: str, arr: np.ndarray, scope: str, index: np.ndarray | None = None
+    ) -> object:
         """A geometry parameter sample of ``kind`` holding ``arr`` (and ``index``)."""
         sample = getattr(AbcGeom, f"O{_PARAM_TYPES[kind]}GeomParamSample")
         scope = getattr(AbcGeom.GeometryScope, f"k{scope}Scope")
@@ -163,8 +164,9 @@ class _Writer:
         arb = schema.getArbGeomParams()
         for i, (pname, kind, scope) in enumerate(op["params"]):
             param = getattr(AbcGeom, f"O{_PARAM_TYPES[kind]}GeomParam")
-            param(arb, pname, False, getattr(AbcGeom.GeometryScope, f"k{scope}Scope"),
-                  1).set(self._param(kind, arrays[f"param{i}"], scope))
+            param(arb, pname, False, getattr(AbcGeom.GeometryScope, f"k{scope}Scope"), 1).set(
+                self._param(kind, arrays[f"param{i}"], scope)
+            )
         if op["keep"]:
             self.objects[op["path"]] = obj
 
@@ -173,8 +175,11 @@ class _Writer:
 
     def mesh(self, op: dict, arrays: dict[str, np.ndarray]) -> None:
         parent, name = self._parent(op["path"])
-        args = [self._values("v3f", arrays["points"]), self._values("int", arrays["indices"]),
-                self._values("int", arrays["counts"])]  # fmt: skip
+        args = [
+            self._values("v3f", arrays["points"]),
+            self._values("int", arrays["indices"]),
+            self._values("int", arrays["counts"]),
+        ]
         if "uv" in arrays:
             args.append(self._param("v2f", arrays["uv"], "Facevarying", arrays["uv_index"]))
         AbcGeom.OPolyMesh(parent, name).getSchema().set(AbcGeom.OPolyMeshSchemaSample(*args))
@@ -189,11 +194,32 @@ class _Writer:
 
 
 # geometry parameter kind -> the name in alembic3d's O<name>GeomParam, and its imath array
-_PARAM_TYPES = {"float": "Float", "v2f": "V2f", "v3f": "V3f", "n3f": "N3f", "double": "Double",
-                "v2d": "V2d", "v3d": "V3d", "int": "Int32", "v2i": "V2i", "v3i": "V3i",
-                "uchar": "Uchar", "c3f": "C3f"}  # fmt: skip
-_BUFFERS = {"float": "Float", "v2f": "V2f", "v3f": "V3f", "n3f": "V3f", "double": "Double",
-            "v2d": "V2d", "v3d": "V3d", "int": "Int", "v2i": "V2i", "v3i": "V3i"}
+_PARAM_TYPES = {
+    "float": "Float",
+    "v2f": "V2f",
+    "v3f": "V3f",
+    "n3f": "N3f",
+    "double": "Double",
+    "v2d": "V2d",
+    "v3d": "V3d",
+    "int": "Int32",
+    "v2i": "V2i",
+    "v3i": "V3i",
+    "uchar": "Uchar",
+    "c3f": "C3f",
+}
+_BUFFERS = {
+    "float": "Float",
+    "v2f": "V2f",
+    "v3f": "V3f",
+    "n3f": "V3f",
+    "double": "Double",
+    "v2d": "V2d",
+    "v3d": "V3d",
+    "int": "Int",
+    "v2i": "V2i",
+    "v3i": "V3i",
+}
 
 
 def serve() -> None:

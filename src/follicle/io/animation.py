@@ -54,18 +54,23 @@ def head_matrices(transforms: object) -> np.ndarray:
     except (TypeError, ValueError):
         m = np.zeros(0)
     if m.ndim != 3 or m.shape[1:] != (4, 4):
-        raise InputError(f"transforms: expected one 4x4 matrix per frame, shape (F, 4, 4),"
-                         f" got {m.shape if m.size else repr(transforms)[:60]}")  # fmt: skip
+        raise InputError(
+            f"transforms: expected one 4x4 matrix per frame, shape (F, 4, 4),"
+            f" got {m.shape if m.size else repr(transforms)[:60]}"
+        )
     bad = ~np.isfinite(m).all(axis=(1, 2)) | (np.abs(m[:, 3] - (0, 0, 0, 1)).max(axis=1) > 1e-9)
     if np.any(bad):
         f = int(np.argmax(bad))
-        raise InputError(f"transforms: frame {f} is not a finite affine matrix (last row"
-                         f" {m[f, 3].tolist()}, expected [0, 0, 0, 1])")  # fmt: skip
+        raise InputError(
+            f"transforms: frame {f} is not a finite affine matrix (last row"
+            f" {m[f, 3].tolist()}, expected [0, 0, 0, 1])"
+        )
     return m
 
 
-def _checked(frames: Iterable[object], head: np.ndarray | None, target: Target, role: str,
-             in_units: bool) -> Iterator[HairCurves]:  # fmt: skip
+def _checked(
+    frames: Iterable[object], head: np.ndarray | None, target: Target, role: str, in_units: bool
+) -> Iterator[HairCurves]:
     """Each frame checked and as ``target`` reads it (see :class:`Animation`)."""
     first = None
     f = -1
@@ -73,8 +78,9 @@ def _checked(frames: Iterable[object], head: np.ndarray | None, target: Target, 
         if not isinstance(frame, HairCurves):
             raise InputError(f"frames: frame {f} is a {type(frame).__name__}, not HairCurves")
         if head is not None and f >= len(head):
-            raise InputError(f"transforms: {len(head)} matrices for {f + 1} or more frames;"
-                             " give one per frame")  # fmt: skip
+            raise InputError(
+                f"transforms: {len(head)} matrices for {f + 1} or more frames; give one per frame"
+            )
         if first is not None and not np.array_equal(frame.offsets, first.offsets):
             raise InputError(
                 f"frames: frame {f} has {frame.curve_count} curves / {frame.point_count} points"
@@ -87,14 +93,19 @@ def _checked(frames: Iterable[object], head: np.ndarray | None, target: Target, 
     if first is None:
         raise InputError("frames: the frame stream is empty; nothing to write")
     if head is not None and len(head) != f + 1:
-        raise InputError(f"transforms: {len(head)} matrices for {f + 1} frames; give one per"
-                         " frame")  # fmt: skip
+        raise InputError(f"transforms: {len(head)} matrices for {f + 1} frames; give one per frame")
 
 
-def animation(frames: Iterable[HairCurves] | SimCache, fps: float | None, start: int,
-              mesh: SkinMesh | None, transforms: object | None,
-              target: Target | str = "generic", in_units: bool = True,
-              role: str | None = None) -> Animation:  # fmt: skip
+def animation(
+    frames: Iterable[HairCurves] | SimCache,
+    fps: float | None,
+    start: int,
+    mesh: SkinMesh | None,
+    transforms: object | None,
+    target: Target | str = "generic",
+    in_units: bool = True,
+    role: str | None = None,
+) -> Animation:
     """The animation to write, checked: a SimCache gives its guide strands per frame
     (written as guides unless ``role`` says "hair"; other frames as hair unless it says
     "guides"), its fps (unless ``fps``; else 24) and, when ``mesh`` is given,
@@ -111,11 +122,13 @@ def animation(frames: Iterable[HairCurves] | SimCache, fps: float | None, start:
         cache_fps, cache_transforms = float(frames.fps), frames.transforms
         frames = (HairCurves.from_array(p) for p in positions)
     elif isinstance(frames, HairCurves) or not isinstance(frames, Iterable):
-        raise InputError(f"frames: expected an iterable of HairCurves or a SimCache, got"
-                         f" {type(frames).__name__}")  # fmt: skip
+        raise InputError(
+            f"frames: expected an iterable of HairCurves or a SimCache, got {type(frames).__name__}"
+        )
     if transforms is not None and mesh is None:
-        raise InputError("transforms: given without mesh=; they move the skin mesh, so pass"
-                         " the SkinMesh too")  # fmt: skip
+        raise InputError(
+            "transforms: given without mesh=; they move the skin mesh, so pass the SkinMesh too"
+        )
     if mesh is not None and transforms is None:
         transforms = cache_transforms
     head = None if transforms is None else head_matrices(transforms)

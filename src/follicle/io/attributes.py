@@ -18,8 +18,15 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 
-__all__ = ["DEFAULT_WIDTH", "MAX_HAIR_WIDTH", "column", "conventional", "consistent", "widths",
-           "plausible_widths"]
+__all__ = [
+    "DEFAULT_WIDTH",
+    "MAX_HAIR_WIDTH",
+    "column",
+    "conventional",
+    "consistent",
+    "widths",
+    "plausible_widths",
+]
 
 log = logging.getLogger("follicle")
 
@@ -34,8 +41,10 @@ def _scalar(chunk: HairCurves, key: str) -> np.ndarray | None:
         return arr
     if arr.ndim == 2 and arr.shape[1] == 1 and arr.dtype.kind in "fiu":
         return arr[:, 0]
-    raise InputError(f"point_data['{key}']: expected one number a point, shape"
-                     f" ({chunk.point_count},), got {arr.dtype} of shape {arr.shape}")  # fmt: skip
+    raise InputError(
+        f"point_data['{key}']: expected one number a point, shape"
+        f" ({chunk.point_count},), got {arr.dtype} of shape {arr.shape}"
+    )
 
 
 def column(curves: HairCurves, key: str, comps: int) -> np.ndarray | None:
@@ -61,9 +70,11 @@ def conventional(chunk: HairCurves) -> HairCurves:
     color = pd.get("color")
     if color is not None and not (color.ndim == 2 and color.shape[1] == 3):
         if color.ndim != 2 or color.shape[1] != 4 or color.dtype.kind not in "fiu":
-            raise InputError(f"point_data['color']: expected RGB or RGBA numbers a point, shape"
-                             f" ({chunk.point_count}, 3) or ({chunk.point_count}, 4), got"
-                             f" {color.dtype} of shape {color.shape}")  # fmt: skip
+            raise InputError(
+                f"point_data['color']: expected RGB or RGBA numbers a point, shape"
+                f" ({chunk.point_count}, 3) or ({chunk.point_count}, 4), got"
+                f" {color.dtype} of shape {color.shape}"
+            )
         fixed["color"] = np.ascontiguousarray(color[:, :3])
         if "opacity" not in pd:
             fixed["opacity"] = np.ascontiguousarray(color[:, 3])
@@ -84,8 +95,10 @@ def consistent(chunks: Iterable[HairCurves]) -> Iterator[HairCurves]:
         chunk = conventional(chunk)
         if first is None:
             first = chunk
-        elif chunk.point_data.keys() != first.point_data.keys() or \
-                chunk.curve_data.keys() != first.curve_data.keys():  # fmt: skip
+        elif (
+            chunk.point_data.keys() != first.point_data.keys()
+            or chunk.curve_data.keys() != first.curve_data.keys()
+        ):
             raise InputError(
                 f"curves: chunk {i} has attributes {sorted(chunk.point_data)} /"
                 f" {sorted(chunk.curve_data)}, chunk 0 has {sorted(first.point_data)} /"
@@ -111,7 +124,11 @@ def plausible_widths(curves: HairCurves, source: object) -> None:
         return
     median = float(np.median(width))
     if median > MAX_HAIR_WIDTH:
-        log.warning("%s: widths look like a tool's default radius, not hair: the median width"
-                    " (diameter) is %.3g m, hair is 2e-5 to 2e-4 m; set the curves' radius"
-                    " where they were made (Blender: the Radius attribute) or scale"
-                    " point_data['width'] before rendering", source, median)  # fmt: skip
+        log.warning(
+            "%s: widths look like a tool's default radius, not hair: the median width"
+            " (diameter) is %.3g m, hair is 2e-5 to 2e-4 m; set the curves' radius"
+            " where they were made (Blender: the Radius attribute) or scale"
+            " point_data['width'] before rendering",
+            source,
+            median,
+        )

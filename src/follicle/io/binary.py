@@ -61,8 +61,9 @@ class BinaryFile:
         """``struct.unpack`` of the bytes at ``offset`` (``fmt`` little-endian, '<...')."""
         return struct.unpack(fmt, self.bytes(field, offset, struct.calcsize(fmt)))
 
-    def array(self, field: str, offset: int, count: int, dtype: str,
-              shape: Sequence[int] = ()) -> np.ndarray:  # fmt: skip
+    def array(
+        self, field: str, offset: int, count: int, dtype: str, shape: Sequence[int] = ()
+    ) -> np.ndarray:
         """``count`` items of ``dtype`` (e.g. '<f4') at ``offset``, reshaped to
         (count, *shape) and native-endian; the size is checked before allocating."""
         dt = np.dtype(dtype)
@@ -74,8 +75,9 @@ class BinaryFile:
             raise self.fail(f"{field}: read {arr.size} of {items} values (file changed?)")
         return arr.astype(dt.newbyteorder("="), copy=False).reshape(count, *shape)
 
-    def sections(self, header_size: int, sections: dict[str, tuple[int, int]],
-                 align: int = 8) -> None:  # fmt: skip
+    def sections(
+        self, header_size: int, sections: dict[str, tuple[int, int]], align: int = 8
+    ) -> None:
         """Check array sections ``name -> (offset, nbytes)``: after the header, aligned to
         ``align`` bytes, inside the file and not overlapping one another."""
         spans = []

@@ -57,11 +57,15 @@ def _without_schema(parts: list[dict], source: Path, target: Target, alembic: bo
     named = ", ".join(lacking[:_SHOWN]) + (", …" if len(lacking) > _SHOWN else "")
     where = f"{len(lacking)} of {len(parts)} curves objects ({named})"
     if alembic:
-        return [f"{where}: no groom_version_major / groom_version_minor where {target.tool}"
-                " reads them (user properties of the curves or an Xform above): it imports"
-                " their curves without any groom_* attribute"]
-    return [f"{where}: no GroomAPI on them or a prim above: {target.tool}'s USD importer does"
-            " not read them as a groom"]
+        return [
+            f"{where}: no groom_version_major / groom_version_minor where {target.tool}"
+            " reads them (user properties of the curves or an Xform above): it imports"
+            " their curves without any groom_* attribute"
+        ]
+    return [
+        f"{where}: no GroomAPI on them or a prim above: {target.tool}'s USD importer does"
+        " not read them as a groom"
+    ]
 
 
 def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[HairCurves, list[str]]:

@@ -20,8 +20,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CurveBasisError", "rule", "out_counts", "through_points", "NurbsStencil",
-           "nurbs_stencil", "nurbs_points", "MAX_ORDER"]
+__all__ = [
+    "CurveBasisError",
+    "rule",
+    "out_counts",
+    "through_points",
+    "NurbsStencil",
+    "nurbs_stencil",
+    "nurbs_points",
+    "MAX_ORDER",
+]
 
 _VSTEP = {"bezier": 3, "bspline": 1, "catmullRom": 1}  # USD's vstep of each cubic basis
 
@@ -30,25 +38,28 @@ class CurveBasisError(ValueError):
     """Curves this module cannot reduce to points; the message names them and why."""
 
 
-def topology(counts: np.ndarray, points: np.ndarray, where: str, counts_name: str,
-             points_name: str) -> np.ndarray:
+def topology(
+    counts: np.ndarray, points: np.ndarray, where: str, counts_name: str, points_name: str
+) -> np.ndarray:
     """A curves object's vertex counts as int64, checked against its points (whole
     numbers, none negative, summing to the point count; points x, y, z rows):
     CurveBasisError naming ``where`` and the file's own attribute names otherwise."""
     if counts.ndim != 1 or counts.dtype.kind not in "iu":
-        raise CurveBasisError(f"{where}: {counts_name} must be int[], got {counts.dtype} of"
-                              f" shape {counts.shape}")  # fmt: skip
+        raise CurveBasisError(
+            f"{where}: {counts_name} must be int[], got {counts.dtype} of shape {counts.shape}"
+        )
     if points.ndim != 2 or points.shape[1] != 3:
-        raise CurveBasisError(f"{where}: {points_name} must be point3f[] (x, y, z each), got"
-                              f" shape {points.shape}")  # fmt: skip
+        raise CurveBasisError(
+            f"{where}: {points_name} must be point3f[] (x, y, z each), got shape {points.shape}"
+        )
     counts = counts.astype(np.int64)
     if np.any(counts < 0):
         i = int(np.argmax(counts < 0))
-        raise CurveBasisError(f"{where}: curve {i} has a negative vertex count"
-                              f" ({int(counts[i])})")  # fmt: skip
+        raise CurveBasisError(f"{where}: curve {i} has a negative vertex count ({int(counts[i])})")
     if int(counts.sum()) != len(points):
-        raise CurveBasisError(f"{where}: {counts_name} sum to {int(counts.sum())} but there"
-                              f" are {len(points)} points")  # fmt: skip
+        raise CurveBasisError(
+            f"{where}: {counts_name} sum to {int(counts.sum())} but there are {len(points)} points"
+        )
     return counts
 
 
@@ -65,8 +76,7 @@ def rule(kind: str, basis: str, wrap: str, counts: np.ndarray, where: str) -> st
     if kind == "linear":  # a one-vertex curve is read, and left out by the caller
         low, mapping = 1, "all"
     elif basis not in _VSTEP:
-        raise CurveBasisError(f"{where}: unknown basis '{basis}' (bezier, bspline or"
-                              " catmullRom)")  # fmt: skip
+        raise CurveBasisError(f"{where}: unknown basis '{basis}' (bezier, bspline or catmullRom)")
     elif wrap == "pinned" and basis != "bezier":
         low, mapping = (1, "all") if basis == "catmullRom" else (2, "pinned-knots")
     else:
@@ -75,8 +85,10 @@ def rule(kind: str, basis: str, wrap: str, counts: np.ndarray, where: str) -> st
     bad = (counts < low) | (((counts - 4) % 3 != 0) if mapping == "bezier" else False)
     if np.any(bad):
         i = int(np.argmax(bad))
-        raise CurveBasisError(f"{where}: curve {i} has {int(counts[i])} vertices, invalid for"
-                              f" {kind} {basis} {wrap} curves")  # fmt: skip
+        raise CurveBasisError(
+            f"{where}: curve {i} has {int(counts[i])} vertices, invalid for"
+            f" {kind} {basis} {wrap} curves"
+        )
     return mapping
 
 
@@ -160,26 +172,39 @@ def _first_bad(bad: np.ndarray) -> int:
     return int(np.argmax(bad))
 
 
-def _check_nurbs(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
-                 weights: np.ndarray | None, where: str) -> None:  # fmt: skip
+def _check_nurbs(
+    counts: np.ndarray,
+    orders: np.ndarray,
+    knots: np.ndarray,
+    weights: np.ndarray | None,
+    where: str,
+) -> None:
     """CurveBasisError naming ``where`` unless orders, knots and weights describe
     NURBS curves of ``counts`` control vertices that can be evaluated."""
     c = len(counts)
     if orders.shape != (c,):
-        raise CurveBasisError(f"{where}: order has {orders.size} values; {c} curves need one"
-                              " each")  # fmt: skip
-    for bad, why in ((orders < 2, "below 2 (a NURBS curve needs degree 1 or more)"),
-                     (orders > MAX_ORDER, f"above {MAX_ORDER}, the highest order read"),
-                     (counts < orders, "more than its control vertices; a NURBS curve needs"
-                      " at least as many vertices as its order")):  # fmt: skip
+        raise CurveBasisError(f"{where}: order has {orders.size} values; {c} curves need one each")
+    for bad, why in (
+        (orders < 2, "below 2 (a NURBS curve needs degree 1 or more)"),
+        (orders > MAX_ORDER, f"above {MAX_ORDER}, the highest order read"),
+        (
+            counts < orders,
+            "more than its control vertices; a NURBS curve needs"
+            " at least as many vertices as its order",
+        ),
+    ):
         if np.any(bad):
             i = _first_bad(bad)
-            raise CurveBasisError(f"{where}: curve {i} has order {int(orders[i])} and"
-                                  f" {int(counts[i])} vertices: the order is {why}")  # fmt: skip
+            raise CurveBasisError(
+                f"{where}: curve {i} has order {int(orders[i])} and"
+                f" {int(counts[i])} vertices: the order is {why}"
+            )
     need = int((counts + orders).sum())
     if knots.shape != (need,):
-        raise CurveBasisError(f"{where}: knots has {knots.size} values; curves of these vertex"
-                              f" counts and orders need {need} (vertices + order per curve)")
+        raise CurveBasisError(
+            f"{where}: knots has {knots.size} values; curves of these vertex"
+            f" counts and orders need {need} (vertices + order per curve)"
+        )
     if not np.isfinite(knots).all():
         raise CurveBasisError(f"{where}: knot {_first_bad(~np.isfinite(knots))} is not finite")
     starts = np.concatenate([[0], np.cumsum(counts + orders)[:-1]])
@@ -188,44 +213,63 @@ def _check_nurbs(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
     if np.any(falls):
         j = _first_bad(falls)
         i = int(np.searchsorted(starts, j, side="right") - 1)
-        raise CurveBasisError(f"{where}: the knots of curve {i} decrease ({knots[j]:g} then"
-                              f" {knots[j + 1]:g}); a knot vector must not decrease")  # fmt: skip
+        raise CurveBasisError(
+            f"{where}: the knots of curve {i} decrease ({knots[j]:g} then"
+            f" {knots[j + 1]:g}); a knot vector must not decrease"
+        )
     if weights is not None:
         if weights.shape != (int(counts.sum()),):
-            raise CurveBasisError(f"{where}: pointWeights has {weights.size} values for"
-                                  f" {int(counts.sum())} vertices; give one per vertex")
+            raise CurveBasisError(
+                f"{where}: pointWeights has {weights.size} values for"
+                f" {int(counts.sum())} vertices; give one per vertex"
+            )
         bad = ~(np.isfinite(weights) & (weights > 0))
         if np.any(bad):
-            raise CurveBasisError(f"{where}: pointWeights[{_first_bad(bad)}] ="
-                                  f" {weights[_first_bad(bad)]:g}; weights must be > 0")
+            raise CurveBasisError(
+                f"{where}: pointWeights[{_first_bad(bad)}] ="
+                f" {weights[_first_bad(bad)]:g}; weights must be > 0"
+            )
 
 
-def _domains(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray, starts: np.ndarray,
-             ranges: np.ndarray | None, where: str) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def _domains(
+    counts: np.ndarray,
+    orders: np.ndarray,
+    knots: np.ndarray,
+    starts: np.ndarray,
+    ranges: np.ndarray | None,
+    where: str,
+) -> tuple[np.ndarray, np.ndarray]:
     """Each curve's parameter interval: its knots [order − 1] to [vertices] (where the
     basis functions sum to 1), or ``ranges`` inside it."""
     lo, hi = knots[starts + orders - 1], knots[starts + counts]
     if ranges is not None:
         if ranges.shape != (len(counts), 2):
-            raise CurveBasisError(f"{where}: ranges has shape {ranges.shape}; give (min, max)"
-                                  f" for each of the {len(counts)} curves")  # fmt: skip
+            raise CurveBasisError(
+                f"{where}: ranges has shape {ranges.shape}; give (min, max)"
+                f" for each of the {len(counts)} curves"
+            )
         outside = ~((ranges[:, 0] >= lo) & (ranges[:, 1] <= hi))
         if np.any(outside):
             i = _first_bad(outside)
-            raise CurveBasisError(f"{where}: ranges of curve {i} ({ranges[i, 0]:g},"
-                                  f" {ranges[i, 1]:g}) reach outside its knots' domain"
-                                  f" [{lo[i]:g}, {hi[i]:g}]")  # fmt: skip
+            raise CurveBasisError(
+                f"{where}: ranges of curve {i} ({ranges[i, 0]:g},"
+                f" {ranges[i, 1]:g}) reach outside its knots' domain"
+                f" [{lo[i]:g}, {hi[i]:g}]"
+            )
         lo, hi = ranges[:, 0], ranges[:, 1]
     empty = ~(lo < hi)
     if np.any(empty):
         i = _first_bad(empty)
-        raise CurveBasisError(f"{where}: curve {i} has an empty parameter range ({lo[i]:g} to"
-                              f" {hi[i]:g}); its knots must rise over the domain")  # fmt: skip
+        raise CurveBasisError(
+            f"{where}: curve {i} has an empty parameter range ({lo[i]:g} to"
+            f" {hi[i]:g}); its knots must rise over the domain"
+        )
     return lo, hi
 
 
-def _parameters(counts: np.ndarray, knots: np.ndarray, starts: np.ndarray, lo: np.ndarray,
-                hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def _parameters(
+    counts: np.ndarray, knots: np.ndarray, starts: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(parameters, their curve) where each curve is evaluated: its distinct knots inside
     its interval and the interval's ends (so its segment joins are kept), and each span
     between them cut into ``m`` equal steps, ``m`` the fewest giving at least as many
@@ -258,8 +302,9 @@ def _parameters(counts: np.ndarray, knots: np.ndarray, starts: np.ndarray, lo: n
     return params, np.repeat(np.arange(c), out)
 
 
-def _spans(u: np.ndarray, first: np.ndarray, last: np.ndarray, hi: np.ndarray,
-           knots: np.ndarray) -> np.ndarray:  # fmt: skip
+def _spans(
+    u: np.ndarray, first: np.ndarray, last: np.ndarray, hi: np.ndarray, knots: np.ndarray
+) -> np.ndarray:
     """For each parameter ``u``: the largest knot index ``i`` in [first, last] with
     knots[i] ≤ u (at the top ``hi`` of the interval: knots[i] < u, the last non-empty
     span), by a bisection run on all parameters at once."""
@@ -293,9 +338,14 @@ def _basis(u: np.ndarray, span: np.ndarray, knots: np.ndarray, k: int) -> np.nda
     return n
 
 
-def nurbs_stencil(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
-                  point_weights: np.ndarray | None = None, ranges: np.ndarray | None = None,
-                  where: str = "curves") -> NurbsStencil:  # fmt: skip
+def nurbs_stencil(
+    counts: np.ndarray,
+    orders: np.ndarray,
+    knots: np.ndarray,
+    point_weights: np.ndarray | None = None,
+    ranges: np.ndarray | None = None,
+    where: str = "curves",
+) -> NurbsStencil:
     """The points NURBS curves are reduced to, as a :class:`NurbsStencil`.
 
     Curve ``i`` has ``counts[i]`` control vertices (one after another), order
@@ -318,8 +368,7 @@ def nurbs_stencil(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
     starts = np.concatenate([[0], np.cumsum(counts + orders)[:-1]]).astype(np.int64)
     lo, hi = _domains(counts, orders, knots, starts, ranges, where)
     u, curve = _parameters(counts, knots, starts, lo, hi)
-    span = _spans(u, (starts + orders - 1)[curve], (starts + counts - 1)[curve], hi[curve],
-                  knots)  # fmt: skip
+    span = _spans(u, (starts + orders - 1)[curve], (starts + counts - 1)[curve], hi[curve], knots)
     local = span - starts[curve]  # index of the span's knot within its curve
     vertex_start = np.concatenate([[0], np.cumsum(counts)[:-1]])
     k_max = int(orders.max(initial=2))
@@ -337,14 +386,20 @@ def nurbs_stencil(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
     varying_start = np.concatenate([[0], np.cumsum(varying_counts)[:-1]])
     lower = varying_start[curve] + local - (orders[curve] - 1)
     frac = (u - knots[span]) / (knots[span + 1] - knots[span])
-    return NurbsStencil(np.bincount(curve, minlength=len(counts)), index, weight, lower, frac,
-                        varying_counts)  # fmt: skip
+    return NurbsStencil(
+        np.bincount(curve, minlength=len(counts)), index, weight, lower, frac, varying_counts
+    )
 
 
-def nurbs_points(points: np.ndarray, counts: np.ndarray, orders: np.ndarray,
-                 knots: np.ndarray, point_weights: np.ndarray | None = None,
-                 ranges: np.ndarray | None = None,
-                 where: str = "curves") -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def nurbs_points(
+    points: np.ndarray,
+    counts: np.ndarray,
+    orders: np.ndarray,
+    knots: np.ndarray,
+    point_weights: np.ndarray | None = None,
+    ranges: np.ndarray | None = None,
+    where: str = "curves",
+) -> tuple[np.ndarray, np.ndarray]:
     """(points on the curves, points per curve) of NURBS curves with control vertices
     ``points``; see :func:`nurbs_stencil` for the arguments and the points chosen."""
     stencil = nurbs_stencil(counts, orders, knots, point_weights, ranges, where)

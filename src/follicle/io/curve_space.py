@@ -19,8 +19,9 @@ class SpaceError(ValueError):
     """A transform that cannot move the geometry; the message names it and the fix."""
 
 
-def to_world(points: np.ndarray, point_data: dict[str, np.ndarray], m: np.ndarray,
-             where: str, fix: str) -> np.ndarray:  # fmt: skip
+def to_world(
+    points: np.ndarray, point_data: dict[str, np.ndarray], m: np.ndarray, where: str, fix: str
+) -> np.ndarray:
     """``points`` (returned, float32, or float64 if given float64) and ``point_data``'s
     ``width`` and ``normal`` (replaced in the dict) moved by the row-vector matrix ``m``;
     SpaceError naming ``where`` (ending in ``fix``) when normals meet a singular one."""
@@ -32,8 +33,10 @@ def to_world(points: np.ndarray, point_data: dict[str, np.ndarray], m: np.ndarra
         point_data["width"] = (point_data["width"] * abs(det) ** (1 / 3)).astype(np.float32)
     if "normal" in point_data:
         if not (np.isfinite(det) and abs(det) > 1e-30):
-            raise SpaceError(f"{where}: its transform is singular (a scale of 0), so its"
-                             f" normals cannot be transformed; {fix}")  # fmt: skip
+            raise SpaceError(
+                f"{where}: its transform is singular (a scale of 0), so its"
+                f" normals cannot be transformed; {fix}"
+            )
         n = point_data["normal"].astype(np.float64) @ np.linalg.inv(linear).T
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
         point_data["normal"] = n.astype(np.float32)

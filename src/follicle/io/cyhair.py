@@ -61,8 +61,11 @@ def save_cyhair(chunks: Iterator[HairCurves], path: str | os.PathLike[str]) -> P
                 )
             if i == 0:
                 pd = chunk.point_data
-                flags |= (THICKNESS if "width" in pd else 0) | \
-                    (TRANSPARENCY if "opacity" in pd else 0) | (COLORS if "color" in pd else 0)
+                flags |= (
+                    (THICKNESS if "width" in pd else 0)
+                    | (TRANSPARENCY if "opacity" in pd else 0)
+                    | (COLORS if "color" in pd else 0)
+                )
             if counts.size:
                 first_count = first_count or int(counts[0])
                 uniform = uniform and bool((counts == first_count).all())
@@ -80,8 +83,17 @@ def save_cyhair(chunks: Iterator[HairCurves], path: str | os.PathLike[str]) -> P
             if flags & COLORS:
                 spool.write("colors", np.asarray(chunk.point_data["color"], "<f4"))
         flags |= 0 if uniform else SEGMENTS
-        header = HEADER.pack(MAGIC, hairs, points, flags, max(first_count - 1, 0) if uniform
-                             else 0, DEFAULT_WIDTH, 0.0, *DEFAULT_COLOR, b"follicle")
+        header = HEADER.pack(
+            MAGIC,
+            hairs,
+            points,
+            flags,
+            max(first_count - 1, 0) if uniform else 0,
+            DEFAULT_WIDTH,
+            0.0,
+            *DEFAULT_COLOR,
+            b"follicle",
+        )
         with open(tmp, "wb") as out:
             out.write(header)
             bits = (SEGMENTS, POINTS, THICKNESS, TRANSPARENCY, COLORS)
@@ -93,15 +105,19 @@ def load_cyhair(path: str | os.PathLike[str]) -> HairCurves:
     """Read a cyHair file: curves with ``width``, ``opacity`` and ``color`` per point."""
     with open_binary(path) as f:
         magic, hairs, points, flags, dseg, dthick, dtrans, *dcolor, _ = HEADER.unpack(
-            f.bytes("header", 0, HEADER.size))
+            f.bytes("header", 0, HEADER.size)
+        )
         if magic != MAGIC:
             raise f.fail(f"magic {magic!r} is not b'HAIR'; not a cyHair file")
         if not flags & POINTS:
             raise f.fail(f"header flags {flags:#x} say the file has no points array")
-        sizes = {"segments": 2 * hairs if flags & SEGMENTS else 0, "points": 12 * points,
-                 "thickness": 4 * points if flags & THICKNESS else 0,
-                 "transparency": 4 * points if flags & TRANSPARENCY else 0,
-                 "colors": 12 * points if flags & COLORS else 0}
+        sizes = {
+            "segments": 2 * hairs if flags & SEGMENTS else 0,
+            "points": 12 * points,
+            "thickness": 4 * points if flags & THICKNESS else 0,
+            "transparency": 4 * points if flags & TRANSPARENCY else 0,
+            "colors": 12 * points if flags & COLORS else 0,
+        }
         if HEADER.size + sum(sizes.values()) > f.size:
             raise f.fail(
                 f"header hair_count {hairs} and point_count {points} (flags {flags:#x}) need"
@@ -116,19 +132,20 @@ def load_cyhair(path: str | os.PathLike[str]) -> HairCurves:
             "width": _per_point(f, flags & THICKNESS, "thickness", offset, points, (), dthick),
         }
         offset += sizes["thickness"]
-        transparency = _per_point(f, flags & TRANSPARENCY, "transparency", offset, points, (),
-                                  dtrans)
+        transparency = _per_point(
+            f, flags & TRANSPARENCY, "transparency", offset, points, (), dtrans
+        )
         point_data["opacity"] = (1.0 - transparency.astype(np.float64)).astype(np.float32)
         offset += sizes["transparency"]
-        point_data["color"] = _per_point(f, flags & COLORS, "colors", offset, points, (3,),
-                                         dcolor)
+        point_data["color"] = _per_point(f, flags & COLORS, "colors", offset, points, (3,), dcolor)
     offsets = np.zeros(len(counts) + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
     return HairCurves(pts, offsets, point_data)
 
 
-def _counts(f: BinaryFile, hairs: int, points: int, dseg: int, flags: int,
-            offset: int) -> np.ndarray:  # fmt: skip
+def _counts(
+    f: BinaryFile, hairs: int, points: int, dseg: int, flags: int, offset: int
+) -> np.ndarray:
     """Vertices of every hair, from the segments array or the default segments."""
     if flags & SEGMENTS:
         counts = f.array("segments", offset, hairs, "<u2").astype(np.int64) + 1
@@ -148,8 +165,15 @@ def _counts(f: BinaryFile, hairs: int, points: int, dseg: int, flags: int,
     return counts
 
 
-def _per_point(f: BinaryFile, present: int, field: str, offset: int, points: int,
-               shape: tuple[int, ...], default: float | list[float]) -> np.ndarray:  # fmt: skip
+def _per_point(
+    f: BinaryFile,
+    present: int,
+    field: str,
+    offset: int,
+    points: int,
+    shape: tuple[int, ...],
+    default: float | list[float],
+) -> np.ndarray:
     """A per-point float32 array from the file, or the header default repeated."""
     if present:
         return check_finite(f, field, f.array(field, offset, points, "<f4", shape))

@@ -32,8 +32,15 @@ __all__ = ["save", "load_curves", "WRITERS", "READERS"]
 WRITERS: dict[str, Callable[..., Path]] = {".npz": save_npz}
 READERS: dict[str, Callable[..., HairCurves]] = {".npz": load_npz}
 # hair formats; ".txt" is a Mitsuba 3 bsplinecurve file, ".pbrt" is written only
-WRITERS.update({".hair": save_cyhair, ".tfx": save_tfx, ".obj": save_obj, ".pbrt": save_pbrt,
-                ".txt": save_mitsuba})
+WRITERS.update(
+    {
+        ".hair": save_cyhair,
+        ".tfx": save_tfx,
+        ".obj": save_obj,
+        ".pbrt": save_pbrt,
+        ".txt": save_mitsuba,
+    }
+)
 READERS.update({".hair": load_cyhair, ".tfx": load_tfx, ".obj": load_obj, ".txt": load_mitsuba})
 # USD (".usd" is crate, like ".usdc") and RenderMan RIB (written only)
 WRITERS.update({**dict.fromkeys(USD_SUFFIXES, save_usd), ".rib": save_rib})

@@ -43,8 +43,9 @@ log = logging.getLogger("follicle")
 _SCRIPT = Path(__file__).with_name("guard_server.py")
 
 
-def died(path: Path, reply: dict | None, stderr: Path, memory: int, seconds: float,
-         tool: str, hint: str) -> FormatError:  # fmt: skip
+def died(
+    path: Path, reply: dict | None, stderr: Path, memory: int, seconds: float, tool: str, hint: str
+) -> FormatError:
     """The one line for a child that ended without a result: ``tool`` (the library,
     "usd-core") could not read ``path`` and why; ``hint`` ends it."""
     if reply is None:
@@ -57,8 +58,10 @@ def died(path: Path, reply: dict | None, stderr: Path, memory: int, seconds: flo
     else:
         text = stderr.read_text(errors="replace") if stderr.exists() else ""
         last = text.strip().splitlines()[-1:] or ["no output"]
-        why = f"failed (exit {reply['code']}: {last[0][:200]}); or needed more than" \
-              f" {memory / 2**30:.1f} GiB"  # fmt: skip
+        why = (
+            f"failed (exit {reply['code']}: {last[0][:200]}); or needed more than"
+            f" {memory / 2**30:.1f} GiB"
+        )
     return FormatError(f"{path}: {tool} could not read it ({why}); {hint}")
 
 
@@ -73,12 +76,22 @@ class _Server:
 
     def _start(self) -> subprocess.Popen:
         if self.proc is None or self.proc.poll() is not None:
-            env = {**os.environ, "PXR_WORK_THREAD_LIMIT": "1", "OPENBLAS_NUM_THREADS": "1",
-                   "OMP_NUM_THREADS": "1", "MALLOC_ARENA_MAX": "2"}  # one thread: fork-safe
+            env = {
+                **os.environ,
+                "PXR_WORK_THREAD_LIMIT": "1",
+                "OPENBLAS_NUM_THREADS": "1",
+                "OMP_NUM_THREADS": "1",
+                "MALLOC_ARENA_MAX": "2",
+            }  # one thread: fork-safe
             # unbuffered: select() then sees every reply line, none hides in a buffer
-            self.proc = subprocess.Popen([sys.executable, "-I", "-B", str(_SCRIPT)], env=env,
-                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=subprocess.DEVNULL, bufsize=0)  # fmt: skip
+            self.proc = subprocess.Popen(
+                [sys.executable, "-I", "-B", str(_SCRIPT)],
+                env=env,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.DEVNULL,
+                bufsize=0,
+            )
         return self.proc
 
     def _stop(self) -> None:
@@ -130,16 +143,27 @@ def _decode(value: object, arrays: np.lib.npyio.NpzFile) -> object:
     return value
 
 
-def read_guarded(kind: str, path: Path, memory: int, seconds: float, tool: str, hint: str,
-                 **options: object) -> list[dict]:  # fmt: skip
+def read_guarded(
+    kind: str, path: Path, memory: int, seconds: float, tool: str, hint: str, **options: object
+) -> list[dict]:
     """The parts the reader of ``kind`` (see :data:`follicle.io.guard_server.READERS`)
     makes of ``path``, read in a child process with ``memory`` bytes of address space
     and ``seconds`` of wall time; ``options`` go to the reader. FormatError naming the
     file (``tool`` could not read it; ``hint``) on any failure."""
     with tempfile.TemporaryDirectory(prefix="follicle-read-") as folder:
-        reply = _SERVER.ask({"kind": kind, "source": os.path.abspath(path), "shown": str(path),
-                             "out": folder, "memory": memory, "seconds": seconds, "tool": tool,
-                             "hint": hint, **options})  # fmt: skip
+        reply = _SERVER.ask(
+            {
+                "kind": kind,
+                "source": os.path.abspath(path),
+                "shown": str(path),
+                "out": folder,
+                "memory": memory,
+                "seconds": seconds,
+                "tool": tool,
+                "hint": hint,
+                **options,
+            }
+        )
         result_file = Path(folder, "result.json")
         if reply is None or not result_file.exists():
             raise died(path, reply, Path(folder, "stderr.txt"), memory, seconds, tool, hint)
@@ -168,8 +192,11 @@ def _curves(part: dict, stored: bool = False) -> HairCurves:
         point_data, curve_data = _widened(point_data), _widened(curve_data)
     counts = np.diff(offsets)
     if offsets.ndim == 1 and len(offsets) and (counts == 1).any():
-        log.warning("%s: %d curve(s) with fewer than 2 points left out", part["where"],
-                    int((counts == 1).sum()))  # fmt: skip
+        log.warning(
+            "%s: %d curve(s) with fewer than 2 points left out",
+            part["where"],
+            int((counts == 1).sum()),
+        )
         keep, rows = counts != 1, np.repeat(counts != 1, counts)
         points = points[rows]
         point_data = {k: v[rows] for k, v in point_data.items()}
@@ -195,13 +222,21 @@ def curves_from_parts(parts: list[dict], source: Path, stored: bool = False) -> 
 
     pkeys = common(lambda p: p.point_data)
     ckeys = common(lambda p: p.curve_data)
-    dropped = set().union(*(set(p.point_data) | set(p.curve_data) for p in curves)) \
-        - pkeys - ckeys  # fmt: skip
+    dropped = set().union(*(set(p.point_data) | set(p.curve_data) for p in curves)) - pkeys - ckeys
     if dropped:
-        log.warning("%s: attributes not on every curves object were dropped: %s", source,
-                    ", ".join(sorted(dropped)))  # fmt: skip
-    return HairCurves.concatenate([
-        HairCurves(p.points, p.offsets, {k: p.point_data[k] for k in pkeys},
-                   {k: p.curve_data[k] for k in ckeys})
-        for p in curves
-    ])  # fmt: skip
+        log.warning(
+            "%s: attributes not on every curves object were dropped: %s",
+            source,
+            ", ".join(sorted(dropped)),
+        )
+    return HairCurves.concatenate(
+        [
+            HairCurves(
+                p.points,
+                p.offsets,
+                {k: p.point_data[k] for k in pkeys},
+                {k: p.curve_data[k] for k in ckeys},
+            )
+            for p in curves
+        ]
+    )

@@ -43,9 +43,12 @@ import numpy as np
 __all__ = ["READERS", "Refused", "serve"]
 
 # request kind -> module serving it with read_request(request) -> list[dict]
-READERS = {"usd-curves": "follicle.io.usd_stage", "usd-mesh": "follicle.io.usd_mesh",
-           "abc-curves": "follicle.io.alembic_archive",
-           "abc-mesh": "follicle.io.alembic_archive"}  # fmt: skip
+READERS = {
+    "usd-curves": "follicle.io.usd_stage",
+    "usd-mesh": "follicle.io.usd_mesh",
+    "abc-curves": "follicle.io.alembic_archive",
+    "abc-mesh": "follicle.io.alembic_archive",
+}
 
 
 class Refused(Exception):
@@ -85,8 +88,10 @@ def _read_request(request: dict, reader: ModuleType) -> None:
     except Refused as exc:
         result = {"refused": str(exc)}
     except MemoryError:
-        result = {"refused": f"{source}: {request['tool']} needed more than {cap / 2**30:.1f}"
-                             f" GiB reading it; {request['hint']}"}  # fmt: skip
+        result = {
+            "refused": f"{source}: {request['tool']} needed more than {cap / 2**30:.1f}"
+            f" GiB reading it; {request['hint']}"
+        }
     _result(out, result)
 
 
@@ -154,9 +159,14 @@ def serve() -> None:
         try:
             reader = _reader(request["kind"], loaded)
         except ImportError as exc:  # the binding is missing or broken: say so, keep serving
-            _result(Path(request["out"]), {"refused": f"{request['shown']}: {request['tool']}"
-                                           f" cannot be imported ({exc}); reinstall follicle's"
-                                           " dependencies"})  # fmt: skip
+            _result(
+                Path(request["out"]),
+                {
+                    "refused": f"{request['shown']}: {request['tool']}"
+                    f" cannot be imported ({exc}); reinstall follicle's"
+                    " dependencies"
+                },
+            )
             reply = {"code": 0, "timed_out": False}
         else:
             pid = os.fork()

@@ -30,7 +30,8 @@ def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
     if stat.S_ISDIR(mode):
         raise FormatError(f"{p}: is a folder, not a file; give a {what}")
     if not stat.S_ISREG(mode):
-        kind = "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) \
-            else "a device"  # fmt: skip
+        kind = (
+            "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+        )
         raise FormatError(f"{p}: is {kind}, not a regular file; give a {what}")
     return p

@@ -114,8 +114,7 @@ _ERRORS = {
 def load_mitsuba(path: str | os.PathLike[str]) -> HairCurves:
     """Read a Mitsuba curve file: the points its B-splines pass, with ``width``."""
     p, buf = read_bytes(path)
-    err, at, rows, curves = _scan(buf, False, np.empty((0, 4), np.float32),
-                                  np.empty(0, np.int64))
+    err, at, rows, curves = _scan(buf, False, np.empty((0, 4), np.float32), np.empty(0, np.int64))
     if not err:
         control = np.empty((rows, 4), dtype=np.float32)
         counts = np.empty(curves, dtype=np.int64)
@@ -125,8 +124,11 @@ def load_mitsuba(path: str | os.PathLike[str]) -> HairCurves:
     offsets = np.zeros(curves + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
     points, new_offsets = from_bspline(control, offsets)
-    return HairCurves(points.astype(np.float32)[:, :3], new_offsets,
-                      {"width": (2.0 * points[:, 3]).astype(np.float32)})
+    return HairCurves(
+        points.astype(np.float32)[:, :3],
+        new_offsets,
+        {"width": (2.0 * points[:, 3]).astype(np.float32)},
+    )
 
 
 @njit(cache=True)

@@ -52,11 +52,28 @@ CHUNK = 1 << 20  # bytes read from a member at a time
 _DAMAGED = "the file is damaged or was not written by follicle or numpy; write it again"
 # What zipfile and zlib raise on damaged archives: each becomes a FormatError. RuntimeError
 # covers encryption (NotImplementedError, its subclass, an unsupported method or version).
-_ZIP_ERRORS = (zipfile.BadZipFile, RuntimeError, ValueError, EOFError, OSError, struct.error,
-               zlib.error, OverflowError, MemoryError)  # fmt: skip
+_ZIP_ERRORS = (
+    zipfile.BadZipFile,
+    RuntimeError,
+    ValueError,
+    EOFError,
+    OSError,
+    struct.error,
+    zlib.error,
+    OverflowError,
+    MemoryError,
+)
 # What numpy's .npy header parser raises on crafted text (tokenize: unbalanced brackets).
-_HEADER_ERRORS = (ValueError, SyntaxError, TypeError, RecursionError, MemoryError, EOFError,
-                  OverflowError, tokenize.TokenError)  # fmt: skip
+_HEADER_ERRORS = (
+    ValueError,
+    SyntaxError,
+    TypeError,
+    RecursionError,
+    MemoryError,
+    EOFError,
+    OverflowError,
+    tokenize.TokenError,
+)
 
 
 def save_npz(curves: Curves, path: str | os.PathLike[str]) -> Path:
@@ -120,9 +137,7 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
 
 
-def _checked_directory(
-    p: Path, infos: list[zipfile.ZipInfo], size: int
-) -> list[zipfile.ZipInfo]:
+def _checked_directory(p: Path, infos: list[zipfile.ZipInfo], size: int) -> list[zipfile.ZipInfo]:
     """The members of the zip directory, or FormatError if one cannot be a plain .npy
     or together they declare more than a file of ``size`` bytes can plausibly hold."""
     seen: set[str] = set()

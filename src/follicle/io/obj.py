@@ -38,8 +38,11 @@ def save_obj(chunks: Iterator[HairCurves], path: str | os.PathLike[str]) -> Path
     temporary file beside ``path`` and appended after every vertex."""
     target = Path(path)
     base = 0
-    with atomic_path(target) as tmp, open(tmp, "wb") as out, \
-            tempfile.TemporaryFile(dir=tmp.parent, prefix=".spool.") as lines:  # fmt: skip
+    with (
+        atomic_path(target) as tmp,
+        open(tmp, "wb") as out,
+        tempfile.TemporaryFile(dir=tmp.parent, prefix=".spool.") as lines,
+    ):
         out.write(HEADER)
         for chunk in chunks:
             p = chunk.point_count
@@ -75,8 +78,9 @@ def load_obj(path: str | os.PathLike[str]) -> HairCurves:
     """Read the ``l`` polylines of an OBJ file as curves (positions only)."""
     p, raw = read_bytes(path)
     buf, joined = join_continued(raw)
-    err, at, nv, ni, nl = _scan(buf, False, np.empty((0, 3), np.float32),
-                                np.empty(0, np.int64), np.empty(0, np.int64), 0)
+    err, at, nv, ni, nl = _scan(
+        buf, False, np.empty((0, 3), np.float32), np.empty(0, np.int64), np.empty(0, np.int64), 0
+    )
     if not err:
         verts = np.empty((nv, 3), dtype=np.float32)
         index = np.empty(ni, dtype=np.int64)

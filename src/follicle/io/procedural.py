@@ -107,8 +107,13 @@ class Export:
     boxes: np.ndarray
 
 
-def _voxel_boxes(groom: Groom, triangle_voxels: np.ndarray, size: int, time: float,
-                 progress: Callable[[int, int], None] | None) -> tuple[np.ndarray, np.ndarray]:
+def _voxel_boxes(
+    groom: Groom,
+    triangle_voxels: np.ndarray,
+    size: int,
+    time: float,
+    progress: Callable[[int, int], None] | None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Each voxel's curve count (V,) and box (V, 2, 3) of its hair as the RIB draws it
     (infinite where it has none)."""
     count = groom.params.count
@@ -137,15 +142,21 @@ def _voxel_boxes(groom: Groom, triangle_voxels: np.ndarray, size: int, time: flo
 
 def _rib_string(text: str, what: str) -> str:
     if re.search(r'["\\\x00-\x1f\x7f]', text):
-        raise InputError(f"{what} {text!r}: a RIB string here cannot hold quotes, backslashes"
-                         " or control characters; choose another path")  # fmt: skip
+        raise InputError(
+            f"{what} {text!r}: a RIB string here cannot hold quotes, backslashes"
+            " or control characters; choose another path"
+        )
     return text
 
 
 def export_rib(
-    scene: Scene, path: str | os.PathLike[str], voxels: int = 8, pose: np.ndarray | None = None,
-    time: float = 0.0, progress: Callable[[int, int], None] | None = None,
-) -> Export:  # fmt: skip
+    scene: Scene,
+    path: str | os.PathLike[str],
+    voxels: int = 8,
+    pose: np.ndarray | None = None,
+    time: float = 0.0,
+    progress: Callable[[int, int], None] | None = None,
+) -> Export:
     """Write ``path`` (a RIB of one RunProgram procedural per voxel with hair) and its frame
     file beside it (``path`` with suffix ``.follicle.z``), both or neither.
 
@@ -173,25 +184,41 @@ def export_rib(
     curves, boxes = _voxel_boxes(groom, tri_voxels, grid.size, time, progress)
     filled = np.flatnonzero(curves)
     expected = [count * groom.sampler.region_probability(tri_voxels == v) for v in filled]
-    frame = FrameData(toml, str(Path(scene.base_dir).resolve()), time, grid,
-                      {int(v): int(roots[v]) for v in np.flatnonzero(roots)},
-                      None if pose is None else groom.mesh.vertices)  # fmt: skip
+    frame = FrameData(
+        toml,
+        str(Path(scene.base_dir).resolve()),
+        time,
+        grid,
+        {int(v): int(roots[v]) for v in np.flatnonzero(roots)},
+        None if pose is None else groom.mesh.vertices,
+    )
     lines = [
-        "##RenderMan RIB", "version 3.04",
+        "##RenderMan RIB",
+        "version 3.04",
         f"# follicle {count:,} hairs: {len(filled)} voxels with hair of a"
         f" {'×'.join(map(str, grid.dims))} grid (cells {grid.cell:.6g} wide) over the rest mesh,"
         f" grown at render time by {PROGRAM} from {frame_path.name}",
-    ]  # fmt: skip
+    ]
     for v, expect in zip(filled, expected, strict=True):
         box = " ".join(repr(float(x)) for x in boxes[v].T.reshape(-1))
-        lines.append(f"# voxel {v} {grid.cell_of(v)}: {roots[v]} hairs (count × P(voxel) ="
-                     f" {expect:.1f}), {curves[v]} curves")  # fmt: skip
+        lines.append(
+            f"# voxel {v} {grid.cell_of(v)}: {roots[v]} hairs (count × P(voxel) ="
+            f" {expect:.1f}), {curves[v]} curves"
+        )
         lines.append(f'Procedural "RunProgram" ["{PROGRAM}" "{datablock} {v}"] [{box}]')
     with atomic_path(rib_path) as rib_tmp, atomic_path(frame_path) as frame_tmp:
         frame_tmp.write_bytes(frame.to_bytes())  # renamed first, then the RIB
         rib_tmp.write_bytes(("\n".join(lines) + "\n").encode())
-    return Export(rib_path, frame_path, grid, filled.tolist(), roots[filled].tolist(), expected,
-                  curves[filled].tolist(), boxes[filled])  # fmt: skip
+    return Export(
+        rib_path,
+        frame_path,
+        grid,
+        filled.tolist(),
+        roots[filled].tolist(),
+        expected,
+        curves[filled].tolist(),
+        boxes[filled],
+    )
 
 
 # ------------------------------------------------------------------ render time
@@ -205,12 +232,15 @@ class _Frame:
             self.groom.mesh.set_pose(vertices=data.pose)
         self.time = data.time
         self.size = data.grid.size
-        self.roots = _sorted_roots(self.groom, data.grid.triangle_voxels(self.groom.mesh),
-                                   self.size)  # fmt: skip
+        self.roots = _sorted_roots(
+            self.groom, data.grid.triangle_voxels(self.groom.mesh), self.size
+        )
         counts = np.diff(self.roots.starts)
         if {int(v): int(counts[v]) for v in np.flatnonzero(counts)} != data.roots:
-            raise FormatError(f"{path}: the hair roots differ from the exported ones (the mesh"
-                              " or density map changed); export the RIB again")  # fmt: skip
+            raise FormatError(
+                f"{path}: the hair roots differ from the exported ones (the mesh"
+                " or density map changed); export the RIB again"
+            )
 
     def curves(self, voxel: int) -> Iterator[HairCurves]:
         """The hairs of ``voxel``, in id order, a chunk at a time."""
@@ -246,8 +276,9 @@ def parse_request(line: bytes) -> Request:
     text = line.removesuffix(b"\n").removesuffix(b"\r").decode("utf-8", errors="replace")
     match = _REQUEST.fullmatch(text)
     if match is None or "\ufffd" in text:
-        raise InputError(f"malformed request {text[:200]!r}; expected '<detail> <frame file>"
-                         " <voxel>'")  # fmt: skip
+        raise InputError(
+            f"malformed request {text[:200]!r}; expected '<detail> <frame file> <voxel>'"
+        )
     return Request(float(match["detail"]), match["frame"], int(match["voxel"]))
 
 

@@ -49,8 +49,11 @@ class VoxelGrid:
     def check(voxels: object) -> int:
         """``voxels`` as cells along the longest side; InputError unless a whole number in
         1 … MAX_VOXELS."""
-        if isinstance(voxels, bool) or not isinstance(voxels, (int, np.integer)) \
-                or not 1 <= voxels <= MAX_VOXELS:  # fmt: skip
+        if (
+            isinstance(voxels, bool)
+            or not isinstance(voxels, (int, np.integer))
+            or not 1 <= voxels <= MAX_VOXELS
+        ):
             raise InputError(f"voxels: expected a whole number in 1 … {MAX_VOXELS}, got {voxels!r}")
         return int(voxels)
 
@@ -97,11 +100,15 @@ class FrameData:
 
     def to_bytes(self) -> bytes:
         header = {
-            "scene_toml": self.scene_toml, "base_dir": self.base_dir, "time": self.time,
-            "origin": list(self.grid.origin), "cell": self.grid.cell, "dims": list(self.grid.dims),
+            "scene_toml": self.scene_toml,
+            "base_dir": self.base_dir,
+            "time": self.time,
+            "origin": list(self.grid.origin),
+            "cell": self.grid.cell,
+            "dims": list(self.grid.dims),
             "roots": [[v, n] for v, n in sorted(self.roots.items())],
             "pose_vertices": None if self.pose is None else len(self.pose),
-        }  # fmt: skip
+        }
         pose = b"" if self.pose is None else np.asarray(self.pose, "<f8").tobytes()
         body = json.dumps(header, ensure_ascii=False).encode() + b"\n" + pose
         return _MAGIC + zlib.compress(body, 9)
@@ -135,8 +142,16 @@ class FrameData:
     @classmethod
     def _from_header(cls, h: dict, pose: bytes) -> FrameData:
         """Check every field's type and range (ValueError, TypeError or KeyError if off)."""
-        want = {"scene_toml", "base_dir", "time", "origin", "cell", "dims", "roots",
-                "pose_vertices"}  # fmt: skip
+        want = {
+            "scene_toml",
+            "base_dir",
+            "time",
+            "origin",
+            "cell",
+            "dims",
+            "roots",
+            "pose_vertices",
+        }
         if set(h) != want:
             raise ValueError(f"fields {sorted(h)}, expected {sorted(want)}")
         dims = tuple(_whole(d, 1, MAX_VOXELS, "dims") for d in h["dims"])
@@ -145,8 +160,10 @@ class FrameData:
         if len(dims) != 3 or len(origin) != 3 or not cell > 0:
             raise ValueError("bad grid")
         grid = VoxelGrid(origin, cell, dims)
-        roots = {_whole(v, 0, grid.size - 1, "voxel"): _whole(n, 1, 2**53, "roots")
-                 for v, n in h["roots"]}  # fmt: skip
+        roots = {
+            _whole(v, 0, grid.size - 1, "voxel"): _whole(n, 1, 2**53, "roots")
+            for v, n in h["roots"]
+        }
         count = h["pose_vertices"]
         if count is None:
             vertices = None
@@ -158,8 +175,9 @@ class FrameData:
             vertices = np.frombuffer(pose, "<f8").reshape(count, 3).astype(np.float64)
         if not isinstance(h["scene_toml"], str) or not isinstance(h["base_dir"], str):
             raise TypeError("scene_toml and base_dir must be text")
-        return cls(h["scene_toml"], h["base_dir"], _finite(h["time"], "time"), grid, roots,
-                   vertices)  # fmt: skip
+        return cls(
+            h["scene_toml"], h["base_dir"], _finite(h["time"], "time"), grid, roots, vertices
+        )
 
 
 def _whole(x: object, lo: int, hi: int, name: str) -> int:

@@ -193,8 +193,9 @@ def _indices(curves: HairCurves, key: str, default: np.ndarray) -> np.ndarray:
     if values is None:
         return default
     if values.ndim != 1 or values.dtype.kind not in "iu" and not np.all(np.mod(values, 1) == 0):
-        raise InputError(f"curve_data['{key}']: expected whole numbers (C,), got {values.dtype}"
-                         f" {values.shape}")  # fmt: skip
+        raise InputError(
+            f"curve_data['{key}']: expected whole numbers (C,), got {values.dtype} {values.shape}"
+        )
     if values.size and (values.min() < -_INT32_MAX - 1 or values.max() > _INT32_MAX):
         raise InputError(f"curve_data['{key}']: values beyond RIB's 32-bit int range")
     return values.astype(np.int64)
@@ -222,8 +223,10 @@ def _curves(fh: BinaryIO, curves: HairCurves, first_index: int, normals: bool) -
             continue
         values = pd[key].reshape(len(pd[key]), -1)
         if values.shape[1] != comps:
-            raise InputError(f"point_data['{key}']: expected {comps} values a vertex for"
-                             f" \"{token}\", got shape {pd[key].shape}")  # fmt: skip
+            raise InputError(
+                f"point_data['{key}']: expected {comps} values a vertex for"
+                f' "{token}", got shape {pd[key].shape}'
+            )
         if token == "Os":
             values = np.repeat(values, 3, axis=1)  # RIB opacity is a colour
         fh.write(f']\n    "{token}" ['.encode())
@@ -233,8 +236,9 @@ def _curves(fh: BinaryIO, curves: HairCurves, first_index: int, normals: bool) -
         if values is None:
             continue
         if values.shape != (c, 2):
-            raise InputError(f"curve_data uv for \"{name}\": expected shape ({c}, 2), got"
-                             f" {values.shape}")  # fmt: skip
+            raise InputError(
+                f'curve_data uv for "{name}": expected shape ({c}, 2), got {values.shape}'
+            )
         fh.write(f']\n    "uniform float[2] {name}" ['.encode())
         _write_floats(fh, values, 12)
     for name, values in (("hair_index", hair_index), ("strand_index", strand_index)):
@@ -280,19 +284,25 @@ def save_rib_motion(
     except (TypeError, ValueError):
         raise InputError(f"times: expected numbers, got {times!r}") from None
     if len(samples) < 2 or len(stamps) != len(samples):
-        raise InputError(f"samples/times: need two or more samples and one time each, got"
-                         f" {len(samples)} samples and {len(stamps)} times")  # fmt: skip
+        raise InputError(
+            f"samples/times: need two or more samples and one time each, got"
+            f" {len(samples)} samples and {len(stamps)} times"
+        )
     if not np.all(np.isfinite(stamps)) or np.any(np.diff(stamps) <= 0):
         raise InputError(f"times: must be finite and strictly increasing, got {stamps.tolist()}")
     first = samples[0]
     for i, sample in enumerate(samples):
         if not isinstance(sample, HairCurves):
             raise InputError(f"samples: sample {i} is a {type(sample).__name__}, not HairCurves")
-        if not np.array_equal(sample.offsets, first.offsets) or \
-                set(sample.point_data) != set(first.point_data) or \
-                set(sample.curve_data) != set(first.curve_data):  # fmt: skip
-            raise InputError(f"samples: sample {i} differs from sample 0 in its curves, vertex"
-                             " counts or attribute names; motion samples must match")  # fmt: skip
+        if (
+            not np.array_equal(sample.offsets, first.offsets)
+            or set(sample.point_data) != set(first.point_data)
+            or set(sample.curve_data) != set(first.curve_data)
+        ):
+            raise InputError(
+                f"samples: sample {i} differs from sample 0 in its curves, vertex"
+                " counts or attribute names; motion samples must match"
+            )
     if not first.curve_count:
         raise InputError("samples: the curves are empty; nothing to write")
     target = Path(path)

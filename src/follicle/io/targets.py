@@ -25,8 +25,15 @@ from ..curves import HairCurves
 from ..errors import InputError
 from .attributes import DEFAULT_WIDTH
 
-__all__ = ["Target", "TARGETS", "TARGET_NAMES", "get_target", "for_target", "problems",
-           "MAX_UNREAL_POINTS"]
+__all__ = [
+    "Target",
+    "TARGETS",
+    "TARGET_NAMES",
+    "get_target",
+    "for_target",
+    "problems",
+    "MAX_UNREAL_POINTS",
+]
 
 log = logging.getLogger("follicle")
 
@@ -61,24 +68,50 @@ class Target:
         return 1.0 / self.meters_per_unit
 
 
-TARGETS: dict[str, Target] = {t.name: t for t in (
-    Target("generic", "Blender", "any USD or Alembic reader; opens right in Blender and Houdini"),
-    Target("blender", "Blender", "Blender 4–5 hair curves (its hair tools' attribute names)",
-           curve_names={"root_uv": "surface_uv_coordinate"},
-           alembic_reads=frozenset({"width"}),  # measured, bpy 5.0.1
-           unused=frozenset({"normal"})),  # its hair is round tubes: USD import drops them
-    Target("houdini", "Houdini", "Houdini SOPs and Solaris (its groom attribute names)",
-           point_names={"color": "Cd"}, curve_names={"root_uv": "uv"}, int32=False,
-           houdini_skin=True),
-    Target("unreal", "Unreal", "Unreal Engine's groom import (Alembic groom schema, USD"
-           " GroomAPI)", point_names={"color": "groom_color"},
-           curve_names={"root_uv": "groom_root_uv", "hair_id": "groom_id",
-                        "guide_id": "groom_id", "closest_guides": "groom_closest_guides",
-                        "guide_weights": "groom_guide_weights"},
-           meters_per_unit=0.01, max_points=MAX_UNREAL_POINTS,
-           guide_flag="groom_guide", prefix="groom_", groom_schema=True),
-    Target("unity", "Unity", "Unity's hair package (com.unity.demoteam.hair)", int32=False),
-)}  # fmt: skip
+TARGETS: dict[str, Target] = {
+    t.name: t
+    for t in (
+        Target(
+            "generic", "Blender", "any USD or Alembic reader; opens right in Blender and Houdini"
+        ),
+        Target(
+            "blender",
+            "Blender",
+            "Blender 4–5 hair curves (its hair tools' attribute names)",
+            curve_names={"root_uv": "surface_uv_coordinate"},
+            alembic_reads=frozenset({"width"}),  # measured, bpy 5.0.1
+            unused=frozenset({"normal"}),
+        ),  # its hair is round tubes: USD import drops them
+        Target(
+            "houdini",
+            "Houdini",
+            "Houdini SOPs and Solaris (its groom attribute names)",
+            point_names={"color": "Cd"},
+            curve_names={"root_uv": "uv"},
+            int32=False,
+            houdini_skin=True,
+        ),
+        Target(
+            "unreal",
+            "Unreal",
+            "Unreal Engine's groom import (Alembic groom schema, USD GroomAPI)",
+            point_names={"color": "groom_color"},
+            curve_names={
+                "root_uv": "groom_root_uv",
+                "hair_id": "groom_id",
+                "guide_id": "groom_id",
+                "closest_guides": "groom_closest_guides",
+                "guide_weights": "groom_guide_weights",
+            },
+            meters_per_unit=0.01,
+            max_points=MAX_UNREAL_POINTS,
+            guide_flag="groom_guide",
+            prefix="groom_",
+            groom_schema=True,
+        ),
+        Target("unity", "Unity", "Unity's hair package (com.unity.demoteam.hair)", int32=False),
+    )
+}
 TARGET_NAMES = tuple(TARGETS)
 
 
@@ -98,8 +131,14 @@ def _narrow_ints(data: dict[str, np.ndarray], what: str) -> dict[str, np.ndarray
     for k, v in data.items():
         if v.dtype.kind in "iu" and v.dtype.itemsize >= 4 and v.dtype != np.int32:
             if v.size and (v.min() < _INT32.min or v.max() > _INT32.max):
-                log.warning("%s '%s' not written: its values (%d … %d) do not fit the int32"
-                            " the target reads", what, k, int(v.min()), int(v.max()))  # fmt: skip
+                log.warning(
+                    "%s '%s' not written: its values (%d … %d) do not fit the int32"
+                    " the target reads",
+                    what,
+                    k,
+                    int(v.min()),
+                    int(v.max()),
+                )
                 continue
             v = v.astype(np.int32)
         out[k] = v
@@ -116,23 +155,33 @@ def _sized(curves: HairCurves, target: Target, role: str) -> HairCurves:
     from .tfx import resample_fixed  # evenly by arc length, attributes interpolated
 
     long = counts > target.max_points
-    log.warning("%s: %d %s curve(s) of more than %d points resampled to %d by arc length",
-                target.name, int(long.sum()), role, target.max_points, target.max_points)
+    log.warning(
+        "%s: %d %s curve(s) of more than %d points resampled to %d by arc length",
+        target.name,
+        int(long.sum()),
+        role,
+        target.max_points,
+        target.max_points,
+    )
     keep, cut = curves[np.flatnonzero(~long)], curves[np.flatnonzero(long)]
     floats = {k: v for k, v in cut.point_data.items() if v.dtype.kind == "f"}
     pos, attrs = resample_fixed(cut, target.max_points, floats)
     n = target.max_points
-    point_data = {k: attrs[k].reshape((len(cut) * n,) + cut.point_data[k].shape[1:])
-                  for k in floats}  # fmt: skip
+    point_data = {
+        k: attrs[k].reshape((len(cut) * n,) + cut.point_data[k].shape[1:]) for k in floats
+    }
     dropped = sorted(set(cut.point_data) - set(floats))
     if dropped:
-        log.warning("%s: per-point %s of the resampled curves left out (not numbers to"
-                    " interpolate)", target.name, ", ".join(dropped))  # fmt: skip
+        log.warning(
+            "%s: per-point %s of the resampled curves left out (not numbers to interpolate)",
+            target.name,
+            ", ".join(dropped),
+        )
     resampled = HairCurves.from_array(pos, point_data, dict(cut.curve_data))
-    keep = HairCurves(keep.points, keep.offsets, {k: keep.point_data[k] for k in floats},
-                      dict(keep.curve_data))  # fmt: skip
-    order = np.argsort(np.concatenate([np.flatnonzero(~long), np.flatnonzero(long)]),
-                       kind="stable")  # fmt: skip
+    keep = HairCurves(
+        keep.points, keep.offsets, {k: keep.point_data[k] for k in floats}, dict(keep.curve_data)
+    )
+    order = np.argsort(np.concatenate([np.flatnonzero(~long), np.flatnonzero(long)]), kind="stable")
     return HairCurves.concatenate([keep, resampled])[order]
 
 
@@ -148,8 +197,9 @@ def _houdini_skin(curve_data: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return out
 
 
-def for_target(curves: HairCurves, target: Target | str, role: str = "hair",
-               in_units: bool = True) -> HairCurves:  # fmt: skip
+def for_target(
+    curves: HairCurves, target: Target | str, role: str = "hair", in_units: bool = True
+) -> HairCurves:
     """``curves`` (one chunk) as ``target`` reads them: sized, renamed, ids as int32,
     in its units (``in_units=False`` keeps metres, for a format that declares its unit,
     like USD's ``metersPerUnit``, which the tool converts from). ``role`` is "hair" or
@@ -185,8 +235,7 @@ def for_target(curves: HairCurves, target: Target | str, role: str = "hair",
     if t.int32:
         point_data = _narrow_ints(point_data, "point attribute")
         curve_data = _narrow_ints(curve_data, "curve attribute")
-    return HairCurves(points.astype(np.float32, copy=False), curves.offsets, point_data,
-                      curve_data)  # fmt: skip
+    return HairCurves(points.astype(np.float32, copy=False), curves.offsets, point_data, curve_data)
 
 
 def problems(curves: HairCurves, target: Target | str, alembic: bool = False) -> list[str]:
@@ -199,29 +248,35 @@ def problems(curves: HairCurves, target: Target | str, alembic: bool = False) ->
     if alembic and t.alembic_reads is not None:
         lost = sorted((set(curves.point_data) | set(curves.curve_data)) - t.alembic_reads)
         if lost:
-            out.append(f"{t.tool}'s Alembic importer keeps only points and"
-                       f" {', '.join(sorted(t.alembic_reads))}: {', '.join(lost)} would be"
-                       " dropped; write USD for it")
+            out.append(
+                f"{t.tool}'s Alembic importer keeps only points and"
+                f" {', '.join(sorted(t.alembic_reads))}: {', '.join(lost)} would be"
+                " dropped; write USD for it"
+            )
     counts = curves.counts
     if t.max_points is not None and (counts > t.max_points).any():
-        out.append(f"{int((counts > t.max_points).sum()):,} curve(s) have more than"
-                   f" {t.max_points} points (up to {int(counts.max()):,}): {t.tool} refuses"
-                   f" them; `follicle export --target {t.name}` resamples them")
+        out.append(
+            f"{int((counts > t.max_points).sum()):,} curve(s) have more than"
+            f" {t.max_points} points (up to {int(counts.max()):,}): {t.tool} refuses"
+            f" them; `follicle export --target {t.name}` resamples them"
+        )
     data = {**curves.point_data, **curves.curve_data}
     if t.int32:
         for k, v in data.items():
             read = t.prefix is None or k.startswith(t.prefix)
             if read and v.dtype.kind in "iu" and v.dtype.itemsize > 4:
-                out.append(f"'{k}' is {v.dtype}: {t.tool} drops 64-bit integer attributes"
-                           " (write int32)")
+                out.append(
+                    f"'{k}' is {v.dtype}: {t.tool} drops 64-bit integer attributes (write int32)"
+                )
     for ours, theirs in {**t.point_names, **t.curve_names}.items():
         if theirs not in data and ours in data and (ours, theirs) != ("guide_id", "groom_id"):
             out.append(f"'{ours}' is there but {t.tool} reads '{theirs}'")
     if t.prefix is not None:
         ignored = sorted(k for k in data if not k.startswith(t.prefix) and k != "width")
         if ignored:
-            out.append(f"{t.tool} reads only {t.prefix}* attributes: {', '.join(ignored)}"
-                       " would be dropped")
+            out.append(
+                f"{t.tool} reads only {t.prefix}* attributes: {', '.join(ignored)} would be dropped"
+            )
     if "width" not in curves.point_data:
         out.append(f"no widths: {t.tool} draws every hair at its default width")
     return out

@@ -137,8 +137,9 @@ def _format_ints(values, ends, table, table_offsets, buf):
     return pos
 
 
-def write_values(fh: BinaryIO, values: np.ndarray, ends: np.ndarray,
-                 table: Sequence[bytes]) -> None:  # fmt: skip
+def write_values(
+    fh: BinaryIO, values: np.ndarray, ends: np.ndarray, table: Sequence[bytes]
+) -> None:
     """Write each of ``values`` (1-D float32, or integers) followed by the literal
     ``table[ends[i]]`` to the binary file ``fh``, as ASCII text."""
     lengths = np.array([0] + [len(t) for t in table], dtype=np.int64)
@@ -232,5 +233,6 @@ def join_continued(buf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def line_at(buf: np.ndarray, joined: np.ndarray, pos: int) -> int:
     """The 1-based line of the original file at position ``pos`` of ``buf`` as returned
     by :func:`join_continued` (``joined``: its second result)."""
-    return 1 + int(np.count_nonzero(buf[:pos] == 10)) + int(
-        np.searchsorted(joined, pos, side="right"))
+    return (
+        1 + int(np.count_nonzero(buf[:pos] == 10)) + int(np.searchsorted(joined, pos, side="right"))
+    )

@@ -57,12 +57,14 @@ TABLE3 = struct.Struct("<6I32I")  # 152 bytes, after the preamble
 _SECTIONS = ("positions", "strand_uv", "vertex_uv", "thickness", "colors")
 
 
-def save_tfx(chunks: Iterator[HairCurves], path: str | os.PathLike[str],
-             vertices: int | None = None) -> Path:  # fmt: skip
+def save_tfx(
+    chunks: Iterator[HairCurves], path: str | os.PathLike[str], vertices: int | None = None
+) -> Path:
     """Write hair as a TressFX 4.0 file with ``vertices`` vertices per strand, streaming:
     each section goes to its own temporary file, joined after the header at the end."""
-    if vertices is not None and (isinstance(vertices, bool) or not isinstance(
-            vertices, (int, np.integer)) or vertices < 2):  # fmt: skip
+    if vertices is not None and (
+        isinstance(vertices, bool) or not isinstance(vertices, (int, np.integer)) or vertices < 2
+    ):
         raise InputError(f"vertices: expected a whole number ≥ 2, got {vertices!r}")
     target = Path(path)
     n = None if vertices is None else int(vertices)
@@ -86,10 +88,13 @@ def save_tfx(chunks: Iterator[HairCurves], path: str | os.PathLike[str],
                 offsets[name] = end
                 end += spool.sizes[name] + (-spool.sizes[name] % 8)
         if end > 2**32 - 1:
-            raise InputError(f"curves: the TressFX file would take {end:,} bytes; its offsets"
-                             " are uint32 (at most 4 GiB)")
-        header = HEADER4.pack(4.0, strands, n or 0, *(offsets.get(s, 0) for s in _SECTIONS),
-                              *[0] * 32)
+            raise InputError(
+                f"curves: the TressFX file would take {end:,} bytes; its offsets"
+                " are uint32 (at most 4 GiB)"
+            )
+        header = HEADER4.pack(
+            4.0, strands, n or 0, *(offsets.get(s, 0) for s in _SECTIONS), *[0] * 32
+        )
         with open(tmp, "wb") as out:
             out.write(header)
             spool.join(out, [s for s in _SECTIONS if s in present], align=8)
@@ -131,14 +136,18 @@ def _arc_fraction(pos: np.ndarray) -> np.ndarray:
     return np.divide(cum, total, out=np.zeros_like(cum), where=total > 0)
 
 
-def resample_fixed(curves: HairCurves, n: int, attrs: dict[str, np.ndarray],
-                   ) -> tuple[np.ndarray, dict[str, np.ndarray]]:  # fmt: skip
+def resample_fixed(
+    curves: HairCurves,
+    n: int,
+    attrs: dict[str, np.ndarray],
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Positions (C, n, 3) float32 and per-vertex ``attrs`` (C, n, k) with ``n`` vertices
     per curve: curves of n vertices as they are, the others resampled evenly by arc
     length along their polylines (linear interpolation, root and tip kept)."""
     c = curves.curve_count
-    flat = {k: np.asarray(v, dtype=np.float32).reshape(curves.point_count, -1)
-            for k, v in attrs.items()}
+    flat = {
+        k: np.asarray(v, dtype=np.float32).reshape(curves.point_count, -1) for k, v in attrs.items()
+    }
     pos = np.empty((c, n, 3), dtype=np.float32)
     out = {k: np.empty((c, n, v.shape[1]), dtype=np.float32) for k, v in flat.items()}
     same = curves.counts == n
@@ -157,7 +166,8 @@ def resample_fixed(curves: HairCurves, n: int, attrs: dict[str, np.ndarray],
         for dst, v in [(pos, pts)] + [(out[k], f[rows]) for k, f in flat.items()]:
             vv = v.astype(np.float64, copy=False)
             dst[which] = ((1.0 - w)[:, None] * vv[a] + w[:, None] * vv[b]).reshape(
-                len(which), n, -1)
+                len(which), n, -1
+            )
     return pos, out
 
 
@@ -168,8 +178,11 @@ def _vertex_rows(offsets: np.ndarray, which: np.ndarray) -> np.ndarray:
     return starts + np.arange(int(counts.sum()))
 
 
-def _arc_stencil(pts: np.ndarray, offsets: np.ndarray, n: int,
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+def _arc_stencil(
+    pts: np.ndarray,
+    offsets: np.ndarray,
+    n: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For n points per curve evenly spaced by arc length: the vertices (a, b) each lies
     between and the weight w of b, flat over all curves."""
     c = len(offsets) - 1
@@ -206,10 +219,17 @@ def _read_v4(f: BinaryFile) -> HairCurves:
     _, strands, n, *offs = f.unpack("header", HEADER4.format)[:8]
     sizes = dict(zip(_SECTIONS, (16, 8, 8, 4, 16), strict=True))
     per_strand = {"strand_uv", "thickness"}
-    return _read_sections(f, HEADER4.size, strands, n, {
-        name: (off, sizes[name] * (strands if name in per_strand else strands * n))
-        for name, off in zip(_SECTIONS, offs, strict=True)
-    }, {"positions": 4, "strand_uv": 2, "thickness": 0, "colors": 4})
+    return _read_sections(
+        f,
+        HEADER4.size,
+        strands,
+        n,
+        {
+            name: (off, sizes[name] * (strands if name in per_strand else strands * n))
+            for name, off in zip(_SECTIONS, offs, strict=True)
+        },
+        {"positions": 4, "strand_uv": 2, "thickness": 0, "colors": 4},
+    )
 
 
 def _read_v3(f: BinaryFile) -> HairCurves:
@@ -218,16 +238,34 @@ def _read_v3(f: BinaryFile) -> HairCurves:
         table = {"positions": (PREAMBLE3.size, 12 * strands * n)}
         return _read_sections(f, PREAMBLE3.size, strands, n, table, {"positions": 3})
     names = ("positions", "thickness", "strand_uv", "colors", "guide_flags", "vertex_uv")
-    sizes = (12 * strands * n, 4 * strands, 8 * strands, 16 * strands * n, 4 * strands,
-             8 * strands * n)
+    sizes = (
+        12 * strands * n,
+        4 * strands,
+        8 * strands,
+        16 * strands * n,
+        4 * strands,
+        8 * strands * n,
+    )
     offs = f.unpack("offset table", TABLE3.format, PREAMBLE3.size)[:6]
     table = {name: (off, size) for name, off, size in zip(names, offs, sizes, strict=True)}
-    return _read_sections(f, PREAMBLE3.size + TABLE3.size, strands, n, table,
-                          {"positions": 3, "strand_uv": 2, "thickness": 0, "colors": 4})
+    return _read_sections(
+        f,
+        PREAMBLE3.size + TABLE3.size,
+        strands,
+        n,
+        table,
+        {"positions": 3, "strand_uv": 2, "thickness": 0, "colors": 4},
+    )
 
 
-def _read_sections(f: BinaryFile, header_size: int, strands: int, n: int,
-                   table: dict[str, tuple[int, int]], widths: dict[str, int]) -> HairCurves:
+def _read_sections(
+    f: BinaryFile,
+    header_size: int,
+    strands: int,
+    n: int,
+    table: dict[str, tuple[int, int]],
+    widths: dict[str, int],
+) -> HairCurves:
     """Validate the sections ``name -> (offset, bytes)`` (offset 0: absent) and read the
     float ones named in ``widths`` (floats per item; 0 for one float per strand)."""
     if strands and n < 2:
@@ -243,8 +281,9 @@ def _read_sections(f: BinaryFile, header_size: int, strands: int, n: int,
         if name in present:
             offset, size = present[name]
             count = size // (4 * max(k, 1))
-            arrays[name] = check_finite(f, name, f.array(name, offset, count, "<f4",
-                                                         (k,) if k else ()))
+            arrays[name] = check_finite(
+                f, name, f.array(name, offset, count, "<f4", (k,) if k else ())
+            )
     points = strands * n
     point_data, curve_data = {}, {}
     if "thickness" in arrays:

@@ -72,8 +72,17 @@ if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
     from ..sim.cache import SimCache
 
-__all__ = ["save_usd", "save_usd_cache", "load_usd", "usd_parts", "HAIR_PATH",
-           "GUIDES_PATH", "SKIN_PATH", "HEAD_PATH", "SUFFIXES"]
+__all__ = [
+    "save_usd",
+    "save_usd_cache",
+    "load_usd",
+    "usd_parts",
+    "HAIR_PATH",
+    "GUIDES_PATH",
+    "SKIN_PATH",
+    "HEAD_PATH",
+    "SUFFIXES",
+]
 
 log = logging.getLogger("follicle")
 
@@ -86,8 +95,12 @@ HEAD_PATH = "/Groom/Head"  # an animation's head motion, the skin under it (Head
 SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")  # ".usd" is written as crate
 
 # point_data / curve_data name -> USD attribute written by the schema, not as a primvar
-_SPECIAL = {"width": "widths", "normal": "normals", "color": "displayColor",
-            "opacity": "displayOpacity"}  # fmt: skip
+_SPECIAL = {
+    "width": "widths",
+    "normal": "normals",
+    "color": "displayColor",
+    "opacity": "displayOpacity",
+}
 _RESERVED = set(_SPECIAL.values())
 
 
@@ -98,9 +111,15 @@ def _type_table() -> dict[tuple[str, int], Sdf.ValueTypeName]:
     for code, base in (("<f4", "Float"), ("<f8", "Double"), ("<f2", "Half"), ("<i4", "Int")):
         for k in (1, 2, 3, 4):
             table[(code, k)] = getattr(names, f"{base}{k if k > 1 else ''}Array")
-    table.update({("<i8", 1): names.Int64Array, ("<u4", 1): names.UIntArray,
-                  ("<u8", 1): names.UInt64Array, ("|u1", 1): names.UCharArray,
-                  ("|b1", 1): names.BoolArray})  # fmt: skip
+    table.update(
+        {
+            ("<i8", 1): names.Int64Array,
+            ("<u4", 1): names.UIntArray,
+            ("<u8", 1): names.UInt64Array,
+            ("|u1", 1): names.UCharArray,
+            ("|b1", 1): names.BoolArray,
+        }
+    )
     return table
 
 
@@ -171,11 +190,20 @@ def _define_curves(stage: Usd.Stage, path: str, curves: HairCurves, normals: boo
             if data is pd and name in _SPECIAL:
                 continue
             value = _primvar_value(arr)
-            if name in _RESERVED or name in written or value is None \
-                    or not Sdf.Path.IsValidNamespacedIdentifier(name):  # fmt: skip
-                log.warning("USD: %s '%s' (%s %s) not written: reserved or repeated name,"
-                            " or no USD type for it", "point_data" if data is pd
-                            else "curve_data", name, arr.dtype, arr.shape)  # fmt: skip
+            if (
+                name in _RESERVED
+                or name in written
+                or value is None
+                or not Sdf.Path.IsValidNamespacedIdentifier(name)
+            ):
+                log.warning(
+                    "USD: %s '%s' (%s %s) not written: reserved or repeated name,"
+                    " or no USD type for it",
+                    "point_data" if data is pd else "curve_data",
+                    name,
+                    arr.dtype,
+                    arr.shape,
+                )
                 continue
             api.CreatePrimvar(name, value[0], interpolation).Set(value[1])
             written.add(name)
@@ -197,15 +225,20 @@ def _new_stage(path: Path, groom_schema: bool = False) -> Usd.Stage:
     return stage
 
 
-def _write_crate(chunks: Iterator[HairCurves], crate: Path, guides: HairCurves | None,
-                 normals: bool, mesh: SkinMesh | None, groom_schema: bool) -> None:  # fmt: skip
+def _write_crate(
+    chunks: Iterator[HairCurves],
+    crate: Path,
+    guides: HairCurves | None,
+    normals: bool,
+    mesh: SkinMesh | None,
+    groom_schema: bool,
+) -> None:
     stage = _new_stage(crate, groom_schema)
     layer = stage.GetRootLayer()
     if mesh is not None:
         define_skin(stage, SKIN_PATH, mesh)
     if guides is not None:
-        _define_curves(stage, GROOM_GUIDES_PATH if groom_schema else GUIDES_PATH, guides,
-                       normals)  # fmt: skip
+        _define_curves(stage, GROOM_GUIDES_PATH if groom_schema else GUIDES_PATH, guides, normals)
     for i, chunk in enumerate(chunks):
         _define_curves(stage, f"{HAIR_PATH}/chunk_{i:04d}", chunk, normals)
         layer.Save()  # crate appends the chunk and lets go of its arrays
@@ -249,11 +282,18 @@ def _package(crate: Path, usdz: Path, target: Path) -> None:
                 crc = zlib.crc32(block, crc)
                 out.write(block)
         # version 2.0, no flags, stored, 1980-01-01 00:00 (DOS date 0x21), crc, sizes
-        common = struct.pack("<HHHHHIIIHH", 20, 0, 0, 0, 0x21, crc, size, size, len(name),
-                             len(extra))  # fmt: skip
+        common = struct.pack(
+            "<HHHHHIIIHH", 20, 0, 0, 0, 0x21, crc, size, size, len(name), len(extra)
+        )
         central = out.tell()
-        out.write(b"PK\x01\x02" + struct.pack("<H", 20) + common
-                  + struct.pack("<HHHII", 0, 0, 0, 0, 0) + name + extra)  # fmt: skip
+        out.write(
+            b"PK\x01\x02"
+            + struct.pack("<H", 20)
+            + common
+            + struct.pack("<HHHII", 0, 0, 0, 0, 0)
+            + name
+            + extra
+        )
         directory = out.tell() - central
         out.write(b"PK\x05\x06" + struct.pack("<HHHHIIH", 0, 0, 1, 1, directory, central, 0))
         out.seek(0)
@@ -268,11 +308,14 @@ def _writing(target: Path) -> Iterator[None]:
         yield
     except Tf.ErrorException as exc:
         why = usd_error(exc, first=True)  # the first error is the cause, the rest follow it
-        raise FormatError(f"{target}: usd-core could not write it ({why}); free disk space"
-                          " or write elsewhere") from None  # fmt: skip
+        raise FormatError(
+            f"{target}: usd-core could not write it ({why}); free disk space or write elsewhere"
+        ) from None
     except OSError as exc:
-        raise FormatError(f"{target}: could not write it ({exc.strerror or exc}); free disk"
-                          " space or write elsewhere") from None  # fmt: skip
+        raise FormatError(
+            f"{target}: could not write it ({exc.strerror or exc}); free disk"
+            " space or write elsewhere"
+        ) from None
 
 
 def _check_suffix(path: str | os.PathLike[str]) -> Path:
@@ -306,15 +349,20 @@ def save_usd(
         guide_curves = for_target(conventional(as_guides(guides)), tool, "guides", False)
     chunks = (for_target(chunk, tool, in_units=False) for chunk in as_chunks(curves))
     with _writing(out), atomic_path(out) as tmp:
-        _finish(out, tmp, lambda crate: _write_crate(chunks, crate, guide_curves, normals, mesh,
-                                                     tool.groom_schema))  # fmt: skip
+        _finish(
+            out,
+            tmp,
+            lambda crate: _write_crate(
+                chunks, crate, guide_curves, normals, mesh, tool.groom_schema
+            ),
+        )
     return out
 
 
 # ------------------------------------------------------------------ animation cache
 
-def _write_cache(anim: Animation, crate: Path, mesh: SkinMesh | None,
-                 groom_schema: bool) -> None:  # fmt: skip
+
+def _write_cache(anim: Animation, crate: Path, mesh: SkinMesh | None, groom_schema: bool) -> None:
     stage = _new_stage(crate, groom_schema)
     stage.SetTimeCodesPerSecond(anim.fps)
     stage.SetFramesPerSecond(anim.fps)
@@ -386,7 +434,9 @@ def save_usd_cache(
 
 # ------------------------------------------------------------------ reading
 def load_usd(
-    path: str | os.PathLike[str], time: float | None = None, guides: bool = False,
+    path: str | os.PathLike[str],
+    time: float | None = None,
+    guides: bool = False,
     stored: bool = False,
 ) -> HairCurves:
     """Hair curves from every BasisCurves and NurbsCurves prim of a USD stage, joined in
@@ -421,8 +471,12 @@ def load_usd(
     return curves_from_parts(parts, source, bool(stored))
 
 
-def usd_parts(path: str | os.PathLike[str], time: float | None = None, guides: bool = False,
-              stored: bool = False) -> tuple[Path, list[dict]]:  # fmt: skip
+def usd_parts(
+    path: str | os.PathLike[str],
+    time: float | None = None,
+    guides: bool = False,
+    stored: bool = False,
+) -> tuple[Path, list[dict]]:
     """(the file, its chosen curves prims as dicts of arrays) as :func:`load_usd` reads
     and then joins them; ``stored`` parts also say whether Unreal's ``GroomAPI`` is on
     the prim or one above it (``groom_schema``), for `follicle check`."""

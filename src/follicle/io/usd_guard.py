@@ -55,8 +55,10 @@ def _check_text(path: Path, data: bytes, size: int) -> None:
             try:
                 decoder.decode(block, final=done + len(block) >= size)
             except UnicodeDecodeError as exc:
-                raise FormatError(f"{path}: byte {done + exc.start} is not UTF-8; a .usda layer"
-                                  " must be UTF-8 text (save it as UTF-8)") from None
+                raise FormatError(
+                    f"{path}: byte {done + exc.start} is not UTF-8; a .usda layer"
+                    " must be UTF-8 text (save it as UTF-8)"
+                ) from None
             done += len(block)
 
 
@@ -69,19 +71,26 @@ def _check_crate(path: Path, f: BinaryIO, start: int, size: int) -> None:
         raise FormatError(f"{path}: not a USD crate (no {CRATE_MAGIC.decode()} header); {_HINT}")
     toc = int.from_bytes(head[16:24], "little", signed=True)
     if not 24 <= toc <= size - 8:
-        raise FormatError(f"{path}: crate table of contents at byte {toc} lies outside the"
-                          f" {size}-byte file (truncated or corrupt); {_HINT}")  # fmt: skip
+        raise FormatError(
+            f"{path}: crate table of contents at byte {toc} lies outside the"
+            f" {size}-byte file (truncated or corrupt); {_HINT}"
+        )
     f.seek(start + toc)
     count = int.from_bytes(f.read(8), "little")
     if count > (size - toc - 8) // 32:
-        raise FormatError(f"{path}: crate lists {count} sections, more than fit in the file"
-                          f" (corrupt); {_HINT}")  # fmt: skip
-    table = np.frombuffer(f.read(32 * count), dtype=[("name", "S16"), ("at", "<i8"),
-                                                      ("size", "<i8")])  # fmt: skip
-    if len(table) < count or np.any((table["at"] < 24) | (table["size"] < 0)
-                                    | (table["at"] > size - table["size"])):  # fmt: skip
-        raise FormatError(f"{path}: a crate section lies outside the {size}-byte file"
-                          f" (truncated or corrupt); {_HINT}")  # fmt: skip
+        raise FormatError(
+            f"{path}: crate lists {count} sections, more than fit in the file (corrupt); {_HINT}"
+        )
+    table = np.frombuffer(
+        f.read(32 * count), dtype=[("name", "S16"), ("at", "<i8"), ("size", "<i8")]
+    )
+    if len(table) < count or np.any(
+        (table["at"] < 24) | (table["size"] < 0) | (table["at"] > size - table["size"])
+    ):
+        raise FormatError(
+            f"{path}: a crate section lies outside the {size}-byte file"
+            f" (truncated or corrupt); {_HINT}"
+        )
 
 
 def _check_usdz(path: Path, size: int) -> None:
@@ -92,15 +101,17 @@ def _check_usdz(path: Path, size: int) -> None:
                 members = z.infolist()
             starts = [_data_start(f, m) for m in members]
         except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
-            raise FormatError(f"{path}: not a readable zip ({exc}); a .usdz is a zip package"
-                              " of USD layers") from None  # fmt: skip
+            raise FormatError(
+                f"{path}: not a readable zip ({exc}); a .usdz is a zip package of USD layers"
+            ) from None
         if not members or not members[0].filename.lower().endswith((".usd", ".usda", ".usdc")):
-            raise FormatError(f"{path}: a .usdz package's first file must be a USD layer;"
-                              f" {_HINT}")  # fmt: skip
+            raise FormatError(f"{path}: a .usdz package's first file must be a USD layer; {_HINT}")
         for member, start in zip(members, starts, strict=True):
             if member.compress_type != zipfile.ZIP_STORED or start % 64:
-                raise FormatError(f"{path}: {member.filename!r} is compressed or not 64-byte"
-                                  " aligned; USDZ stores files uncompressed (usdzip makes one)")
+                raise FormatError(
+                    f"{path}: {member.filename!r} is compressed or not 64-byte"
+                    " aligned; USDZ stores files uncompressed (usdzip makes one)"
+                )
             if start + member.file_size > size:
                 raise FormatError(f"{path}: {member.filename!r} runs past the end of the package")
         f.seek(starts[0])
@@ -144,8 +155,9 @@ def _check_container(path: Path) -> None:
             _check_text(path, head, size)
         else:
             text = " nor USD text (#usda)" if suffix == ".usd" else ""
-            raise FormatError(f"{path}: not a USD crate (no {CRATE_MAGIC.decode()} header)"
-                              f"{text}; {_HINT}")  # fmt: skip
+            raise FormatError(
+                f"{path}: not a USD crate (no {CRATE_MAGIC.decode()} header){text}; {_HINT}"
+            )
 
 
 # ------------------------------------------------------------------ the child
@@ -154,15 +166,28 @@ def limits(size: int) -> tuple[int, float]:
     return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
 
 
-def read_stage(path: Path, time: float | None, guides: bool, stored: bool = False,
-               ) -> list[dict]:  # fmt: skip
+def read_stage(
+    path: Path,
+    time: float | None,
+    guides: bool,
+    stored: bool = False,
+) -> list[dict]:
     """The chosen BasisCurves prims of ``path``: dicts of ``where``, ``points``,
     ``offsets``, ``point_data`` and ``curve_data`` arrays, read in a child process
     (see the module; ``stored``: under the file's own names); FormatError naming the
     file on any failure."""
     memory, seconds = limits(path.stat().st_size)
-    return read_guarded("usd-curves", path, memory, seconds, "usd-core", _HINT, time=time,
-                        guides=guides, stored=stored)  # fmt: skip
+    return read_guarded(
+        "usd-curves",
+        path,
+        memory,
+        seconds,
+        "usd-core",
+        _HINT,
+        time=time,
+        guides=guides,
+        stored=stored,
+    )
 
 
 def read_meshes(path: Path) -> list[dict]:

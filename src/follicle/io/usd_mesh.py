@@ -21,9 +21,13 @@ from .usd_stage import Refused, _array, _Composition, _world, prepare, refusals
 __all__ = ["read_request", "prepare", "UV_NAMES"]
 
 UV_NAMES = ("st", "UVMap", "uv")  # USD's convention, Blender's and Houdini's, in that order
-_SCOPE = {UsdGeom.Tokens.vertex: "vertex", UsdGeom.Tokens.varying: "vertex",
-          UsdGeom.Tokens.faceVarying: "faceVarying", UsdGeom.Tokens.uniform: "uniform",
-          UsdGeom.Tokens.constant: "constant"}  # fmt: skip
+_SCOPE = {
+    UsdGeom.Tokens.vertex: "vertex",
+    UsdGeom.Tokens.varying: "vertex",
+    UsdGeom.Tokens.faceVarying: "faceVarying",
+    UsdGeom.Tokens.uniform: "uniform",
+    UsdGeom.Tokens.constant: "constant",
+}
 
 
 def _uv(mesh: UsdGeom.Mesh, time: Usd.TimeCode, where: str) -> tuple[np.ndarray, str] | None:
@@ -59,16 +63,19 @@ def read_mesh(path: str, source: str) -> list[dict]:
     if points is None or counts is None or indices is None:
         raise Refused(f"{where}: no points, faceVertexCounts or faceVertexIndices")
     if points.ndim != 2 or points.shape[1] != 3:
-        raise Refused(f"{where}: points must be point3f[] (x, y, z each), got shape"
-                      f" {points.shape}")  # fmt: skip
+        raise Refused(f"{where}: points must be point3f[] (x, y, z each), got shape {points.shape}")
     world = _world(prim, time, where)
     left = mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
-    part = {"where": where, "name": prim.GetName(),
-            "points": to_world(points.astype(np.float64), {}, world, where, "fix its xformOps"),
-            "face_counts": counts.reshape(-1), "face_indices": indices.reshape(-1),
-            # clockwise polygons, or a mirroring transform, turn the other way
-            "flip": left != bool(np.linalg.det(world[:3, :3]) < 0),
-            "others": [str(p.GetPath()) for p in meshes[1:]]}  # fmt: skip
+    part = {
+        "where": where,
+        "name": prim.GetName(),
+        "points": to_world(points.astype(np.float64), {}, world, where, "fix its xformOps"),
+        "face_counts": counts.reshape(-1),
+        "face_indices": indices.reshape(-1),
+        # clockwise polygons, or a mirroring transform, turn the other way
+        "flip": left != bool(np.linalg.det(world[:3, :3]) < 0),
+        "others": [str(p.GetPath()) for p in meshes[1:]],
+    }
     uv = _uv(mesh, time, where)
     if uv is not None:
         part["uv"], part["uv_scope"] = uv

@@ -23,23 +23,26 @@ __all__ = ["define_skin", "define_head", "set_head"]
 def define_skin(stage: Usd.Stage, path: str, mesh: object) -> None:
     """``mesh`` (a SkinMesh) at rest as a UsdGeomMesh at ``path``."""
     if not isinstance(mesh, SkinMesh):
-        raise InputError(f"mesh: expected a SkinMesh (the skin to write beside the hair), got"
-                         f" {type(mesh).__name__}")  # fmt: skip
+        raise InputError(
+            f"mesh: expected a SkinMesh (the skin to write beside the hair), got"
+            f" {type(mesh).__name__}"
+        )
     points = np.asarray(mesh.rest_vertices, dtype=np.float32)
     skin = UsdGeom.Mesh.Define(stage, path)
     skin.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
     skin.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(mesh.face_count, 3, np.int32)))
-    skin.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(
-        np.ascontiguousarray(mesh.faces, dtype=np.int32).reshape(-1)))  # fmt: skip
+    skin.CreateFaceVertexIndicesAttr(
+        Vt.IntArray.FromNumpy(np.ascontiguousarray(mesh.faces, dtype=np.int32).reshape(-1))
+    )
     skin.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     skin.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     lo, hi = points.min(axis=0), points.max(axis=0)
     skin.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*lo.tolist()), Gf.Vec3f(*hi.tolist())]))
     if mesh.uvs is not None:
-        st = UsdGeom.PrimvarsAPI(skin).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
-                                                     UsdGeom.Tokens.vertex)  # fmt: skip
+        st = UsdGeom.PrimvarsAPI(skin).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex
+        )
         st.Set(Vt.Vec2fArray.FromNumpy(np.asarray(mesh.uvs, dtype=np.float32)))
-
 
 
 def define_head(stage: Usd.Stage, path: str) -> UsdGeom.XformOp:

@@ -25,8 +25,15 @@ from .curve_space import SpaceError, to_world
 GUIDES_PATH = "/Groom/Guides"  # as follicle.io.usd has it (the reading child skips the writer)
 GROOM_GUIDES_PATH = "/Groom/Hair/Guides"  # … and where it puts them for Unreal
 # what usd-core raises on a file it cannot make sense of (Tf errors, bad values, bad types)
-USD_ERRORS = (Tf.ErrorException, RuntimeError, ValueError, TypeError, IndexError,
-              OverflowError, np.linalg.LinAlgError)  # fmt: skip
+USD_ERRORS = (
+    Tf.ErrorException,
+    RuntimeError,
+    ValueError,
+    TypeError,
+    IndexError,
+    OverflowError,
+    np.linalg.LinAlgError,
+)
 MAX_PRIMS = 100_000  # prims a stage may compose, by _Composition's count
 
 
@@ -49,14 +56,18 @@ class _Composition:
 
     def _enter(self, key: tuple[str, str]) -> None:
         if key in self.active:
-            raise Refused(f"{self.where}: {key[0]} composes itself (a reference, payload or"
-                          " sublayer cycle); fix the file's composition arcs")  # fmt: skip
+            raise Refused(
+                f"{self.where}: {key[0]} composes itself (a reference, payload or"
+                " sublayer cycle); fix the file's composition arcs"
+            )
         self.active.add(key)
 
     def _done(self, key: tuple[str, str], n: int) -> int:
         if n > MAX_PRIMS:
-            raise Refused(f"{self.where}: composes more than {MAX_PRIMS} prims (references"
-                          " or payloads nested many times over); not read")  # fmt: skip
+            raise Refused(
+                f"{self.where}: composes more than {MAX_PRIMS} prims (references"
+                " or payloads nested many times over); not read"
+            )
         self.active.discard(key)
         self.memo[key] = n
         return n
@@ -83,13 +94,17 @@ class _Composition:
         n = 1
         if spec is not None:
             n += sum(self.prim(layer, child.path) for child in spec.nameChildren if child)
-            arcs = [*spec.referenceList.GetAddedOrExplicitItems(),
-                    *spec.payloadList.GetAddedOrExplicitItems()]  # fmt: skip
+            arcs = [
+                *spec.referenceList.GetAddedOrExplicitItems(),
+                *spec.payloadList.GetAddedOrExplicitItems(),
+            ]
             for arc in arcs:
                 n += self._arc(layer, arc.assetPath, arc.primPath)
             for variant_set in spec.variantSets.values():  # every variant, chosen or not
-                n += sum(self.prim(layer, variant.primSpec.path)
-                         for variant in variant_set.variants.values())  # fmt: skip
+                n += sum(
+                    self.prim(layer, variant.primSpec.path)
+                    for variant in variant_set.variants.values()
+                )
         return self._done(key, n)
 
     def _arc(self, layer: Sdf.Layer, asset: str, target: Sdf.Path) -> int:
@@ -115,8 +130,10 @@ def _array(value: object, name: str, where: str) -> np.ndarray | None:
         return None
     if arr.ndim not in (1, 2) or arr.ndim == 2 and not 1 <= arr.shape[1] <= 4:
         shape = "a single value" if arr.ndim == 0 else f"of shape {arr.shape}"
-        raise Refused(f"{where}: {name} is {shape}; it must be an array ({name} = [...]) of"
-                      " 1-4 components each")
+        raise Refused(
+            f"{where}: {name} is {shape}; it must be an array ({name} = [...]) of"
+            " 1-4 components each"
+        )
     return arr.astype(np.float32) if arr.dtype == np.float16 else arr
 
 
@@ -130,19 +147,22 @@ class _Prim:
     """A BasisCurves or NurbsCurves prim read as arrays: its topology, then its primvars
     mapped to the points its curves pass through (:mod:`follicle.io.curve_basis`)."""
 
-    def __init__(self, prim: Usd.Prim, time: Usd.TimeCode, source: str,
-                 stored: bool = False) -> None:  # fmt: skip
+    def __init__(
+        self, prim: Usd.Prim, time: Usd.TimeCode, source: str, stored: bool = False
+    ) -> None:
         self.schema = UsdGeom.Curves(prim)
         self.time = time
         self.stored = stored  # names as stored: no colour / uv aliases taken for ours
         self.where = f"{source}: {prim.GetPath()}"
-        counts = _array(self.schema.GetCurveVertexCountsAttr().Get(time), "curveVertexCounts",
-                        self.where)  # fmt: skip
+        counts = _array(
+            self.schema.GetCurveVertexCountsAttr().Get(time), "curveVertexCounts", self.where
+        )
         points = _array(self.schema.GetPointsAttr().Get(time), "points", self.where)
         if counts is None or points is None:
             raise Refused(f"{self.where}: no points or curveVertexCounts")
-        self.counts = curve_basis.topology(counts, points, self.where, "curveVertexCounts",
-                                           "points")  # fmt: skip
+        self.counts = curve_basis.topology(
+            counts, points, self.where, "curveVertexCounts", "points"
+        )
         if prim.IsA(UsdGeom.NurbsCurves):
             self.stencil = self._nurbs(UsdGeom.NurbsCurves(prim))
             self.out, varying = self.stencil.counts, self.stencil.varying_counts
@@ -150,32 +170,52 @@ class _Prim:
         else:
             basis = UsdGeom.BasisCurves(prim)
             self.stencil = None
-            self.rule = curve_basis.rule(basis.GetTypeAttr().Get(), basis.GetBasisAttr().Get(),
-                                         basis.GetWrapAttr().Get(), self.counts,
-                                         self.where)  # fmt: skip
+            self.rule = curve_basis.rule(
+                basis.GetTypeAttr().Get(),
+                basis.GetBasisAttr().Get(),
+                basis.GetWrapAttr().Get(),
+                self.counts,
+                self.where,
+            )
             self.out = varying = curve_basis.out_counts(self.rule, self.counts)
-            self.points = curve_basis.through_points(points.astype(np.float32), self.counts,
-                                                     self.rule)  # fmt: skip
-        self.sizes = {"constant": 1, "uniform": len(self.counts), "vertex": len(points),
-                      "varying": int(varying.sum()), "faceVarying": int(varying.sum())}  # fmt: skip
+            self.points = curve_basis.through_points(
+                points.astype(np.float32), self.counts, self.rule
+            )
+        self.sizes = {
+            "constant": 1,
+            "uniform": len(self.counts),
+            "vertex": len(points),
+            "varying": int(varying.sum()),
+            "faceVarying": int(varying.sum()),
+        }
 
     def _nurbs(self, schema: UsdGeom.NurbsCurves) -> curve_basis.NurbsStencil:
         """The stencil of a NurbsCurves prim from its order, knots, pointWeights and ranges
         (the last two optional: an empty array counts as unauthored, as Blender writes)."""
         values = {}
-        for name, attr in (("order", schema.GetOrderAttr()), ("knots", schema.GetKnotsAttr()),
-                           ("pointWeights", schema.GetPointWeightsAttr()),
-                           ("ranges", schema.GetRangesAttr())):  # fmt: skip
+        for name, attr in (
+            ("order", schema.GetOrderAttr()),
+            ("knots", schema.GetKnotsAttr()),
+            ("pointWeights", schema.GetPointWeightsAttr()),
+            ("ranges", schema.GetRangesAttr()),
+        ):
             arr = _array(attr.Get(self.time), name, self.where)
             values[name] = None if arr is None or arr.size == 0 else arr
         if values["order"] is None or values["knots"] is None:
-            raise Refused(f"{self.where}: a NurbsCurves prim needs order and knots; author"
-                          " them (one order per curve, vertices + order knots per curve)")
+            raise Refused(
+                f"{self.where}: a NurbsCurves prim needs order and knots; author"
+                " them (one order per curve, vertices + order knots per curve)"
+            )
         if values["order"].dtype.kind not in "iu":
             raise Refused(f"{self.where}: order must be int[], got {values['order'].dtype}")
-        return curve_basis.nurbs_stencil(self.counts, values["order"], values["knots"],
-                                         values["pointWeights"], values["ranges"],
-                                         self.where)  # fmt: skip
+        return curve_basis.nurbs_stencil(
+            self.counts,
+            values["order"],
+            values["knots"],
+            values["pointWeights"],
+            values["ranges"],
+            self.where,
+        )
 
     def _check(self, name: str, values: np.ndarray, interpolation: str) -> None:
         if interpolation not in self.sizes or len(values) != self.sizes[interpolation]:
@@ -192,17 +232,22 @@ class _Prim:
                 return self.stencil.vertex(values)
             return curve_basis.through_points(values, self.counts, self.rule)
         if interpolation in ("constant", "uniform"):
-            return np.repeat(values, self.out if interpolation == "uniform" else len(self.points),
-                             axis=0)  # fmt: skip
+            return np.repeat(
+                values, self.out if interpolation == "uniform" else len(self.points), axis=0
+            )
         return values if self.stencil is None else self.stencil.varying(values)
 
     def _widths_normals(self, point_data: dict[str, np.ndarray]) -> None:
         api = UsdGeom.PrimvarsAPI(self.schema)
         for key, name, attr, interpolation in (
             ("width", "widths", self.schema.GetWidthsAttr(), self.schema.GetWidthsInterpolation()),
-            ("normal", "normals", self.schema.GetNormalsAttr(),
-             self.schema.GetNormalsInterpolation()),
-        ):  # fmt: skip
+            (
+                "normal",
+                "normals",
+                self.schema.GetNormalsAttr(),
+                self.schema.GetNormalsInterpolation(),
+            ),
+        ):
             if api.HasPrimvar(name):  # primvars:widths / primvars:normals win over the attribute
                 primvar = api.GetPrimvar(name)
                 value = primvar.ComputeFlattened(self.time)
@@ -212,8 +257,10 @@ class _Prim:
             arr = _array(value, name, self.where)
             if arr is not None and key == "width":
                 if arr.ndim == 2 and arr.shape[1] != 1:
-                    raise Refused(f"{self.where}: widths has {arr.shape[1]} values a row; it must"
-                                  " be float[], one diameter each")  # fmt: skip
+                    raise Refused(
+                        f"{self.where}: widths has {arr.shape[1]} values a row; it must"
+                        " be float[], one diameter each"
+                    )
                 arr = arr.reshape(len(arr))
             if arr is not None:
                 point_data[key] = self.per_point(name, arr.astype(np.float32), interpolation)
@@ -224,20 +271,29 @@ class _Prim:
         if size == 1:
             return arr
         if arr.ndim != 1 or size < 1 or len(arr) % size:
-            raise Refused(f"{self.where}: primvar {primvar.GetPrimvarName()} has elementSize"
-                          f" {size} but {arr.size} values of shape {arr.shape}; fix"
-                          " elementSize")  # fmt: skip
+            raise Refused(
+                f"{self.where}: primvar {primvar.GetPrimvarName()} has elementSize"
+                f" {size} but {arr.size} values of shape {arr.shape}; fix"
+                " elementSize"
+            )
         return arr.reshape(len(arr) // size, size)
 
-    def _appearance(self, found: list[tuple[str, str, np.ndarray]],
-                    point_data: dict[str, np.ndarray]) -> set[str]:  # fmt: skip
+    def _appearance(
+        self, found: list[tuple[str, str, np.ndarray]], point_data: dict[str, np.ndarray]
+    ) -> set[str]:
         """``color`` (RGB) and ``opacity`` from the first colour primvar by COLOR_NAMES
         (displayColor, color, Cd, col: any case; 3 or 4 floats a row, the 4th its
         opacity) and the first opacity one by OPACITY_NAMES, which wins over a 4th
         channel; the names of the primvars used."""
+
         def first(names: tuple[str, ...], widths: tuple[int, ...]) -> tuple | None:
-            fits = [f for f in found if f[0].lower() in names and f[2].dtype.kind == "f"
-                    and (f[2].shape[1] if f[2].ndim == 2 else 1) in widths]  # fmt: skip
+            fits = [
+                f
+                for f in found
+                if f[0].lower() in names
+                and f[2].dtype.kind == "f"
+                and (f[2].shape[1] if f[2].ndim == 2 else 1) in widths
+            ]
             return min(fits, key=lambda f: names.index(f[0].lower()), default=None)
 
         used = set()
@@ -281,8 +337,11 @@ class _Prim:
             else:
                 key = f"{name}_primvar" if name in CONVENTIONAL else name
                 point_data[key] = self.per_point(name, arr, interpolation)
-        if not self.stored and "root_uv" not in curve_data \
-                and "surface_uv_coordinate" in curve_data:  # fmt: skip
+        if (
+            not self.stored
+            and "root_uv" not in curve_data
+            and "surface_uv_coordinate" in curve_data
+        ):
             curve_data["root_uv"] = curve_data.pop("surface_uv_coordinate")
         return point_data, curve_data
 
@@ -299,9 +358,11 @@ def _check_ops(prim: Usd.Prim, where: str) -> None:
             found = {op.GetOpName() for op in xformable.GetOrderedXformOps()}
             missing = [op for op in named if op not in found]
             if missing:
-                raise Refused(f"{where}: xformOpOrder of {prim.GetPath()} names {missing[0]},"
-                              " which it does not have as a transform attribute; fix the"
-                              " xformOps")  # fmt: skip
+                raise Refused(
+                    f"{where}: xformOpOrder of {prim.GetPath()} names {missing[0]},"
+                    " which it does not have as a transform attribute; fix the"
+                    " xformOps"
+                )
         prim = prim.GetParent()
 
 
@@ -313,8 +374,10 @@ def _world(prim: Usd.Prim, time: Usd.TimeCode, where: str) -> np.ndarray:
     m = np.array(UsdGeom.XformCache(time).GetLocalToWorldTransform(prim), dtype=np.float64)
     mpu = UsdGeom.GetStageMetersPerUnit(stage)
     if not (math.isfinite(mpu) and mpu > 0):
-        raise Refused(f"{where}: metersPerUnit is {mpu}; it must be a number > 0 (1 for"
-                      " metres, 0.01 for centimetres)")  # fmt: skip
+        raise Refused(
+            f"{where}: metersPerUnit is {mpu}; it must be a number > 0 (1 for"
+            " metres, 0.01 for centimetres)"
+        )
     if not np.isfinite(m).all():
         raise Refused(f"{where}: its transform is not finite (NaN or inf); fix its xformOps")
     m[:, :3] *= mpu
@@ -323,8 +386,9 @@ def _world(prim: Usd.Prim, time: Usd.TimeCode, where: str) -> np.ndarray:
     return m
 
 
-def _transform(points: np.ndarray, pd: dict[str, np.ndarray], m: np.ndarray,
-               where: str) -> np.ndarray:  # fmt: skip
+def _transform(
+    points: np.ndarray, pd: dict[str, np.ndarray], m: np.ndarray, where: str
+) -> np.ndarray:
     """``points`` (returned) and ``pd``'s width and normal (in place) moved by ``m``
     (:func:`follicle.io.curve_space.to_world`; USD's matrices act on row vectors too)."""
     try:
@@ -335,10 +399,15 @@ def _transform(points: np.ndarray, pd: dict[str, np.ndarray], m: np.ndarray,
 
 # ------------------------------------------------------------------ stage
 def _chosen(stage: Usd.Stage, guides: bool, source: str) -> list[Usd.Prim]:
-    prims = [p for p in stage.Traverse()
-             if p.IsA(UsdGeom.BasisCurves) or p.IsA(UsdGeom.NurbsCurves)]  # fmt: skip
-    guide_prims = [p for p in prims if p.GetPath().HasPrefix(Sdf.Path(GUIDES_PATH))
-                   or p.GetPath().HasPrefix(Sdf.Path(GROOM_GUIDES_PATH))]  # fmt: skip
+    prims = [
+        p for p in stage.Traverse() if p.IsA(UsdGeom.BasisCurves) or p.IsA(UsdGeom.NurbsCurves)
+    ]
+    guide_prims = [
+        p
+        for p in prims
+        if p.GetPath().HasPrefix(Sdf.Path(GUIDES_PATH))
+        or p.GetPath().HasPrefix(Sdf.Path(GROOM_GUIDES_PATH))
+    ]
     hair = [p for p in prims if p not in guide_prims]
     chosen = guide_prims if guides else hair or guide_prims
     if not chosen:
@@ -347,8 +416,9 @@ def _chosen(stage: Usd.Stage, guides: bool, source: str) -> list[Usd.Prim]:
     return chosen
 
 
-def read(path: str, source: str, time: float | None, guides: bool,
-         stored: bool = False) -> list[dict]:  # fmt: skip
+def read(
+    path: str, source: str, time: float | None, guides: bool, stored: bool = False
+) -> list[dict]:
     """Every chosen BasisCurves or NurbsCurves prim of the file at ``path`` as a dict of
     arrays (see the module); messages name it ``source``. ``stored``: primvars under
     the names the file gives them (for `follicle check`), no aliases taken as ours."""
@@ -367,8 +437,13 @@ def read(path: str, source: str, time: float | None, guides: bool,
             raise Refused(str(exc)) from None
         points = _transform(part.points, point_data, _world(prim, when, part.where), part.where)
         offsets = np.concatenate([[0], np.cumsum(part.out)])
-        found = {"where": part.where, "points": points, "offsets": offsets,
-                 "point_data": point_data, "curve_data": curve_data}  # fmt: skip
+        found = {
+            "where": part.where,
+            "points": points,
+            "offsets": offsets,
+            "point_data": point_data,
+            "curve_data": curve_data,
+        }
         if stored:  # what `follicle check` also asks: does Unreal see its groom schema?
             found["groom_schema"] = _has_groom_api(prim)
         prims.append(found)
@@ -413,13 +488,19 @@ def refusals(source: str) -> Iterator[None]:
     except Refused as exc:
         raise guard_server.Refused(str(exc)) from None
     except USD_ERRORS as exc:
-        raise guard_server.Refused(f"{source}: usd-core could not read it ({usd_error(exc)});"
-                                   f" {HINT}") from None  # fmt: skip
+        raise guard_server.Refused(
+            f"{source}: usd-core could not read it ({usd_error(exc)}); {HINT}"
+        ) from None
 
 
 def read_request(request: dict) -> list[dict]:
     """The reading server's entry (:mod:`follicle.io.guard_server`): :func:`read` of
     ``request["source"]`` with its ``time`` and ``guides``."""
     with refusals(request["shown"]):
-        return read(request["source"], request["shown"], request["time"], request["guides"],
-                    request.get("stored", False))  # fmt: skip
+        return read(
+            request["source"],
+            request["shown"],
+            request["time"],
+            request["guides"],
+            request.get("stored", False),
+        )

@@ -83,8 +83,9 @@ def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
         faces = np.concatenate([faces[:, [0, k, k + 1]] for k in range(1, faces.shape[1] - 1)])
     uvs = _uvs(loaded, len(vertices))
     try:
-        mesh = SkinMesh(vertices * mpu, faces.reshape(-1, 3) if faces.size else faces, uvs,
-                        name=p.stem)
+        mesh = SkinMesh(
+            vertices * mpu, faces.reshape(-1, 3) if faces.size else faces, uvs, name=p.stem
+        )
     except InputError as exc:
         raise InputError(f"{p}: {exc}") from exc
     return _plausible(mesh, units, p)

@@ -38,8 +38,9 @@ def fan_triangles(counts: np.ndarray) -> np.ndarray:
     return np.stack([base, base + k, base + k + 1], axis=1)
 
 
-def split_seams(corner_vertex: np.ndarray, corner_uv: np.ndarray,
-                vertex_count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+def split_seams(
+    corner_vertex: np.ndarray, corner_uv: np.ndarray, vertex_count: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-corner UVs made per-vertex: (vertex of each corner, source vertex of each
     output vertex, (V', 2) UVs). Each distinct (vertex, UV) pair is one output vertex;
     a vertex's first pair (in corner order) keeps its index, the others are appended
@@ -62,8 +63,9 @@ def split_seams(corner_vertex: np.ndarray, corner_uv: np.ndarray,
     return new_id[inverse.reshape(-1)], source, uvs
 
 
-def _uvs(part: dict, corner_vertex: np.ndarray, corner: np.ndarray,
-         count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:  # fmt: skip
+def _uvs(
+    part: dict, corner_vertex: np.ndarray, corner: np.ndarray, count: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(vertex of each corner, source vertex of each output vertex, UVs or None); the
     file's ``corner`` of each corner picks its faceVarying UV."""
     where = part["where"]
@@ -73,12 +75,20 @@ def _uvs(part: dict, corner_vertex: np.ndarray, corner: np.ndarray,
         return keep
     corners = len(corner_vertex)
     if uv.ndim != 2 or uv.shape[1] != 2 or uv.dtype.kind != "f":
-        log.warning("%s: its UVs are %s of shape %s, not two numbers each; read without UVs",
-                    where, uv.dtype, uv.shape)  # fmt: skip
+        log.warning(
+            "%s: its UVs are %s of shape %s, not two numbers each; read without UVs",
+            where,
+            uv.dtype,
+            uv.shape,
+        )
         return keep
     if scope not in ("vertex", "faceVarying"):
-        log.warning("%s: its UVs have %s scope; only vertex and faceVarying ones are read, so"
-                    " it is read without UVs", where, scope or "no")  # fmt: skip
+        log.warning(
+            "%s: its UVs have %s scope; only vertex and faceVarying ones are read, so"
+            " it is read without UVs",
+            where,
+            scope or "no",
+        )
         return keep
     need = count if scope == "vertex" else corners
     if len(uv) != need:
@@ -97,27 +107,36 @@ def skin_from_part(part: dict, source: Path) -> SkinMesh:
     file holds it, so it is the file that is unreadable as a skin."""
     where = part["where"]
     if part["others"]:
-        log.warning("%s is the skin (the file's first mesh); %d more meshes were not read:"
-                    " %s", where, len(part["others"]), ", ".join(part["others"][:3])
-                    + (", …" if len(part["others"]) > 3 else ""))  # fmt: skip
+        log.warning(
+            "%s is the skin (the file's first mesh); %d more meshes were not read: %s",
+            where,
+            len(part["others"]),
+            ", ".join(part["others"][:3]) + (", …" if len(part["others"]) > 3 else ""),
+        )
     points = np.asarray(part["points"], dtype=np.float64)
     counts, index = part["face_counts"], part["face_indices"]
     if counts.dtype.kind not in "iu" or index.dtype.kind not in "iu":
-        raise FormatError(f"{where}: face counts and indices must be whole numbers, got"
-                          f" {counts.dtype} and {index.dtype}")  # fmt: skip
+        raise FormatError(
+            f"{where}: face counts and indices must be whole numbers, got"
+            f" {counts.dtype} and {index.dtype}"
+        )
     counts, index = counts.astype(np.int64), index.astype(np.int64)
     if np.any(counts < 3):
         i = int(np.argmax(counts < 3))
-        raise FormatError(f"{where}: face {i} has {int(counts[i])} corners; a polygon needs"
-                          " 3 or more")  # fmt: skip
+        raise FormatError(
+            f"{where}: face {i} has {int(counts[i])} corners; a polygon needs 3 or more"
+        )
     if int(counts.sum()) != len(index):
-        raise FormatError(f"{where}: face counts sum to {int(counts.sum())} but there are"
-                          f" {len(index)} face indices")  # fmt: skip
+        raise FormatError(
+            f"{where}: face counts sum to {int(counts.sum())} but there are"
+            f" {len(index)} face indices"
+        )
     bad = (index < 0) | (index >= len(points))
     if np.any(bad):
         i = int(np.argmax(bad))
-        raise FormatError(f"{where}: face index {i} is {int(index[i])}, outside the"
-                          f" {len(points)} points")  # fmt: skip
+        raise FormatError(
+            f"{where}: face index {i} is {int(index[i])}, outside the {len(points)} points"
+        )
     corner = np.arange(len(index))
     if part["flip"]:  # reverse each polygon's corners: counter-clockwise, as follicle's
         starts = np.repeat(np.cumsum(counts) - counts, counts)

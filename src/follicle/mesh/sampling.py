@@ -85,10 +85,19 @@ def _level(g):
 # Edge midpoints of a sub-triangle's four children (in units of its corner frame) and
 # their weights: the midpoint rule, exact for quadratics, on each child. The six
 # boundary half-edges count once, the three inner edges are shared by two children.
-_RULE_POINTS = np.array([
-    [0.25, 0.0], [0.75, 0.0], [1.0 - 0.25, 0.25], [0.25, 0.75], [0.0, 0.75], [0.0, 0.25],
-    [0.5, 0.25], [0.25, 0.5], [0.25, 0.25],
-])
+_RULE_POINTS = np.array(
+    [
+        [0.25, 0.0],
+        [0.75, 0.0],
+        [1.0 - 0.25, 0.25],
+        [0.25, 0.75],
+        [0.0, 0.75],
+        [0.0, 0.25],
+        [0.5, 0.25],
+        [0.25, 0.5],
+        [0.25, 0.25],
+    ]
+)
 _RULE_WEIGHTS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0]) / 12.0
 
 
@@ -155,8 +164,20 @@ def _merged_leaves(data, repeat, uvs, t, depth, table, scratch, out_sub, out_val
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _subdivide(data, repeat, uvs, depths, areas, table, counts, offsets, out_sub, out_val,
-               out_parent, out_weight):
+def _subdivide(
+    data,
+    repeat,
+    uvs,
+    depths,
+    areas,
+    table,
+    counts,
+    offsets,
+    out_sub,
+    out_val,
+    out_parent,
+    out_weight,
+):
     """Count (``out_sub`` empty) or emit the merged leaves of every triangle."""
     nf = depths.shape[0]
     blocks = min(nf, 256)
@@ -174,12 +195,14 @@ def _subdivide(data, repeat, uvs, depths, areas, table, counts, offsets, out_sub
                 counts[t] = 0
                 continue
             if out_sub.shape[0] == 0:
-                counts[t] = _merged_leaves(data, repeat, uvs, t, depths[t], table, scratch,
-                                           empty_sub, empty_val, 0)
+                counts[t] = _merged_leaves(
+                    data, repeat, uvs, t, depths[t], table, scratch, empty_sub, empty_val, 0
+                )
                 continue
             at = offsets[t]
-            n = _merged_leaves(data, repeat, uvs, t, depths[t], table, scratch, out_sub,
-                               out_val, at)
+            n = _merged_leaves(
+                data, repeat, uvs, t, depths[t], table, scratch, out_sub, out_val, at
+            )
             for k in range(at, at + n):
                 out_parent[k] = t
                 out_weight[k] = out_val[k] * areas[t] / 4.0 ** _level(out_sub[k])
@@ -309,8 +332,11 @@ class DensitySampler:
             raise InputError(f"mesh: expected a SkinMesh, got {type(mesh).__name__}")
         if not (isinstance(grid_factor, (int, float)) and 0 < grid_factor <= 64):
             raise InputError(f"grid_factor: must be a number in (0, 64], got {grid_factor!r}")
-        if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) \
-                or not 0 <= refine <= 4:
+        if (
+            isinstance(refine, bool)
+            or not isinstance(refine, (int, np.integer))
+            or not 0 <= refine <= 4
+        ):
             raise InputError(f"refine: must be an integer in 0 … 4, got {refine!r}")
         self.mesh = mesh
         self.density = _as_density(density)
@@ -383,7 +409,11 @@ class DensitySampler:
             log.warning(
                 "mesh '%s': %d triangle(s) map more than 4^%d texels of '%s'; they are"
                 " subdivided to depth %d only, so the density is averaged over several texels",
-                mesh.name, int((depths > MAX_DEPTH).sum()), MAX_DEPTH, tex.name, MAX_DEPTH,
+                mesh.name,
+                int((depths > MAX_DEPTH).sum()),
+                MAX_DEPTH,
+                tex.name,
+                MAX_DEPTH,
             )
             depths = np.minimum(depths, MAX_DEPTH)
         table = subtriangle_table(int(depths.max()))
@@ -422,8 +452,12 @@ class DensitySampler:
             return np.full(n, constant), np.zeros(n, dtype=np.int64)
         tex, mesh = self.density, self.mesh
         return _sub_values(
-            tex.data, tex.wrap == "repeat", np.ascontiguousarray(mesh.uvs[mesh.faces]),
-            self.parents, self.subs, self.table,
+            tex.data,
+            tex.wrap == "repeat",
+            np.ascontiguousarray(mesh.uvs[mesh.faces]),
+            self.parents,
+            self.subs,
+            self.table,
         )
 
     def sub_triangle_areas(self) -> np.ndarray:
@@ -456,7 +490,11 @@ class DensitySampler:
 
     # ------------------------------------------------------------------ sampling
     def sample(
-        self, n: int, seed: int = 0, sequence: str = "random", start: int = 0,
+        self,
+        n: int,
+        seed: int = 0,
+        sequence: str = "random",
+        start: int = 0,
         return_index: bool = False,
     ) -> tuple[np.ndarray, ...]:
         """Samples ``start … start+n-1``: (triangle int32 (n,), bary float32 (n, 2)).
@@ -475,8 +513,14 @@ class DensitySampler:
         bary = np.empty((n, 2), dtype=np.float32)
         index = np.empty(n if return_index else 0, dtype=np.int32)
         _sample_kernel(
-            self._records, self.grid, self.table,
-            np.uint64(seed & 0xFFFFFFFFFFFFFFFF), sequence == "halton", np.uint64(start),
-            tri, bary, index,
+            self._records,
+            self.grid,
+            self.table,
+            np.uint64(seed & 0xFFFFFFFFFFFFFFFF),
+            sequence == "halton",
+            np.uint64(start),
+            tri,
+            bary,
+            index,
         )
         return (tri, bary, index) if return_index else (tri, bary)

@@ -34,12 +34,14 @@ def save_mesh(mesh: SkinMesh, path: str | os.PathLike[str]) -> Path:
     visual = None
     if mesh.uvs is not None:
         visual = trimesh.visual.TextureVisuals(uv=np.asarray(mesh.uvs, dtype=np.float64))
-    tm = trimesh.Trimesh(np.asarray(mesh.rest_vertices), np.asarray(mesh.faces),
-                         visual=visual, process=False)  # fmt: skip
+    tm = trimesh.Trimesh(
+        np.asarray(mesh.rest_vertices), np.asarray(mesh.faces), visual=visual, process=False
+    )
     if suffix == ".obj":  # UVs as vt lines, and no material file: the mesh has none
         text = tm.export(file_type="obj", write_texture=False, header="follicle skin mesh")
-        data = "\n".join(line for line in text.split("\n")
-                         if not line.startswith(("mtllib ", "usemtl "))).encode()  # fmt: skip
+        data = "\n".join(
+            line for line in text.split("\n") if not line.startswith(("mtllib ", "usemtl "))
+        ).encode()
     else:
         data = tm.export(file_type=suffix[1:])
     with atomic_path(target) as tmp:

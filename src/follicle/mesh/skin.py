@@ -354,9 +354,16 @@ class SkinMesh:
         uv = np.zeros((n, 2))
         uvs = self.uvs if self.uvs is not None else np.zeros((0, 2))
         _evaluate_kernel(
-            self._verts(pose), self.vertex_normals(pose), self.vertex_tangents(pose), uvs,
-            self.faces, tri, b, *out, uv,
-        )  # fmt: skip
+            self._verts(pose),
+            self.vertex_normals(pose),
+            self.vertex_tangents(pose),
+            uvs,
+            self.faces,
+            tri,
+            b,
+            *out,
+            uv,
+        )
         return SurfacePoints(*out, uv)
 
     def closest_points(
@@ -480,8 +487,9 @@ def _closest_kernel(q, verts, faces, qi, ti):
         a = verts[faces[t, 0]]
         b = verts[faces[t, 1]]
         c = verts[faces[t, 2]]
-        wa, wb, wc = closest_weights(q[i, 0], q[i, 1], q[i, 2], a[0], a[1], a[2], b[0], b[1],
-                                     b[2], c[0], c[1], c[2])  # fmt: skip
+        wa, wb, wc = closest_weights(
+            q[i, 0], q[i, 1], q[i, 2], a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]
+        )
         d = 0.0
         for j in range(3):
             diff = q[i, j] - (wa * a[j] + wb * b[j] + wc * c[j])
@@ -495,8 +503,9 @@ def _closest_kernel(q, verts, faces, qi, ti):
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _evaluate_kernel(verts, normals, tangents, uvs, faces, tri, bary, position, normal, tangent,
-                     binormal, uv):  # fmt: skip
+def _evaluate_kernel(
+    verts, normals, tangents, uvs, faces, tri, bary, position, normal, tangent, binormal, uv
+):
     """Barycentric interpolation plus the root frame of Šik 2012 §2.2.3 for every sample."""
     for k in prange(tri.shape[0]):
         f0, f1, f2 = faces[tri[k], 0], faces[tri[k], 1], faces[tri[k], 2]

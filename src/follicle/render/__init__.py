@@ -15,4 +15,3 @@ __all__ = [
     "linear_to_srgb",
     "srgb_to_linear",
 ]
-

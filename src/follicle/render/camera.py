@@ -19,8 +19,15 @@ from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
 
-__all__ = ["Camera", "Light", "DEFAULT_FOV", "default_lights", "frame_camera", "hair_bounds",
-           "scene_bounds"]
+__all__ = [
+    "Camera",
+    "Light",
+    "DEFAULT_FOV",
+    "default_lights",
+    "frame_camera",
+    "hair_bounds",
+    "scene_bounds",
+]
 
 DEFAULT_FOV = 30.0  # vertical field of view, degrees: every camera's and [render].fov's
 
@@ -203,9 +210,7 @@ def hair_bounds(curves: HairCurves) -> tuple[np.ndarray, np.ndarray]:
     return lo - pad, hi + pad
 
 
-def scene_bounds(
-    curves: HairCurves | None, mesh: object | None
-) -> tuple[np.ndarray, np.ndarray]:
+def scene_bounds(curves: HairCurves | None, mesh: object | None) -> tuple[np.ndarray, np.ndarray]:
     """Bounding box of the hair (:func:`hair_bounds`, when it has points) and the mesh's
     current pose: what :func:`frame_camera` frames when a renderer gets no camera."""
     boxes = []

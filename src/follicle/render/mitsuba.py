@@ -161,8 +161,15 @@ def _hair_shape(mi, curves: HairCurves, hair_color, hair_width, folder: Path) ->
 
 def _skin_shape(mi, arrays, skin_color: np.ndarray):
     vertices, faces, normals = arrays
-    bsdf = mi.load_dict({"type": "twosided", "bsdf": {
-        "type": "diffuse", "reflectance": {"type": "rgb", "value": skin_color.tolist()}}})
+    bsdf = mi.load_dict(
+        {
+            "type": "twosided",
+            "bsdf": {
+                "type": "diffuse",
+                "reflectance": {"type": "rgb", "value": skin_color.tolist()},
+            },
+        }
+    )
     props = mi.Properties()
     props["bsdf"] = bsdf
     mesh = mi.Mesh("skin", len(vertices), len(faces), props, has_vertex_normals=True)
@@ -190,8 +197,11 @@ def _emitters(lights: Sequence[Light], camera: Camera) -> dict:
             "sampling_weight": _luminance(light.radiance),
         }
     if np.any(ambient > 0):
-        out["ambient"] = {"type": "constant", "sampling_weight": _luminance(ambient),
-                          "radiance": {"type": "rgb", "value": ambient.tolist()}}
+        out["ambient"] = {
+            "type": "constant",
+            "sampling_weight": _luminance(ambient),
+            "radiance": {"type": "rgb", "value": ambient.tolist()},
+        }
     return out
 
 
@@ -214,8 +224,13 @@ def _sensor(mi, camera: Camera, size: tuple[int, int], spp: int, seed: int) -> d
         "to_world": mi.ScalarTransform4f().look_at(
             origin=camera.eye.tolist(), target=camera.target.tolist(), up=up.tolist()
         ),
-        "film": {"type": "hdrfilm", "width": size[0], "height": size[1],
-                 "pixel_format": "rgba", "rfilter": {"type": "box"}},
+        "film": {
+            "type": "hdrfilm",
+            "width": size[0],
+            "height": size[1],
+            "pixel_format": "rgba",
+            "rfilter": {"type": "box"},
+        },
         "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
     }
 
@@ -286,8 +301,7 @@ def render_mitsuba(
         if has_mesh:
             scene["skin"] = _skin_shape(mi, mesh_arrays, skin_color)
         with _reporting(mi, progress):
-            rgba = np.array(mi.render(mi.load_dict(scene), seed=seed, spp=spp),
-                            dtype=np.float64)
+            rgba = np.array(mi.render(mi.load_dict(scene), seed=seed, spp=spp), dtype=np.float64)
     alpha = np.clip(rgba[..., 3:], 0.0, 1.0)
     linear = np.empty((h, w, 4))
     linear[..., :3] = rgba[..., :3] + (1.0 - alpha) * _gradient(background, h)

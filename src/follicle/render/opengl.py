@@ -62,8 +62,14 @@ MAX_STEP_PX = 8.0  # longest Catmull-Rom step on screen: shading is interpolated
 # at one step a segment thin hair is drawn as plain lines shaded per vertex, without
 # the geometry shader (the same picture; False: through it, as at more steps)
 PLAIN_LINES = True
-_HAIR_LAYOUT = (("3f", "in_position"), ("1f", "in_width"), ("3f", "in_color"),
-                ("1f", "in_opacity"), ("1f", "in_t"), ("1f", "in_seed"))  # fmt: skip
+_HAIR_LAYOUT = (
+    ("3f", "in_position"),
+    ("1f", "in_width"),
+    ("3f", "in_color"),
+    ("1f", "in_opacity"),
+    ("1f", "in_t"),
+    ("1f", "in_seed"),
+)
 _MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"))
 
 
@@ -85,8 +91,9 @@ def _clip_range(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[float, 
 
 def _nearest_depth(camera: Camera, lo: np.ndarray, hi: np.ndarray, near: float) -> float:
     """View depth of the nearest corner of the box [lo, hi], at least ``near``."""
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                        for z in (lo[2], hi[2])])  # fmt: skip
+    corners = np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
     return max(float(np.min((corners - camera.eye) @ camera.basis()[2])), near)
 
 
@@ -153,9 +160,17 @@ class Renderer:
         """Free the framebuffers and shadow maps (the shared context and programs stay)."""
         if self._out_fbo is None:
             return
-        for obj in (*self._fullscreen.values(), self._opaque_fbo, self._hair_fbo,
-                    self._out_fbo, self._opaque, self._accum, self._weight, self._depth,
-                    self._out):  # fmt: skip
+        for obj in (
+            *self._fullscreen.values(),
+            self._opaque_fbo,
+            self._hair_fbo,
+            self._out_fbo,
+            self._opaque,
+            self._accum,
+            self._weight,
+            self._depth,
+            self._out,
+        ):
             obj.release()
         self._shadow.release()
         self._out_fbo = None
@@ -236,9 +251,7 @@ class Renderer:
             default_lights() if lights is None else lights, camera
         )
         right, _, forward = camera.basis()
-        model = {
-            f"p_{k}": (np.radians(v) if k in ANGLE_PARAMS else v) for k, v in params.items()
-        }
+        model = {f"p_{k}": (np.radians(v) if k in ANGLE_PARAMS else v) for k, v in params.items()}
         frame = {
             **model,
             "n_lights": n_dir,
@@ -263,18 +276,31 @@ class Renderer:
             hair_vaos, skin_vaos = {}, None
             if has_hair:
                 hair_vaos = self._hair_arrays(
-                    curves, shading, camera, None if light is None else light[2], hair_color,
-                    float(hair_width), float(hair_opacity), oit, subdivisions, released,
+                    curves,
+                    shading,
+                    camera,
+                    None if light is None else light[2],
+                    hair_color,
+                    float(hair_width),
+                    float(hair_opacity),
+                    oit,
+                    subdivisions,
+                    released,
                 )
             if has_mesh:
                 skin_vaos = self._mesh_arrays(mesh_arrays, released)
             if light is not None:
                 hair_lo, hair_hi = hair_bounds(curves) if has_hair else (lo, hi)
                 layer = params["shadow_layer"] or automatic_layer(hair_lo, hair_hi)
-                frame.update(self._shadow.render(
-                    light, layer, hair_vaos, hair_gs,
-                    skin_vaos["mesh_depth"] if skin_vaos else None,
-                ))  # fmt: skip
+                frame.update(
+                    self._shadow.render(
+                        light,
+                        layer,
+                        hair_vaos,
+                        hair_gs,
+                        skin_vaos["mesh_depth"] if skin_vaos else None,
+                    )
+                )
             self._shadow.bind()
             view = {
                 "view_proj": _mat(view_proj),
@@ -305,9 +331,18 @@ class Renderer:
         return image
 
     def _hair_arrays(
-        self, curves, shading, camera, light_texel, hair_color, hair_width, hair_opacity, oit,
-        subdivisions, released,
-    ) -> dict[str, list]:  # fmt: skip
+        self,
+        curves,
+        shading,
+        camera,
+        light_texel,
+        hair_color,
+        hair_width,
+        hair_opacity,
+        oit,
+        subdivisions,
+        released,
+    ) -> dict[str, list]:
         """Upload the hair once; the vertex arrays that draw it, by pass (``colour``:
         (vertex array, primitive) pairs; ``hair_depth``, ``hair_opacity``, drawn as lines
         with adjacency, only with a ``light_texel`` size).
@@ -350,11 +385,16 @@ class Renderer:
             out = []
             for name in names:
                 prog = get_program(ctx, name)
-                out.append(ctx.vertex_array(prog, [_buffer_format(prog, vbo, _HAIR_LAYOUT),
-                                                   *extra],
-                                            index_buffer=ibo, index_element_size=4))
+                out.append(
+                    ctx.vertex_array(
+                        prog,
+                        [_buffer_format(prog, vbo, _HAIR_LAYOUT), *extra],
+                        index_buffer=ibo,
+                        index_element_size=4,
+                    )
+                )
                 released.append(out[-1])
-            return out  # fmt: skip
+            return out
 
         thin, wide = split(pixel)
         if not oit:
@@ -362,8 +402,12 @@ class Renderer:
         if PLAIN_LINES and subdivisions == 1 and len(thin):  # the geometry shader adds nothing
             tangents = ctx.buffer(vertex_tangents(curves.points, curves.offsets))
             released.append(tangents)
-            lines = [(vao, ctx.LINES) for vao in arrays(
-                [f"hair_line:{shading}"], thin[:, 1:3], [(tangents, "3f", "in_tangent")])]
+            lines = [
+                (vao, ctx.LINES)
+                for vao in arrays(
+                    [f"hair_line:{shading}"], thin[:, 1:3], [(tangents, "3f", "in_tangent")]
+                )
+            ]
         else:
             lines = [(vao, ctx.LINES_ADJACENCY) for vao in arrays([f"hair_thin:{shading}"], thin)]
         ribbons = [(vao, ctx.LINES_ADJACENCY) for vao in arrays([f"hair:{shading}"], wide)]
@@ -381,8 +425,12 @@ class Renderer:
         cached = self._strands
         if cached is None or not np.array_equal(cached[0], offsets):
             n = int(offsets[-1])
-            cached = (np.array(offsets), segment_indices(offsets), curve_param(offsets, n),
-                      strand_seeds(offsets))  # fmt: skip
+            cached = (
+                np.array(offsets),
+                segment_indices(offsets),
+                curve_param(offsets, n),
+                strand_seeds(offsets),
+            )
             self._strands = cached
         return cached[1:]
 
@@ -398,9 +446,11 @@ class Renderer:
         for name in ("mesh", "mesh_depth"):
             prog = get_program(ctx, name)
             vaos[name] = ctx.vertex_array(
-                prog, [_buffer_format(prog, vbo, _MESH_LAYOUT)], index_buffer=ibo,
+                prog,
+                [_buffer_format(prog, vbo, _MESH_LAYOUT)],
+                index_buffer=ibo,
                 index_element_size=4,
-            )  # fmt: skip
+            )
             released.append(vaos[name])
         return vaos
 
@@ -410,8 +460,9 @@ class Renderer:
         use_framebuffer(self._opaque_fbo)
         ctx.disable(ctx.DEPTH_TEST | ctx.BLEND | ctx.CULL_FACE)
         bg = self._fullscreen["background"]
-        set_uniforms(bg.program, {"top": tuple(self.background[0]),
-                                  "bottom": tuple(self.background[1])})  # fmt: skip
+        set_uniforms(
+            bg.program, {"top": tuple(self.background[0]), "bottom": tuple(self.background[1])}
+        )
         bg.render(mode=ctx.TRIANGLES, vertices=3)
         if skin_vaos is not None:
             ctx.enable(ctx.DEPTH_TEST)

@@ -53,10 +53,18 @@ COMMON_PARAMS: dict[str, Spec] = {
     "roundness": (0.35, 0.0, 1.0, "darkening towards the ribbon edges (hair over 1 px wide)"),
     "skin_wrap": (0.1, 0.0, 1.0, "wrap-around term of the skin's Lambert shading"),
     "shadow_density": (0.7, 0.0, 100.0, "κ of the hair shadow transmittance exp(−κ·opacity)"),
-    "shadow_layer": (0.0, 0.0, 10.0, "deep opacity map layer thickness, m; 0: the hair's"
-                     " bounding-box diagonal / 100"),
-    "oit_sharpness": (40.0, 0.0, 1000.0, "OIT weight exp(−k·Δdepth/depth): how much nearer"
-                      " hair outweighs farther"),
+    "shadow_layer": (
+        0.0,
+        0.0,
+        10.0,
+        "deep opacity map layer thickness, m; 0: the hair's bounding-box diagonal / 100",
+    ),
+    "oit_sharpness": (
+        40.0,
+        0.0,
+        1000.0,
+        "OIT weight exp(−k·Δdepth/depth): how much nearer hair outweighs farther",
+    ),
 }
 MODEL_PARAMS: dict[str, dict[str, Spec]] = {
     "kajiya-kay": {
@@ -66,8 +74,12 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
         "specular_color": ((1.0, 0.97, 0.92), 0.0, 100.0, "primary highlight colour"),
         "specular2": (0.5, 0.0, 10.0, "second highlight, tinted by the hair (0: off)"),
         "shininess2": (30.0, 0.1, 10000.0, "second highlight exponent"),
-        "shift": (0.08, -1.0, 1.0, "primary tangent shift along the ribbon normal"
-                  " (> 0: the lobe tilts towards the root)"),
+        "shift": (
+            0.08,
+            -1.0,
+            1.0,
+            "primary tangent shift along the ribbon normal (> 0: the lobe tilts towards the root)",
+        ),
         "shift2": (-0.12, -1.0, 1.0, "second highlight tangent shift"),
     },
     "scheuermann": {
@@ -77,8 +89,12 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
         "specular_color": ((1.0, 0.97, 0.92), 0.0, 100.0, "primary highlight colour"),
         "specular2": (1.0, 0.0, 10.0, "secondary highlight, tinted by the hair colour"),
         "shininess2": (48.0, 0.1, 10000.0, "secondary exponent (Alg. 6: 90)"),
-        "shift": (0.1, -1.0, 1.0, "primary tangent shift along the ribbon normal"
-                  " (> 0: lobe towards the root)"),
+        "shift": (
+            0.1,
+            -1.0,
+            1.0,
+            "primary tangent shift along the ribbon normal (> 0: lobe towards the root)",
+        ),
         "shift2": (-0.12, -1.0, 1.0, "secondary tangent shift (< 0: towards the tip)"),
         "shift_noise": (0.3, 0.0, 2.0, "± noise added to both shifts along each strand"),
         "sparkle": (0.6, 0.0, 1.0, "how much noise masks the secondary highlight"),
@@ -160,9 +176,7 @@ def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise InputError(f"shading_params[{key!r}]: expected a number, got {value!r}")
         if not lo <= float(value) <= hi:
-            raise InputError(
-                f"shading_params[{key!r}]: must be in [{lo:g}, {hi:g}], got {value!r}"
-            )
+            raise InputError(f"shading_params[{key!r}]: must be in [{lo:g}, {hi:g}], got {value!r}")
         merged[key] = float(value)
     return merged
 

@@ -49,14 +49,21 @@ def _sources(name: str) -> tuple[str, str | None, str]:
     step = ["hair_varyings.glsl", "hair_step.glsl"]  # a point facing the viewer
     shaded_fs = _stage(("SHADED", *_FS_IN), ["hair_varyings.glsl", "hair_fs.glsl"])
     if kind == "hair_line":  # thin hair at one step a segment, shaded per vertex
-        return (_stage(("SHADE", "LINES", *_GS_OUT),
-                       [*_hair_shading(model), *step, "hair_line_vs.glsl"]),
-                None, shaded_fs)  # fmt: skip
+        return (
+            _stage(
+                ("SHADE", "LINES", *_GS_OUT), [*_hair_shading(model), *step, "hair_line_vs.glsl"]
+            ),
+            None,
+            shaded_fs,
+        )
     if kind == "hair":  # the colour pass of model `model`
         shading = _hair_shading(model)
         if thin:  # shaded per Catmull-Rom step, in the geometry shader
-            return (hair_vs, _stage(("SHADE", *lines, *_GS_OUT),
-                                    [*shading, *step, "hair_gs.glsl"]), shaded_fs)  # fmt: skip
+            return (
+                hair_vs,
+                _stage(("SHADE", *lines, *_GS_OUT), [*shading, *step, "hair_gs.glsl"]),
+                shaded_fs,
+            )
         return (
             hair_vs,
             _stage(_GS_OUT, [*step, "hair_gs.glsl"]),

@@ -35,8 +35,9 @@ def light_projection(
     helper = np.eye(3)[int(np.argmin(np.abs(forward)))]
     right = normalize(np.cross(forward, helper))
     up = np.cross(right, forward)
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                        for z in (lo[2], hi[2])])  # fmt: skip
+    corners = np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
     xs, ys, zs = corners @ right, corners @ up, corners @ forward
     half = 0.5 * max(np.ptp(xs), np.ptp(ys), 1e-9) * (1.0 + 4.0 / size)
     cx, cy = 0.5 * (xs.min() + xs.max()), 0.5 * (ys.min() + ys.max())
@@ -72,8 +73,14 @@ class ShadowMaps:
             fbo.depth_mask = False  # tested against the skin, never written (nor cleared)
 
     def release(self) -> None:
-        for obj in (self._skin_fbo, self._first_fbo, self._layers_fbo, self.skin_depth,
-                    self.first, self.layers):  # fmt: skip
+        for obj in (
+            self._skin_fbo,
+            self._first_fbo,
+            self._layers_fbo,
+            self.skin_depth,
+            self.first,
+            self.layers,
+        ):
             obj.release()
 
     def bind(self) -> None:

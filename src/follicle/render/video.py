@@ -45,8 +45,7 @@ def _rgb(frame: object, index: int, size: tuple[int, ...] | None) -> np.ndarray:
     arr = np.asarray(frame)
     if arr.dtype != np.uint8 or arr.ndim != 3 or arr.shape[2] not in (3, 4) or 0 in arr.shape:
         raise InputError(
-            f"frame {index}: expected an (H, W, 3|4) uint8 sRGB image, got {arr.dtype}"
-            f" {arr.shape}"
+            f"frame {index}: expected an (H, W, 3|4) uint8 sRGB image, got {arr.dtype} {arr.shape}"
         )
     if size is not None and arr.shape[:2] != size:
         raise InputError(
@@ -64,8 +63,11 @@ def _mp4_path(path: str | os.PathLike[str]) -> Path:
 
 
 def _check_fps(fps: object) -> float:
-    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) \
-            or not 0 < fps < math.inf:  # fmt: skip
+    if (
+        isinstance(fps, bool)
+        or not isinstance(fps, (int, float, np.integer, np.floating))
+        or not 0 < fps < math.inf
+    ):
         raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
     return float(fps)
 
@@ -146,9 +148,15 @@ class Mp4Writer:
         h, w = first.shape[:2]
         with atomic_path(self.path) as tmp:
             writer = self._ffmpeg.write_frames(
-                str(tmp), (w, h), fps=self.fps, codec="libx264", pix_fmt_in="rgb24",
-                pix_fmt_out="yuv420p", macro_block_size=1, ffmpeg_log_level="error",
-            )  # fmt: skip
+                str(tmp),
+                (w, h),
+                fps=self.fps,
+                codec="libx264",
+                pix_fmt_in="rgb24",
+                pix_fmt_out="yuv420p",
+                macro_block_size=1,
+                ffmpeg_log_level="error",
+            )
             writer.send(None)
             try:
                 frame = first
@@ -159,9 +167,7 @@ class Mp4Writer:
                 writer.close()
 
 
-def write_mp4(
-    frames: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float
-) -> Path:
+def write_mp4(frames: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float) -> Path:
     """Encode ``frames`` ((H, W, 3|4) uint8 sRGB, alpha dropped) as H.264 MP4 at ``fps``.
 
     Returns the path written. Nothing is left at ``path`` (or beside it) when a frame

@@ -29,8 +29,15 @@ from ..io.npz import load_arrays, save_arrays
 if TYPE_CHECKING:
     from ..scene import Scene
 
-__all__ = ["CACHE_FORMAT", "CACHE_VERSION", "SimCache", "save_cache", "load_cache", "is_cache",
-           "describe_cache"]
+__all__ = [
+    "CACHE_FORMAT",
+    "CACHE_VERSION",
+    "SimCache",
+    "save_cache",
+    "load_cache",
+    "is_cache",
+    "describe_cache",
+]
 
 CACHE_FORMAT = "follicle-sim-cache"
 CACHE_VERSION = 1
@@ -132,17 +139,23 @@ class SimCache:
         from ..scene import scene_from_toml
 
         try:
-            return scene_from_toml(self.scene_toml, f"{self.source}: stored scene",
-                                   Path(self.base_dir))
+            return scene_from_toml(
+                self.scene_toml, f"{self.source}: stored scene", Path(self.base_dir)
+            )
         except ConfigError as exc:
-            raise FormatError(f"{exc}; the cache is damaged: run `follicle simulate` again"
-                              ) from None
+            raise FormatError(
+                f"{exc}; the cache is damaged: run `follicle simulate` again"
+            ) from None
 
 
 def save_cache(
-    path: str | os.PathLike[str], positions: object, transforms: object, fps: float,
-    scene_toml: str, base_dir: str,
-) -> Path:  # fmt: skip
+    path: str | os.PathLike[str],
+    positions: object,
+    transforms: object,
+    fps: float,
+    scene_toml: str,
+    base_dir: str,
+) -> Path:
     """Write a simulation cache to ``path`` (.npz) atomically; positions are stored as
     float32, transforms as float64. Bad arrays raise InputError and write nothing."""
     if Path(path).suffix.lower() != ".npz":
@@ -153,15 +166,18 @@ def save_cache(
     except (TypeError, ValueError) as exc:
         raise InputError(f"save_cache: positions and transforms must be numeric ({exc})") from None
     cache = SimCache(pos, tr, fps, scene_toml, str(base_dir), source=str(path))
-    return save_arrays(path, {
-        "format": np.array(CACHE_FORMAT),
-        "version": np.array(CACHE_VERSION, dtype=np.int64),
-        "positions": cache.positions,
-        "transforms": cache.transforms,
-        "fps": np.array(cache.fps, dtype=np.float64),
-        "scene_toml": np.array(cache.scene_toml),
-        "base_dir": np.array(cache.base_dir),
-    })  # fmt: skip
+    return save_arrays(
+        path,
+        {
+            "format": np.array(CACHE_FORMAT),
+            "version": np.array(CACHE_VERSION, dtype=np.int64),
+            "positions": cache.positions,
+            "transforms": cache.transforms,
+            "fps": np.array(cache.fps, dtype=np.float64),
+            "scene_toml": np.array(cache.scene_toml),
+            "base_dir": np.array(cache.base_dir),
+        },
+    )
 
 
 def is_cache(path: str | os.PathLike[str]) -> bool:
@@ -176,8 +192,9 @@ def is_cache(path: str | os.PathLike[str]) -> bool:
 
 def _is_tag(tag: np.ndarray | None) -> bool:
     """True when ``tag`` (the ``format`` array, None if absent) names a simulation cache."""
-    return tag is not None and tag.ndim == 0 and tag.dtype.kind == "U" and \
-        str(tag[()]) == CACHE_FORMAT  # fmt: skip
+    return (
+        tag is not None and tag.ndim == 0 and tag.dtype.kind == "U" and str(tag[()]) == CACHE_FORMAT
+    )
 
 
 def load_cache(path: str | os.PathLike[str]) -> SimCache:
@@ -203,8 +220,14 @@ def load_cache(path: str | os.PathLike[str]) -> SimCache:
     if fps.ndim != 0 or fps.dtype.kind != "f":
         raise FormatError(f"{p}: fps: expected a float, got {_describe(fps)}")
     try:
-        return SimCache(data["positions"], data["transforms"], fps, data["scene_toml"],
-                        data["base_dir"], source=str(p))
+        return SimCache(
+            data["positions"],
+            data["transforms"],
+            fps,
+            data["scene_toml"],
+            data["base_dir"],
+            source=str(p),
+        )
     except InputError as exc:
         fix = "the cache is damaged: run `follicle simulate` again"
         raise FormatError(f"{p}: {exc}; {fix}") from None
@@ -217,9 +240,13 @@ def describe_cache(path: str | os.PathLike[str]) -> str:
     cache = load_cache(path)
     scene = cache.scene()
     sim, f = scene.sim, cache.frame_count
-    motion = "a still head" if sim.motion == "none" else (
-        f"head motion {sim.motion!r} ({sim.motion_amplitude:g}° over {sim.motion_period:g} s)"
-    )  # fmt: skip
+    motion = (
+        "a still head"
+        if sim.motion == "none"
+        else (
+            f"head motion {sim.motion!r} ({sim.motion_amplitude:g}° over {sim.motion_period:g} s)"
+        )
+    )
     return (
         f"{cache.source}: simulation cache, {f:,} frame{'s' * (f != 1)} at {cache.fps:g} fps"
         f" ({(f - 1) / cache.fps:.3g} s after the rest frame), {cache.strand_count:,} guides ×"

@@ -39,8 +39,7 @@ def _push(px, py, pz, cx, cy, cz, r, nx, ny, nz, hit, gap):
 
 
 @njit(cache=True, inline="always")
-def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw,
-            margin):  # fmt: skip
+def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, margin):
     """p moved out of every collider grown by ``margin``: (x, y, z, nx, ny, nz, hit,
     clearance). ``n`` is the last contact's outward normal. ``clearance`` is 0 after a
     push, else the smallest gap between p and a grown collider (for the SDF, the gap of
@@ -53,9 +52,19 @@ def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel
     gap = math.inf
     for k in range(spheres.shape[0]):
         px, py, pz, nx, ny, nz, hit, gap = _push(
-            px, py, pz, spheres[k, 0], spheres[k, 1], spheres[k, 2], spheres[k, 3] + margin,
-            nx, ny, nz, hit, gap,
-        )  # fmt: skip
+            px,
+            py,
+            pz,
+            spheres[k, 0],
+            spheres[k, 1],
+            spheres[k, 2],
+            spheres[k, 3] + margin,
+            nx,
+            ny,
+            nz,
+            hit,
+            gap,
+        )
     for k in range(capsules.shape[0]):
         ax, ay, az = capsules[k, 0], capsules[k, 1], capsules[k, 2]
         ex, ey, ez = capsules[k, 3] - ax, capsules[k, 4] - ay, capsules[k, 5] - az
@@ -64,13 +73,24 @@ def collide(px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel
         if e2 > 0.0:
             s = min(max(((px - ax) * ex + (py - ay) * ey + (pz - az) * ez) / e2, 0.0), 1.0)
         px, py, pz, nx, ny, nz, hit, gap = _push(
-            px, py, pz, ax + s * ex, ay + s * ey, az + s * ez, capsules[k, 6] + margin,
-            nx, ny, nz, hit, gap,
-        )  # fmt: skip
+            px,
+            py,
+            pz,
+            ax + s * ex,
+            ay + s * ey,
+            az + s * ez,
+            capsules[k, 6] + margin,
+            nx,
+            ny,
+            nz,
+            hit,
+            gap,
+        )
     if sdf_values.size > 0:
         # one lookup with the normal: the solver only asks for vertices that may touch
-        d, gx, gy, gz, bound = sdf_lookup(sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw,
-                                          px, py, pz, margin)  # fmt: skip
+        d, gx, gy, gz, bound = sdf_lookup(
+            sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, px, py, pz, margin
+        )
         if d < margin and (gx != 0.0 or gy != 0.0 or gz != 0.0):
             depth = margin - d
             px, py, pz = px + depth * gx, py + depth * gy, pz + depth * gz
@@ -84,14 +104,16 @@ def _clearance_kernel(x, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxe
     for s in prange(x.shape[0]):
         for i in range(x.shape[1]):
             px, py, pz = x[s, i, 0], x[s, i, 1], x[s, i, 2]
-            qx, qy, qz, _, _, _, hit, gap = collide(px, py, pz, spheres, capsules, sdf_values,
-                                                    sdf_origin, sdf_inv_voxel, sdf_lfw, 0.0)
+            qx, qy, qz, _, _, _, hit, gap = collide(
+                px, py, pz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, 0.0
+            )
             depth = math.sqrt((qx - px) ** 2 + (qy - py) ** 2 + (qz - pz) ** 2)
             out[s, i] = -depth if hit else gap
 
 
-def clearance(x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray,
-              sdf: tuple = NO_SDF) -> np.ndarray:  # fmt: skip
+def clearance(
+    x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray, sdf: tuple = NO_SDF
+) -> np.ndarray:
     """(S, N) distance of each vertex of ``x`` (S, N, 3) from the nearest collider (inf
     for none), or minus its depth inside."""
     out = np.empty(x.shape[:2])
@@ -99,8 +121,9 @@ def clearance(x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray,
     return out
 
 
-def penetration(x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray,
-                sdf: tuple = NO_SDF) -> float:  # fmt: skip
+def penetration(
+    x: np.ndarray, spheres: np.ndarray, capsules: np.ndarray, sdf: tuple = NO_SDF
+) -> float:
     """Deepest penetration (m) of any vertex of ``x`` (S, N, 3) into a collider or the
     skin (no margin): how far the deepest vertex would have to move to get out."""
     return max(0.0, -float(clearance(x, spheres, capsules, sdf).min()))

@@ -35,8 +35,16 @@ from numba import njit
 
 from ..arrays import FMA
 
-__all__ = ["distance_pass", "bend_pass", "follow_the_leader", "strain_limit", "cone_pass",
-           "rest_pose", "local_shape_pass", "global_shape_pass"]  # fmt: skip
+__all__ = [
+    "distance_pass",
+    "bend_pass",
+    "follow_the_leader",
+    "strain_limit",
+    "cone_pass",
+    "rest_pose",
+    "local_shape_pass",
+    "global_shape_pass",
+]
 
 _TINY = 1e-12  # segments shorter than this have no direction
 
@@ -193,9 +201,12 @@ def rest_pose(root, frame, local, target, rest_dir, nb):
     for i in range(target.shape[0]):
         for a in range(3):
             for b in range(nb):
-                target[i, a, b] = (root[a, b] + local[i, 0, b] * frame[0, a, b]
-                                   + local[i, 1, b] * frame[1, a, b]
-                                   + local[i, 2, b] * frame[2, a, b])  # fmt: skip
+                target[i, a, b] = (
+                    root[a, b]
+                    + local[i, 0, b] * frame[0, a, b]
+                    + local[i, 1, b] * frame[1, a, b]
+                    + local[i, 2, b] * frame[2, a, b]
+                )
     for b in range(nb):
         rest_dir[0, 0, b] = rest_dir[0, 1, b] = rest_dir[0, 2, b] = 0.0
     for i in range(1, target.shape[0]):

@@ -31,8 +31,9 @@ def acceleration(px, py, pz, tx, ty, tz, gravity, wind, turbulence, frequency, s
     if strength > 0.0:
         wx, wy, wz = wind[0], wind[1], wind[2]
         if turbulence > 0.0:
-            nx, ny, nz = noise3(frequency * px + scroll[0], frequency * py + scroll[1],
-                                frequency * pz + scroll[2])  # fmt: skip
+            nx, ny, nz = noise3(
+                frequency * px + scroll[0], frequency * py + scroll[1], frequency * pz + scroll[2]
+            )
             k = turbulence * strength
             wx += k * nx
             wy += k * ny

@@ -81,10 +81,17 @@ class Model:
         inv_mass = np.ones(local.shape[:2], dtype=np.float32)
         inv_mass[:, 0] = 0.0
         return cls(
-            local, seg.astype(np.float32), inv_mass, bend.astype(np.float32),
-            static.astype(np.float32), direction.astype(np.float32), tri, bary, roots,
+            local,
+            seg.astype(np.float32),
+            inv_mass,
+            bend.astype(np.float32),
+            static.astype(np.float32),
+            direction.astype(np.float32),
+            tri,
+            bary,
+            roots,
             np.ascontiguousarray(frame, dtype=np.float64),
-        )  # fmt: skip
+        )
 
 
 def _check_vertices(n: int) -> None:

@@ -26,8 +26,12 @@ MOTIONS = ("none", "turn", "nod", "shake")
 _TURN = ((0.0, 0.4, 0.6, 1.0), (0.0, 1.0, 1.0, 0.0))  # out, hold, back
 _SHAKE = ((0.0, 0.14, 0.36, 0.58, 0.8, 1.0), (0.0, 1.0, -1.0, 0.6, -0.25, 0.0))  # "no", fading
 _KEYS = {"none": ((0.0, 1.0), (0.0, 0.0)), "turn": _TURN, "nod": _TURN, "shake": _SHAKE}
-_AXES = {"none": (0.0, 1.0, 0.0), "turn": (0.0, 1.0, 0.0), "nod": (1.0, 0.0, 0.0),
-         "shake": (0.0, 1.0, 0.0)}  # fmt: skip
+_AXES = {
+    "none": (0.0, 1.0, 0.0),
+    "turn": (0.0, 1.0, 0.0),
+    "nod": (1.0, 0.0, 0.0),
+    "shake": (0.0, 1.0, 0.0),
+}
 
 
 def _number(name: str, value: object) -> float:
@@ -70,9 +74,12 @@ def motion_angle(kind: str, t: float, amplitude: float = 40.0, period: float = 2
 
 
 def head_motion(
-    kind: str, t: float, amplitude: float = 40.0, period: float = 2.0,
+    kind: str,
+    t: float,
+    amplitude: float = 40.0,
+    period: float = 2.0,
     pivot: Sequence[float] = (0.0, 0.0, 0.0),
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """World-from-rest rigid transform (4, 4) float64 of the head at time ``t`` (s).
 
     Rotates by :func:`motion_angle` about ``pivot`` (turn and shake about +y, nod
@@ -85,11 +92,13 @@ def head_motion(
     x, y, z = _AXES[kind]
     c, s = math.cos(angle), math.sin(angle)
     # Rodrigues' formula for a unit axis
-    rot = np.array([
-        [c + x * x * (1 - c), x * y * (1 - c) - z * s, x * z * (1 - c) + y * s],
-        [y * x * (1 - c) + z * s, c + y * y * (1 - c), y * z * (1 - c) - x * s],
-        [z * x * (1 - c) - y * s, z * y * (1 - c) + x * s, c + z * z * (1 - c)],
-    ])  # fmt: skip
+    rot = np.array(
+        [
+            [c + x * x * (1 - c), x * y * (1 - c) - z * s, x * z * (1 - c) + y * s],
+            [y * x * (1 - c) + z * s, c + y * y * (1 - c), y * z * (1 - c) - x * s],
+            [z * x * (1 - c) - y * s, z * y * (1 - c) + x * s, c + z * z * (1 - c)],
+        ]
+    )
     out = np.eye(4)
     out[:3, :3] = rot
     out[:3, 3] = p - rot @ p

@@ -139,13 +139,35 @@ class SDF:
         dist2 = np.full(count, np.inf)
         closest = np.full(count, -1, dtype=np.int32)  # triangle per vertex
         reach2 = (band * voxel) ** 2
-        _band_kernel(verts, tris, face_normal, origin, voxel, dims,
-                     *_bin_triangles(corners, origin, voxel, dims, band), _BLOCK, reach2,
-                     closest, dist2)  # fmt: skip
+        _band_kernel(
+            verts,
+            tris,
+            face_normal,
+            origin,
+            voxel,
+            dims,
+            *_bin_triangles(corners, origin, voxel, dims, band),
+            _BLOCK,
+            reach2,
+            closest,
+            dist2,
+        )
         _sweep_kernel(verts, tris, origin, voxel, dims, reach2, closest, dist2)
         values = np.empty(count, dtype=np.float32)
-        _sign_kernel(verts, tris, origin, voxel, dims, closest, dist2, face_normal, face_edge,
-                     edge_normal, vertex_normal, values)  # fmt: skip
+        _sign_kernel(
+            verts,
+            tris,
+            origin,
+            voxel,
+            dims,
+            closest,
+            dist2,
+            face_normal,
+            face_edge,
+            edge_normal,
+            vertex_normal,
+            values,
+        )
         return cls(values.reshape(tuple(dims)), origin, voxel)
 
     def with_transform(self, transform: np.ndarray) -> SDF:
@@ -302,9 +324,7 @@ def _pseudo_normals(
     weld = weld.reshape(-1)
     wf = weld[faces]
     corners = verts[faces]
-    face_normal = normalize(
-        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    )
+    face_normal = normalize(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
     angle = np.empty(faces.shape)
     for k in range(3):
         e1 = corners[:, (k + 1) % 3] - corners[:, k]
@@ -358,8 +378,7 @@ def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
     box plus |value| at the nearest grid point, and that sum's gradient (never inside).
     Allocates nothing, so a solver kernel can call it per particle.
     """
-    d, nx, ny, nz, _ = sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz,
-                                  math.inf)  # fmt: skip
+    d, nx, ny, nz, _ = sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz, math.inf)
     return d, nx, ny, nz
 
 
@@ -440,9 +459,20 @@ def _sample_kernel(values, origin, inv_voxel, local_from_world, points, dist, no
 def _distance2(px, py, pz, verts, faces, t):
     """(squared distance, wa, wb, wc): p to triangle t, and its closest point's weights."""
     i, j, k = faces[t, 0], faces[t, 1], faces[t, 2]
-    wa, wb, wc = closest_weights(px, py, pz, verts[i, 0], verts[i, 1], verts[i, 2],
-                                  verts[j, 0], verts[j, 1], verts[j, 2],
-                                  verts[k, 0], verts[k, 1], verts[k, 2])  # fmt: skip
+    wa, wb, wc = closest_weights(
+        px,
+        py,
+        pz,
+        verts[i, 0],
+        verts[i, 1],
+        verts[i, 2],
+        verts[j, 0],
+        verts[j, 1],
+        verts[j, 2],
+        verts[k, 0],
+        verts[k, 1],
+        verts[k, 2],
+    )
     dx = px - (wa * verts[i, 0] + wb * verts[j, 0] + wc * verts[k, 0])
     dy = py - (wa * verts[i, 1] + wb * verts[j, 1] + wc * verts[k, 1])
     dz = pz - (wa * verts[i, 2] + wb * verts[j, 2] + wc * verts[k, 2])
@@ -468,8 +498,23 @@ def _block_pairs(tri_lo, tri_hi, blocks, size, count):
 
 
 @njit(cache=True, parallel=True)
-def _band_kernel(verts, faces, face_normal, origin, voxel, dims, tri_lo, tri_hi, blocks,
-                 block_start, block_tris, size, reach2, closest, dist2):  # fmt: skip
+def _band_kernel(
+    verts,
+    faces,
+    face_normal,
+    origin,
+    voxel,
+    dims,
+    tri_lo,
+    tri_hi,
+    blocks,
+    block_start,
+    block_tris,
+    size,
+    reach2,
+    closest,
+    dist2,
+):
     """Exact squared distance and closest triangle for every vertex nearer than
     sqrt(reach2) to the mesh; the others keep (-1, inf).
 
@@ -500,8 +545,11 @@ def _band_kernel(verts, faces, face_normal, origin, voxel, dims, tri_lo, tri_hi,
                         pz = origin[2] + z * voxel
                         v = (x * ny + y) * nz + z
                         bound = min(dist2[v], reach2)
-                        h = ((px - verts[a, 0]) * fnx + (py - verts[a, 1]) * fny
-                             + (pz - verts[a, 2]) * fnz)  # fmt: skip
+                        h = (
+                            (px - verts[a, 0]) * fnx
+                            + (py - verts[a, 1]) * fny
+                            + (pz - verts[a, 2]) * fnz
+                        )
                         if h * h >= bound:
                             continue
                         d2 = _distance2(px, py, pz, verts, faces, t)[0]
@@ -523,8 +571,9 @@ def _sweep_kernel(verts, faces, origin, voxel, dims, reach2, closest, dist2):
             if task == 0:
                 _sweep(verts, faces, origin, voxel, dims, reach2, axis, 1, closest, dist2)
             else:
-                _sweep(verts, faces, origin, voxel, dims, reach2, axis, -1, back_closest,
-                       back_dist2)  # fmt: skip
+                _sweep(
+                    verts, faces, origin, voxel, dims, reach2, axis, -1, back_closest, back_dist2
+                )
         for v in prange(closest.shape[0]):
             if back_dist2[v] < dist2[v]:
                 closest[v] = back_closest[v]
@@ -570,8 +619,20 @@ def _sweep(verts, faces, origin, voxel, dims, reach2, axis, step, closest, dist2
 
 
 @njit(cache=True, parallel=True)
-def _sign_kernel(verts, faces, origin, voxel, dims, closest, dist2, face_normal, face_edge,
-                 edge_normal, vertex_normal, values):  # fmt: skip
+def _sign_kernel(
+    verts,
+    faces,
+    origin,
+    voxel,
+    dims,
+    closest,
+    dist2,
+    face_normal,
+    face_edge,
+    edge_normal,
+    vertex_normal,
+    values,
+):
     """±sqrt(dist2) per vertex: negative where (p − closest point) · pseudo-normal < 0.
 
     The closest feature follows from the zero weights of the closest point: two zeros a

@@ -90,7 +90,7 @@ def _head_transform(transform: object) -> np.ndarray:
     |t| ≤ MAX_COORDINATE (a place a mesh may be)."""
     m = _numbers(transform, "transform")
     if m.shape != (4, 4):
-        hint = ("; put a 3×3 rotation R in [R t; 0 0 0 1]" if m.shape == (3, 3) else "")
+        hint = "; put a 3×3 rotation R in [R t; 0 0 0 1]" if m.shape == (3, 3) else ""
         raise InputError(f"transform: expected a 4×4 matrix, got shape {m.shape}{hint}")
     if not np.isfinite(m).all():
         raise InputError("transform: every entry must be finite, got NaN or inf")
@@ -165,9 +165,11 @@ class Simulator:
     ``params`` (SimParams; None = the defaults). Hair starts at rest on the mesh's pose."""
 
     def __init__(
-        self, guides: Guides | HairCurves, mesh: SkinMesh | None = None,
+        self,
+        guides: Guides | HairCurves,
+        mesh: SkinMesh | None = None,
         params: SimParams | None = None,
-    ) -> None:  # fmt: skip
+    ) -> None:
         if isinstance(guides, Guides) and mesh is None:
             mesh = guides.mesh
         self.mesh = mesh
@@ -204,14 +206,14 @@ class Simulator:
         self.sdf = None  # the skin's SDF on the current pose
         if mesh is not None and params.skin_collision:
             try:
-                self.sdf = SDF.from_mesh(mesh.vertices, mesh.faces,
-                                         voxel_size=params.skin_voxel)  # fmt: skip
+                self.sdf = SDF.from_mesh(mesh.vertices, mesh.faces, voxel_size=params.skin_voxel)
             except InputError as exc:  # the user's name for the voxel size
                 raise InputError(f"[sim].skin_voxel: {exc}") from None
             self._sdf_rest = self.sdf  # built on the pose rigid transforms are applied to
             if mesh.vertices is not mesh.rest_vertices:  # posed: rigid moves start from rest
-                self._sdf_rest = SDF.from_mesh(mesh.rest_vertices, mesh.faces,
-                                               voxel_size=params.skin_voxel)  # fmt: skip
+                self._sdf_rest = SDF.from_mesh(
+                    mesh.rest_vertices, mesh.faces, voxel_size=params.skin_voxel
+                )
         roots, frames = self._pinned()
         rest = roots[:, None] + np.einsum("snk,ska->sna", self.model.rest_local, frames)
         near = clearance(rest, *self._colliders(self._transform, self.sdf))
@@ -232,8 +234,10 @@ class Simulator:
                 self._pinned_cache = (np.ascontiguousarray(cur.position, np.float64), frames)
             else:
                 r, t = self._transform[:3, :3], self._transform[:3, 3]
-                self._pinned_cache = (m.rest_roots @ r.T + t,
-                                      np.ascontiguousarray(m.rest_frames @ r.T))  # fmt: skip
+                self._pinned_cache = (
+                    m.rest_roots @ r.T + t,
+                    np.ascontiguousarray(m.rest_frames @ r.T),
+                )
         return self._pinned_cache
 
     def set_pose(self, transform: object | None = None, vertices: object | None = None) -> None:
@@ -260,16 +264,18 @@ class Simulator:
             verts = _numbers(vertices, "vertices")
             rest = self.mesh.rest_vertices.shape
             if verts.shape != rest:
-                raise InputError(f"vertices: expected shape {rest} (the rest mesh's), got"
-                                 f" {verts.shape}")  # fmt: skip
+                raise InputError(
+                    f"vertices: expected shape {rest} (the rest mesh's), got {verts.shape}"
+                )
             if not np.isfinite(verts).all():
                 bad = int(np.argmin(np.isfinite(verts).all(axis=1)))
                 raise InputError(f"vertices: vertex {bad} is not finite: {verts[bad].tolist()}")
             self._pinned_cache = None
             self.mesh.set_pose(vertices=verts)
             if self.sdf is not None:  # a deformed skin: a new field (its own frame)
-                self.sdf = SDF.from_mesh(self.mesh.vertices, self.mesh.faces,
-                                         voxel_size=self.params.skin_voxel)  # fmt: skip
+                self.sdf = SDF.from_mesh(
+                    self.mesh.vertices, self.mesh.faces, voxel_size=self.params.skin_voxel
+                )
 
     def teleport(self, transform: object | None = None, vertices: object | None = None) -> None:
         """Re-pose at once: every strand moves rigidly with its root frame (no explosion).
@@ -308,9 +314,11 @@ class Simulator:
                 spheres.append([*move(c.centre), c.radius])
             else:
                 capsules.append([*move(c.a), *move(c.b), c.radius])
-        return (np.array(spheres, np.float64).reshape(-1, 4),
-                np.array(capsules, np.float64).reshape(-1, 7),
-                NO_SDF if sdf is None else sdf.sample_args)  # fmt: skip
+        return (
+            np.array(spheres, np.float64).reshape(-1, 4),
+            np.array(capsules, np.float64).reshape(-1, 7),
+            NO_SDF if sdf is None else sdf.sample_args,
+        )
 
     def _collider_move(self, transform: np.ndarray, sdf: SDF | None, colliders: tuple) -> float:
         """How far any collider surface near the hair moved since the last substep (m): the
@@ -379,11 +387,20 @@ class Simulator:
             sdf = self._sdf_rest.with_transform(transform) if rigid_skin else self.sdf
             colliders = self._colliders(transform, sdf)
             moved = self._collider_move(transform, sdf, colliders)
-            self.solver.substep(self.state, start, end, f, self.wind(self.state.time), colliders,
-                                moved)  # fmt: skip
+            self.solver.substep(
+                self.state, start, end, f, self.wind(self.state.time), colliders, moved
+            )
             if volume:  # the state is finite (the solver puts back a strand that is not)
-                volume_step(self.state.x, self.state.v, self._free, h, p.volume_friction,
-                            p.volume_repulsion, p.volume_blur, p.volume_resolution)
+                volume_step(
+                    self.state.x,
+                    self.state.v,
+                    self._free,
+                    h,
+                    p.volume_friction,
+                    p.volume_repulsion,
+                    p.volume_blur,
+                    p.volume_resolution,
+                )
         self.state.roots, self.state.frames = end
         self._state_transform = finish
         self._check_state()
@@ -397,8 +414,11 @@ class Simulator:
         finite = bool(np.isfinite(reach).all())
         if finite and not (reach > EXPLODED).any():
             return
-        what = "NaN or inf" if not finite else f"a vertex {float(reach.max()):.3g} strand" \
-            " lengths from its root"  # fmt: skip
+        what = (
+            "NaN or inf"
+            if not finite
+            else f"a vertex {float(reach.max()):.3g} strand lengths from its root"
+        )
         raise SimulationError(
             f"simulation: the state blew up ({what}) at t = {self.state.time:.4f} s; soften"
             f" [sim]: lower substep (now {p.substep:g} s), wind ({p.wind}), gravity"

@@ -71,9 +71,11 @@ def _pin(roots0, frames0, roots1, frames1, f, s, b, root, frame):
     bz = nx * ty - ny * tx
     for a in range(3):
         root[a, b] = g * roots0[s, a] + f * roots1[s, a]
-    hand = (g * frames0[s, 1, 0] + f * frames1[s, 1, 0]) * bx + (
-        g * frames0[s, 1, 1] + f * frames1[s, 1, 1]) * by + (
-        g * frames0[s, 1, 2] + f * frames1[s, 1, 2]) * bz
+    hand = (
+        (g * frames0[s, 1, 0] + f * frames1[s, 1, 0]) * bx
+        + (g * frames0[s, 1, 1] + f * frames1[s, 1, 1]) * by
+        + (g * frames0[s, 1, 2] + f * frames1[s, 1, 2]) * bz
+    )
     sign = -1.0 if hand < 0.0 else 1.0
     frame[0, 0, b], frame[0, 1, b], frame[0, 2, b] = tx, ty, tz
     frame[1, 0, b], frame[1, 1, b], frame[1, 2, b] = sign * bx, sign * by, sign * bz
@@ -81,8 +83,21 @@ def _pin(roots0, frames0, roots1, frames1, f, s, b, root, frame):
 
 
 @njit(cache=True, error_model="numpy", fastmath=FMA)
-def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
-                  sdf_inv_voxel, sdf_lfw, M, nb):  # fmt: skip
+def _collide_pass(
+    X,
+    W,
+    ref,
+    gap2,
+    contact,
+    spheres,
+    capsules,
+    sdf_values,
+    sdf_origin,
+    sdf_inv_voxel,
+    sdf_lfw,
+    M,
+    nb,
+):
     """Push the free vertices out of the colliders grown by their margins ``M`` (N, B);
     contact normals into ``contact``. A
     vertex still within ``gap`` of where it was last found clear (``ref``) cannot have
@@ -108,9 +123,17 @@ def _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_o
         for q in range(count):  # … so the loop over them mispredicts no skip
             b = todo[q]
             px, py, pz, nx, ny, nz, hit, gap = collide(
-                X[i, 0, b], X[i, 1, b], X[i, 2, b], spheres, capsules, sdf_values,
-                sdf_origin, sdf_inv_voxel, sdf_lfw, M[i, b],
-            )  # fmt: skip
+                X[i, 0, b],
+                X[i, 1, b],
+                X[i, 2, b],
+                spheres,
+                capsules,
+                sdf_values,
+                sdf_origin,
+                sdf_inv_voxel,
+                sdf_lfw,
+                M[i, b],
+            )
             X[i, 0, b], X[i, 1, b], X[i, 2, b] = px, py, pz
             ref[i, 0, b], ref[i, 1, b], ref[i, 2, b] = px, py, pz
             gap2[i, b] = gap * gap / 3.0  # see collide: the SDF may fall √3× faster
@@ -122,8 +145,22 @@ SETTLE_FROM = 0.005  # relative stretch from which the settle pass moves a verte
 
 
 @njit(cache=True, inline="always")
-def _hang(px, py, pz, ux, uy, uz, length, spheres, capsules, sdf_values, sdf_origin,
-          sdf_inv_voxel, sdf_lfw, margin):  # fmt: skip
+def _hang(
+    px,
+    py,
+    pz,
+    ux,
+    uy,
+    uz,
+    length,
+    spheres,
+    capsules,
+    sdf_values,
+    sdf_origin,
+    sdf_inv_voxel,
+    sdf_lfw,
+    margin,
+):
     """A child hung ``length`` from its parent p along the unit u, out of the colliders
     grown by ``margin``: ``collide``'s (x, y, z, nx, ny, nz, hit, clearance). Where the
     push out would shorten or lengthen the segment (u points into the collider), u is
@@ -132,8 +169,9 @@ def _hang(px, py, pz, ux, uy, uz, length, spheres, capsules, sdf_values, sdf_ori
     so the child ends both at its length and outside (a plane is exact; a convex
     surface only falls away from it)."""
     cx, cy, cz = px + length * ux, py + length * uy, pz + length * uz
-    qx, qy, qz, nx, ny, nz, hit, gap = collide(cx, cy, cz, spheres, capsules, sdf_values,
-                                               sdf_origin, sdf_inv_voxel, sdf_lfw, margin)
+    qx, qy, qz, nx, ny, nz, hit, gap = collide(
+        cx, cy, cz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, margin
+    )
     if not hit:
         return qx, qy, qz, nx, ny, nz, hit, gap
     need = -((px - qx) * nx + (py - qy) * ny + (pz - qz) * nz) / length
@@ -145,16 +183,32 @@ def _hang(px, py, pz, ux, uy, uz, length, spheres, capsules, sdf_values, sdf_ori
     s = math.sqrt(1.0 - need * need) / t
     ux, uy, uz = need * nx + s * tx, need * ny + s * ty, need * nz + s * tz
     cx, cy, cz = px + length * ux, py + length * uy, pz + length * uz
-    qx, qy, qz, mx, my, mz, again, gap = collide(cx, cy, cz, spheres, capsules, sdf_values,
-                                                 sdf_origin, sdf_inv_voxel, sdf_lfw, margin)
+    qx, qy, qz, mx, my, mz, again, gap = collide(
+        cx, cy, cz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, margin
+    )
     if again:
         nx, ny, nz = mx, my, mz
     return qx, qy, qz, nx, ny, nz, True, gap
 
 
 @njit(cache=True, error_model="numpy", fastmath=FMA)
-def _settle_pass(X, W, L, limit, ref, gap2, contact, spheres, capsules, sdf_values,
-                 sdf_origin, sdf_inv_voxel, sdf_lfw, M, nb):  # fmt: skip
+def _settle_pass(
+    X,
+    W,
+    L,
+    limit,
+    ref,
+    gap2,
+    contact,
+    spheres,
+    capsules,
+    sdf_values,
+    sdf_origin,
+    sdf_inv_voxel,
+    sdf_lfw,
+    M,
+    nb,
+):
     """After the last collision pass, root to tip: a segment that the collisions left
     outside (1 ± ``limit``) × rest (and by more than SETTLE_FROM: the collisions' slight
     pushes are left to the next substep's constraints, which cost no lookup) has its
@@ -192,10 +246,21 @@ def _settle_pass(X, W, L, limit, ref, gap2, contact, spheres, capsules, sdf_valu
                 continue
             rest = min(max(length, (1.0 - limit) * L[i - 1, b]), (1.0 + limit) * L[i - 1, b])
             px, py, pz, nx, ny, nz, hit, gap = _hang(
-                X[i - 1, 0, b], X[i - 1, 1, b], X[i - 1, 2, b], dx / length, dy / length,
-                dz / length, rest, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel,
-                sdf_lfw, M[i, b],
-            )  # fmt: skip
+                X[i - 1, 0, b],
+                X[i - 1, 1, b],
+                X[i - 1, 2, b],
+                dx / length,
+                dy / length,
+                dz / length,
+                rest,
+                spheres,
+                capsules,
+                sdf_values,
+                sdf_origin,
+                sdf_inv_voxel,
+                sdf_lfw,
+                M[i, b],
+            )
             X[i, 0, b], X[i, 1, b], X[i, 2, b] = px, py, pz
             ref[i, 0, b], ref[i, 1, b], ref[i, 2, b] = px, py, pz
             gap2[i, b] = gap * gap / 3.0
@@ -204,13 +269,55 @@ def _settle_pass(X, W, L, limit, ref, gap2, contact, spheres, capsules, sdf_valu
 
 
 @njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
-def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, root_direction,
-                    roots0, frames0, roots1, frames1, f, dt, damp, euler, dftl, iterations,
-                    gravity, wind, turbulence, frequency, scroll, drag, k_stretch, k_bend,
-                    bend_scale, attenuation, k_local, k_global, cos_limit, sin_limit,
-                    dftl_damping, stretch_limit, limit_damping, spheres, capsules, sdf_values,
-                    sdf_origin, sdf_inv_voxel, sdf_lfw, margin, friction, clear, shift,
-                    energy, bad):  # fmt: skip
+def _substep_kernel(
+    x,
+    v,
+    w,
+    rest_length,
+    rest_local,
+    bend_rest,
+    static_local,
+    root_direction,
+    roots0,
+    frames0,
+    roots1,
+    frames1,
+    f,
+    dt,
+    damp,
+    euler,
+    dftl,
+    iterations,
+    gravity,
+    wind,
+    turbulence,
+    frequency,
+    scroll,
+    drag,
+    k_stretch,
+    k_bend,
+    bend_scale,
+    attenuation,
+    k_local,
+    k_global,
+    cos_limit,
+    sin_limit,
+    dftl_damping,
+    stretch_limit,
+    limit_damping,
+    spheres,
+    capsules,
+    sdf_values,
+    sdf_origin,
+    sdf_inv_voxel,
+    sdf_lfw,
+    margin,
+    friction,
+    clear,
+    shift,
+    energy,
+    bad,
+):
     strands, n = x.shape[0], x.shape[1]
     shape = k_local > 0.0 or k_global[1] > 0.0
     correct = dftl or stretch_limit >= 0.0  # Almeida 2014 eq. 3.1 applies
@@ -248,8 +355,12 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
             sl, d = static_local[s], root_direction[s]
             for a in range(3):
                 X[0, a, b] = root[a, b]
-                static[a, b] = (root[a, b] + sl[0] * frame[0, a, b] + sl[1] * frame[1, a, b]
-                                + sl[2] * frame[2, a, b])  # fmt: skip
+                static[a, b] = (
+                    root[a, b]
+                    + sl[0] * frame[0, a, b]
+                    + sl[1] * frame[1, a, b]
+                    + sl[2] * frame[2, a, b]
+                )
                 first[a, b] = d[0] * frame[0, a, b] + d[1] * frame[1, a, b] + d[2] * frame[2, a, b]
         # drag −b·v (Le Muzic 2012 eq. 5.3), implicit (backward Euler): v' = (v + a dt) / (1 + b dt)
         # damps towards the terminal speed a / b for any b; explicit, v' = v + (a − b v) dt,
@@ -266,8 +377,19 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                     tl = math.sqrt(tx * tx + ty * ty + tz * tz)
                     if tl > 0.0:
                         tx, ty, tz = tx / tl, ty / tl, tz / tl
-                    ax, ay, az = acceleration(X0[i, 0, b], X0[i, 1, b], X0[i, 2, b], tx, ty, tz,
-                                              gravity, wind, turbulence, frequency, scroll)
+                    ax, ay, az = acceleration(
+                        X0[i, 0, b],
+                        X0[i, 1, b],
+                        X0[i, 2, b],
+                        tx,
+                        ty,
+                        tz,
+                        gravity,
+                        wind,
+                        turbulence,
+                        frequency,
+                        scroll,
+                    )
                 vx, vy, vz = V0[i, 0, b], V0[i, 1, b], V0[i, 2, b]
                 if euler:  # v ← (v + a dt) damped, x ← x + v dt
                     X[i, 0, b] += m * (vx + ax * dt) * damp * h
@@ -288,8 +410,21 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
                 local_shape_pass(X, W, target, rest_dir, k_local, row, nb)
             if k_global[1] > 0.0:  # the profile never rises towards the tip
                 global_shape_pass(X, W, target, k_global, nb)
-            _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
-                          sdf_inv_voxel, sdf_lfw, M, nb)  # fmt: skip
+            _collide_pass(
+                X,
+                W,
+                ref,
+                gap2,
+                contact,
+                spheres,
+                capsules,
+                sdf_values,
+                sdf_origin,
+                sdf_inv_voxel,
+                sdf_lfw,
+                M,
+                nb,
+            )
         if dftl:
             follow_the_leader(X, L, corr, row, nb)
         elif stretch_limit >= 0.0:
@@ -297,12 +432,39 @@ def _substep_kernel(x, v, w, rest_length, rest_local, bend_rest, static_local, r
         if cos_limit > -1.0:
             cone_pass(X, L, cos_limit, sin_limit, first, nb)
         contact[:] = 0.0  # only the last pass's contacts get friction
-        _collide_pass(X, W, ref, gap2, contact, spheres, capsules, sdf_values, sdf_origin,
-                      sdf_inv_voxel, sdf_lfw, M, nb)  # collisions are hard: last
+        _collide_pass(
+            X,
+            W,
+            ref,
+            gap2,
+            contact,
+            spheres,
+            capsules,
+            sdf_values,
+            sdf_origin,
+            sdf_inv_voxel,
+            sdf_lfw,
+            M,
+            nb,
+        )  # collisions are hard: last
         if dftl or stretch_limit >= 0.0:  # … and lengths are settled around them
-            _settle_pass(X, W, L, 0.0 if dftl else 0.5 * stretch_limit, ref, gap2, contact,
-                         spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, M,
-                         nb)  # fmt: skip
+            _settle_pass(
+                X,
+                W,
+                L,
+                0.0 if dftl else 0.5 * stretch_limit,
+                ref,
+                gap2,
+                contact,
+                spheres,
+                capsules,
+                sdf_values,
+                sdf_origin,
+                sdf_inv_voxel,
+                sdf_lfw,
+                M,
+                nb,
+            )
         keep = 1.0 - friction
         for i in range(n):  # velocities from the moves
             fix = correction / dt if correct and 0 < i < n - 1 else 0.0  # Almeida 2014 eq. 3.1
@@ -364,8 +526,9 @@ def _blocked(a: np.ndarray, vertices: int) -> np.ndarray:
 class Solver:
     """Runs substeps of a Model's strands with one set of parameters (a SimParams)."""
 
-    def __init__(self, model: Model, params: object, rest_clearance: np.ndarray | None = None
-                 ) -> None:  # fmt: skip
+    def __init__(
+        self, model: Model, params: object, rest_clearance: np.ndarray | None = None
+    ) -> None:
         """``rest_clearance`` (S, N): each vertex's distance from the colliders at rest
         (negative inside): a vertex groomed nearer than the margin keeps that nearness as
         its margin, so the rest pose is never pushed (nor stretched) by collisions."""
@@ -373,8 +536,10 @@ class Solver:
         self.params = params
         self.rest_clearance = rest_clearance
         n = model.vertices
-        self._static = tuple(_blocked(a, n) for a in (
-            model.inv_mass, model.rest_length, model.rest_local, model.bend_rest))  # fmt: skip
+        self._static = tuple(
+            _blocked(a, n)
+            for a in (model.inv_mass, model.rest_length, model.rest_local, model.bend_rest)
+        )
         self.energy = np.zeros(model.strands)  # ½ Σ |Δx / dt|² per strand, last substep
         self._bad = np.zeros(model.strands, np.uint8)
         self._for: object = None  # the params _constants were made for
@@ -395,29 +560,51 @@ class Solver:
             n = p.iterations
             cone = math.radians(p.cone_angle)
             self._kept = (
-                math.exp(-p.damping * p.substep), p.integrator == "euler", p.solver == "dftl",
-                n, np.asarray(p.gravity, np.float64),
-            ), (
-                p.wind_turbulence, p.wind_frequency,
-            ), (
-                p.drag, linearised(p.stretch_stiffness, n), linearised(p.bend_stiffness, n),
-                p.bend_scale, p.bend_attenuation, linearised(p.shape_local, n),
-                self.global_profile(), math.cos(cone) if p.cone_angle < 180 else -2.0,
-                math.sin(cone), p.dftl_damping,
-                -1.0 if p.stretch_limit is None else p.stretch_limit, p.stretch_limit_damping,
-            )  # fmt: skip
-            margin = np.full(self.model.rest_length.shape[:1] + (self.model.vertices,),
-                             p.collision_margin)  # fmt: skip
+                (
+                    math.exp(-p.damping * p.substep),
+                    p.integrator == "euler",
+                    p.solver == "dftl",
+                    n,
+                    np.asarray(p.gravity, np.float64),
+                ),
+                (
+                    p.wind_turbulence,
+                    p.wind_frequency,
+                ),
+                (
+                    p.drag,
+                    linearised(p.stretch_stiffness, n),
+                    linearised(p.bend_stiffness, n),
+                    p.bend_scale,
+                    p.bend_attenuation,
+                    linearised(p.shape_local, n),
+                    self.global_profile(),
+                    math.cos(cone) if p.cone_angle < 180 else -2.0,
+                    math.sin(cone),
+                    p.dftl_damping,
+                    -1.0 if p.stretch_limit is None else p.stretch_limit,
+                    p.stretch_limit_damping,
+                ),
+            )
+            margin = np.full(
+                self.model.rest_length.shape[:1] + (self.model.vertices,), p.collision_margin
+            )
             if self.rest_clearance is not None:
                 np.minimum(margin, self.rest_clearance, out=margin)
             self._margin = _blocked(margin, self.model.vertices)
             self._for = p
         return self._kept
 
-    def substep(self, state: State, start: tuple[np.ndarray, np.ndarray],
-                end: tuple[np.ndarray, np.ndarray], f: float, wind: np.ndarray,
-                colliders: tuple[np.ndarray, np.ndarray, tuple],
-                moved: float = math.inf) -> None:  # fmt: skip
+    def substep(
+        self,
+        state: State,
+        start: tuple[np.ndarray, np.ndarray],
+        end: tuple[np.ndarray, np.ndarray],
+        f: float,
+        wind: np.ndarray,
+        colliders: tuple[np.ndarray, np.ndarray, tuple],
+        moved: float = math.inf,
+    ) -> None:
         """Advance ``state`` by one substep with the roots pinned a fraction ``f`` of the
         way from ``start`` to ``end`` (each (roots (S, 3), frames (S, 3, 3))), under
         ``wind`` (3,) now, against ``colliders`` (spheres, capsules, SDF arguments), whose
@@ -428,10 +615,30 @@ class Solver:
         scroll = np.asarray(p.wind_drift, np.float64) * state.time * p.wind_frequency
         spheres, capsules, sdf = colliders
         _substep_kernel(
-            state.x, state.v, *self._static, m.static_local, m.root_direction, *start, *end,
-            f, p.substep, *integration, wind, *noise, scroll, *constraints, spheres, capsules,
-            *sdf, self._margin, p.friction, state.clear, moved, self.energy, self._bad,
-        )  # fmt: skip
+            state.x,
+            state.v,
+            *self._static,
+            m.static_local,
+            m.root_direction,
+            *start,
+            *end,
+            f,
+            p.substep,
+            *integration,
+            wind,
+            *noise,
+            scroll,
+            *constraints,
+            spheres,
+            capsules,
+            *sdf,
+            self._margin,
+            p.friction,
+            state.clear,
+            moved,
+            self.energy,
+            self._bad,
+        )
         if self._bad.any():
             raise SimulationError(
                 f"simulation: {int(self._bad.sum())} strand(s) would get NaN or inf at"

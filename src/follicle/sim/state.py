@@ -26,5 +26,11 @@ class State:
     clear: np.ndarray
 
     def copy(self) -> State:
-        return State(self.x.copy(), self.v.copy(), self.time, self.roots.copy(),
-                     self.frames.copy(), self.clear.copy())  # fmt: skip
+        return State(
+            self.x.copy(),
+            self.v.copy(),
+            self.time,
+            self.roots.copy(),
+            self.frames.copy(),
+            self.clear.copy(),
+        )

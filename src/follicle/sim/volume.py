@@ -223,9 +223,16 @@ def apply_volume(
 
 
 def volume_step(
-    x: np.ndarray, v: np.ndarray, free: np.ndarray, dt: float, friction: float,
-    repulsion: float, blur_passes: int, resolution: int, voxel_size: float | None = None,
-) -> VolumeGrid:  # fmt: skip
+    x: np.ndarray,
+    v: np.ndarray,
+    free: np.ndarray,
+    dt: float,
+    friction: float,
+    repulsion: float,
+    blur_passes: int,
+    resolution: int,
+    voxel_size: float | None = None,
+) -> VolumeGrid:
     """:func:`apply_volume` without its checks, for a caller whose arrays are known
     good (the simulator, every substep: scanning a million particles for NaN and
     bounds in Python took a fifth of the volume's time): ``x``, ``v`` C-contiguous
@@ -234,8 +241,16 @@ def volume_step(
     spec = _fitted(pts, resolution, voxel_size, 1 + blur_passes)
     grid = _splat_grid(x, v, spec, blur_passes)
     h = spec.voxel
-    _update(pts, v.reshape(-1, 3), free.reshape(-1), grid.flow, spec.origin, 1 / h, friction,
-            repulsion * h / dt)
+    _update(
+        pts,
+        v.reshape(-1, 3),
+        free.reshape(-1),
+        grid.flow,
+        spec.origin,
+        1 / h,
+        friction,
+        repulsion * h / dt,
+    )
     return grid
 
 
@@ -407,8 +422,14 @@ def _cell(px, py, pz, origin, inv_h, nx, ny, nz):
     ix = min(max(int(fx), 0), nx - 2)
     iy = min(max(int(fy), 0), ny - 2)
     iz = min(max(int(fz), 0), nz - 2)
-    return (ix, iy, iz, min(max(fx - ix, 0.0), 1.0), min(max(fy - iy, 0.0), 1.0),
-            min(max(fz - iz, 0.0), 1.0))  # fmt: skip
+    return (
+        ix,
+        iy,
+        iz,
+        min(max(fx - ix, 0.0), 1.0),
+        min(max(fy - iy, 0.0), 1.0),
+        min(max(fz - iz, 0.0), 1.0),
+    )
 
 
 @njit(cache=True, inline="always")
@@ -453,8 +474,7 @@ def _splat(x, v, grids, origin, inv_h):
     for k in prange(parts):
         grid = grids[k]
         for p in range(k * m // parts, (k + 1) * m // parts):
-            _splat_point(grid, origin, inv_h, x[p, 0], x[p, 1], x[p, 2], v[p, 0], v[p, 1],
-                        v[p, 2])  # fmt: skip
+            _splat_point(grid, origin, inv_h, x[p, 0], x[p, 1], x[p, 2], v[p, 0], v[p, 1], v[p, 2])
 
 
 @njit(cache=True, parallel=True)
@@ -628,6 +648,15 @@ def _update(x, v, free, flow, origin, inv_h, friction, push):
     for p in prange(x.shape[0]):
         if free[p]:
             v[p, 0], v[p, 1], v[p, 2] = _exchange(
-                flow, origin, inv_h, x[p, 0], x[p, 1], x[p, 2], float(v[p, 0]), float(v[p, 1]),
-                float(v[p, 2]), friction, push,
-            )  # fmt: skip
+                flow,
+                origin,
+                inv_h,
+                x[p, 0],
+                x[p, 1],
+                x[p, 2],
+                float(v[p, 0]),
+                float(v[p, 1]),
+                float(v[p, 2]),
+                friction,
+                push,
+            )

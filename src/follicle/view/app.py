@@ -14,17 +14,23 @@ __all__ = ["view"]
 
 
 def _check_frames(frames: int | None) -> None:
-    if frames is not None and (isinstance(frames, bool) or not isinstance(frames, int)
-                               or frames < 1):  # fmt: skip
+    if frames is not None and (
+        isinstance(frames, bool) or not isinstance(frames, int) or frames < 1
+    ):
         raise InputError(f"frames: expected a whole number ≥ 1 or None, got {frames!r}")
 
 
 def view(
-    scene: Scene | str | os.PathLike[str] | None = None, frames: int | None = None,
-    screenshot: str | os.PathLike[str] | None = None, size: Sequence[int] = (960, 540),
-    fps: float = 30.0, window: bool = True, visible: bool = True, quality: str = "full",
+    scene: Scene | str | os.PathLike[str] | None = None,
+    frames: int | None = None,
+    screenshot: str | os.PathLike[str] | None = None,
+    size: Sequence[int] = (960, 540),
+    fps: float = 30.0,
+    window: bool = True,
+    visible: bool = True,
+    quality: str = "full",
     source: str | os.PathLike[str] | None = None,
-) -> Controller:  # fmt: skip
+) -> Controller:
     """Simulate and render ``scene`` live; returns the Controller when the loop ends.
 
     ``frames`` None runs until the window closes (Esc), else that many frames. With

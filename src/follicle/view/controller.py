@@ -44,16 +44,19 @@ class Show:
 
 
 def _positive(value: object, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-            0 < value < math.inf):  # fmt: skip
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
         raise InputError(f"{name}: expected a finite number > 0, got {value!r}")
     return float(value)
 
 
 def _light_table(light: Light) -> dict[str, object]:
     """A light of the default rig as a [[render.lights]] table."""
-    table = {"type": "ambient" if light.is_ambient else "directional", "space": light.space,
-             "color": tuple(light.color), "intensity": light.intensity}  # fmt: skip
+    table = {
+        "type": "ambient" if light.is_ambient else "directional",
+        "space": light.space,
+        "color": tuple(light.color),
+        "intensity": light.intensity,
+    }
     if not light.is_ambient:
         table["direction"] = tuple(light.direction)
     return table
@@ -84,10 +87,13 @@ class Controller:
     """
 
     def __init__(
-        self, scene: Scene | str | os.PathLike[str] | None = None,
-        size: Sequence[int] = (960, 540), fps: float = 30.0, quality: str = "full",
+        self,
+        scene: Scene | str | os.PathLike[str] | None = None,
+        size: Sequence[int] = (960, 540),
+        fps: float = 30.0,
+        quality: str = "full",
         source: str | os.PathLike[str] | None = None,
-    ) -> None:  # fmt: skip
+    ) -> None:
         if not isinstance(scene, Scene):
             source = scene if source is None else source
             scene = load_scene(scene)
@@ -187,15 +193,16 @@ class Controller:
 
     @hair_limit.setter
     def hair_limit(self, limit: int | None) -> None:
-        if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int)
-                                  or limit < 0):  # fmt: skip
+        if limit is not None and (
+            isinstance(limit, bool) or not isinstance(limit, int) or limit < 0
+        ):
             raise InputError(f"hair_limit: expected a whole number ≥ 0 or None, got {limit!r}")
         self._hair_limit = limit
         self.curves = self.image = None
 
     @property
     def quality(self) -> str:
-        """"full": the scene's [render] settings; "fast": no MSAA, no shadows and one
+        """ "full": the scene's [render] settings; "fast": no MSAA, no shadows and one
         Catmull-Rom step per segment, the renderer's cheapest settings, for speed."""
         return self._quality
 
@@ -314,13 +321,21 @@ class Controller:
         r = self.scene.render
         fast = self._quality == "fast"
         if self._renderer is None:
-            self._renderer = Renderer(size=self.size, msaa=0 if fast else r.msaa,
-                                      background=(r.background_top, r.background_bottom))
+            self._renderer = Renderer(
+                size=self.size,
+                msaa=0 if fast else r.msaa,
+                background=(r.background_top, r.background_bottom),
+            )
         return self._renderer.draw(
-            curves, mesh, camera=self.camera, lights=r.light_list(), shading=r.shading,
-            subdivisions=1 if fast else r.subdivisions, shading_params=r.shading_params,
+            curves,
+            mesh,
+            camera=self.camera,
+            lights=r.light_list(),
+            shading=r.shading,
+            subdivisions=1 if fast else r.subdivisions,
+            shading_params=r.shading_params,
             shadows=r.shadows and not fast,
-        )  # fmt: skip
+        )
 
     def step_frame(self) -> np.ndarray:
         """One frame of the viewer: a step when playing, then the render, recorded when
@@ -367,12 +382,13 @@ class Controller:
     def stats(self) -> dict[str, float]:
         """The overlay's numbers: frame time split, hairs, and the solver's stats."""
         return {
-            "frame": self.frame, "time": self.time,
+            "frame": self.frame,
+            "time": self.time,
             "hairs": 0 if self.curves is None else self.curves.curve_count,
             "guides": self.sim.model.strands,
             **{f"{k}_ms": 1000.0 * v for k, v in self.timings.items()},
             **self.sim.stats,
-        }  # fmt: skip
+        }
 
     def release(self) -> None:
         """Free the renderer (a new one is made on the next draw) and drop an unfinished
@@ -398,15 +414,23 @@ class Controller:
         azimuth = math.atan2(offset[0], offset[2]) + math.radians(yaw)
         level = math.asin(min(max(offset[1] / r, -1.0), 1.0)) + math.radians(pitch)
         level = min(max(level, -math.radians(85.0)), math.radians(85.0))
-        eye = target + r * np.array([math.cos(level) * math.sin(azimuth), math.sin(level),
-                                     math.cos(level) * math.cos(azimuth)])  # fmt: skip
+        eye = target + r * np.array(
+            [
+                math.cos(level) * math.sin(azimuth),
+                math.sin(level),
+                math.cos(level) * math.cos(azimuth),
+            ]
+        )
         self.camera = Camera(eye=eye, target=target, fov_y=c.fov_y)
         self.image = None
 
     def zoom(self, factor: float) -> None:
         """Move the camera towards its target (``factor`` < 1) or away (> 1)."""
-        if isinstance(factor, bool) or not isinstance(factor, (int, float)) or not (
-                0 < factor < math.inf):  # fmt: skip
+        if (
+            isinstance(factor, bool)
+            or not isinstance(factor, (int, float))
+            or not (0 < factor < math.inf)
+        ):
             raise InputError(f"zoom: expected a finite factor > 0, got {factor!r}")
         c = self.camera
         target = np.asarray(c.target, np.float64)

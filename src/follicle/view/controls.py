@@ -13,8 +13,10 @@ from ..scene import GroomParams, RenderParams, SimParams
 __all__ = ["Control", "CONTROLS", "SECTIONS", "check_key"]
 
 SECTIONS: dict[str, type[BaseModel]] = {
-    "sim": SimParams, "groom": GroomParams, "render": RenderParams,
-}  # fmt: skip
+    "sim": SimParams,
+    "groom": GroomParams,
+    "render": RenderParams,
+}
 
 
 class Control(NamedTuple):
@@ -84,5 +86,3 @@ def check_key(section: str, key: str) -> None:
         raise ConfigError(f"viewer: unknown section {section!r}; use one of {', '.join(SECTIONS)}")
     if key not in SECTIONS[section].model_fields:
         raise ConfigError(f"viewer: [{section}].{key}: unknown parameter")
-
-

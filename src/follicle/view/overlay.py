@@ -26,17 +26,23 @@ EMPTY = 1e-3  # density (in splatted vertices) below which a grid vertex shows n
 def guide_curves(positions: np.ndarray) -> HairCurves:
     """The simulated guide strands (S, N, 3) as wide orange curves."""
     s, n, _ = positions.shape
-    return HairCurves.from_array(positions, point_data={
-        "width": np.full(s * n, GUIDE_WIDTH, np.float32),
-        "color": np.tile(np.asarray(GUIDE_COLOR, np.float32), (s * n, 1)),
-        "opacity": np.ones(s * n, np.float32),
-    })  # fmt: skip
+    return HairCurves.from_array(
+        positions,
+        point_data={
+            "width": np.full(s * n, GUIDE_WIDTH, np.float32),
+            "color": np.tile(np.asarray(GUIDE_COLOR, np.float32), (s * n, 1)),
+            "opacity": np.ones(s * n, np.float32),
+        },
+    )
 
 
 def drawable(curves: HairCurves) -> HairCurves:
     """``curves`` with only the attributes the renderer reads (so guides join them)."""
-    return HairCurves(curves.points, curves.offsets,
-                      {k: curves.point_data[k] for k in DRAWN if k in curves.point_data})
+    return HairCurves(
+        curves.points,
+        curves.offsets,
+        {k: curves.point_data[k] for k in DRAWN if k in curves.point_data},
+    )
 
 
 def background(size: Sequence[int], top: Sequence[float], bottom: Sequence[float]) -> np.ndarray:

@@ -14,10 +14,16 @@ from .controls import CONTROLS, SECTIONS, Control
 __all__ = ["Panel", "KEYS"]
 
 KEYS = (
-    ("space", "play / pause"), ("S or .", "one step"), ("R", "reset"), ("G", "gust"),
-    ("V", "record / stop"), ("arrows", "turn / nod the head"), ("drag", "orbit the camera"),
-    ("wheel", "zoom"), ("Esc", "quit"),
-)  # fmt: skip
+    ("space", "play / pause"),
+    ("S or .", "one step"),
+    ("R", "reset"),
+    ("G", "gust"),
+    ("V", "record / stop"),
+    ("arrows", "turn / nod the head"),
+    ("drag", "orbit the camera"),
+    ("wheel", "zoom"),
+    ("Esc", "quit"),
+)
 TURN_SPEED = 90.0  # degrees per second while an arrow key is held
 ORBIT_SPEED = 0.3  # degrees per pixel dragged
 ZOOM_STEP = 0.9  # distance factor per wheel notch
@@ -113,7 +119,7 @@ class Panel:
                 dx, dy = io.mouse_delta.x, io.mouse_delta.y
                 ctl.orbit(-ORBIT_SPEED * dx, ORBIT_SPEED * dy)
             if io.mouse_wheel:
-                ctl.zoom(ZOOM_STEP ** io.mouse_wheel)
+                ctl.zoom(ZOOM_STEP**io.mouse_wheel)
         if io.want_capture_keyboard:
             return False
         key = imgui.Key
@@ -216,12 +222,14 @@ class Panel:
             changed, v = imgui.slider_float(f"intensity##light{i}", light["intensity"], 0.0, 5.0)
             if changed:
                 self._act(ctl.set_light, i, "intensity", v)
-            changed, v = imgui.color_edit3(f"colour##light{i}", list(light["color"]),
-                                           imgui.ColorEditFlags_.float)  # fmt: skip
+            changed, v = imgui.color_edit3(
+                f"colour##light{i}", list(light["color"]), imgui.ColorEditFlags_.float
+            )
             if changed:
                 self._act(ctl.set_light, i, "color", tuple(v))
             if light["type"] == "directional":
-                changed, v = imgui.slider_float3(f"direction##light{i}", list(light["direction"]),
-                                                 -1.0, 1.0)  # fmt: skip
+                changed, v = imgui.slider_float3(
+                    f"direction##light{i}", list(light["direction"]), -1.0, 1.0
+                )
                 if changed:
                     self._act(ctl.set_light, i, "direction", tuple(v))

@@ -60,10 +60,13 @@ class Window:
         if not glfw.init():
             raise FollicleError(NO_WINDOW)
         for hint, value in (
-            (glfw.CONTEXT_VERSION_MAJOR, 3), (glfw.CONTEXT_VERSION_MINOR, 3),
-            (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE), (glfw.OPENGL_FORWARD_COMPAT, True),
-            (glfw.RESIZABLE, True), (glfw.VISIBLE, bool(visible)),
-        ):  # fmt: skip
+            (glfw.CONTEXT_VERSION_MAJOR, 3),
+            (glfw.CONTEXT_VERSION_MINOR, 3),
+            (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE),
+            (glfw.OPENGL_FORWARD_COMPAT, True),
+            (glfw.RESIZABLE, True),
+            (glfw.VISIBLE, bool(visible)),
+        ):
             glfw.window_hint(hint, value)
         self.handle = glfw.create_window(int(size[0]), int(size[1]), title, None, None)
         if not self.handle:
