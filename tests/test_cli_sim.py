@@ -7,7 +7,7 @@ from PIL import Image
 
 from follicle import cli
 from follicle.cli import main
-from follicle.sim.cache import is_cache, load_cache
+from follicle.io.sim_cache import is_cache, load_cache
 from follicle.sim.motion import MOTIONS, head_motion
 from glmark import gl
 

@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 
 from follicle.curves import HairCurves
 from follicle.errors import FollicleError, InputError, SimulationError
+from follicle.io.sim_cache import load_cache
 from follicle.scene import SimParams
 from follicle.sim import Simulator
-from follicle.sim.cache import load_cache
 from follicle.sim.motion import head_motion, motion_pivot
 from follicle.sim.simulator import MAX_SUBSTEPS_PER_CALL
 from hostile import assert_cli_refused, run_cli, warm

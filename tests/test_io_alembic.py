@@ -16,10 +16,10 @@ from abcfiles import add_curves, add_mesh, write, xforms
 from follicle import FormatError, HairCurves, InputError
 from follicle.io.alembic import load_abc, load_abc_mesh, save_abc, save_abc_cache
 from follicle.io.attributes import DEFAULT_WIDTH
+from follicle.io.sim_cache import SimCache
 from follicle.mesh.polymesh import load_usd_mesh
 from follicle.pipeline import groom_scene
 from follicle.scene import Scene
-from follicle.sim.cache import SimCache
 from hairfiles import hair
 
 EXISTING = Abc.WrapExistingFlag.kWrapExisting

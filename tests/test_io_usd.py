@@ -9,10 +9,10 @@ from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 import follicle
 from follicle import FormatError, HairCurves, InputError
+from follicle.io.sim_cache import SimCache
 from follicle.io.usd import load_usd, save_usd, save_usd_cache
 from follicle.pipeline import groom_scene
 from follicle.scene import Scene
-from follicle.sim.cache import SimCache
 
 EXTS = ["usda", "usdc", "usdz", "usd"]
 

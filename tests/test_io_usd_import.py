@@ -16,10 +16,10 @@ from follicle.io import curve_basis
 from follicle.io.cyhair import load_cyhair, save_cyhair
 from follicle.io.dispatch import load_curves
 from follicle.io.rib import save_rib_motion
+from follicle.io.sim_cache import SimCache
 from follicle.io.tfx import load_tfx, resample_fixed, save_tfx
 from follicle.io.usd import load_usd, save_usd, save_usd_cache
 from follicle.mesh.skin import SkinMesh
-from follicle.sim.cache import SimCache
 from hairfiles import curves_requests
 
 F4 = Sdf.ValueTypeNames.Color4fArray

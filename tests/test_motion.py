@@ -1,4 +1,4 @@
-"""Head animations (sim.motion) and simulation cache files (sim.cache)."""
+"""Head animations (sim.motion) and simulation cache files (io.sim_cache)."""
 
 import zipfile
 
@@ -7,8 +7,8 @@ import pytest
 
 from follicle.errors import FormatError, InputError
 from follicle.io.npz import save_arrays
+from follicle.io.sim_cache import SimCache, is_cache, load_cache, save_cache
 from follicle.scene import Scene, scene_to_toml
-from follicle.sim.cache import SimCache, is_cache, load_cache, save_cache
 from follicle.sim.motion import MOTIONS, head_motion, motion_angle, motion_pivot
 
 MOVING = ("turn", "nod", "shake")
@@ -275,3 +275,13 @@ def test_stored_scene_keeps_colliders(tmp_path):
     save_cache(tmp_path / "c.npz", pos, tr, 24, scene_to_toml(scene), str(tmp_path))
     again = load_cache(tmp_path / "c.npz").scene()
     assert again.model_dump() == scene.model_dump()
+
+
+def test_the_scene_and_the_cli_offer_exactly_the_motions_there_are():
+    from typing import get_args
+
+    from follicle.cli import MOTIONS as CLI_MOTIONS
+    from follicle.scene import SimParams
+
+    assert get_args(SimParams.model_fields["motion"].annotation) == MOTIONS
+    assert tuple(CLI_MOTIONS) == MOTIONS

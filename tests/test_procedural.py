@@ -15,8 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from follicle import FormatError, HairCurves, InputError, spline
+from follicle.apps.procedural import Procedural, export_rib, parse_request, serve
 from follicle.cli import main
-from follicle.io.procedural import Procedural, export_rib, parse_request, serve
 from follicle.io.procedural_data import FrameData
 from follicle.io.rib import write_block
 from follicle.pipeline import groom_scene
@@ -247,7 +247,7 @@ def test_random_request_streams_get_one_answer_a_line(lines):
 
 
 @pytest.mark.parametrize(
-    "command", [[str(PROCEDURAL)], [sys.executable, "-m", "follicle.io.procedural"]]
+    "command", [[str(PROCEDURAL)], [sys.executable, "-m", "follicle.apps.procedural"]]
 )
 def test_the_program_speaks_runprogram(exported, procedural, command):
     if not Path(command[0]).exists():  # the console script: CI installs it (pip install -e)

@@ -318,8 +318,8 @@ def test_a_cache_is_written_for_unreal(tmp_path, groom, ext):
     passes the target's check."""
     from follicle.io.alembic import load_abc, load_abc_mesh, save_abc_cache
     from follicle.io.check import check_file
+    from follicle.io.sim_cache import SimCache
     from follicle.io.usd import load_usd, save_usd_cache
-    from follicle.sim.cache import SimCache
 
     strands = groom.guides.curves.points.reshape(groom.guides.count, -1, 3)[:20]
     positions = np.stack([strands, strands + np.float32(0.01)]).astype(np.float32)

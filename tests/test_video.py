@@ -7,10 +7,10 @@ from click.testing import CliRunner
 
 from follicle.cli import main
 from follicle.errors import FollicleError, FormatError, InputError
+from follicle.io.sim_cache import save_cache
 from follicle.pipeline import simulate_scene
 from follicle.render.video import write_mp4
 from follicle.scene import parse_scene
-from follicle.sim.cache import save_cache
 from glmark import gl
 
 # imageio-ffmpeg is the optional video extra; the test extra installs it, so CI runs these

@@ -13,7 +13,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, get_args
 
 import click
 from rich.console import Console
@@ -31,12 +31,13 @@ from rich.text import Text
 
 from .errors import FollicleError
 from .io.targets import TARGET_NAMES
+from .scene import RenderParams, SimParams
 
 if TYPE_CHECKING:
     from .curves import HairCurves
     from .groom.generator import Groom
+    from .io.sim_cache import SimCache
     from .scene import Scene
-    from .sim.cache import SimCache
 
 log = logging.getLogger("follicle")
 _err = Console(stderr=True, highlight=False)
@@ -347,8 +348,8 @@ def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
     simulation cache exports to animated USD or Alembic.
     """
     from .io.dispatch import load_curves, save
+    from .io.sim_cache import is_cache
     from .mesh.load import BUILTIN_MESHES
-    from .sim.cache import is_cache
 
     tool = target_name or "generic"
     if (
@@ -399,8 +400,8 @@ def _export_cache(source: str, out: str, skin: bool = True, target: str = "gener
     frame), named, typed and scaled for ``target``."""
     from .errors import FormatError
     from .io.alembic import save_abc_cache
+    from .io.sim_cache import load_cache
     from .io.usd import SUFFIXES, save_usd_cache
-    from .sim.cache import load_cache
 
     suffix = Path(out).suffix.lower()
     if suffix not in (*SUFFIXES, ".abc"):
@@ -463,7 +464,7 @@ def _export_cache(source: str, out: str, skin: bool = True, target: str = "gener
 def export_rib(scene_path: str, out: str, voxels: int, count: int | None, seed: int | None) -> None:
     """Write a RenderMan RIB that grows the scene's hair at render time: one
     `Procedural "RunProgram"` per voxel, run by follicle-procedural (README § Formats)."""
-    from .io.procedural import export_rib as export
+    from .apps.procedural import export_rib as export
     from .scene import load_scene
 
     scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
@@ -485,7 +486,12 @@ def _curve_suffixes() -> tuple[str, ...]:
     return (".npz", *sorted(set(WRITERS) - {".npz"}))
 
 
-MOTIONS = ("none", "turn", "nod", "shake")  # follicle.sim.motion.MOTIONS (not imported: slow)
+def _choices(model: type, key: str) -> list[str]:
+    """The values a scene key of Literal type takes, as the CLI offers them."""
+    return [str(v) for v in get_args(model.model_fields[key].annotation)]
+
+
+MOTIONS = _choices(SimParams, "motion")
 
 
 @main.command()
@@ -526,9 +532,9 @@ def simulate(
     Writes the guides of every frame, the head transforms and the scene itself (.npz);
     `follicle render CACHE.npz -o FOLDER` grows and renders the hair of each frame.
     """
+    from .io.sim_cache import save_cache
     from .pipeline import simulate_scene
     from .scene import load_scene
-    from .sim.cache import save_cache
 
     scene = _with_overrides(load_scene(scene_path), count=count)
     if motion is not None:
@@ -588,13 +594,13 @@ def simulate(
 )
 @click.option(
     "--shading",
-    type=click.Choice(["kajiya-kay", "scheuermann", "marschner"]),
+    type=click.Choice(_choices(RenderParams, "shading")),
     default=None,
     help="Hair shading (opengl).",
 )
 @click.option(
     "--msaa",
-    type=click.Choice(["0", "1", "2", "4", "8", "16"]),
+    type=click.Choice(_choices(RenderParams, "msaa")),
     default=None,
     help="Multisample anti-aliasing samples (opengl).",
 )
@@ -626,11 +632,11 @@ def render(
     camera. `--engine mitsuba` path-traces a still with Mitsuba 3 instead."""
     from .errors import InputError
     from .io.dispatch import load_curves
+    from .io.sim_cache import is_cache
     from .mesh.load import load_mesh
     from .pipeline import grow as grow_scene
     from .pipeline import render_scene, render_scene_mitsuba
     from .scene import Scene, load_scene
-    from .sim.cache import is_cache
 
     overrides = {
         k: v
@@ -697,8 +703,8 @@ def _render_cache(
     """`follicle render CACHE`: every (or --frames) frame to OUT/frame_0000.png, …, or to
     the video OUT.mp4 (frames encoded as they are rendered)."""
     from .errors import InputError
+    from .io.sim_cache import load_cache
     from .pipeline import render_cache
-    from .sim.cache import load_cache
 
     cache = load_cache(source)
     frames = _frame_range(frame_range, cache.frame_count)
@@ -856,8 +862,8 @@ def view(
 def info(source: str | None) -> None:
     """Print a scene with every default filled in, or describe a curves file."""
     from .io.dispatch import load_curves
+    from .io.sim_cache import describe_cache, is_cache
     from .scene import load_scene, scene_to_toml
-    from .sim.cache import describe_cache, is_cache
 
     if source is not None and is_cache(source):
         click.echo(describe_cache(source))

@@ -21,7 +21,7 @@ from .render import Camera, Renderer, frame_camera, render, save_png
 from .scene import RenderParams, Scene, scene_to_toml
 
 if TYPE_CHECKING:
-    from .sim.cache import SimCache
+    from .io.sim_cache import SimCache
 
 __all__ = [
     "groom_scene",
@@ -139,10 +139,10 @@ def simulate_scene(
     """Simulate the guides of ``scene`` under its [sim].motion head animation.
 
     Frame 0 is the rest state; frame f poses the head at time f / fps and steps 1 / fps.
-    Returns the cache (not yet written: :func:`follicle.sim.cache.save_cache`) and the
+    Returns the cache (not yet written: :func:`follicle.io.sim_cache.save_cache`) and the
     last frame's ``Simulator.stats``.
     """
-    from .sim.cache import SimCache
+    from .io.sim_cache import SimCache
     from .sim.motion import head_motion, motion_pivot
     from .sim.simulator import MAX_SUBSTEPS_PER_CALL, Simulator, substeps_per_step
 

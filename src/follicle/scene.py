@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal, get_args
 
@@ -51,6 +52,7 @@ __all__ = [
     "RenderParams",
     "LightParams",
     "OutputParams",
+    "PropertyTag",
     "load_scene",
     "parse_scene",
     "scene_to_toml",
@@ -199,6 +201,16 @@ def _prop_value(v: object, color: bool, bounds: dict[str, float]) -> float | tup
         raise ValueError(f"colour components {exc}") from None
 
 
+@dataclass(frozen=True)
+class PropertyTag:
+    """What marks a textured groom property in GroomParams' schema: an RGB colour or a
+    number, and whether the number is a fraction in [0, 1] (clipped after value ×
+    texture). :mod:`follicle.groom.properties` reads its lists from these tags."""
+
+    color: bool
+    fraction: bool
+
+
 def _prop(color: bool = False, **bounds: float) -> Any:
     """A property (Šik 2012 §2.2.2): a number (or [r, g, b]), a texture path, or a table
     ``{value, texture, wrap}``; the value at a root is value × texture(uv)."""
@@ -223,8 +235,8 @@ def _prop(color: bool = False, **bounds: float) -> Any:
             return out
         return _prop_value(v, color, bounds)
 
-    kind = "RGB" if color else "number"
-    return Annotated[Any, PlainValidator(check, json_schema_input_type=Any), kind]
+    tag = PropertyTag(color, not color and bounds == {"ge": 0.0, "le": 1.0})
+    return Annotated[Any, PlainValidator(check, json_schema_input_type=Any), tag]
 
 
 Length = _prop(ge=0.0, le=10.0)

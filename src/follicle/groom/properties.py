@@ -14,57 +14,20 @@ import numpy as np
 
 from ..mesh.property import PropertyMap
 from ..mesh.texture import Texture
-from ..scene import GroomParams
+from ..scene import GroomParams, PropertyTag
 
 __all__ = ["SCALARS", "COLORS", "FRACTIONS", "GroomProperties"]
 
-SCALARS = (
-    "cut",
-    "scale",
-    "random_scale",
-    "curl_radius",
-    "curl_frequency",
-    "clump_root",
-    "clump_tip",
-    "clump_noise",
-    "frizz_root",
-    "frizz_tip",
-    "frizz_blend",
-    "kink_root",
-    "kink_tip",
-    "root_width",
-    "tip_width",
-    "hue_variation",
-    "saturation_variation",
-    "value_variation",
-    "mutant_fraction",
-    "root_opacity",
-    "tip_opacity",
-    "strand_splay_root",
-    "strand_splay_centre",
-    "strand_splay_tip",
-    "strand_twist",
-    "strand_aspect",
-    "strand_offset",
-    "strand_randomize",
-)
-COLORS = ("root_color", "tip_color", "mutant_color")
-FRACTIONS = frozenset(
-    (
-        "cut",
-        "random_scale",
-        "clump_root",
-        "clump_tip",
-        "clump_noise",
-        "frizz_blend",
-        "saturation_variation",
-        "value_variation",
-        "mutant_fraction",
-        "root_opacity",
-        "tip_opacity",
-        "strand_randomize",
-    )
-)
+# the textured settings, from the tags GroomParams' schema gives them, in its order
+_TAGS = {
+    name: tag
+    for name, field in GroomParams.model_fields.items()
+    for tag in field.metadata
+    if isinstance(tag, PropertyTag)
+}
+SCALARS = tuple(name for name, tag in _TAGS.items() if not tag.color)
+COLORS = tuple(name for name, tag in _TAGS.items() if tag.color)
+FRACTIONS = frozenset(name for name, tag in _TAGS.items() if tag.fraction)
 
 
 class GroomProperties:

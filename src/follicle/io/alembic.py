@@ -91,7 +91,7 @@ from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 
 if TYPE_CHECKING:
-    from ..sim.cache import SimCache
+    from .sim_cache import SimCache
 
 __all__ = [
     "save_abc",

@@ -18,7 +18,7 @@ from .targets import Target, for_target, get_target
 
 if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
-    from ..sim.cache import SimCache
+    from .sim_cache import SimCache
 
 __all__ = ["Animation", "animation", "as_guides", "head_matrices"]
 

@@ -70,7 +70,7 @@ from .usd_stage import usd_error
 
 if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
-    from ..sim.cache import SimCache
+    from .sim_cache import SimCache
 
 __all__ = [
     "save_usd",

@@ -20,7 +20,7 @@ from ..errors import InputError
 
 __all__ = ["MOTIONS", "head_motion", "motion_angle", "motion_pivot"]
 
-MOTIONS = ("none", "turn", "nod", "shake")
+MOTIONS = ("none", "turn", "nod", "shake")  # [sim].motion's Literal lists the same
 
 # (times as fractions of the period, angles as fractions of the amplitude)
 _TURN = ((0.0, 0.4, 0.6, 1.0), (0.0, 1.0, 1.0, 0.0))  # out, hold, back

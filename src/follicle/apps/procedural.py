@@ -33,11 +33,11 @@ from .. import spline
 from ..curves import HairCurves
 from ..errors import FollicleError, FormatError, InputError
 from ..groom.generator import CHUNK, Groom
+from ..io.atomic import atomic_path
+from ..io.procedural_data import FrameData, VoxelGrid
+from ..io.rib import write_block
 from ..pipeline import groom_scene
 from ..scene import Scene, scene_to_toml
-from .atomic import atomic_path
-from .procedural_data import FrameData, VoxelGrid
-from .rib import write_block
 
 __all__ = ["export_rib", "Export", "Procedural", "Request", "parse_request", "serve", "main"]
 

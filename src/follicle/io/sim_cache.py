@@ -24,7 +24,7 @@ import numpy as np
 
 from ..arrays import RIGID_TOLERANCE, all_finite, frozen, rigid
 from ..errors import ConfigError, FormatError, InputError
-from ..io.npz import load_arrays, save_arrays
+from .npz import load_arrays, save_arrays
 
 if TYPE_CHECKING:
     from ..scene import Scene
