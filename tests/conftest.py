@@ -26,6 +26,7 @@ import pytest
 TESTS = Path(__file__).resolve().parent
 SOURCES = TESTS.parent / "src" / "follicle"
 _started: list[subprocess.Popen] = []
+_COLD = pytest.StashKey[bool]()
 
 
 def _cold() -> bool:
@@ -48,11 +49,16 @@ def _start(code: str) -> None:
     )
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    # before collection: importing the test modules compiles a few kernels already
+    config.stash[_COLD] = _cold()
+
+
 def pytest_collection_finish(session: pytest.Session) -> None:
     if os.environ.get("FOLLICLE_NO_PREWARM") or session.config.option.collectonly:
         return
     files = {Path(str(item.fspath)).name for item in session.items}
-    if len(files) > 1 and _cold():
+    if len(files) > 1 and session.config.stash[_COLD]:
         _start("from hostile import warm; warm()")
     if "test_blender.py" in files:
         import blender_env

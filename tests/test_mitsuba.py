@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 from PIL import Image
+from scipy.ndimage import binary_dilation
 
 from follicle.cli import main
 from follicle.curves import HairCurves
@@ -104,7 +105,9 @@ def test_same_camera_and_background_as_gl(head):
         black_mi = black_mi[..., :3].max(axis=2) > 0
         assert black_gl.sum() > 300
         assert (black_gl ^ black_mi).sum() < 0.05 * black_gl.sum()  # edge pixels only
-        empty = ~(black_gl | black_mi)
+        # and a pixel round them: a sliver of the head too thin to lift a black pixel to
+        # 1/255 still darkens the (bright) background there
+        empty = ~binary_dilation(black_gl | black_mi)
         diff = np.abs(gl_image[..., :3].astype(int) - mi_image[..., :3])[empty]
         assert diff.max() <= 1
 
