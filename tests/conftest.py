@@ -19,6 +19,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -36,17 +37,21 @@ def _cold() -> bool:
     return not root.is_dir() or next(root.rglob("*.nbi"), None) is None
 
 
-def _start(code: str) -> None:
-    _started.append(
-        subprocess.Popen(
-            [sys.executable, "-c", code],
-            cwd=TESTS,
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            start_new_session=True,
+def _start(code: str, name: str) -> None:
+    """Run ``code`` in the background; what it prints goes to a log in the temp folder
+    (``follicle-prewarm-<name>.log``), for when the work it does fails."""
+    log = Path(tempfile.gettempdir(), f"follicle-prewarm-{name}.log")
+    with open(log, "wb") as out:
+        _started.append(
+            subprocess.Popen(
+                [sys.executable, "-c", code],
+                cwd=TESTS,
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+            )
         )
-    )
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -59,12 +64,12 @@ def pytest_collection_finish(session: pytest.Session) -> None:
         return
     files = {Path(str(item.fspath)).name for item in session.items}
     if len(files) > 1 and session.config.stash[_COLD]:
-        _start("from hostile import warm; warm()")
+        _start("from hostile import warm; warm()", "kernels")
     if "test_blender.py" in files:
         import blender_env
 
         if not blender_env.READY.exists() and not os.environ.get("FOLLICLE_BLENDER_PYTHON"):
-            _start("import blender_env; blender_env.blender_python()")
+            _start("import blender_env; blender_env.blender_python()", "blender")
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:

@@ -134,8 +134,12 @@ def test_missing_or_bad_scene(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
 
 
-def test_cli_motions_match_the_module():
-    assert cli.MOTIONS == MOTIONS
+def test_cli_motions_match_the_module_and_the_scene():
+    from typing import get_args
+
+    from follicle.scene import SimParams
+
+    assert cli.MOTIONS == MOTIONS == get_args(SimParams.model_fields["motion"].annotation)
 
 
 @pytest.mark.parametrize("command", [["simulate"], ["render"]])

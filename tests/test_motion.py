@@ -275,13 +275,3 @@ def test_stored_scene_keeps_colliders(tmp_path):
     save_cache(tmp_path / "c.npz", pos, tr, 24, scene_to_toml(scene), str(tmp_path))
     again = load_cache(tmp_path / "c.npz").scene()
     assert again.model_dump() == scene.model_dump()
-
-
-def test_the_scene_and_the_cli_offer_exactly_the_motions_there_are():
-    from typing import get_args
-
-    from follicle.cli import MOTIONS as CLI_MOTIONS
-    from follicle.scene import SimParams
-
-    assert get_args(SimParams.model_fields["motion"].annotation) == MOTIONS
-    assert tuple(CLI_MOTIONS) == MOTIONS

@@ -486,9 +486,9 @@ def _curve_suffixes() -> tuple[str, ...]:
     return (".npz", *sorted(set(WRITERS) - {".npz"}))
 
 
-def _choices(model: type, key: str) -> list[str]:
+def _choices(model: type, key: str) -> tuple[str, ...]:
     """The values a scene key of Literal type takes, as the CLI offers them."""
-    return [str(v) for v in get_args(model.model_fields[key].annotation)]
+    return tuple(str(v) for v in get_args(model.model_fields[key].annotation))
 
 
 MOTIONS = _choices(SimParams, "motion")
