@@ -189,13 +189,7 @@ class _Curves:
             self.points = curve_basis.through_points(
                 points.astype(np.float32), self.counts, self.mapping
             )
-        self.sizes = {
-            "constant": 1,
-            "uniform": len(self.counts),
-            "vertex": len(points),
-            "varying": int(varying.sum()),
-            "faceVarying": int(varying.sum()),
-        }
+        self.sizes = curve_basis.scope_sizes(self.counts, len(points), varying)
 
     def _reduction(self, sample: AbcGeom.ICurvesSchemaSample) -> None:
         """Set the :func:`curve_basis.rule` mapping or the NURBS stencil of the curves.

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "scope_sizes",
     "CurveBasisError",
     "rule",
     "out_counts",
@@ -100,6 +101,19 @@ def out_counts(mapping: str, counts: np.ndarray) -> np.ndarray:
     if mapping == "bezier":
         return (counts - 1) // 3 + 1
     return counts
+
+
+def scope_sizes(counts: np.ndarray, vertices: int, varying: np.ndarray) -> dict[str, int]:
+    """How many values a primvar / geometry parameter of each scope holds on curves of
+    ``counts`` control vertices (``vertices`` in all) whose segments give ``varying``
+    values each: USD's interpolations and Alembic's scopes by the same names."""
+    return {
+        "constant": 1,
+        "uniform": len(counts),
+        "vertex": vertices,
+        "varying": int(varying.sum()),
+        "faceVarying": int(varying.sum()),
+    }
 
 
 def through_points(values: np.ndarray, counts: np.ndarray, mapping: str) -> np.ndarray:

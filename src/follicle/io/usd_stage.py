@@ -181,13 +181,7 @@ class _Prim:
             self.points = curve_basis.through_points(
                 points.astype(np.float32), self.counts, self.rule
             )
-        self.sizes = {
-            "constant": 1,
-            "uniform": len(self.counts),
-            "vertex": len(points),
-            "varying": int(varying.sum()),
-            "faceVarying": int(varying.sum()),
-        }
+        self.sizes = curve_basis.scope_sizes(self.counts, len(points), varying)
 
     def _nurbs(self, schema: UsdGeom.NurbsCurves) -> curve_basis.NurbsStencil:
         """The stencil of a NurbsCurves prim from its order, knots, pointWeights and ranges
