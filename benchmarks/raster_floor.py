@@ -47,6 +47,7 @@ from follicle.mesh.load import load_mesh
 from follicle.pipeline import groom_scene
 from follicle.render import Renderer
 from follicle.render.context import get_context
+from follicle.render.settings import RenderParams
 from follicle.scene import Scene
 from follicle.view import Controller
 
@@ -127,7 +128,9 @@ def render_needs(counts: list[int]) -> list[tuple[str, int, int, float]]:
             hair = groom.generate(count=n)
             frame, colour = (
                 primitives(
-                    lambda s=s, h=hair: renderer.draw(h, groom.mesh, subdivisions=5, shadows=s)
+                    lambda s=s, h=hair: renderer.draw(
+                        h, groom.mesh, settings=RenderParams(subdivisions=5, shadows=s)
+                    )
                 )
                 for s in (True, False)
             )

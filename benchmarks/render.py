@@ -23,6 +23,7 @@ import time
 from common import best_of
 from follicle.pipeline import groom_scene, grow, render_scene, render_scene_mitsuba
 from follicle.render import Renderer
+from follicle.render.settings import RenderParams
 from follicle.scene import Scene
 
 SIZE = (1280, 720)
@@ -32,11 +33,12 @@ TARGETS = {100_000: ("≤ 1.0 s", 1.0), 10_000: ("≥ 15 frames/s", 1 / 15)}
 
 def seconds_per_frame(renderer: Renderer, curves, mesh, frames: int, **options) -> float:
     """Best of ``frames`` steady-state frames (after one warm-up frame)."""
-    renderer.draw(curves, mesh, subdivisions=SUBDIVISIONS, **options)
+    settings = RenderParams(subdivisions=SUBDIVISIONS, **options)
+    renderer.draw(curves, mesh, settings=settings)
     times = []
     for _ in range(frames):
         start = time.perf_counter()
-        renderer.draw(curves, mesh, subdivisions=SUBDIVISIONS, **options)
+        renderer.draw(curves, mesh, settings=settings)
         times.append(time.perf_counter() - start)
     return min(times)
 

@@ -94,7 +94,8 @@ def _pass_ns(sim, repeat: int) -> dict[str, float]:
     """ns per vertex of one iteration of each constraint pass, alone, in cache."""
     n, st, solver = sim.model.vertices, sim.state, sim.solver
     take = slice(0, CACHED_BLOCKS * BLOCK)
-    W, L, local, R = (a[:CACHED_BLOCKS] for a in solver._static)
+    strands, c = solver.constants()
+    W, L, local, R = (a[:CACHED_BLOCKS] for a in strands[:4])
     roots, frames = st.roots[take], st.frames[take]
     static = roots + np.einsum("sk,ska->sa", sim.model.static_local[take], frames)
     target = np.empty((CACHED_BLOCKS, n, 3, BLOCK))
@@ -103,7 +104,6 @@ def _pass_ns(sim, repeat: int) -> dict[str, float]:
     for b in range(CACHED_BLOCKS):  # the skinned rest pose, as the solver makes it
         C.rest_pose(root_rows[b], frame_rows[b], local[b], target[b], rest_dir[b], BLOCK)
     p = sim.params
-    _, _, (_, ks, kb, scale, att, kl, profile, *_) = solver._constants()
     args = (
         W,
         L,
@@ -112,10 +112,10 @@ def _pass_ns(sim, repeat: int) -> dict[str, float]:
         target,
         rest_dir,
         np.empty((3, BLOCK)),
-        np.array([ks, kb, kl]),
-        profile,
-        scale,
-        att,
+        np.array([c.k_stretch, c.k_bend, c.k_local]),
+        c.k_global,
+        c.bend_scale,
+        c.attenuation,
     )
     reps, out = 64, {}
     for which, name in enumerate(PASSES):

@@ -8,6 +8,7 @@ from PIL import Image
 from follicle import cli
 from follicle.cli import main
 from follicle.io.sim_cache import is_cache, load_cache
+from follicle.pipeline import cache_scene
 from follicle.sim.motion import MOTIONS, head_motion
 from glmark import gl
 
@@ -59,7 +60,7 @@ def test_simulate_writes_a_cache_beside_the_scene(sim):
     assert cache.positions.shape[1] > 10 and cache.positions.shape[2] >= 2
     assert cache.transforms.shape == (3, 4, 4) and cache.fps == 12.0
     assert np.array_equal(cache.transforms[0], np.eye(4))
-    scene = cache.scene()
+    scene = cache_scene(cache)
     assert scene.sim.motion == "turn"  # --motion beats [sim].motion
     assert scene.groom.count == 500 and scene.guides.path == "builtin:short"
     assert str(scene.base_dir) == str(folder.resolve())

@@ -126,7 +126,7 @@ def test_builtin_guides_on_the_builtin_head_part_by_default():
     those hairs blend a left- and a right-combed guide into the head again."""
     from follicle.pipeline import groom_scene
     from follicle.scene import Scene
-    from follicle.sim.collision import clearance
+    from follicle.sim.collision import clearance, colliders
     from follicle.sim.sdf import SDF
 
     def deepest(groups: str | None) -> tuple[int, float]:
@@ -134,7 +134,7 @@ def test_builtin_guides_on_the_builtin_head_part_by_default():
         hair = groom.generate(count=6000)
         sdf = SDF.from_mesh(groom.mesh.vertices, groom.mesh.faces)
         x = hair.points.reshape(hair.curve_count, -1, 3)
-        depth = -clearance(x[:, 1:], np.zeros((0, 4)), np.zeros((0, 7)), sdf.sample_args)
+        depth = -clearance(x[:, 1:], colliders([], sdf.sample_args))
         return groom.guides.groups.count, float(depth.max())
 
     groups, depth = deepest(None)

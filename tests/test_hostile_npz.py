@@ -23,7 +23,8 @@ from hypothesis import strategies as st
 import follicle
 from follicle import FormatError, HairCurves
 from follicle.io.npz import load_npz
-from follicle.io.sim_cache import SimCache, describe_cache, is_cache, load_cache, save_cache
+from follicle.io.sim_cache import SimCache, is_cache, load_cache, save_cache
+from follicle.pipeline import describe_cache
 from hostile import assert_api_refused, assert_cli_refused, files, read_within, run_api, run_cli
 
 P, C = 12, 3  # points and curves of the valid file

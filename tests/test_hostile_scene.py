@@ -96,6 +96,7 @@ SAMPLES: tuple[Any, ...] = (
     {"#ff0000": 12},
     {"specular": 0.3},
     {"value": 0.5, "texture": "t.png"},
+    512,  # [render].shadow_size: at least 16
 )
 # a section as it must be for one key to be valid (render: eye needs a target)
 CONTEXT = {"render": {"eye": [0, 0, 1], "target": [0, 0, 0]}}
@@ -591,7 +592,7 @@ def test_mesh_beyond_the_coordinate_limit_is_refused(tmp_path, scale):
         load_mesh(_obj(tmp_path / "far.obj", scale))
     mesh = load_mesh(_obj(tmp_path / "near.obj", MAX_COORDINATE))
     with pytest.raises(InputError, match="pose vertex 1 .* lies beyond"):
-        mesh.set_pose(transform=np.diag([1e300, 1.0, 1.0, 1.0]))
+        mesh.posed(transform=np.diag([1e300, 1.0, 1.0, 1.0]))
 
 
 def test_degenerate_mesh_is_refused(tmp_path):

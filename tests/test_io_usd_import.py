@@ -516,9 +516,9 @@ def test_the_cache_moves_the_skin_with_the_head(tmp_path):
     rest = np.array(mesh.GetPointsAttr().Get(), np.float64)
     for f in (0, 2):
         world = np.array(mesh.ComputeLocalToWorldTransform(Usd.TimeCode(5 + f)))
-        skin.set_pose(transform=transforms[f])  # follicle's own pose of the head
+        posed = skin.posed(transform=transforms[f])  # follicle's own pose of the head
         moved = np.c_[rest, np.ones(len(rest))] @ world
-        np.testing.assert_allclose(moved[:, :3], skin.vertices, atol=1e-7)
+        np.testing.assert_allclose(moved[:, :3], posed.vertices, atol=1e-7)
     assert not UsdGeom.Mesh.Get(stage, "/Groom/Skin")
     assert np.array_equal(load_usd(path, time=7).points, frames[2].points)
 

@@ -11,7 +11,7 @@ from scipy.ndimage import binary_dilation
 
 from follicle.cli import main
 from follicle.curves import HairCurves
-from follicle.errors import InputError
+from follicle.errors import ConfigError, InputError
 from follicle.pipeline import groom_scene
 from follicle.render import Camera, Light, render, srgb_to_linear
 from follicle.render.mitsuba import absorption_from_color, render_mitsuba
@@ -165,19 +165,21 @@ def test_colour_follows_each_hair_and_its_length():
 
 
 @pytest.mark.parametrize(
-    "kwargs, match",
+    "kwargs, error, match",
     [
-        ({"spp": 0}, "spp: expected a whole number in 1..65536"),
-        ({"spp": 2.5}, "spp"),
-        ({"seed": -1}, "seed"),
-        ({"size": (0, 10)}, "size"),
-        ({"camera": "front"}, "camera: expected a Camera"),
-        ({"lights": ["key"]}, "lights: expected Light objects"),
-        ({"hair_width": 0.0}, "hair_width"),
+        ({"spp": 0}, InputError, "spp: expected a whole number in 1..65536"),
+        ({"spp": 2.5}, InputError, "spp"),
+        ({"seed": -1}, InputError, "seed"),
+        ({"camera": "front"}, InputError, "camera: expected a Camera"),
+        ({"settings": "front"}, InputError, "settings: expected RenderParams"),
+        # the settings' keys are validated as [render]'s
+        ({"size": (0, 10)}, ConfigError, r"^render: \[render\]\.size\.0: Input should be"),
+        ({"lights": ["key"]}, ConfigError, r"\[render\]\.lights\.0: Input should be a valid"),
+        ({"hair_width": 0.0}, ConfigError, r"\[render\]\.hair_width: Input should be greater"),
     ],
 )
-def test_bad_input_is_named(head, kwargs, match):
-    with pytest.raises(InputError, match=match):
+def test_bad_input_is_named(head, kwargs, error, match):
+    with pytest.raises(error, match=match):
         render_mitsuba(head[1], **kwargs)
 
 

@@ -8,6 +8,7 @@ import pytest
 from follicle.errors import FormatError, InputError
 from follicle.io.npz import save_arrays
 from follicle.io.sim_cache import SimCache, is_cache, load_cache, save_cache
+from follicle.pipeline import cache_scene
 from follicle.scene import Scene, scene_to_toml
 from follicle.sim.motion import MOTIONS, head_motion, motion_angle, motion_pivot
 
@@ -137,7 +138,7 @@ def test_round_trip_same_bytes_and_read_only(tmp_path):
     assert not cache.positions.flags.writeable
     with pytest.raises(AttributeError):
         cache.fps = 30
-    scene = cache.scene()
+    scene = cache_scene(cache)
     assert scene.model_dump() == Scene().model_dump() and str(scene.base_dir) == "/some/dir"
     with np.load(tmp_path / "a.npz") as npz:  # a plain npz: numpy reads it
         assert str(npz["format"]) == "follicle-sim-cache" and int(npz["version"]) == 1
@@ -244,10 +245,10 @@ def test_unreadable_files(tmp_path):
 def test_stored_scene_errors_name_the_cache(tmp_path):
     cache = load_cache(write(tmp_path / "s.npz", scene_toml=np.array("[groom\n")))
     with pytest.raises(FormatError, match="s.npz: stored scene: TOML syntax error"):
-        cache.scene()
+        cache_scene(cache)
     cache = load_cache(write(tmp_path / "k.npz", scene_toml=np.array("[groom]\ncuont = 1\n")))
     with pytest.raises(FormatError, match=r"k.npz: stored scene: \[groom\].cuont: unknown key"):
-        cache.scene()
+        cache_scene(cache)
 
 
 def test_save_refuses_bad_input_and_writes_nothing(tmp_path):
@@ -273,5 +274,5 @@ def test_stored_scene_keeps_colliders(tmp_path):
     scene = scene.replace(sim=scene.sim.replace(colliders=[collider]))
     pos, tr = frames()
     save_cache(tmp_path / "c.npz", pos, tr, 24, scene_to_toml(scene), str(tmp_path))
-    again = load_cache(tmp_path / "c.npz").scene()
+    again = cache_scene(load_cache(tmp_path / "c.npz"))
     assert again.model_dump() == scene.model_dump()

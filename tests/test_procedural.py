@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from follicle import FormatError, HairCurves, InputError, spline
-from follicle.apps.procedural import Procedural, export_rib, parse_request, serve
+from follicle.apps.procedural import Procedural, export_rib, frame_scene, parse_request, serve
 from follicle.cli import main
 from follicle.io.procedural_data import FrameData
 from follicle.io.rib import write_block
@@ -138,11 +138,11 @@ def test_posed_mesh_and_time_are_regrown_exactly(tmp_path):
     pose = groom.mesh.rest_vertices @ turn.T + [0.1, 0.2, 0.0]
     done = export_rib(scene, tmp_path / "posed.rib", voxels=3, pose=pose, time=0.25)
     frame = Procedural().frame(str(done.frame))
-    assert np.array_equal(frame.groom.mesh.vertices, pose) and frame.time == 0.25
+    assert np.array_equal(frame.pose.vertices, pose) and frame.time == 0.25
+    assert frame.groom.mesh.at_rest
     joined = HairCurves.concatenate([c for v in done.voxels for c in frame.curves(v)])
     joined = joined[np.argsort(joined.curve_data["hair_id"], kind="stable")]
-    groom.mesh.set_pose(vertices=pose)
-    whole = groom.generate(time=0.25)
+    whole = groom.generate(time=0.25, pose=groom.mesh.posed(vertices=pose))
     assert np.array_equal(joined.points, whole.points)
     assert np.array_equal(joined.point_data["normal"], whole.point_data["normal"])
     assert not np.array_equal(whole.points, groom_scene(scene).generate(time=0.25).points)
@@ -206,7 +206,7 @@ def test_corrupt_frame_files_are_errors_not_crashes(exported, tmp_path):
         path = tmp_path / f"{name}.follicle.z"
         path.write_bytes(data)
         with pytest.raises(FormatError if name != "scene" else Exception):
-            FrameData.load(path).scene(str(path))
+            frame_scene(FrameData.load(path), str(path))
         reply = procedural.reply(f"1 {path} {done.voxels[0]}\n".encode())
         assert reply.startswith(f"# follicle-procedural: {path}".encode()), (name, reply)
     stale = FrameData.load(done.frame)
@@ -302,7 +302,7 @@ def test_cli_export_rib(tmp_path):
         r" .*f\.follicle\.z \([\d,]+ bytes\)",
         result.output,
     )
-    stored = FrameData.load(tmp_path / "f.follicle.z").scene()
+    stored = frame_scene(FrameData.load(tmp_path / "f.follicle.z"))
     assert (stored.groom.count, stored.groom.seed) == (300, 2)
     (tmp_path / "bad.toml").write_text("[groom]\ncount = -1\n")
     proc = subprocess.run(

@@ -7,9 +7,10 @@ import pytest
 import trimesh
 
 from follicle.curves import HairCurves
-from follicle.errors import InputError
+from follicle.errors import ConfigError, InputError
 from follicle.render import Camera, Light, Renderer, render, save_png
 from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
+from follicle.render.settings import RenderParams
 from follicle.render.strands import back_to_front, segment_indices, strand_seeds
 from glmark import gl
 
@@ -328,41 +329,56 @@ def test_renderer_reuse_and_per_vertex_attributes():
             "opacity": np.ones(4),
         },
     )
+    flat = RenderParams(lights=[Light.ambient(intensity=1.0)], shading_params=FLAT)
     with Renderer(size=(64, 64), msaa=4, background=BLACK) as r:
-        a = r.draw(red, camera=FRONT, lights=[Light.ambient(intensity=1.0)], shading_params=FLAT)
-        b = r.draw(
-            red,
-            camera=FRONT,
-            lights=[Light.ambient(intensity=1.0)],
-            shading_params=FLAT,
-            subdivisions=16,
-        )
+        a = r.draw(red, camera=FRONT, settings=flat)
+        b = r.draw(red, camera=FRONT, settings=flat.replace(subdivisions=16))
     assert a[32, 32, 0] == 255 and a[32, 32, 1] == 0
     np.testing.assert_array_equal(a, b)  # a straight strand does not change with smoothing
 
 
 @gl
 @pytest.mark.parametrize(
-    "kwargs",
+    ("kwargs", "message"),
     [
-        {"size": (0, 10)},
-        {"size": (10.5, 10)},
-        {"size": (9000, 10)},
-        {"size": (10,)},
-        {"shading": "phong"},
-        {"msaa": -1},
-        {"subdivisions": 0},
-        {"subdivisions": 17},
-        {"background": (1, 2)},
-        {"shading_params": {"glossiness": 3}},
-        {"hair_width": -1.0},
-        {"lights": ["sun"]},
+        ({"size": (0, 10)}, r"\[render\]\.size\.0: Input should be greater than or equal to 1"),
+        ({"size": (10.5, 10)}, r"\[render\]\.size\.0: Input should be a valid integer"),
+        ({"size": (9000, 10)}, r"\[render\]\.size\.0: Input should be less than or equal to 8192"),
+        ({"size": (10,)}, r"\[render\]\.size\.1: Field required"),
+        ({"shading": "phong"}, r"\[render\]\.shading: Input should be 'kajiya-kay'"),
+        ({"msaa": -1}, r"\[render\]\.msaa: Input should be 0, 1, 2, 4, 8 or 16"),
+        ({"subdivisions": 0}, r"\[render\]\.subdivisions: Input should be greater than"),
+        ({"subdivisions": 17}, r"\[render\]\.subdivisions: Input should be less than"),
+        ({"background": (1, 2)}, r"\[render\]\.background_top: Input should be a valid tuple"),
+        ({"background": 3}, r"background: expected one linear RGB colour"),
+        ({"shading_params": {"glossiness": 3}}, r"\[render\]: shading_params: unknown key"),
+        ({"hair_width": -1.0}, r"\[render\]\.hair_width: Input should be greater than 0"),
+        ({"lights": ["sun"]}, r"\[render\]\.lights\.0: Input should be a valid dictionary"),
+        ({"glossiness": 3}, r"\[render\]\.glossiness: unknown key; allowed keys: size,"),
     ],
 )
-def test_bad_arguments_raise_input_error(kwargs):
+def test_bad_settings_are_config_errors_naming_the_key(kwargs, message):
+    """Keyword overrides go through RenderParams.replace: a bad one is the ConfigError a
+    scene file's [render] gets, before any framebuffer is made."""
     curves = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0))
-    with pytest.raises(InputError):
+    with pytest.raises(ConfigError, match=rf"^render: .*{message}"):
         render(curves, **{"size": (32, 32), **kwargs})
+
+
+@gl
+def test_settings_and_overrides_draw_as_one_object():
+    """``render(settings=p, key=v)`` draws what ``render(settings=p.replace(key=v))`` does,
+    and what a Renderer drawing those settings does."""
+    curves = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0))
+    base = RenderParams(size=(48, 32), msaa=0, hair_color=(0.05, 0.8, 0.05), hair_width=0.05)
+    given = render(curves, camera=FRONT, settings=base, shading="marschner", shadows=False)
+    changed = base.replace(shading="marschner", shadows=False)
+    np.testing.assert_array_equal(given, render(curves, camera=FRONT, settings=changed))
+    with Renderer.from_settings(changed) as r:
+        np.testing.assert_array_equal(given, r.draw(curves, camera=FRONT, settings=changed))
+    assert given[16, 24, 1] > given[16, 24, 0] + 40  # the settings' green hair
+    with pytest.raises(InputError, match="settings: expected RenderParams"):
+        render(curves, settings={"size": (8, 8)})
 
 
 @gl
@@ -371,7 +387,7 @@ def test_nothing_to_draw_raises():
         render(None)
     with pytest.raises(InputError, match="nothing to draw"):
         render(HairCurves(np.zeros((0, 3)), [0]))
-    with pytest.raises(InputError, match="allowed: kajiya-kay, scheuermann, marschner"):
+    with pytest.raises(ConfigError, match="should be 'kajiya-kay', 'scheuermann' or 'marschner'"):
         render(None, sphere(), shading="phong")
     with pytest.raises(InputError):
         render(np.zeros((4, 3)))  # not HairCurves

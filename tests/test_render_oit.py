@@ -9,6 +9,7 @@ import pytest
 from follicle.curves import HairCurves
 from follicle.render import Camera, Light, opengl, render
 from follicle.render.image import srgb_to_linear
+from follicle.render.settings import RenderParams
 from follicle.render.strands import vertex_tangents
 from glmark import gl
 
@@ -182,9 +183,8 @@ def test_one_step_lines_without_a_geometry_shader_draw_its_picture(shading, monk
         with opengl.Renderer(size=(160, 160), msaa=0, background=(0.1, 0.1, 0.1)) as r:
             query = r.ctx.query(primitives=True)
             with query:
-                pictures.append(
-                    r.draw(thin, subdivisions=1, shading=shading, shadows=False).astype(int)
-                )
+                settings = RenderParams(subdivisions=1, shading=shading, shadows=False)
+                pictures.append(r.draw(thin, settings=settings).astype(int))
             drawn.append(query.primitives)
     segments = thin.point_count - thin.curve_count  # + the background and composite triangles
     assert drawn[0] == drawn[1] == segments + 2

@@ -9,6 +9,7 @@ import pytest
 from follicle.curves import HairCurves
 from follicle.render import Camera, Light, Renderer, render
 from follicle.render.image import srgb_to_linear
+from follicle.render.settings import RenderParams
 from follicle.render.shadows import automatic_layer, light_projection
 from glmark import gl
 from test_render import sphere
@@ -202,7 +203,7 @@ def test_a_reused_renderer_draws_what_a_fresh_one_does(size):
     set by whoever shares the context (a window)."""
     a = sheet(0.03, 0.08, 300, 1)
     b = HairCurves.concatenate([sheet(0.03, 0.08, 300, 1), sheet(-0.08, -0.03, 300, 2)])
-    kw = dict(camera=FRONT, lights=side_light((1.0, 0.0, 0.0)))
+    kw = dict(camera=FRONT, settings=RenderParams(lights=side_light((1.0, 0.0, 0.0))))
     with Renderer(size=size, msaa=0) as r:
         first = r.draw(b, sphere(0.02), **kw)
         r.draw(a, **kw)

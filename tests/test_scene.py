@@ -83,7 +83,7 @@ def test_eye_and_target_go_together():
     ("data", "allowed"),
     [
         ({"render": {"lights": [{"bogus": 1}]}}, "type, direction, space, color, intensity"),
-        ({"sim": {"colliders": [{"bogus": 1}]}}, "kind, centre, a, b, radius, follow"),
+        ({"sim": {"colliders": [{"bogus": 1}]}}, "kind, centre, a, b, radius, normal, follow"),
     ],
 )
 def test_an_unknown_key_in_a_list_of_tables_lists_that_tables_keys(data, allowed):

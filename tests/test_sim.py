@@ -7,6 +7,7 @@ import pytest
 
 from follicle.curves import HairCurves
 from follicle.errors import InputError
+from follicle.mesh.skin import SkinMesh
 from follicle.scene import ColliderParams, SimParams
 from follicle.sim import Simulator
 
@@ -240,7 +241,6 @@ def head_groom():
 
 def test_a_fast_head_turn_keeps_hair_out_of_the_skin_mesh(head_groom):
     mesh = head_groom.mesh
-    mesh.reset_pose()
     sim = Simulator(head_groom.guides, params=SimParams(iterations=4))
     assert sim.sdf is not None
     _run(sim, 0.5)  # hair settles onto the head
@@ -249,17 +249,15 @@ def test_a_fast_head_turn_keeps_hair_out_of_the_skin_mesh(head_groom):
     reach = float(np.linalg.norm(sim.positions[:, 0] - pivot, axis=1).max())
     omega = 2.0 / reach  # the fastest root moves at 2 m/s
     worst, rate = 0.0, 120
-    try:
-        for k in range(1, rate // 2):
-            a = omega * k / rate
-            c, s = np.cos(a), np.sin(a)
-            turn = np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1.0]])
-            turn[:3, 3] = pivot - turn[:3, :3] @ pivot
-            sim.set_pose(transform=turn)
-            sim.step(1 / rate)
-            worst = max(worst, sim.stats["max_penetration"])
-    finally:
-        mesh.reset_pose()
+    for k in range(1, rate // 2):
+        a = omega * k / rate
+        c, s = np.cos(a), np.sin(a)
+        turn = np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1.0]])
+        turn[:3, 3] = pivot - turn[:3, :3] @ pivot
+        sim.set_pose(transform=turn)
+        sim.step(1 / rate)
+        worst = max(worst, sim.stats["max_penetration"])
+    assert mesh.at_rest and not sim.pose.at_rest  # the simulator posed its own value
     assert a > 0.9  # it turned by more than 50°
     assert worst <= sim.params.collision_margin  # no vertex deeper than the margin
 
@@ -280,8 +278,6 @@ def test_groomed_vertices_inside_the_skin_at_rest_keep_their_depth_as_margin():
 
 
 def test_hairs_follow_the_simulated_guides(head_groom):
-    mesh = head_groom.mesh
-    mesh.reset_pose()
     sim = Simulator(head_groom.guides)  # the guides' own vertex count: exact transport
     grown = head_groom.generate(count=2000)
     at_rest = head_groom.follow(sim, count=2000)  # at rest: the same hairs
@@ -289,18 +285,51 @@ def test_hairs_follow_the_simulated_guides(head_groom):
     np.testing.assert_allclose(at_rest.points, grown.points, atol=1e-6)  # float32 rounding
     c, s = np.cos(0.6), np.sin(0.6)
     turn = np.array([[c, 0, s, 0.1], [0, 1, 0, 0.2], [-s, 0, c, 0], [0, 0, 0, 1.0]])
-    try:
-        sim.teleport(transform=turn)
-        moved = head_groom.follow(sim.positions.copy(), count=2000)
-        np.testing.assert_allclose(moved.points, head_groom.generate(count=2000).points, atol=1e-5)
-        _run(sim, 0.5)  # the guides swing: hairs near a guide's root follow that guide
-        follow = head_groom.follow(sim, count=2000)
-    finally:
-        mesh.reset_pose()
+    sim.teleport(transform=turn)
+    moved = head_groom.follow(sim.positions.copy(), count=2000, pose=sim.pose)
+    posed = head_groom.generate(count=2000, pose=sim.pose)
+    np.testing.assert_allclose(moved.points, posed.points, atol=1e-5)
+    _run(sim, 0.5)  # the guides swing: hairs near a guide's root follow that guide
+    follow = head_groom.follow(sim, count=2000)  # on the simulator's own pose
     assert np.isfinite(follow.points).all() and follow.curve_count == grown.curve_count
     assert np.abs(follow.points - moved.points).max() > 0.01  # the hairs did move
     with pytest.raises(InputError, match="positions"):
         head_groom.follow(np.zeros((3, 24, 3)))
+    other = SkinMesh(head_groom.mesh.rest_vertices * 2.0, head_groom.mesh.faces, name="twice")
+    with pytest.raises(InputError, match="pose: expected the groom's mesh 'head' in some pose"):
+        head_groom.generate(count=10, pose=other)
+
+
+def test_frames_follow_on_threads_as_one_by_one(head_groom):
+    """follow changes nothing of the groom (no guides swapped in and out), so frames of
+    a simulation grow on several threads at once exactly as one after another."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    sim = Simulator(head_groom.guides)
+    frames = []
+    for k in range(4):
+        a = 0.15 * k
+        turn = np.array(
+            [
+                [np.cos(a), 0, np.sin(a), 0],
+                [0, 1, 0, 0],
+                [-np.sin(a), 0, np.cos(a), 0],
+                [0, 0, 0, 1],
+            ]
+        )
+        sim.set_pose(transform=turn)
+        sim.step(1 / 24)
+        frames.append((sim.positions.copy(), sim.pose))
+
+    def grow(frame):
+        return head_groom.follow(frame[0], count=1500, pose=frame[1])
+
+    alone = [grow(f) for f in frames]
+    with ThreadPoolExecutor(4) as pool:
+        together = list(pool.map(grow, frames * 2))
+    for k, hair in enumerate(together):
+        np.testing.assert_array_equal(hair.points, alone[k % 4].points)
+    assert not np.array_equal(alone[0].points, alone[3].points)  # the frames differ
 
 
 def test_wind_gusts_vary_between_steady_and_the_gust_strength():

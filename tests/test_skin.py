@@ -73,15 +73,17 @@ def test_face_tangent_from_uvs():
     np.testing.assert_allclose(flat.face_tangents()[0], [1.0, 0.0, 0.0])
 
 
-def test_set_pose_transform_moves_points_uv_stays():
-    mesh = _one_triangle()
+def test_posed_transform_moves_points_uv_stays_and_leaves_the_mesh_as_it_was():
+    rest_mesh = _one_triangle()
     rot = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90° about Z
     m = np.eye(4)
     m[:3, :3], m[:3, 3] = rot, (1.0, 2.0, 3.0)
-    mesh.set_pose(transform=m)
+    mesh = rest_mesh.posed(transform=m)
     bary = [[0.2, 0.3], [0.6, 0.1]]
     rest = mesh.evaluate([0, 0], bary, pose="rest")
     cur = mesh.evaluate([0, 0], bary, pose="current")
+    assert not mesh.at_rest and rest_mesh.at_rest and mesh.same_skin(rest_mesh)
+    assert mesh.rest_vertices is rest_mesh.rest_vertices  # the rest data is shared
     np.testing.assert_allclose(cur.position, rest.position @ rot.T + (1, 2, 3))
     np.testing.assert_allclose(cur.normal, rest.normal @ rot.T, atol=1e-12)
     np.testing.assert_allclose(cur.tangent, rest.tangent @ rot.T, atol=1e-12)
@@ -90,10 +92,11 @@ def test_set_pose_transform_moves_points_uv_stays():
     lo, hi = mesh.bounds("current")
     np.testing.assert_allclose(lo, [0.0, 2.0, 3.0])
     np.testing.assert_allclose(hi, [1.0, 3.0, 3.0])
-    mesh.reset_pose()
-    np.testing.assert_allclose(
-        mesh.evaluate([0], [[0.2, 0.3]], "current").position, [[0.3, 0.5, 0]]
+    np.testing.assert_allclose(  # the mesh it was made from keeps the rest pose
+        rest_mesh.evaluate([0], [[0.2, 0.3]], "current").position, [[0.3, 0.5, 0]]
     )
+    assert mesh.same_skin(_one_triangle().posed(vertices=TRI * 2.0))  # equal rest data
+    assert not mesh.same_skin(SkinMesh(TRI * 2.0, [[0, 1, 2]]))  # another rest pose
 
 
 def test_head_frames_orthonormal_and_rigid_pose_moves_them():
@@ -111,35 +114,36 @@ def test_head_frames_orthonormal_and_rigid_pose_moves_them():
     rot = np.eye(3) + np.sin(2.0) * k + (1 - np.cos(2.0)) * k @ k
     m = np.eye(4)
     m[:3, :3], m[:3, 3] = rot, (-0.5, 0.25, 3.0)
-    mesh.set_pose(transform=m)
-    cur = mesh.evaluate(tri, bary, pose="current")
+    cur = mesh.posed(transform=m).evaluate(tri, bary, pose="current")
     np.testing.assert_allclose(cur.position, rest.position @ rot.T + m[:3, 3], atol=1e-5)
     for moved, still in zip(cur[1:4], rest[1:4], strict=True):
         np.testing.assert_allclose(moved, still @ rot.T, atol=1e-5)
     np.testing.assert_array_equal(cur.uv, rest.uv)
 
 
-def test_set_pose_vertices_and_cache_refresh():
-    mesh = _one_triangle()
-    assert mesh.face_areas("current")[0] == pytest.approx(0.5)
-    mesh.set_pose(vertices=TRI * 2.0)
+def test_posed_vertices_have_their_own_derived_data():
+    rest = _one_triangle()
+    assert rest.face_areas("current")[0] == pytest.approx(0.5)
+    mesh = rest.posed(vertices=TRI * 2.0)
     assert mesh.face_areas("current")[0] == pytest.approx(2.0)
     assert mesh.face_areas("rest")[0] == pytest.approx(0.5)
+    assert rest.face_areas("current")[0] == pytest.approx(0.5)  # cached before, unchanged
     np.testing.assert_allclose(mesh.vertices, TRI * 2.0)
+    np.testing.assert_allclose(rest.vertices, TRI)
 
 
-def test_set_pose_errors():
+def test_posed_errors():
     mesh = _one_triangle()
     with pytest.raises(InputError, match=r"shape \(3, 3\)"):
-        mesh.set_pose(vertices=np.zeros((4, 3)))
+        mesh.posed(vertices=np.zeros((4, 3)))
     with pytest.raises(InputError, match="vertex 1"):
-        mesh.set_pose(vertices=[[0, 0, 0], [np.nan, 0, 0], [0, 1, 0]])
+        mesh.posed(vertices=[[0, 0, 0], [np.nan, 0, 0], [0, 1, 0]])
     with pytest.raises(InputError, match="4x4"):
-        mesh.set_pose(transform=np.eye(3))
+        mesh.posed(transform=np.eye(3))
     with pytest.raises(InputError, match="affine"):
-        mesh.set_pose(transform=np.ones((4, 4)))
+        mesh.posed(transform=np.ones((4, 4)))
     with pytest.raises(InputError, match="exactly one"):
-        mesh.set_pose()
+        mesh.posed()
     with pytest.raises(InputError, match="pose"):
         mesh.face_normals("bind")
 

@@ -15,7 +15,14 @@ import importlib
 from typing import Any
 
 from .curves import HairCurves
-from .errors import ConfigError, FollicleError, FormatError, InputError, SimulationError
+from .errors import (
+    ConfigError,
+    FollicleError,
+    FormatError,
+    InputError,
+    ResourceError,
+    SimulationError,
+)
 
 # Imported eagerly (it is light): the name ``render`` must stay the function even
 # after a submodule such as ``follicle.render.camera`` is imported.
@@ -48,6 +55,7 @@ __all__ = [
     "FormatError",
     "ConfigError",
     "SimulationError",
+    "ResourceError",
     "Camera",
     "Light",
     "render",

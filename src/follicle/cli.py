@@ -414,8 +414,9 @@ def _export_cache(source: str, out: str, skin: bool = True, target: str = "gener
     mesh = None
     if skin:
         from .mesh.load import load_mesh
+        from .pipeline import cache_scene
 
-        scene = cache.scene()
+        scene = cache_scene(cache)
         mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
     write = save_abc_cache if suffix == ".abc" else save_usd_cache
     with _step("export"), _progress("writing frames") as progress:
@@ -704,11 +705,11 @@ def _render_cache(
     the video OUT.mp4 (frames encoded as they are rendered)."""
     from .errors import InputError
     from .io.sim_cache import load_cache
-    from .pipeline import render_cache
+    from .pipeline import cache_scene, render_cache
 
     cache = load_cache(source)
     frames = _frame_range(frame_range, cache.frame_count)
-    scene = _with_overrides(cache.scene(), count=count)
+    scene = _with_overrides(cache_scene(cache), count=count)
     scene = scene.replace(render=scene.render.replace("command line", **overrides))
     target = Path(out) if out else Path(source).with_name(Path(source).stem + "_frames")
     video = target.suffix.lower() == ".mp4"
@@ -862,7 +863,8 @@ def view(
 def info(source: str | None) -> None:
     """Print a scene with every default filled in, or describe a curves file."""
     from .io.dispatch import load_curves
-    from .io.sim_cache import describe_cache, is_cache
+    from .io.sim_cache import is_cache
+    from .pipeline import describe_cache
     from .scene import load_scene, scene_to_toml
 
     if source is not None and is_cache(source):

@@ -1,4 +1,5 @@
-"""Errors follicle raises for bad input: each names the file or field and the fix."""
+"""Errors follicle raises for bad input or a too large request: each names the file or
+field and the fix."""
 
 from __future__ import annotations
 
@@ -22,3 +23,9 @@ class ConfigError(FollicleError):
 class SimulationError(FollicleError):
     """A simulation left the range where it is meaningful (a non-finite or exploding
     state) although every input was valid: a bug to report, or settings to soften."""
+
+
+class ResourceError(FollicleError):
+    """A valid request that needs more memory or time than this machine or a limit gives
+    (e.g. more hair than fits in free memory): the fix is a smaller request or a split,
+    not a different value. A file that declares an impossible size is a FormatError."""

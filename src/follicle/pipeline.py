@@ -11,14 +11,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .curves import HairCurves
-from .errors import InputError
+from .errors import ConfigError, FormatError, InputError, ResourceError
 from .groom.generator import Groom, load_texture, resolve_density
 from .groom.groups import InterpolationGroups, mesh_groups
 from .groom.guides import load_guides
 from .mesh.load import load_mesh
 from .mesh.skin import SkinMesh
 from .render import Camera, Renderer, frame_camera, render, save_png
-from .scene import RenderParams, Scene, scene_to_toml
+from .scene import RenderParams, Scene, scene_from_toml, scene_to_toml
 
 if TYPE_CHECKING:
     from .io.sim_cache import SimCache
@@ -29,6 +29,9 @@ __all__ = [
     "render_scene",
     "render_scene_mitsuba",
     "simulate_scene",
+    "cache_scene",
+    "describe_cache",
+    "render_frames",
     "render_cache",
 ]
 
@@ -71,9 +74,7 @@ def grow(
 def scene_camera(params: RenderParams) -> Camera | None:
     """The camera of a scene's [render] ``eye``/``target``; None when either is unset
     (the renderers then frame hair and mesh at ``params.fov``)."""
-    if params.eye is None or params.target is None:
-        return None
-    return Camera(eye=params.eye, target=params.target, fov_y=params.fov)
+    return params.camera()
 
 
 def framed_camera(lo: np.ndarray, hi: np.ndarray, fov: float, aspect: float) -> Camera:
@@ -87,21 +88,7 @@ def render_scene(
     curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None
 ) -> np.ndarray:
     """Render hair and mesh with a scene's [render] settings; writes PNG when ``out``."""
-    return render(
-        curves,
-        mesh=mesh,
-        camera=scene_camera(params),
-        size=params.size,
-        shading=params.shading,
-        out=out,
-        msaa=params.msaa,
-        subdivisions=params.subdivisions,
-        background=(params.background_top, params.background_bottom),
-        fov=params.fov,
-        shading_params=params.shading_params,
-        lights=params.light_list(),
-        shadows=params.shadows,
-    )
+    return render(curves, mesh, settings=params, out=out)
 
 
 def render_scene_mitsuba(
@@ -119,17 +106,7 @@ def render_scene_mitsuba(
     from .render.mitsuba import render_mitsuba
 
     return render_mitsuba(
-        curves,
-        mesh=mesh,
-        camera=scene_camera(params),
-        size=params.size,
-        lights=params.light_list(),
-        spp=spp,
-        out=out,
-        seed=seed,
-        fov=params.fov,
-        background=(params.background_top, params.background_bottom),
-        progress=progress,
+        curves, mesh, settings=params, spp=spp, seed=seed, out=out, progress=progress
     )
 
 
@@ -153,7 +130,7 @@ def simulate_scene(
     p = scene.sim
     per_frame = substeps_per_step(1.0 / fps, p.substep)
     if per_frame > MAX_SUBSTEPS_PER_CALL:  # refused now, not after growing the groom
-        raise InputError(
+        raise ResourceError(
             f"[sim].substep {p.substep:g} needs {per_frame:,} substeps per frame at {fps:g}"
             f" fps; the cap is {MAX_SUBSTEPS_PER_CALL:,}: raise [sim].substep above"
             f" {1.0 / (fps * MAX_SUBSTEPS_PER_CALL):.2g} s (or the frame rate)"
@@ -178,6 +155,41 @@ def simulate_scene(
     return cache, sim.stats
 
 
+def cache_scene(cache: SimCache) -> Scene:
+    """The scene a simulation cache stores, validated, with relative paths resolved
+    against its ``base_dir``; FormatError (the cache is damaged) if it does not parse."""
+    try:
+        return scene_from_toml(
+            cache.scene_toml, f"{cache.source}: stored scene", Path(cache.base_dir)
+        )
+    except ConfigError as exc:
+        raise FormatError(f"{exc}; the cache is damaged: run `follicle simulate` again") from None
+
+
+def describe_cache(path: str | os.PathLike[str]) -> str:
+    """One paragraph on the cache at ``path`` for `follicle info`: frames, fps and length,
+    guides and vertices, the head motion and the hairs `follicle render` grows. Reading the
+    stored scene checks it too, so a damaged one is refused here as in `follicle render`."""
+    from .io.sim_cache import load_cache
+
+    cache = load_cache(path)
+    scene = cache_scene(cache)
+    sim, f = scene.sim, cache.frame_count
+    motion = (
+        "a still head"
+        if sim.motion == "none"
+        else (
+            f"head motion {sim.motion!r} ({sim.motion_amplitude:g}° over {sim.motion_period:g} s)"
+        )
+    )
+    return (
+        f"{cache.source}: simulation cache, {f:,} frame{'s' * (f != 1)} at {cache.fps:g} fps"
+        f" ({(f - 1) / cache.fps:.3g} s after the rest frame), {cache.strand_count:,} guides ×"
+        f" {cache.vertex_count} vertices, {motion}; `follicle render` grows"
+        f" {scene.groom.count:,} hairs on every frame"
+    )
+
+
 def _sequence_camera(
     cache: SimCache,
     groom: Groom,
@@ -193,8 +205,7 @@ def _sequence_camera(
     pts = cache.positions.reshape(-1, 3)
     boxes.append((pts.min(axis=0).astype(np.float64), pts.max(axis=0).astype(np.float64)))
     for transform in cache.transforms:
-        groom.mesh.set_pose(transform=transform)
-        boxes.append(groom.mesh.bounds("current"))
+        boxes.append(groom.mesh.posed(transform=transform).bounds("current"))
     lo = np.min([b[0] for b in boxes], axis=0)
     hi = np.max([b[1] for b in boxes], axis=0)
     w, h = params.size
@@ -229,31 +240,19 @@ def render_frames(
     sets the hair and [render]; ``frames`` (default all) picks cache frames. Nothing is
     set up before the first frame is asked for."""
     frames = _check_frames(cache, frames)
-    scene = cache.scene() if scene is None else scene
+    scene = cache_scene(cache) if scene is None else scene
     params = scene.render
     groom = groom_scene(scene)
 
-    def hair(f: int) -> HairCurves:
-        groom.mesh.set_pose(transform=cache.transforms[f])  # follow reads the current pose
-        return groom.follow(cache.positions[f], time=f / cache.fps)
+    def frame(f: int) -> tuple[HairCurves, SkinMesh]:
+        """Frame f's hair and the skin in its pose."""
+        skin = groom.mesh.posed(transform=cache.transforms[f])
+        return groom.follow(cache.positions[f], time=f / cache.fps, pose=skin), skin
 
-    first = hair(0)  # frames the camera; grown again when drawn, after the poses moved
-    camera = _sequence_camera(cache, groom, first, params)  # poses the mesh on every frame
-    background = (params.background_top, params.background_bottom)
-    with Renderer(size=params.size, msaa=params.msaa, background=background) as renderer:
+    camera = _sequence_camera(cache, groom, frame(0)[0], params)
+    with Renderer.from_settings(params) as renderer:
         for done, f in enumerate(frames, 1):
-            curves = hair(f)
-            image = renderer.draw(
-                curves,
-                groom.mesh,
-                camera=camera,
-                shading=params.shading,
-                subdivisions=params.subdivisions,
-                fov=params.fov,
-                shading_params=params.shading_params,
-                lights=params.light_list(),
-                shadows=params.shadows,
-            )
+            image = renderer.draw(*frame(f), camera=camera, settings=params)
             yield f, image
             if progress is not None:
                 progress(done, len(frames))

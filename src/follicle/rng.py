@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 
 from .errors import InputError
+from .validate import whole
 
 __all__ = [
     "halton",
@@ -48,8 +49,7 @@ def halton(index: object, base: int) -> np.ndarray:
     0, 0.5, 0.25, 0.75, ... for indices 0, 1, 2, 3. Low-discrepancy samples
     for scattering hair roots evenly.
     """
-    if not isinstance(base, (int, np.integer)) or isinstance(base, bool) or base < 2:
-        raise InputError(f"base: expected an integer >= 2, got {base!r}")
+    base = whole(base, "base", 2)
     idx = np.asarray(index)
     if idx.size and not np.issubdtype(idx.dtype, np.integer):
         raise InputError(f"index: expected integers, got dtype {idx.dtype}")
@@ -133,9 +133,7 @@ def purpose_id(name: str) -> int:
 
 
 def _as_uint64(value: object, name: str) -> np.uint64:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InputError(f"{name}: expected an integer, got {value!r}")
-    return np.uint64(int(value) & 0xFFFFFFFFFFFFFFFF)
+    return np.uint64(whole(value, name) & 0xFFFFFFFFFFFFFFFF)
 
 
 def uniforms(seed: int, ids: object, purpose: int | str, count: int, start: int = 0) -> np.ndarray:
@@ -148,10 +146,7 @@ def uniforms(seed: int, ids: object, purpose: int | str, count: int, start: int 
         purpose = purpose_id(purpose)
     p = _as_uint64(purpose, "purpose")
     s = _as_uint64(seed, "seed")
-    if not isinstance(count, (int, np.integer)) or count < 0:
-        raise InputError(f"count: expected a non-negative integer, got {count!r}")
-    if not isinstance(start, (int, np.integer)) or start < 0:
-        raise InputError(f"start: expected a non-negative integer, got {start!r}")
+    count, start = whole(count, "count", 0), whole(start, "start", 0)
     arr = np.asarray(ids)
     if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
         raise InputError(f"ids: expected a 1-D array of integers, got shape {arr.shape}")

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from .errors import InputError
+from .validate import whole
 
 __all__ = [
     "CATMULL_ROM",
@@ -212,10 +213,9 @@ def resample(points: object, offsets: object, k: int) -> tuple[np.ndarray, np.nd
     A curve of n vertices becomes (n-1)*k + 1 points: each segment at u = j/k,
     j = 0..k-1, then the last vertex. k = 1 returns the vertices themselves.
     """
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
-        raise InputError(f"k: expected an integer >= 1 (points per segment), got {k!r}")
+    k = whole(k, "k", 1, what="a whole number of points per segment")
     pts, offs = _check_curves(points, offsets)
-    counts = (np.diff(offs) - 1) * int(k) + 1
+    counts = (np.diff(offs) - 1) * k + 1
     offs2 = np.zeros_like(offs)
     np.cumsum(counts, out=offs2[1:])
     return _resample_kernel(pts, offs, offs2, int(k)), offs2
@@ -274,11 +274,10 @@ def cut_vertex_count(n: int, t_cut: float) -> int:
     min(s + 3, n) vertices; when t_cut falls exactly on vertex s only P_0 .. P_s are
     kept, so s + 1 suffice.
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
-        raise InputError(f"n: expected an integer vertex count >= 2, got {n!r}")
+    n = whole(n, "n", 2, what="a vertex count")
     t = float(_check_params(t_cut, "t_cut", low_open=True, scalar=True))
-    s, u = cut_locate(t, int(n) - 1)
-    return s + 1 if u == 0.0 else min(s + 3, int(n))
+    s, u = cut_locate(t, n - 1)
+    return s + 1 if u == 0.0 else min(s + 3, n)
 
 
 def cut(
@@ -294,10 +293,8 @@ def cut(
     """
     v = _check_vertices(vertices)
     t = float(_check_params(t_cut, "t_cut", low_open=True, scalar=True))
-    n = len(v) if n_total is None else n_total
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < len(v):
-        raise InputError(f"n_total: expected an integer >= len(vertices) = {len(v)}, got {n!r}")
-    need = cut_vertex_count(int(n), t)
+    n = len(v) if n_total is None else whole(n_total, "n_total", len(v), what="a vertex count")
+    need = cut_vertex_count(n, t)
     if len(v) < need:
         raise InputError(
             f"vertices: cutting a {n}-vertex curve at {t} needs its first {need} vertices, "

@@ -18,7 +18,6 @@ stderr), never a crash. The last frame's groom and roots stay loaded between req
 from __future__ import annotations
 
 import io
-import math
 import os
 import re
 import sys
@@ -36,10 +35,21 @@ from ..groom.generator import CHUNK, Groom
 from ..io.atomic import atomic_path
 from ..io.procedural_data import FrameData, VoxelGrid
 from ..io.rib import write_block
+from ..mesh.skin import SkinMesh
 from ..pipeline import groom_scene
-from ..scene import Scene, scene_to_toml
+from ..scene import Scene, scene_from_toml, scene_to_toml
+from ..validate import number
 
-__all__ = ["export_rib", "Export", "Procedural", "Request", "parse_request", "serve", "main"]
+__all__ = [
+    "export_rib",
+    "Export",
+    "Procedural",
+    "Request",
+    "frame_scene",
+    "parse_request",
+    "serve",
+    "main",
+]
 
 PROGRAM = "follicle-procedural"
 _SEGMENTS = 1 << 18  # Bézier segments converted at a time (24 MB)
@@ -113,14 +123,15 @@ def _voxel_boxes(
     size: int,
     time: float,
     progress: Callable[[int, int], None] | None,
+    pose: SkinMesh | None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Each voxel's curve count (V,) and box (V, 2, 3) of its hair as the RIB draws it
-    (infinite where it has none)."""
+    """Each voxel's curve count (V,) and box (V, 2, 3) of its hair on ``pose`` as the
+    RIB draws it (infinite where it has none)."""
     count = groom.params.count
     lo, hi = np.full((size, 3), np.inf), np.full((size, 3), -np.inf)
     width = np.zeros(size)
     curves = np.zeros(size, np.int64)
-    for done, chunk in enumerate(groom.chunks(CHUNK, time=time), 1):
+    for done, chunk in enumerate(groom.chunks(CHUNK, time=time, pose=pose), 1):
         if chunk.curve_count:
             voxel = triangle_voxels[chunk.curve_data["root_triangle"]]
             c_lo, c_hi = _hulls(chunk)
@@ -164,24 +175,21 @@ def export_rib(
     (default: the rest pose) and ``time`` drives animated frizz.
     """
     VoxelGrid.check(voxels)  # before the slow part
-    if isinstance(time, bool) or not isinstance(time, (int, float)) or not math.isfinite(time):
-        raise InputError(f"time: expected a finite number of seconds, got {time!r}")
-    time = float(time)
+    time = number(time, "time", unit="s")
     rib_path = Path(path)
     frame_path = rib_path.with_suffix(".follicle.z")
     datablock = _rib_string(str(frame_path.resolve()), "frame file")
     toml = scene_to_toml(scene, comments=False)
     groom = groom_scene(scene)
     grid = VoxelGrid.over(groom.mesh, voxels)
-    if pose is not None:
-        groom.mesh.set_pose(vertices=pose)
+    skin = None if pose is None else groom.mesh.posed(vertices=pose)
     tri_voxels = grid.triangle_voxels(groom.mesh)
     count = groom.params.count
     roots = np.zeros(grid.size, np.int64)
     for a in range(0, count, CHUNK):
         triangles = groom.roots(min(CHUNK, count - a), a)[0]
         roots += np.bincount(tri_voxels[triangles], minlength=grid.size)
-    curves, boxes = _voxel_boxes(groom, tri_voxels, grid.size, time, progress)
+    curves, boxes = _voxel_boxes(groom, tri_voxels, grid.size, time, progress, skin)
     filled = np.flatnonzero(curves)
     expected = [count * groom.sampler.region_probability(tri_voxels == v) for v in filled]
     frame = FrameData(
@@ -190,7 +198,7 @@ def export_rib(
         time,
         grid,
         {int(v): int(roots[v]) for v in np.flatnonzero(roots)},
-        None if pose is None else groom.mesh.vertices,
+        None if skin is None else skin.vertices,
     )
     lines = [
         "##RenderMan RIB",
@@ -222,14 +230,19 @@ def export_rib(
 
 
 # ------------------------------------------------------------------ render time
+def frame_scene(frame: FrameData, source: str = "frame file") -> Scene:
+    """The scene a frame file stores, its relative paths resolved against its
+    ``base_dir``; ConfigError naming ``source: stored scene`` if it does not parse."""
+    return scene_from_toml(frame.scene_toml, f"{source}: stored scene", Path(frame.base_dir))
+
+
 class _Frame:
-    """A frame file ready to grow: its groom (posed) and roots sorted by voxel."""
+    """A frame file ready to grow: its groom, the skin's pose and roots sorted by voxel."""
 
     def __init__(self, path: str) -> None:
         data = FrameData.load(path)
-        self.groom = groom_scene(data.scene(path))
-        if data.pose is not None:
-            self.groom.mesh.set_pose(vertices=data.pose)
+        self.groom = groom_scene(frame_scene(data, path))
+        self.pose = None if data.pose is None else self.groom.mesh.posed(vertices=data.pose)
         self.time = data.time
         self.size = data.grid.size
         self.roots = _sorted_roots(
@@ -249,7 +262,9 @@ class _Frame:
         r = self.roots
         for a in range(r.starts[voxel], r.starts[voxel + 1], CHUNK):
             b = min(a + CHUNK, r.starts[voxel + 1])
-            yield self.groom.generate_at(r.triangles[a:b], r.bary[a:b], r.ids[a:b], self.time)
+            yield self.groom.generate_at(
+                r.triangles[a:b], r.bary[a:b], r.ids[a:b], self.time, pose=self.pose
+            )
 
     def rib(self, voxel: int) -> bytes:
         chunks = list(self.curves(voxel))

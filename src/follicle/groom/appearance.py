@@ -15,6 +15,7 @@ from numba import njit, prange
 from ..color import hsv_to_rgb1, hue_distance1, rgb_to_hsv1
 from ..errors import InputError
 from ..rng import purpose_id, stream_key, uniform
+from ..validate import whole
 from .params import curve_parameter, per_hair, row
 
 __all__ = ["ENDS", "hair_ends", "vertex_look", "hair_appearance"]
@@ -160,10 +161,7 @@ def hair_ends(
     """
     ids = _hair_ids(hair_ids)
     n = ids.shape[0]
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise InputError(f"seed: expected an integer, got {seed!r}")
-    if not 0 <= int(seed) < 2**64:
-        raise InputError(f"seed: expected an integer in [0, 2**64), got {seed}")
+    seed = whole(seed, "seed", 0, 2**64 - 1)
     inputs = (
         per_hair(root_color, n, "root_color", 0.0, vector=True),
         per_hair(tip_color, n, "tip_color", 0.0, vector=True),
@@ -193,10 +191,7 @@ def hair_appearance(
     or (n, N) per hair (a cut hair keeps the parameters of its uncut curve, Šik 2012
     §2.2.8); None means i / (N − 1).
     """
-    if isinstance(vertices, bool) or not isinstance(vertices, (int, np.integer)):
-        raise InputError(f"vertices: expected an integer, got {vertices!r}")
-    if vertices < 2:
-        raise InputError(f"vertices: a hair needs at least 2 vertices, got {vertices}")
+    vertices = whole(vertices, "vertices", 2)
     ends = hair_ends(hair_ids, seed, **properties)
     tt = curve_parameter(t, len(ends), int(vertices))
     total = len(ends) * int(vertices)

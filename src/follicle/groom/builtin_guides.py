@@ -23,6 +23,7 @@ from ..mesh.head import SCALP_TEXTURE, builtin_head, head_signed_distance_and_no
 from ..mesh.sampling import DensitySampler
 from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
+from ..validate import whole
 
 __all__ = ["builtin_guides", "BUILTIN_GUIDES"]
 
@@ -197,8 +198,7 @@ def builtin_guides(name: str, mesh: SkinMesh | None = None, count: int = _COUNT)
     """
     if name not in BUILTIN_GUIDES:
         raise InputError(f"unknown built-in guides {name!r}; choose one of {list(BUILTIN_GUIDES)}")
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-        raise InputError(f"count: expected a whole number of guides >= 1, got {count!r}")
+    count = whole(count, "count", 1, what="a whole number of guides")
     style = BUILTIN_GUIDES[name]
     if mesh is None:
         mesh = builtin_head()

@@ -28,6 +28,7 @@ from numba import njit, prange
 from ..errors import InputError
 from ..frames import polyline_frames
 from ..rng import purpose_id, stream_key, uniform
+from ..validate import whole
 from .params import per_hair, row
 
 __all__ = ["make_fibres", "inherit", "splay_profile"]
@@ -121,10 +122,6 @@ def splay_profile(t: object, root: float, centre: float, tip: float) -> np.ndarr
     t = np.asarray(t, dtype=np.float64)
     w = 4.0 * (t - 0.5) ** 2
     return w * np.where(t > 0.5, tip, root) + (1.0 - w) * centre
-
-
-def _is_int(value: object) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
 def make_fibres(
@@ -225,11 +222,8 @@ def make_fibres(
             f"hair_ids: expected {n} integers (one per hair), got shape {ids.shape} "
             f"dtype {ids.dtype}"
         )
-    if not _is_int(seed):
-        raise InputError(f"seed: expected an integer, got {seed!r}")
-    if not _is_int(count) or count < 1:
-        raise InputError(f"count: expected an integer >= 1, got {count!r}")
-    count = int(count)
+    seed = whole(seed, "seed")
+    count = whole(count, "count", 1)
     s_root = per_hair(splay_root, n, "splay_root", lo=0.0)
     s_centre = per_hair(splay_centre, n, "splay_centre", lo=0.0)
     s_tip = per_hair(splay_tip, n, "splay_tip", lo=0.0)
@@ -270,8 +264,7 @@ def inherit(
     ``HairCurves.point_data``); the result has len(fibre_parent) · ``vertices`` rows,
     fibre f taking the rows of hair ``fibre_parent[f]``.
     """
-    if not _is_int(vertices) or vertices < 1:
-        raise InputError(f"vertices: expected an integer >= 1, got {vertices!r}")
+    vertices = whole(vertices, "vertices", 1)
     parent = np.asarray(fibre_parent)
     if parent.ndim != 1 or (parent.size and not np.issubdtype(parent.dtype, np.integer)):
         raise InputError(f"fibre_parent: expected a 1-D integer array, got shape {parent.shape}")

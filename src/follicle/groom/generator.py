@@ -26,14 +26,13 @@ import numpy as np
 
 from ..arrays import empty_touched
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import InputError, ResourceError
 from ..mesh.displacement import displace
 from ..mesh.head import SCALP_TEXTURE, parting_texture, scalp_texture
 from ..mesh.sampling import DensitySampler
 from ..mesh.skin import SkinMesh, SurfacePoints
 from ..mesh.texture import Texture
 from ..rng import uniforms
-from ..scene import GroomParams
 from ..threads import chained, ordered_map, workers
 from .appearance import hair_ends
 from .barycentric import GuideTriangulation
@@ -44,6 +43,7 @@ from .guides import Guides
 from .interpolate import blend_guides, guide_turn, idw_weights, tilt, translate_guides
 from .knn import PointGrid
 from .properties import GroomProperties
+from .settings import GroomParams
 from .shape import curl, curl_phase, frizz, kink
 
 __all__ = ["Groom", "resolve_density", "load_texture"]
@@ -207,13 +207,14 @@ class Groom:
     vertices (default: the guides' count) unless its group sets its own.
 
     ``density`` overrides ``params.density`` (a Texture, number, path or None). With a
-    ``displacement`` texture, roots on the current pose sit on the displaced skin
+    ``displacement`` texture, roots on the pose grown on sit on the displaced skin
     (Šik 2012 §2.2.3); interpolation still uses the undisplaced rest pose. Texture paths in
     the properties resolve through ``resolve_path`` (the scene's folder).
 
     Set ``groom.params`` to change properties (keeps roots and weights unless the
-    seed, density, interpolation or clump count change); move the mesh with
-    ``mesh.set_pose`` and call :meth:`generate` again to re-place the hairs.
+    seed, density, interpolation or clump count change); to re-place the hairs on a
+    moved skin, give :meth:`generate` that pose (``pose=mesh.posed(transform=…)``, or a
+    Simulator's ``sim.pose``). The groom holds the rest mesh and never poses it.
     """
 
     def __init__(
@@ -281,13 +282,39 @@ class Groom:
         start: int = 0,
         time: float = 0.0,
         progress: Callable[[int, int], None] | None = None,
+        pose: SkinMesh | None = None,
     ) -> HairCurves:
-        """Hairs with ids [start, start + count) on the mesh's current pose.
+        """Hairs with ids [start, start + count) on ``pose``: the groom's mesh in some
+        pose (``groom.mesh.posed(…)``, ``sim.pose``), None for the rest pose.
 
         ``count`` defaults to params.count; ``time`` (seconds) drives animated frizz.
         Hairs cut to nothing or degenerated to one vertex are left out (their ids are
         missing from ``curve_data['hair_id']``).
         """
+        return self._grow(count, start, time, progress, self.guides, self._skin(pose))
+
+    def _skin(self, pose: object) -> SkinMesh | None:
+        """``pose`` checked as a pose of this groom's mesh (None: the rest pose)."""
+        if pose is None or pose is self.mesh:
+            return None
+        if not self.mesh.same_skin(pose):
+            got = f"mesh '{pose.name}'" if isinstance(pose, SkinMesh) else type(pose).__name__
+            raise InputError(
+                f"pose: expected the groom's mesh '{self.mesh.name}' in some pose"
+                f" (groom.mesh.posed(transform=…) or a Simulator's sim.pose), got {got}"
+            )
+        return None if pose.at_rest else pose
+
+    def _grow(
+        self,
+        count: int | None,
+        start: int,
+        time: float,
+        progress: Callable[[int, int], None] | None,
+        guides: Guides,
+        skin: SkinMesh | None,
+    ) -> HairCurves:
+        """:meth:`generate` from ``guides`` (these or moved ones) on ``skin`` (None: rest)."""
         count = self.params.count if count is None else count
         self._check_range(count, start)
         self._check_memory(count)
@@ -300,7 +327,7 @@ class Groom:
         out = _allocate(bound, count * self.params.strand_count)
         v, c = chained(
             layouts,
-            lambda lay: self._shape(lay, time),
+            lambda lay: self._shape(lay, time, guides, skin),
             lambda at, shaped: shaped.after(at),
             lambda lay, shaped, at: self._assemble(lay, shaped, out, *at),
             (0, 0),
@@ -309,28 +336,38 @@ class Groom:
         return _curves(out, v, c)
 
     def follow(
-        self, guides: object, count: int | None = None, start: int = 0, time: float = 0.0
+        self,
+        guides: object,
+        count: int | None = None,
+        start: int = 0,
+        time: float = 0.0,
+        pose: SkinMesh | None = None,
     ) -> HairCurves:
         """The hairs of :meth:`generate` grown from moved guides: a Simulator of this
-        groom's guides, or their vertices (S, N, 3) on the mesh's current pose.
+        groom's guides (on its ``sim.pose``), or their vertices (S, N, 3) on ``pose``
+        (the groom's mesh in the simulated frame's pose; None: the rest pose).
 
         Roots, weights and clumps stay those of the rest groom, so 1,000 simulated guides
         drive any number of hairs frame after frame; a hair at a guide's root follows
-        that guide. Set the mesh's pose (``mesh.set_pose``) to the simulated frame first.
+        that guide. Nothing of the groom changes, so frames may grow on several threads.
         """
         positions = getattr(guides, "positions", guides)
-        rest, self.guides = self.guides, self.guides.posed(positions)
-        self._centre_shapes = None  # clump centres are grown from the guides' shapes
-        try:
-            return self.generate(count, start, time)
-        finally:
-            self.guides = rest
-            self._centre_shapes = None
+        if pose is None and hasattr(guides, "positions"):
+            pose = getattr(guides, "pose", None)
+        skin = self._skin(pose)
+        moved = self.guides.posed(positions, pose=skin)
+        return self._grow(count, start, time, None, moved, skin)
 
     def chunks(
-        self, chunk_size: int = CHUNK, count: int | None = None, start: int = 0, time: float = 0.0
+        self,
+        chunk_size: int = CHUNK,
+        count: int | None = None,
+        start: int = 0,
+        time: float = 0.0,
+        pose: SkinMesh | None = None,
     ) -> Iterator[HairCurves]:
-        """The hairs of :meth:`generate` as consecutive HairCurves of ``chunk_size`` ids."""
+        """The hairs of :meth:`generate` (on ``pose``) as consecutive HairCurves of
+        ``chunk_size`` ids."""
         count = self.params.count if count is None else count
         self._check_range(count, start)
         if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
@@ -338,7 +375,7 @@ class Groom:
         if chunk_size < 1:
             raise InputError(f"chunk_size: must be ≥ 1, got {chunk_size}")
         for a in range(start, start + count, int(chunk_size)):
-            yield self.generate(min(int(chunk_size), start + count - a), a, time)
+            yield self.generate(min(int(chunk_size), start + count - a), a, time, pose=pose)
 
     def roots(self, count: int | None = None, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Roots (triangle int32, barycentric float32 (n, 2)) of hair ids [start, start +
@@ -382,11 +419,14 @@ class Groom:
         bary: np.ndarray,
         ids: np.ndarray | None = None,
         time: float = 0.0,
+        pose: SkinMesh | None = None,
     ) -> HairCurves:
-        """Hairs rooted at given (triangle, barycentric) points of the mesh, e.g. picked roots.
+        """Hairs rooted at given (triangle, barycentric) points of the mesh, e.g. picked
+        roots, on ``pose`` (None: the rest pose).
 
         ``ids`` (default 0, 1, …; distinct, ≥ 0) key each hair's random choices.
         """
+        skin = self._skin(pose)
         tri = np.asarray(triangles)
         ids = np.arange(len(tri), dtype=np.int64) if ids is None else np.asarray(ids)
         if ids.shape != (len(tri),) or not np.issubdtype(ids.dtype, np.integer):
@@ -396,7 +436,7 @@ class Groom:
         lay = self._make_layout(tri, np.asarray(bary), ids.astype(np.int64))  # mesh validates
         bound = self._vertex_bound(lay)
         out = _allocate(bound, len(tri) * self.params.strand_count)
-        shaped = self._shape(lay, time)
+        shaped = self._shape(lay, time, self.guides, skin)
         self._assemble(lay, shaped, out, 0, 0)
         return _curves(out, *shaped.after((0, 0)))
 
@@ -416,7 +456,7 @@ class Groom:
         need = curves * (int(self._vertices.max()) * _VERTEX_BYTES + _CURVE_BYTES)
         have = _available_memory()
         if 2 * need > have:
-            raise InputError(
+            raise ResourceError(
                 f"count: {count:,} hairs × {self.params.strand_count} strand(s) ×"
                 f" {int(self._vertices.max())} vertices need about {need / 2**30:.1f} GiB of"
                 f" output (twice that while building) but {have / 2**30:.1f} GiB are free;"
@@ -442,7 +482,7 @@ class Groom:
         rest = _turned(rest, turn)
         which = None
         if self.params.clump_count > 0:
-            c_rest, c_group, _ = self._centres()
+            c_rest, c_group, _ = self._centres(self.guides)
             which = assign_clumps(c_rest.position, c_group, rest.position, group)
         return _Layout(ids, tri, bary, rest, group, index, weight, which, turn)
 
@@ -504,16 +544,20 @@ class Groom:
             return members, GuideTriangulation(roots, self.guides.normals[members])
         return members, PointGrid(roots)
 
-    def _centres(self) -> tuple[SurfacePoints, np.ndarray, np.ndarray]:
-        """Clump centres: rest frames, groups and grown shapes in rest world space (C, N, 3).
+    def _centres(self, guides: Guides) -> tuple[SurfacePoints, np.ndarray, np.ndarray]:
+        """Clump centres: rest frames, groups and shapes grown from ``guides`` in rest
+        world space (C, N, 3).
 
-        Their roots and weights stay with the layout; their shapes follow the properties.
+        Their roots and weights stay with the layout; their shapes follow the properties
+        and the guides (the rest guides' are kept, moved guides' made for the call).
         """
         with self._lock:  # chunks of one generate run on several threads
             if self._centre_roots is None:
                 self._centre_roots = self._centre_layout()
+            if guides is not self.guides:
+                return *self._centre_roots[:2], self._centre_grown(guides, *self._centre_roots)
             if self._centre_shapes is None:
-                self._centre_shapes = self._centre_grown(*self._centre_roots)
+                self._centre_shapes = self._centre_grown(guides, *self._centre_roots)
             return *self._centre_roots[:2], self._centre_shapes
 
     def _centre_layout(self) -> tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray]:
@@ -526,7 +570,12 @@ class Groom:
         return _turned(rest, self._turn(rest, index, weight)), group, index, weight
 
     def _centre_grown(
-        self, rest: SurfacePoints, group: np.ndarray, index: np.ndarray, weight: np.ndarray
+        self,
+        guides: Guides,
+        rest: SurfacePoints,
+        group: np.ndarray,
+        index: np.ndarray,
+        weight: np.ndarray,
     ) -> np.ndarray:
         """Clump centres' shapes (C, N, 3) in rest world space: blended, scaled, curled."""
         world = np.zeros((len(group), int(self._vertices.max()), 3))
@@ -536,7 +585,7 @@ class Groom:
             sel = np.flatnonzero(group == g)
             n = int(self._vertices[g])
             local = blend_guides(
-                self.guides.local_shapes(n),
+                guides.local_shapes(n),
                 index[sel],
                 weight[sel],
                 n,
@@ -558,8 +607,9 @@ class Groom:
         )
         return need * self.params.strand_count
 
-    def _shape(self, lay: _Layout, time: float) -> _Shaped:
-        """The hairs of ``lay`` grown and finished, with their skin frames on the current pose."""
+    def _shape(self, lay: _Layout, time: float, guides: Guides, skin: SkinMesh | None) -> _Shaped:
+        """The hairs of ``lay`` grown from ``guides`` and finished, with their skin frames
+        on ``skin`` (None: the rest pose)."""
         props = self.properties.at(lay.rest.uv)
         buckets = []
         for g in np.unique(lay.group):
@@ -568,15 +618,19 @@ class Groom:
             need = cut_plan(np.broadcast_to(props["cut"], lay.group.shape)[sel], n_total)
             for n in np.unique(need[need >= 2]):
                 rows = sel[need == n]
-                buckets.append(self._bucket(lay, props, rows, n_total, int(n), time))
+                buckets.append(self._bucket(lay, props, rows, n_total, int(n), time, guides))
         if self.displacement is not None:
             cur = displace(
-                self.mesh, lay.triangles, lay.bary, self.displacement, self.displacement_scale
+                self.mesh if skin is None else skin,
+                lay.triangles,
+                lay.bary,
+                self.displacement,
+                self.displacement_scale,
             )
-        elif self.mesh.at_rest:
+        elif skin is None:
             return _Shaped(lay.rest, buckets)  # the layout's frames, already turned
         else:
-            cur = self.mesh.evaluate(lay.triangles, lay.bary, pose="current")
+            cur = skin.evaluate(lay.triangles, lay.bary, pose="current")
         return _Shaped(_turned(cur, lay.turn), buckets)
 
     def _bucket(
@@ -587,8 +641,10 @@ class Groom:
         n_total: int,
         n: int,
         time: float,
+        guides: Guides,
     ) -> _Bucket:
-        """Hairs ``rows`` (one group, ``n`` of ``n_total`` vertices needed) shaped, finished."""
+        """Hairs ``rows`` (one group, ``n`` of ``n_total`` vertices needed) shaped from
+        ``guides``, finished."""
         p = self.params
         pick = _run(rows)  # one run of rows (the common case): gathers below are views
 
@@ -606,16 +662,16 @@ class Groom:
         frame = (rest.tangent[pick], rest.binormal[pick], rest.normal[pick])
         index = lay.guide_index[pick]
         if p.interpolation == "offset" and p.offset_mode == "translate":
-            local = translate_guides(self.guides.rest_shapes(n_total), index[:, 0], frame, n, scale)
+            local = translate_guides(guides.rest_shapes(n_total), index[:, 0], frame, n, scale)
         else:
             local = blend_guides(
-                self.guides.local_shapes(n_total), index, lay.guide_weight[pick], n, scale
+                guides.local_shapes(n_total), index, lay.guide_weight[pick], n, scale
             )
             if p.interpolation == "offset" and p.offset_angle > 0:
                 tilt(local, p.seed, ids, p.offset_angle)
         self._curl(local, props, pick, ids, t)
         if lay.clump is not None:
-            centre = self._centres()[2]
+            centre = self._centres(guides)[2]
             clump(
                 local,
                 centre,

@@ -196,10 +196,11 @@ class Guides:
             self._rest[vertices] = (rel - rel[:, :1, :]).astype(np.float32)
         return self._rest[vertices]
 
-    def posed(self, positions: object) -> Guides:
-        """These guides with new shapes ``positions`` (S, N, 3), given on the mesh's current
-        pose (e.g. simulated): each strand is carried to the rest pose through its root's
-        frame, so interpolated hairs follow it (Šik 2012 §2.2.4: hairs blend root-local shapes).
+    def posed(self, positions: object, pose: SkinMesh | None = None) -> Guides:
+        """These guides with new shapes ``positions`` (S, N, 3), given on ``pose`` (the
+        guides' mesh in some pose, e.g. a Simulator's ``sim.pose``; None: the rest pose):
+        each strand is carried to the rest pose through its root's frame, so interpolated
+        hairs follow it (Šik 2012 §2.2.4: hairs blend root-local shapes).
         """
         x = np.asarray(positions, dtype=np.float64)
         if x.ndim != 3 or x.shape[0] != self.count or x.shape[1] < 2 or x.shape[2] != 3:
@@ -209,7 +210,13 @@ class Guides:
             )
         if not np.isfinite(x).all():
             raise InputError("positions: contain NaN or inf; the simulation blew up")
-        cur = self.mesh.evaluate(self.triangles, self.bary, pose="current")
+        skin = self.mesh if pose is None else pose
+        if not self.mesh.same_skin(skin):
+            raise InputError(
+                f"pose: expected the guides' mesh '{self.mesh.name}' in some pose, got"
+                f" {type(pose).__name__}"
+            )
+        cur = skin.evaluate(self.triangles, self.bary, pose="current")
         now = np.stack([cur.tangent, cur.binormal, cur.normal], axis=1)
         rest = np.stack([self.tangents, self.binormals, self.normals], axis=1)
         local = np.einsum("sna,ska->snk", x - cur.position[:, None], now)

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..mesh.property import PropertyMap
 from ..mesh.texture import Texture
-from ..scene import GroomParams, PropertyTag
+from .settings import GroomParams, PropertyTag
 
 __all__ = ["SCALARS", "COLORS", "FRACTIONS", "GroomProperties"]
 

@@ -468,8 +468,8 @@ def save_abc_cache(
 
     ``fps`` defaults to 24, or a SimCache's own; a SimCache writes its guide strands, as
     guides (``role``: "hair" or "guides" says what the frames are; by default guides
-    for a SimCache, hair otherwise; for hair, write ``groom.follow(cache.positions[f])`` after
-    ``groom.mesh.set_pose(transform=cache.transforms[f])`` for each frame f). ``mesh``
+    for a SimCache, hair otherwise; for hair, write ``groom.follow(cache.positions[f],
+    pose=groom.mesh.posed(transform=cache.transforms[f]))`` for each frame f). ``mesh``
     (a SkinMesh) is written at rest as ``/Groom/Skin``; with ``transforms`` (F, 4, 4),
     one head transform per frame acting on column vectors as a SimCache keeps them (a
     SimCache's own by default), it is ``/Groom/Head/Skin`` under the Xform

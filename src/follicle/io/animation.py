@@ -13,6 +13,7 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
+from ..validate import whole
 from .attributes import conventional
 from .targets import Target, for_target, get_target
 
@@ -139,6 +140,5 @@ def animation(
     real = (int, float, np.integer, np.floating)
     if isinstance(rate, bool) or not isinstance(rate, real) or not 0 < rate < np.inf:
         raise InputError(f"fps: expected a finite number > 0, got {rate!r}")
-    if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
-        raise InputError(f"start: expected a whole number (the first frame), got {start!r}")
-    return Animation(_checked(frames, head, tool, role, in_units), float(rate), int(start), head)
+    start = whole(start, "start", what="a whole number (the first frame)")
+    return Animation(_checked(frames, head, tool, role, in_units), float(rate), start, head)

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import InputError, ResourceError
 from .atomic import atomic_path
 from .attributes import DEFAULT_WIDTH, consistent
 from .binary import BinaryFile, Spool, check_finite, open_binary
@@ -72,7 +72,10 @@ def save_cyhair(chunks: Iterator[HairCurves], path: str | os.PathLike[str]) -> P
             hairs += chunk.curve_count
             points += chunk.point_count
             if points > _U32:
-                raise InputError(f"curves: {points:,} points; cyHair counts them in a uint32")
+                raise ResourceError(
+                    f"curves: {points:,} points; cyHair counts them in a uint32: write fewer"
+                    " hairs per file"
+                )
             spool.write("segments", (counts - 1).astype("<u2"))
             spool.write("points", np.asarray(chunk.points, "<f4"))
             if flags & THICKNESS:

@@ -21,13 +21,12 @@ import os
 import stat
 import zlib
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..errors import FormatError, InputError
+from ..errors import FormatError
 from ..mesh.skin import SkinMesh
-from ..scene import Scene, scene_from_toml
+from ..validate import number, whole
 
 __all__ = ["VoxelGrid", "FrameData", "MAX_VOXELS"]
 
@@ -49,13 +48,7 @@ class VoxelGrid:
     def check(voxels: object) -> int:
         """``voxels`` as cells along the longest side; InputError unless a whole number in
         1 … MAX_VOXELS."""
-        if (
-            isinstance(voxels, bool)
-            or not isinstance(voxels, (int, np.integer))
-            or not 1 <= voxels <= MAX_VOXELS
-        ):
-            raise InputError(f"voxels: expected a whole number in 1 … {MAX_VOXELS}, got {voxels!r}")
-        return int(voxels)
+        return whole(voxels, "voxels", 1, MAX_VOXELS)
 
     @classmethod
     def over(cls, mesh: SkinMesh, voxels: int) -> VoxelGrid:
@@ -85,7 +78,9 @@ class VoxelGrid:
 @dataclass
 class FrameData:
     """One frame's procedural data; ``roots`` maps each non-empty voxel to its root count,
-    ``pose`` is the current pose's vertices (V, 3) or None for the rest pose."""
+    ``pose`` is the current pose's vertices (V, 3) or None for the rest pose. The scene
+    is its TOML text (relative paths start in ``base_dir``), read by
+    :func:`follicle.apps.procedural.frame_scene`."""
 
     scene_toml: str
     base_dir: str
@@ -93,10 +88,6 @@ class FrameData:
     grid: VoxelGrid
     roots: dict[int, int]
     pose: np.ndarray | None = None
-
-    def scene(self, source: str = "frame file") -> Scene:
-        """The stored scene, its relative paths resolved against ``base_dir``."""
-        return scene_from_toml(self.scene_toml, f"{source}: stored scene", Path(self.base_dir))
 
     def to_bytes(self) -> bytes:
         header = {
@@ -154,15 +145,14 @@ class FrameData:
         }
         if set(h) != want:
             raise ValueError(f"fields {sorted(h)}, expected {sorted(want)}")
-        dims = tuple(_whole(d, 1, MAX_VOXELS, "dims") for d in h["dims"])
-        origin = tuple(_finite(x, "origin") for x in h["origin"])
-        cell = _finite(h["cell"], "cell")
+        dims = tuple(whole(d, "dims", 1, MAX_VOXELS) for d in h["dims"])
+        origin = tuple(number(x, "origin") for x in h["origin"])
+        cell = number(h["cell"], "cell")
         if len(dims) != 3 or len(origin) != 3 or not cell > 0:
             raise ValueError("bad grid")
         grid = VoxelGrid(origin, cell, dims)
         roots = {
-            _whole(v, 0, grid.size - 1, "voxel"): _whole(n, 1, 2**53, "roots")
-            for v, n in h["roots"]
+            whole(v, "voxel", 0, grid.size - 1): whole(n, "roots", 1, 2**53) for v, n in h["roots"]
         }
         count = h["pose_vertices"]
         if count is None:
@@ -170,23 +160,9 @@ class FrameData:
             if pose:
                 raise ValueError("pose data but no pose")
         else:
-            if _whole(count, 1, 2**40, "pose_vertices") * 24 != len(pose):
+            if whole(count, "pose_vertices", 1, 2**40) * 24 != len(pose):
                 raise ValueError(f"{len(pose)} bytes of pose for {count} vertices")
             vertices = np.frombuffer(pose, "<f8").reshape(count, 3).astype(np.float64)
         if not isinstance(h["scene_toml"], str) or not isinstance(h["base_dir"], str):
             raise TypeError("scene_toml and base_dir must be text")
-        return cls(
-            h["scene_toml"], h["base_dir"], _finite(h["time"], "time"), grid, roots, vertices
-        )
-
-
-def _whole(x: object, lo: int, hi: int, name: str) -> int:
-    if isinstance(x, bool) or not isinstance(x, int) or not lo <= x <= hi:
-        raise ValueError(f"{name}: expected a whole number in {lo} … {hi}, got {x!r}")
-    return x
-
-
-def _finite(x: object, name: str) -> float:
-    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-        raise ValueError(f"{name}: expected a finite number, got {x!r}")
-    return float(x)
+        return cls(h["scene_toml"], h["base_dir"], number(h["time"], "time"), grid, roots, vertices)

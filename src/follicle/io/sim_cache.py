@@ -11,6 +11,10 @@ A cache is an uncompressed ``.npz`` (``np.load`` reads it) with the keys
 
 so `follicle render` can grow the same hair on every frame without the scene file.
 Written atomically with fixed member timestamps: the same run gives the same bytes.
+
+This module knows the file, not what a scene means: the stored scene is its TOML text,
+which :func:`follicle.pipeline.cache_scene` reads (and
+:func:`follicle.pipeline.describe_cache` describes, for `follicle info`).
 """
 
 from __future__ import annotations
@@ -18,16 +22,12 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..arrays import RIGID_TOLERANCE, all_finite, frozen, rigid
-from ..errors import ConfigError, FormatError, InputError
+from ..errors import FormatError, InputError
 from .npz import load_arrays, save_arrays
-
-if TYPE_CHECKING:
-    from ..scene import Scene
 
 __all__ = [
     "CACHE_FORMAT",
@@ -36,7 +36,6 @@ __all__ = [
     "save_cache",
     "load_cache",
     "is_cache",
-    "describe_cache",
 ]
 
 CACHE_FORMAT = "follicle-sim-cache"
@@ -73,7 +72,8 @@ def _suspect_frames(tr: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class SimCache:
     """A simulation's frames: guide ``positions`` (F, S, N, 3) float32, head ``transforms``
-    (F, 4, 4) float64, ``fps``, and the scene (``scene_toml``, ``base_dir``).
+    (F, 4, 4) float64, ``fps``, and the scene as TOML text (``scene_toml``; its relative
+    paths start in ``base_dir``), read by :func:`follicle.pipeline.cache_scene`.
 
     Every array is checked (dtype, shape, finite, rigid transforms) and kept read-only;
     ``source`` names the cache in error messages.
@@ -133,19 +133,6 @@ class SimCache:
     def vertex_count(self) -> int:
         """Vertices per simulated strand."""
         return int(self.positions.shape[2])
-
-    def scene(self) -> Scene:
-        """The stored scene, validated, with relative paths resolved against ``base_dir``."""
-        from ..scene import scene_from_toml
-
-        try:
-            return scene_from_toml(
-                self.scene_toml, f"{self.source}: stored scene", Path(self.base_dir)
-            )
-        except ConfigError as exc:
-            raise FormatError(
-                f"{exc}; the cache is damaged: run `follicle simulate` again"
-            ) from None
 
 
 def save_cache(
@@ -231,25 +218,3 @@ def load_cache(path: str | os.PathLike[str]) -> SimCache:
     except InputError as exc:
         fix = "the cache is damaged: run `follicle simulate` again"
         raise FormatError(f"{p}: {exc}; {fix}") from None
-
-
-def describe_cache(path: str | os.PathLike[str]) -> str:
-    """One paragraph on the cache at ``path`` for `follicle info`: frames, fps and length,
-    guides and vertices, the head motion and the hairs `follicle render` grows. Reading the
-    stored scene checks it too, so a damaged one is refused here as in `follicle render`."""
-    cache = load_cache(path)
-    scene = cache.scene()
-    sim, f = scene.sim, cache.frame_count
-    motion = (
-        "a still head"
-        if sim.motion == "none"
-        else (
-            f"head motion {sim.motion!r} ({sim.motion_amplitude:g}° over {sim.motion_period:g} s)"
-        )
-    )
-    return (
-        f"{cache.source}: simulation cache, {f:,} frame{'s' * (f != 1)} at {cache.fps:g} fps"
-        f" ({(f - 1) / cache.fps:.3g} s after the rest frame), {cache.strand_count:,} guides ×"
-        f" {cache.vertex_count} vertices, {motion}; `follicle render` grows"
-        f" {scene.groom.count:,} hairs on every frame"
-    )

@@ -44,7 +44,8 @@ from pathlib import Path
 import numpy as np
 
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import ResourceError
+from ..validate import whole
 from .atomic import atomic_path
 from .attributes import consistent
 from .binary import BinaryFile, Spool, check_finite, open_binary
@@ -62,12 +63,8 @@ def save_tfx(
 ) -> Path:
     """Write hair as a TressFX 4.0 file with ``vertices`` vertices per strand, streaming:
     each section goes to its own temporary file, joined after the header at the end."""
-    if vertices is not None and (
-        isinstance(vertices, bool) or not isinstance(vertices, (int, np.integer)) or vertices < 2
-    ):
-        raise InputError(f"vertices: expected a whole number ≥ 2, got {vertices!r}")
+    n = None if vertices is None else whole(vertices, "vertices", 2)
     target = Path(path)
-    n = None if vertices is None else int(vertices)
     strands = 0
     present = {"positions", "vertex_uv"}
     with atomic_path(target) as tmp, Spool(tmp.parent, _SECTIONS) as spool:
@@ -88,9 +85,9 @@ def save_tfx(
                 offsets[name] = end
                 end += spool.sizes[name] + (-spool.sizes[name] % 8)
         if end > 2**32 - 1:
-            raise InputError(
+            raise ResourceError(
                 f"curves: the TressFX file would take {end:,} bytes; its offsets"
-                " are uint32 (at most 4 GiB)"
+                " are uint32 (at most 4 GiB): write fewer hairs per file"
             )
         header = HEADER4.pack(
             4.0, strands, n or 0, *(offsets.get(s, 0) for s in _SECTIONS), *[0] * 32

@@ -7,13 +7,13 @@ so a texture only modulates and the scene keeps one number (or colour) to tune.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from numbers import Real
 
 import numpy as np
 
 from ..errors import FormatError, InputError
+from ..validate import number
 from .texture import WRAP_MODES, Texture, checked_uv
 
 __all__ = ["PropertyMap", "PROPERTY_KINDS"]
@@ -22,26 +22,16 @@ PROPERTY_KINDS = ("scalar", "color")
 _TABLE_KEYS = ("value", "texture", "wrap")
 
 
-def _number(x: object, field: str) -> float:
-    """``x`` as a finite float; bools and strings are not numbers here."""
-    if isinstance(x, bool) or not isinstance(x, Real):
-        raise InputError(f"{field}: expected a number (got {x!r})")
-    out = float(x)
-    if not math.isfinite(out):
-        raise InputError(f"{field}: must be finite (got {out}); use an ordinary number")
-    return out
-
-
 def _value(value: object, kind: str, field: str) -> float | tuple[float, float, float]:
     """A checked scalar, or an RGB triple (a single number is broadcast to all three)."""
     if kind == "scalar" or isinstance(value, (Real, bool)):
-        v = _number(value, field)
+        v = number(value, field)
         return v if kind == "scalar" else (v, v, v)
     if not isinstance(value, (list, tuple, np.ndarray)) or np.ndim(value) == 0:
         raise InputError(f"{field}: expected a number or an [r, g, b] list (got {value!r})")
     if len(value) != 3:
         raise InputError(f"{field}: an [r, g, b] colour needs 3 numbers (got {len(value)})")
-    r, g, b = (_number(c, f"{field}[{i}]") for i, c in enumerate(value))
+    r, g, b = (number(c, f"{field}[{i}]") for i, c in enumerate(value))
     return (r, g, b)
 
 

@@ -29,6 +29,7 @@ from numba import njit, prange
 
 from ..errors import InputError
 from ..rng import halton_point, purpose_id, stream_key, uniform
+from ..validate import number, whole
 from .skin import SkinMesh
 from .texture import Texture, bilinear
 
@@ -330,14 +331,8 @@ class DensitySampler:
     ) -> None:
         if not isinstance(mesh, SkinMesh):
             raise InputError(f"mesh: expected a SkinMesh, got {type(mesh).__name__}")
-        if not (isinstance(grid_factor, (int, float)) and 0 < grid_factor <= 64):
-            raise InputError(f"grid_factor: must be a number in (0, 64], got {grid_factor!r}")
-        if (
-            isinstance(refine, bool)
-            or not isinstance(refine, (int, np.integer))
-            or not 0 <= refine <= 4
-        ):
-            raise InputError(f"refine: must be an integer in 0 … 4, got {refine!r}")
+        grid_factor = number(grid_factor, "grid_factor", lo=0.0, hi=64.0, lo_open=True)
+        refine = whole(refine, "refine", 0, 4)
         self.mesh = mesh
         self.density = _as_density(density)
         areas = np.ascontiguousarray(mesh.face_areas("rest"), dtype=np.float64)

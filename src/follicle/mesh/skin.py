@@ -1,4 +1,9 @@
-"""SkinMesh: the triangle mesh hair grows on, in a rest pose and a current pose.
+"""SkinMesh: the triangle mesh hair grows on, in its rest pose and in one current pose.
+
+A SkinMesh is a value: :meth:`SkinMesh.posed` makes the same skin in another pose (the
+"current" pose of that copy), sharing the rest data, and nothing poses a mesh in place,
+so a pose is passed to whoever works on it (a Groom's ``generate(pose=…)``, a
+Simulator's ``pose``) rather than set on a mesh they share.
 
 Roots are bound to (triangle, barycentric) samples on the rest mesh and evaluated on
 either pose (Šik 2012 §2.2.3). Barycentrics follow Šik 2012: ``root = u·v0 + v·v1 +
@@ -7,6 +12,7 @@ either pose (Šik 2012 §2.2.3). Barycentrics follow Šik 2012: ``root = u·v0 +
 
 from __future__ import annotations
 
+import copy
 from typing import NamedTuple
 
 import numpy as np
@@ -60,7 +66,8 @@ def _checked_positions(verts: np.ndarray, what: str) -> None:
 class SkinMesh:
     """A validated triangle mesh with UVs, textures and cached per-pose derived data.
 
-    ``rest_vertices`` never change; ``vertices`` is the current pose (``set_pose``).
+    ``rest_vertices`` never change; ``vertices`` is this value's current pose (the rest
+    pose, or the one :meth:`posed` gave it).
     Zero-area triangles are allowed, flagged in ``degenerate_faces`` and given zero
     area, but a mesh made only of them is rejected.
     """
@@ -122,11 +129,14 @@ class SkinMesh:
             raise InputError(f"{what}: all {len(f)} faces have zero area; the mesh is degenerate")
 
     # ------------------------------------------------------------------ pose
-    def set_pose(self, vertices: object | None = None, transform: object | None = None) -> None:
-        """Set the current pose: new vertex positions (V, 3), or a 4x4 affine of the rest."""
+    def posed(self, vertices: object | None = None, transform: object | None = None) -> SkinMesh:
+        """This skin in another pose, as a new value: new vertex positions (V, 3), or a
+        4x4 affine of the rest. The rest pose, faces, UVs and textures are shared; this
+        mesh is not changed, so whoever holds it (a Groom, another Simulator) keeps its
+        pose. Derived data of the rest pose computed so far is shared too."""
         what = f"mesh '{self.name}'"
         if (vertices is None) == (transform is None):
-            raise InputError(f"{what}: set_pose needs exactly one of vertices= or transform=")
+            raise InputError(f"{what}: posed needs exactly one of vertices= or transform=")
         if transform is not None:
             m = np.asarray(transform, dtype=np.float64)
             if m.shape != (4, 4) or not np.all(np.isfinite(m)):
@@ -142,22 +152,28 @@ class SkinMesh:
                     f" (same as the rest pose), got {verts.shape}"
                 )
         _checked_positions(verts, f"{what}: pose vertex")  # a huge transform overflows too
-        self.vertices = frozen(verts.copy())
-        self._drop_current()
+        out = copy.copy(self)
+        out.vertices = frozen(verts.copy())
+        out._cache = {k: v for k, v in self._cache.items() if k[1] == "rest"}
+        return out
 
-    def reset_pose(self) -> None:
-        """Make the current pose the rest pose again."""
-        self.vertices = self.rest_vertices
-        self._drop_current()
+    def same_skin(self, other: object) -> bool:
+        """True when ``other`` is this skin in some pose (the same rest mesh and faces)."""
+        if not isinstance(other, SkinMesh):
+            return False
+        if other.rest_vertices is self.rest_vertices and other.faces is self.faces:
+            return True
+        return (
+            other.rest_vertices.shape == self.rest_vertices.shape
+            and other.faces.shape == self.faces.shape
+            and np.array_equal(other.rest_vertices, self.rest_vertices)
+            and np.array_equal(other.faces, self.faces)
+        )
 
     @property
     def at_rest(self) -> bool:
-        """True while the current pose is the rest pose (never set, or reset)."""
+        """True for the rest pose itself (not a :meth:`posed` copy)."""
         return self.vertices is self.rest_vertices
-
-    def _drop_current(self) -> None:
-        for key in [k for k in self._cache if k[1] == "current"]:
-            del self._cache[key]
 
     def _verts(self, pose: str) -> np.ndarray:
         if pose == "rest":

@@ -18,6 +18,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
+from ..validate import number, positive
 
 __all__ = [
     "Camera",
@@ -39,6 +40,11 @@ def _vec3(value: object, name: str) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise InputError(f"{name}: must be finite, got {arr.tolist()}")
     return arr
+
+
+def _fov(value: object, name: str) -> float:
+    """A vertical field of view in (0, 180) degrees."""
+    return number(value, name, lo=0.0, hi=180.0, lo_open=True, hi_open=True, unit="degrees")
 
 
 def _perpendicular_up(forward: np.ndarray, up: np.ndarray) -> np.ndarray:
@@ -73,14 +79,11 @@ class Camera:
             raise InputError("camera: eye and target are the same point; move the eye back")
         if np.linalg.norm(self.up) <= 0.0:
             raise InputError("camera up: must not be the zero vector")
-        fov = float(self.fov_y)
-        if not 0.0 < fov < 180.0:
-            raise InputError(f"camera fov_y: must be in (0, 180) degrees, got {self.fov_y}")
-        self.fov_y = fov
-        if self.near is not None and not (math.isfinite(self.near) and self.near > 0):
-            raise InputError(f"camera near: must be a positive distance, got {self.near}")
-        if self.far is not None and not math.isfinite(self.far):
-            raise InputError(f"camera far: must be finite, got {self.far}")
+        self.fov_y = _fov(self.fov_y, "camera fov_y")
+        if self.near is not None:
+            self.near = positive(self.near, "camera near", unit="m")
+        if self.far is not None:
+            self.far = number(self.far, "camera far", unit="m")
         if self.near is not None and self.far is not None and self.far <= self.near:
             raise InputError(f"camera: far ({self.far}) must exceed near ({self.near})")
 
@@ -120,8 +123,7 @@ class Camera:
         self, aspect: float, near: float | None = None, far: float | None = None
     ) -> np.ndarray:
         """OpenGL perspective projection (depth to [-1, 1]) for width/height ``aspect``."""
-        if not (math.isfinite(aspect) and aspect > 0):
-            raise InputError(f"aspect: must be a positive number, got {aspect}")
+        aspect = positive(aspect, "aspect")
         n, f = self.clip_range(near, far)
         t = 1.0 / math.tan(math.radians(self.fov_y) / 2.0)
         m = np.zeros((4, 4))
@@ -175,12 +177,9 @@ def frame_camera(
     d = _vec3(direction, "frame_camera direction")
     if np.linalg.norm(d) <= 0:
         raise InputError("frame_camera direction: must not be the zero vector")
-    if not margin >= 1.0:
-        raise InputError(f"frame_camera margin: must be >= 1, got {margin}")
-    if not (math.isfinite(aspect) and aspect > 0):
-        raise InputError(f"frame_camera aspect: must be positive, got {aspect}")
-    if not 0.0 < fov_y < 180.0:
-        raise InputError(f"frame_camera fov_y: must be in (0, 180) degrees, got {fov_y}")
+    margin = number(margin, "frame_camera margin", lo=1.0)
+    aspect = positive(aspect, "frame_camera aspect")
+    fov_y = _fov(fov_y, "frame_camera fov_y")
     centre = 0.5 * (lo + hi)
     # a point (or flat) box still needs some extent to frame
     pad = 1e-3 * max(1.0, float(np.abs(centre).max()))
@@ -246,8 +245,9 @@ class Light:
                 raise InputError("light direction: must not be the zero vector")
             self.direction = normalize(d)
         c = _vec3(self.color, "light color")
-        if np.any(c < 0) or not (math.isfinite(self.intensity) and self.intensity >= 0):
-            raise InputError("light: color and intensity must be non-negative")
+        if np.any(c < 0):
+            raise InputError(f"light color: must be non-negative, got {c.tolist()}")
+        self.intensity = positive(self.intensity, "light intensity", allow_zero=True)
         self.color = c
         if self.space not in ("world", "camera"):
             raise InputError(f"light space: expected 'world' or 'camera', got {self.space!r}")

@@ -32,24 +32,20 @@ import os
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
 from ..io.mitsuba import save_mitsuba
-from .camera import DEFAULT_FOV, Camera, Light, default_lights, frame_camera, scene_bounds
+from ..validate import whole
+from .camera import Camera, Light, default_lights, frame_camera, scene_bounds
 from .image import encode_srgb8, save_png
-from .options import (
-    DEFAULT_HAIR_COLOR,
-    DEFAULT_HAIR_WIDTH,
-    DEFAULT_SKIN_COLOR,
-    check_mesh,
-    color3,
-    parse_background,
-    parse_size,
-    point_attr,
-)
+from .options import check_mesh, color3, parse_background, parse_size, point_attr
+
+if TYPE_CHECKING:
+    from .settings import RenderParams
 
 __all__ = ["render_mitsuba", "absorption_from_color", "VARIANT", "MAX_DEPTH"]
 
@@ -115,12 +111,6 @@ def _reporting(mi, progress: Callable[[int, int], None] | None) -> Iterator[None
         for appender in saved:
             logger.add_appender(appender)
         logger.set_log_level(level)
-
-
-def _whole(value: object, name: str, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise InputError(f"{name}: expected a whole number in {lo}..{hi}, got {value!r}")
-    return int(value)
 
 
 def _segment_absorption(curves: HairCurves, hair_color: np.ndarray) -> np.ndarray:
@@ -246,46 +236,48 @@ def render_mitsuba(
     curves: HairCurves | None,
     mesh: object | None = None,
     camera: Camera | None = None,
-    size: Sequence[int] = (960, 960),
-    lights: Sequence[Light] | None = None,
+    settings: RenderParams | None = None,
     spp: int = 64,
-    out: str | os.PathLike[str] | None = None,
     seed: int = 0,
-    background: object = None,
-    hair_color: Sequence[float] = DEFAULT_HAIR_COLOR,
-    hair_width: float = DEFAULT_HAIR_WIDTH,
-    skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
-    fov: float = DEFAULT_FOV,
+    out: str | os.PathLike[str] | None = None,
     progress: Callable[[int, int], None] | None = None,
+    **overrides: object,
 ) -> np.ndarray:
     """Path-trace hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
 
-    Arguments mean what they mean for :func:`follicle.render.render`: ``camera`` None
-    frames hair and mesh at ``fov`` degrees; ``lights`` None is
-    :func:`default_lights`; per-vertex ``color``/``width`` win over ``hair_color``
-    (linear RGB) and ``hair_width`` (diameter, metres); per-vertex opacity is not used
-    (fibres are opaque, light passes through them as the BSDF says). ``spp`` samples
-    per pixel; the same ``seed`` gives the same image. ``out``: also write PNG there.
-    ``progress(done, 100)`` hears Mitsuba's own render progress, in per cent.
+    ``settings`` and keyword ``overrides`` mean what they mean for
+    :func:`follicle.render.render`; of them the path tracer uses ``size``, ``lights``
+    (none: :func:`default_lights`), the background, ``fov``, ``eye`` and ``target``
+    (``camera`` None takes them, else frames hair and mesh at ``fov`` degrees),
+    ``hair_color`` and ``hair_width`` (per-vertex ``color``/``width`` win over them)
+    and ``skin_color``; per-vertex opacity is not used (fibres are opaque, light passes
+    through them as the BSDF says). ``spp`` samples per pixel; the same ``seed`` gives
+    the same image. ``out``: also write PNG there. ``progress(done, 100)`` hears
+    Mitsuba's own render progress, in per cent.
     """
+    from .settings import with_overrides
+
+    settings = with_overrides(settings, overrides)
     if curves is not None and not isinstance(curves, HairCurves):
         raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
-    w, h = parse_size(size)
-    spp = _whole(spp, "spp", 1, MAX_SPP)
-    seed = _whole(seed, "seed", 0, 2**32 - 1)
+    w, h = parse_size(settings.size)
+    spp = whole(spp, "spp", 1, MAX_SPP)
+    seed = whole(seed, "seed", 0, 2**32 - 1)
     has_hair = curves is not None and curves.curve_count > 0
     mesh_arrays = check_mesh(mesh) if mesh is not None else None
     has_mesh = mesh_arrays is not None and len(mesh_arrays[1]) > 0
     if not has_hair and not has_mesh:
         raise InputError("render: nothing to draw; give non-empty curves and/or a mesh with faces")
-    hair_color = color3(hair_color, "hair_color")
-    skin_color = color3(skin_color, "skin_color")
-    if not (np.isfinite(hair_width) and hair_width > 0):
-        raise InputError(f"hair_width: must be a positive diameter in metres, got {hair_width!r}")
-    background = parse_background(background)
+    hair_color = color3(settings.hair_color, "hair_color")
+    skin_color = color3(settings.skin_color, "skin_color")
+    hair_width = settings.hair_width
+    background = parse_background(settings.background)
+    lights = settings.light_list()
+    if camera is None:
+        camera = settings.camera()
     if camera is None:
         lo, hi = scene_bounds(curves if has_hair else None, mesh)
-        camera = frame_camera(lo, hi, fov_y=fov, aspect=w / h)
+        camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
     mi = _mitsuba()

@@ -19,14 +19,15 @@ wider hair is drawn as ribbons shaded per fragment.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
+from ..validate import whole
 from .camera import (
-    DEFAULT_FOV,
     Camera,
     Light,
     default_lights,
@@ -38,12 +39,9 @@ from .context import get_context
 from .image import encode_srgb8, save_png
 from .options import (
     ANGLE_PARAMS,
-    DEFAULT_HAIR_COLOR,
-    DEFAULT_HAIR_WIDTH,
-    DEFAULT_SKIN_COLOR,
+    DEFAULT_SHADOW_SIZE,
     MAX_LIGHTS,
     MAX_SHADOW_SIZE,
-    MAX_SUBDIVISIONS,
     check_mesh,
     color3,
     parse_background,
@@ -55,6 +53,9 @@ from .programs import get_program, set_uniforms, use_framebuffer
 from .shadows import UNITS as SHADOW_UNITS
 from .shadows import ShadowMaps, automatic_layer, light_projection
 from .strands import back_to_front, curve_param, segment_indices, strand_seeds, vertex_tangents
+
+if TYPE_CHECKING:  # imported when used: pydantic is slow to load, `import follicle` quick
+    from .settings import RenderParams
 
 __all__ = ["Renderer", "render"]
 
@@ -109,19 +110,14 @@ def _mat(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(m.T, dtype="f4").tobytes()
 
 
-def _check_int(value: object, name: str, lo: int, hi: int, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise InputError(f"{name}: expected {what} {lo}..{hi}, got {value!r}")
-    return int(value)
-
-
 class Renderer:
     """An offscreen OpenGL renderer that owns its framebuffers.
 
     ``size`` is (width, height) in pixels; ``msaa`` the samples per pixel (0 or 1:
     none; capped to what the driver offers); ``background`` one linear RGB colour or
     ``(top, bottom)`` for a vertical gradient; ``shadow_size`` the texels per side of
-    the key light's shadow maps. Reuse one renderer for many frames; call
+    the key light's shadow maps: :meth:`from_settings` takes them from a scene's
+    ``[render]``, and :meth:`draw` the rest. Reuse one renderer for many frames; call
     :meth:`release` (or use it as a context manager) to free GPU memory early.
     """
 
@@ -130,11 +126,11 @@ class Renderer:
         size: Sequence[int] = (960, 960),
         msaa: int = 4,
         background: object = None,
-        shadow_size: int = 512,
+        shadow_size: int = DEFAULT_SHADOW_SIZE,
     ) -> None:
         self.size = parse_size(size)
-        msaa = _check_int(msaa, "msaa", 0, 64, "samples per pixel (0 or 1: off)")
-        shadow_size = _check_int(shadow_size, "shadow_size", 16, MAX_SHADOW_SIZE, "texels")
+        msaa = whole(msaa, "msaa", 0, 64, what="samples per pixel (0 or 1: off)")
+        shadow_size = whole(shadow_size, "shadow_size", 16, MAX_SHADOW_SIZE, what="texels")
         self.background = parse_background(background)
         self.ctx = ctx = get_context()
         samples = 0 if msaa <= 1 else min(msaa, int(ctx.max_samples))
@@ -154,6 +150,15 @@ class Renderer:
             name: ctx.vertex_array(get_program(ctx, name), [])
             for name in ("background", "composite_msaa" if samples else "composite")
         }
+
+    @classmethod
+    def from_settings(cls, settings: RenderParams | None = None) -> Renderer:
+        """A renderer of the ``size``, ``msaa``, background and ``shadow_size`` of
+        ``settings`` (:class:`~follicle.render.settings.RenderParams`; None: defaults)."""
+        from .settings import with_overrides
+
+        s = with_overrides(settings, {})
+        return cls(s.size, s.msaa, s.background, s.shadow_size)
 
     # ------------------------------------------------------------------ lifetime
     def release(self) -> None:
@@ -187,42 +192,37 @@ class Renderer:
         curves: HairCurves | None = None,
         mesh: object | None = None,
         camera: Camera | None = None,
-        lights: Sequence[Light] | None = None,
-        shading: str = "kajiya-kay",
-        subdivisions: int = 4,
-        shading_params: Mapping[str, object] | None = None,
-        hair_color: Sequence[float] = DEFAULT_HAIR_COLOR,
-        hair_width: float = DEFAULT_HAIR_WIDTH,
-        hair_opacity: float = 1.0,
-        skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
-        fov: float = DEFAULT_FOV,
-        shadows: bool = True,
-        oit: bool = True,
+        settings: RenderParams | None = None,
     ) -> np.ndarray:
         """Render one frame; returns (H, W, 4) uint8, top row first, sRGB, alpha 255.
 
+        ``settings`` is a :class:`~follicle.render.settings.RenderParams` (a scene's
+        ``[render]``; None: its defaults).
+
         ``curves`` may be None or empty when a ``mesh`` is given. Per-vertex
-        ``width``/``color``/``opacity`` of the curves win over ``hair_width`` (diameter,
-        metres), ``hair_color`` (linear RGB) and ``hair_opacity``. ``camera`` None frames
-        hair and mesh with :func:`frame_camera` at ``fov`` degrees (vertical); ``lights``
-        None uses :func:`default_lights`. ``shading`` is ``kajiya-kay``,
-        ``scheuermann`` or ``marschner``, tuned by ``shading_params``
+        ``width``/``color``/``opacity`` of the curves win over the settings'
+        ``hair_width`` (diameter, metres), ``hair_color`` (linear RGB) and
+        ``hair_opacity``. ``camera`` None takes the settings' ``eye`` and ``target``, and
+        when they are unset frames hair and mesh with :func:`frame_camera` at ``fov``
+        degrees (vertical); no ``lights`` is :func:`default_lights`. ``shading`` is
+        ``kajiya-kay``, ``scheuermann`` or ``marschner``, tuned by ``shading_params``
         (:data:`follicle.render.options.MODEL_PARAMS`). ``shadows``: the first
         directional light casts hair and skin shadows (deep opacity maps). ``oit``
         False blends the hair "over" the opaque layer, segments sorted back to front on
         the CPU (the foundation's method; thin and wide segments sorted separately).
-        ``subdivisions`` (1..16) is the most Catmull-Rom steps per segment; fewer are
-        taken where a segment is short and straight on screen.
+        ``subdivisions`` is the most Catmull-Rom steps per segment; fewer are taken
+        where a segment is short and straight on screen. The settings' ``size``,
+        ``msaa``, background and ``shadow_size`` are the renderer's own, given when it
+        was made (:meth:`from_settings`).
         """
+        from .settings import with_overrides
+
         if self._out_fbo is None:
             raise InputError("Renderer: already released")
-        params = parse_shading(shading, shading_params)
+        settings = with_overrides(settings, {})
+        params = parse_shading(settings.shading, settings.shading_params)
         if curves is not None and not isinstance(curves, HairCurves):
             raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
-        subdivisions = _check_int(subdivisions, "subdivisions", 1, MAX_SUBDIVISIONS, "an integer")
-        for flag, name in ((shadows, "shadows"), (oit, "oit")):
-            if not isinstance(flag, (bool, np.bool_)):
-                raise InputError(f"{name}: expected true or false, got {flag!r}")
         has_hair = curves is not None and curves.curve_count > 0
         mesh_arrays = check_mesh(mesh) if mesh is not None else None
         has_mesh = mesh_arrays is not None and len(mesh_arrays[1]) > 0
@@ -230,19 +230,17 @@ class Renderer:
             raise InputError(
                 "render: nothing to draw; give non-empty curves and/or a mesh with faces"
             )
-        hair_color = color3(hair_color, "hair_color")
-        skin_color = color3(skin_color, "skin_color")
-        if not (np.isfinite(hair_width) and hair_width > 0):
-            raise InputError(
-                f"hair_width: must be a positive diameter in metres, got {hair_width!r}"
-            )
-        if not 0.0 <= hair_opacity <= 1.0:
-            raise InputError(f"hair_opacity: must be in [0, 1], got {hair_opacity!r}")
+        shading, subdivisions, oit = settings.shading, settings.subdivisions, settings.oit
+        hair_color = color3(settings.hair_color, "hair_color")
+        skin_color = color3(settings.skin_color, "skin_color")
+        lights = settings.light_list()
+        if camera is None:
+            camera = settings.camera()
 
         w, h = self.size
         lo, hi = scene_bounds(curves if has_hair else None, mesh)
         if camera is None:
-            camera = frame_camera(lo, hi, fov_y=fov, aspect=w / h)
+            camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
         elif not isinstance(camera, Camera):
             raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
         near, far = _clip_range(camera, lo, hi)
@@ -265,7 +263,7 @@ class Renderer:
             **SHADOW_UNITS,  # distinct units even when unused: their sampler types differ
         }
         light = None
-        if shadows and n_dir > 0:
+        if settings.shadows and n_dir > 0:
             key = dirs[0].astype(np.float64)
             light = (key, *light_projection(key, lo, hi, self._shadow.size))
         hair_gs = {"subdivisions": subdivisions}
@@ -281,8 +279,8 @@ class Renderer:
                     camera,
                     None if light is None else light[2],
                     hair_color,
-                    float(hair_width),
-                    float(hair_opacity),
+                    float(settings.hair_width),
+                    float(settings.hair_opacity),
                     oit,
                     subdivisions,
                     released,
@@ -529,47 +527,27 @@ def render(
     curves: HairCurves | None,
     mesh: object | None = None,
     camera: Camera | None = None,
-    size: Sequence[int] = (960, 960),
-    shading: str = "kajiya-kay",
+    settings: RenderParams | None = None,
     out: str | os.PathLike[str] | None = None,
-    lights: Sequence[Light] | None = None,
-    background: object = None,
-    msaa: int = 4,
-    subdivisions: int = 4,
-    shading_params: Mapping[str, object] | None = None,
-    hair_color: Sequence[float] = DEFAULT_HAIR_COLOR,
-    hair_width: float = DEFAULT_HAIR_WIDTH,
-    hair_opacity: float = 1.0,
-    skin_color: Sequence[float] = DEFAULT_SKIN_COLOR,
-    fov: float = DEFAULT_FOV,
-    shadows: bool = True,
-    shadow_size: int = 512,
-    oit: bool = True,
+    **overrides: object,
 ) -> np.ndarray:
     """Render hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
 
-    ``camera`` None frames the union of hair and mesh bounds at ``fov`` degrees
+    ``settings`` is a :class:`~follicle.render.settings.RenderParams` (a scene's
+    ``[render]``; None: its defaults); keyword ``overrides`` change its keys (``size=(800,
+    600)``, ``shading="marschner"``, ``shadows=False``, ...) through
+    ``settings.replace``, so a bad value is a ConfigError naming ``[render].key``;
+    ``background`` also takes one colour or (top, bottom), and ``lights``
+    :class:`~follicle.render.Light` objects. ``camera`` None takes the settings' eye and
+    target, else frames the union of hair and mesh bounds at ``fov`` degrees
     (vertical). When ``out`` is given the image is also written there as PNG
     (atomically). See :class:`Renderer` and :meth:`Renderer.draw`.
     """
-    parse_shading(shading, shading_params)  # fail before creating framebuffers
-    with Renderer(size=size, msaa=msaa, background=background, shadow_size=shadow_size) as r:
-        image = r.draw(
-            curves,
-            mesh,
-            camera=camera,
-            lights=lights,
-            shading=shading,
-            subdivisions=subdivisions,
-            shading_params=shading_params,
-            hair_color=hair_color,
-            hair_width=hair_width,
-            hair_opacity=hair_opacity,
-            skin_color=skin_color,
-            fov=fov,
-            shadows=shadows,
-            oit=oit,
-        )
+    from .settings import with_overrides
+
+    settings = with_overrides(settings, overrides)
+    with Renderer.from_settings(settings) as r:
+        image = r.draw(curves, mesh, camera=camera, settings=settings)
     if out is not None:
         save_png(image, out)
     return image

@@ -15,12 +15,14 @@ __all__ = [
     "MAX_SIZE",
     "DEFAULT_HAIR_COLOR",
     "DEFAULT_HAIR_WIDTH",
+    "DEFAULT_HAIR_OPACITY",
     "DEFAULT_SKIN_COLOR",
     "DEFAULT_BACKGROUND",
     "COMMON_PARAMS",
     "MODEL_PARAMS",
     "ANGLE_PARAMS",
     "MAX_SHADOW_SIZE",
+    "DEFAULT_SHADOW_SIZE",
     "shading_params_for",
     "color3",
     "parse_background",
@@ -35,9 +37,11 @@ MAX_SUBDIVISIONS = 16
 MAX_LIGHTS = 8
 MAX_SIZE = 8192
 MAX_SHADOW_SIZE = 4096
+DEFAULT_SHADOW_SIZE = 512  # texels per side of the key light's shadow maps
 
 DEFAULT_HAIR_COLOR = (0.16, 0.09, 0.045)  # linear RGB, a mid brown
 DEFAULT_HAIR_WIDTH = 80e-6  # diameter, metres
+DEFAULT_HAIR_OPACITY = 1.0
 DEFAULT_SKIN_COLOR = (0.42, 0.25, 0.18)  # linear RGB
 # (top, bottom) of the gradient, linear RGB: every render's and [render].background_*'s
 DEFAULT_BACKGROUND = ((0.33, 0.36, 0.41), (0.08, 0.085, 0.1))

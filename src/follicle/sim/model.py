@@ -16,6 +16,7 @@ from ..curves import HairCurves
 from ..errors import InputError
 from ..groom.guides import Guides, resample_arclength
 from ..mesh.skin import SkinMesh
+from ..validate import whole
 
 __all__ = ["Model"]
 
@@ -95,5 +96,4 @@ class Model:
 
 
 def _check_vertices(n: int) -> None:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 2 <= n <= 1024:
-        raise InputError(f"[sim].vertices: expected a whole number in 2 … 1024, got {n!r}")
+    whole(n, "[sim].vertices", 2, 1024)

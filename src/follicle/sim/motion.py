@@ -17,6 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import InputError
+from ..validate import number, positive
 
 __all__ = ["MOTIONS", "head_motion", "motion_angle", "motion_pivot"]
 
@@ -34,15 +35,6 @@ _AXES = {
 }
 
 
-def _number(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InputError(f"{name}: expected a number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise InputError(f"{name}: must be finite, got {x}")
-    return x
-
-
 def _min_jerk(s: float) -> float:
     """0 → 1 over s in [0, 1] with zero velocity and acceleration at both ends."""
     return s * s * s * (10.0 + s * (-15.0 + 6.0 * s))
@@ -57,13 +49,9 @@ def motion_angle(kind: str, t: float, amplitude: float = 40.0, period: float = 2
     """
     if kind not in _KEYS:
         raise InputError(f"motion: unknown kind {kind!r}; use one of {', '.join(MOTIONS)}")
-    t = _number("time", t)
-    if t < 0:
-        raise InputError(f"time: must be ≥ 0 s, got {t}")
-    period = _number("motion period", period)
-    if period <= 0:
-        raise InputError(f"motion period: must be > 0 s, got {period}")
-    amplitude = _number("motion amplitude", amplitude)
+    t = number(t, "time", lo=0.0, unit="s")
+    period = positive(period, "motion period", unit="s")
+    amplitude = number(amplitude, "motion amplitude")
     times, angles = _KEYS[kind]
     u = t / period
     if u >= 1.0:

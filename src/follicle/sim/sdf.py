@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import copy
 import math
-import numbers
 
 import numpy as np
 from numba import njit, prange
@@ -50,6 +49,7 @@ from ..arrays import as_points, frozen, rigid
 from ..errors import InputError
 from ..frames import normalize
 from ..mesh.skin import closest_weights
+from ..validate import positive, whole
 
 __all__ = ["SDF", "sdf_sample", "sdf_lookup"]
 
@@ -96,7 +96,7 @@ class SDF:
             raise InputError(f"origin: expected 3 finite numbers, got {orig.tolist()}")
         self.values = frozen(vals.copy())
         self.origin = frozen(orig.copy())
-        self.voxel = _positive("voxel", voxel)
+        self.voxel = positive(voxel, "voxel", unit="m")
         self.transform, self._local_from_world = _rigid(
             np.eye(4) if transform is None else transform
         )
@@ -119,19 +119,17 @@ class SDF:
         found by their neighbours (see the module docstring).
         """
         verts, tris = _check_mesh(vertices, faces)
-        if isinstance(band, (bool, np.bool_)) or not isinstance(band, numbers.Integral):
-            raise InputError(f"band: expected a whole number of voxels >= 1, got {band!r}")
-        if band < 1:  # a grid vertex lies within one voxel of every triangle: seeds for all
-            raise InputError(f"band: expected a whole number of voxels >= 1, got {band}")
+        # >= 1: a grid vertex lies within one voxel of every triangle, seeds for all
+        band = whole(band, "band", 1)
         corners = verts[tris]
         lo = corners.reshape(-1, 3).min(axis=0)
         hi = corners.reshape(-1, 3).max(axis=0)
         if voxel_size is None:
             voxel = float((hi - lo).max()) / _CELLS_ALONG_LONGEST
         else:
-            voxel = _positive("voxel_size", voxel_size)
+            voxel = positive(voxel_size, "voxel_size", unit="m")
         if padding is not None:
-            padding = _positive("padding", padding, allow_zero=True)
+            padding = positive(padding, "padding", allow_zero=True, unit="m")
         dims, origin = _grid(lo, hi, voxel, padding)
 
         face_normal, face_edge, edge_normal, vertex_normal = _pseudo_normals(verts, tris)
@@ -209,18 +207,6 @@ class SDF:
 
 
 # ------------------------------------------------------------------- checks
-def _positive(name: str, value: object, allow_zero: bool = False) -> float:
-    """``value`` as a finite float > 0 (or >= 0), or InputError naming ``name``."""
-    bound = ">= 0" if allow_zero else "> 0"
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a number {bound}, got {value!r}") from None
-    if not math.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
-        raise InputError(f"{name}: expected a finite number {bound}, got {v}")
-    return v
-
-
 def _check_mesh(vertices: object, faces: object) -> tuple[np.ndarray, np.ndarray]:
     """(vertices float64 (V, 3), faces int64 (F, 3)) without zero-area faces, or InputError."""
     verts = np.array(vertices, dtype=np.float64)  # writable: one kernel specialisation

@@ -3,8 +3,11 @@
 ``step(dt)`` advances the caller's dt in fixed substeps of ``params.substep`` with an
 accumulator, so behaviour does not depend on the caller's frame rate; the skin's new
 pose (``set_pose``) is reached gradually over the step's substeps: the roots, and for a
-rigid transform the colliders and the skin's SDF too. After every substep the hair
-volume (``[sim].volume_*``) exchanges momentum between neighbouring strands.
+rigid transform the colliders and the skin's SDF too. The pose is the simulator's own
+value (:attr:`Simulator.pose`, a posed copy of the mesh): setting it changes no mesh
+that a Groom or another simulator holds; hand it on (``groom.follow(sim)`` does).
+After every substep the hair volume (``[sim].volume_*``) exchanges momentum between
+neighbouring strands.
 
 The public methods validate their arguments once and raise InputError, leaving the
 simulator as it was; a step whose state leaves the meaningful range (NaN, inf, strands
@@ -23,14 +26,14 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ..arrays import rigid
 from ..curves import HairCurves
-from ..errors import InputError, SimulationError
+from ..errors import InputError, ResourceError, SimulationError
 from ..groom.guides import Guides
 from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..noise import perlin
-from ..scene import SimParams
-from .collision import NO_SDF, clearance, penetration
+from .collision import NO_SDF, Colliders, clearance, colliders, penetration
 from .model import Model
 from .sdf import SDF
+from .settings import SimParams
 from .solver import Solver
 from .state import State
 from .volume import volume_step
@@ -173,6 +176,7 @@ class Simulator:
         if isinstance(guides, Guides) and mesh is None:
             mesh = guides.mesh
         self.mesh = mesh
+        self._pose = mesh  # the skin's pose now: the mesh as given, then set_pose's
         self._guides = guides
         self._transform = np.eye(4)
         self._params: SimParams | None = None
@@ -198,8 +202,8 @@ class Simulator:
 
     def _build(self, params: SimParams) -> None:
         """Model, skin field, solver and state for ``params`` on the skin's current pose."""
-        mesh = self.mesh
-        self.model = Model.build(self._guides, mesh, params.vertices)
+        mesh = self._pose
+        self.model = Model.build(self._guides, self.mesh, params.vertices)
         self._free = self.model.inv_mass != 0  # particles the volume may move (not roots)
         self._accumulator = 0.0
         self._pinned_cache: tuple[np.ndarray, np.ndarray] | None = None
@@ -216,7 +220,7 @@ class Simulator:
                 )
         roots, frames = self._pinned()
         rest = roots[:, None] + np.einsum("snk,ska->sna", self.model.rest_local, frames)
-        near = clearance(rest, *self._colliders(self._transform, self.sdf))
+        near = clearance(rest, self._colliders(self._transform, self.sdf))
         self.solver = Solver(self.model, params, near)
         self._reach = float(self.model.rest_length.sum(axis=1).max())  # longest strand, m
         self._last_move: tuple | None = None  # (identity, transform, colliders) last substep
@@ -229,7 +233,7 @@ class Simulator:
         if self._pinned_cache is None:
             m = self.model
             if self.mesh is not None:
-                cur = self.mesh.evaluate(m.triangles, m.bary, pose="current")
+                cur = self._pose.evaluate(m.triangles, m.bary, pose="current")
                 frames = _orthonormal(cur.tangent, cur.binormal, cur.normal)
                 self._pinned_cache = (np.ascontiguousarray(cur.position, np.float64), frames)
             else:
@@ -239,6 +243,13 @@ class Simulator:
                     np.ascontiguousarray(m.rest_frames @ r.T),
                 )
         return self._pinned_cache
+
+    @property
+    def pose(self) -> SkinMesh | None:
+        """The skin in the pose the roots are pinned to now (the mesh given, or a posed
+        copy of it made by :meth:`set_pose`; None without a mesh): a value to hand to
+        ``Groom.generate(pose=…)``, a renderer or a writer."""
+        return self._pose
 
     def set_pose(self, transform: object | None = None, vertices: object | None = None) -> None:
         """Move the skin: a 4×4 rigid ``transform`` of the rest pose, or new mesh
@@ -253,7 +264,7 @@ class Simulator:
         if transform is not None:
             world = _head_transform(transform)
             if self.mesh is not None:  # first: it refuses a pose that moves the mesh too far
-                self.mesh.set_pose(transform=world)
+                self._pose = self.mesh.posed(transform=world)
             self._pinned_cache = None
             self._transform = world
             if self.sdf is not None:
@@ -270,11 +281,12 @@ class Simulator:
             if not np.isfinite(verts).all():
                 bad = int(np.argmin(np.isfinite(verts).all(axis=1)))
                 raise InputError(f"vertices: vertex {bad} is not finite: {verts[bad].tolist()}")
+            pose = self.mesh.posed(vertices=verts)
             self._pinned_cache = None
-            self.mesh.set_pose(vertices=verts)
+            self._pose = pose
             if self.sdf is not None:  # a deformed skin: a new field (its own frame)
                 self.sdf = SDF.from_mesh(
-                    self.mesh.vertices, self.mesh.faces, voxel_size=self.params.skin_voxel
+                    pose.vertices, pose.faces, voxel_size=self.params.skin_voxel
                 )
 
     def teleport(self, transform: object | None = None, vertices: object | None = None) -> None:
@@ -303,32 +315,21 @@ class Simulator:
         self.solver.energy[:] = 0.0
 
     # ------------------------------------------------------------------ stepping
-    def _colliders(self, transform: np.ndarray, sdf: SDF | None) -> tuple:
-        """Spheres (K, 4), capsules (L, 7) and the SDF's sample arguments in world space
-        with the head at ``transform``."""
-        r, t = transform[:3, :3], transform[:3, 3]
-        spheres, capsules = [], []
-        for c in self.params.colliders:
-            move = (lambda p: r @ np.asarray(p) + t) if c.follow else np.asarray
-            if c.kind == "sphere":
-                spheres.append([*move(c.centre), c.radius])
-            else:
-                capsules.append([*move(c.a), *move(c.b), c.radius])
-        return (
-            np.array(spheres, np.float64).reshape(-1, 4),
-            np.array(capsules, np.float64).reshape(-1, 7),
-            NO_SDF if sdf is None else sdf.sample_args,
-        )
+    def _colliders(self, transform: np.ndarray, sdf: SDF | None) -> Colliders:
+        """The [sim] colliders and the skin's SDF in world space with the head at
+        ``transform`` (colliders with ``follow`` move with it)."""
+        sample = NO_SDF if sdf is None else sdf.sample_args
+        return colliders(self.params.colliders, sample, transform)
 
-    def _collider_move(self, transform: np.ndarray, sdf: SDF | None, colliders: tuple) -> float:
+    def _collider_move(self, transform: np.ndarray, sdf: SDF | None, now: Colliders) -> float:
         """How far any collider surface near the hair moved since the last substep (m): the
         largest move, under the head's relative motion, of the corners of the hair's and
-        the SDF's boxes and of the sphere centres and capsule ends (a rigid motion's move
+        the SDF's boxes and of the shapes' points (a rigid motion's move
         is convex in the point, so these extreme points bound it). inf when the collider
         set changed (new parameters, a rebuilt SDF) or the state was replaced.
-        ``colliders``: this substep's :meth:`_colliders`, kept for the next one."""
+        ``now``: this substep's :meth:`_colliders`, kept for the next one."""
         key = (self.params, None if sdf is None else sdf.values, self.state.clear)
-        last, self._last_move = self._last_move, (key, transform, colliders)
+        last, self._last_move = self._last_move, (key, transform, now)
         if last is None or any(a is not b for a, b in zip(last[0], key, strict=True)):
             return math.inf
         relative = transform @ np.linalg.inv(last[1])
@@ -340,8 +341,7 @@ class Simulator:
             hi = sdf.origin + sdf.voxel * (np.array(sdf.values.shape) - 1)
             local = _corners(sdf.origin, hi)
             points.append(local @ sdf.transform[:3, :3].T + sdf.transform[:3, 3])
-        spheres, capsules, _ = last[2]  # the colliders at the last substep's transform
-        points += [spheres[:, :3], capsules[:, :3], capsules[:, 3:6]]
+        points.append(last[2].points())  # the colliders at the last substep's transform
         p = np.concatenate(points)
         return float(np.linalg.norm(p @ relative[:3, :3].T + relative[:3, 3] - p, axis=1).max())
 
@@ -357,7 +357,7 @@ class Simulator:
 
         ``dt`` is any real number ≥ 0 (int, float, a NumPy scalar or 0-d array). One call
         runs at most MAX_SUBSTEPS_PER_CALL (10,000) substeps of ``[sim].substep`` (83 s of
-        simulated time at the default 1/120 s): a longer step is an InputError, raised
+        simulated time at the default 1/120 s): a longer step is a ResourceError, raised
         before anything moves; call step in smaller pieces or raise ``[sim].substep``.
         A state that blows up (NaN, inf, or a vertex ``EXPLODED`` strand lengths from its
         root) raises SimulationError, naming the settings to soften.
@@ -366,13 +366,15 @@ class Simulator:
         p = self.params
         h = p.substep
         total = self._accumulator + dt
-        count = int(math.floor(total / h + 1e-9))
-        if count > MAX_SUBSTEPS_PER_CALL:
-            raise InputError(
-                f"dt: {dt:g} s needs {count:,} substeps of [sim].substep = {h:g} s; one step"
+        steps = total / h + 1e-9  # inf for a dt near the largest float
+        if steps >= MAX_SUBSTEPS_PER_CALL + 1:
+            need = f"{math.floor(steps):,}" if math.isfinite(steps) else "over 10^308"
+            raise ResourceError(
+                f"dt: {dt:g} s needs {need} substeps of [sim].substep = {h:g} s; one step"
                 f" runs at most {MAX_SUBSTEPS_PER_CALL:,}: call step in smaller pieces or"
                 " raise [sim].substep"
             )
+        count = int(math.floor(steps))
         self._accumulator = max(total - count * h, 0.0)
         if count == 0:
             return
@@ -385,11 +387,9 @@ class Simulator:
             f = k / count
             transform = _blend(begin, finish, f)
             sdf = self._sdf_rest.with_transform(transform) if rigid_skin else self.sdf
-            colliders = self._colliders(transform, sdf)
-            moved = self._collider_move(transform, sdf, colliders)
-            self.solver.substep(
-                self.state, start, end, f, self.wind(self.state.time), colliders, moved
-            )
+            world = self._colliders(transform, sdf)
+            moved = self._collider_move(transform, sdf, world)
+            self.solver.substep(self.state, start, end, f, self.wind(self.state.time), world, moved)
             if volume:  # the state is finite (the solver puts back a strand that is not)
                 volume_step(
                     self.state.x,
@@ -445,6 +445,6 @@ class Simulator:
         return {
             "max_stretch": float(stretch.max()),
             "mean_stretch": float(stretch.mean()),
-            "max_penetration": penetration(x, *self._colliders(self._transform, self.sdf)),
+            "max_penetration": penetration(x, self._colliders(self._transform, self.sdf)),
             "kinetic_energy": float(self.solver.energy.sum()),
         }

@@ -16,13 +16,14 @@ non-finite value is put back as it was and reported.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
 from ..arrays import FMA
 from ..errors import SimulationError
-from .collision import collide
+from .collision import Colliders, collide
 from .constraints import (
     bend_pass,
     cone_pass,
@@ -89,12 +90,7 @@ def _collide_pass(
     ref,
     gap2,
     contact,
-    spheres,
-    capsules,
-    sdf_values,
-    sdf_origin,
-    sdf_inv_voxel,
-    sdf_lfw,
+    colliders,
     M,
     nb,
 ):
@@ -102,7 +98,7 @@ def _collide_pass(
     contact normals into ``contact``. A
     vertex still within ``gap`` of where it was last found clear (``ref``) cannot have
     reached a collider and is not looked up again."""
-    if spheres.shape[0] == 0 and capsules.shape[0] == 0 and sdf_values.size == 0:
+    if colliders.shapes.shape[0] == 0 and colliders.sdf_values.size == 0:
         return
     far = np.empty(X.shape[2])
     todo = np.empty(X.shape[2], np.int64)
@@ -126,12 +122,7 @@ def _collide_pass(
                 X[i, 0, b],
                 X[i, 1, b],
                 X[i, 2, b],
-                spheres,
-                capsules,
-                sdf_values,
-                sdf_origin,
-                sdf_inv_voxel,
-                sdf_lfw,
+                colliders,
                 M[i, b],
             )
             X[i, 0, b], X[i, 1, b], X[i, 2, b] = px, py, pz
@@ -153,12 +144,7 @@ def _hang(
     uy,
     uz,
     length,
-    spheres,
-    capsules,
-    sdf_values,
-    sdf_origin,
-    sdf_inv_voxel,
-    sdf_lfw,
+    colliders,
     margin,
 ):
     """A child hung ``length`` from its parent p along the unit u, out of the colliders
@@ -169,9 +155,7 @@ def _hang(
     so the child ends both at its length and outside (a plane is exact; a convex
     surface only falls away from it)."""
     cx, cy, cz = px + length * ux, py + length * uy, pz + length * uz
-    qx, qy, qz, nx, ny, nz, hit, gap = collide(
-        cx, cy, cz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, margin
-    )
+    qx, qy, qz, nx, ny, nz, hit, gap = collide(cx, cy, cz, colliders, margin)
     if not hit:
         return qx, qy, qz, nx, ny, nz, hit, gap
     need = -((px - qx) * nx + (py - qy) * ny + (pz - qz) * nz) / length
@@ -183,9 +167,7 @@ def _hang(
     s = math.sqrt(1.0 - need * need) / t
     ux, uy, uz = need * nx + s * tx, need * ny + s * ty, need * nz + s * tz
     cx, cy, cz = px + length * ux, py + length * uy, pz + length * uz
-    qx, qy, qz, mx, my, mz, again, gap = collide(
-        cx, cy, cz, spheres, capsules, sdf_values, sdf_origin, sdf_inv_voxel, sdf_lfw, margin
-    )
+    qx, qy, qz, mx, my, mz, again, gap = collide(cx, cy, cz, colliders, margin)
     if again:
         nx, ny, nz = mx, my, mz
     return qx, qy, qz, nx, ny, nz, True, gap
@@ -200,12 +182,7 @@ def _settle_pass(
     ref,
     gap2,
     contact,
-    spheres,
-    capsules,
-    sdf_values,
-    sdf_origin,
-    sdf_inv_voxel,
-    sdf_lfw,
+    colliders,
     M,
     nb,
 ):
@@ -219,7 +196,7 @@ def _settle_pass(
     when its child is handled (follow-the-leader order, Almeida 2014 §3.1.1), so pushes out of
     the skin no longer add up into stretched or crushed segments, and every vertex still
     ends outside the colliders and their margins."""
-    if spheres.shape[0] == 0 and capsules.shape[0] == 0 and sdf_values.size == 0:
+    if colliders.shapes.shape[0] == 0 and colliders.sdf_values.size == 0:
         return  # nothing pushed after the lengths were set
     over = np.empty(X.shape[2])
     for i in range(1, X.shape[0]):
@@ -253,12 +230,7 @@ def _settle_pass(
                 dy / length,
                 dz / length,
                 rest,
-                spheres,
-                capsules,
-                sdf_values,
-                sdf_origin,
-                sdf_inv_voxel,
-                sdf_lfw,
+                colliders,
                 M[i, b],
             )
             X[i, 0, b], X[i, 1, b], X[i, 2, b] = px, py, pz
@@ -268,56 +240,84 @@ def _settle_pass(
                 contact[i, 0, b], contact[i, 1, b], contact[i, 2, b] = nx, ny, nz
 
 
+class Strands(NamedTuple):
+    """A Model's per-strand data as the substep kernel reads it: per-vertex arrays in
+    the block layout of :func:`_blocked` (inverse masses, rest lengths, rest shape in
+    the root frame, bending rest, collision margins) and per-strand rows (the static
+    point and the first segment's direction in the root frame)."""
+
+    w: np.ndarray
+    rest_length: np.ndarray
+    rest_local: np.ndarray
+    bend_rest: np.ndarray
+    margin: np.ndarray
+    static_local: np.ndarray
+    root_direction: np.ndarray
+
+
+class Constants(NamedTuple):
+    """The substep kernel's parameters that stay fixed while a SimParams does: made once
+    from it by :meth:`Solver.constants` (stiffnesses linearised, Le Muzic 2012 eq. 5.5)."""
+
+    dt: float  # the substep, s
+    damp: float  # velocity kept per substep, exp(−damping · dt)
+    euler: bool  # semi-implicit Euler, else Verlet
+    dftl: bool  # Dynamic Follow-The-Leader, else PBD distances
+    iterations: int
+    gravity: np.ndarray  # (3,) m/s²
+    turbulence: float
+    frequency: float
+    drag: float
+    k_stretch: float
+    k_bend: float
+    bend_scale: float
+    attenuation: float
+    k_local: float
+    k_global: np.ndarray  # (N,) root to tip
+    cos_limit: float  # the cone limit's cosine; −2 for none
+    sin_limit: float
+    dftl_damping: float
+    stretch_limit: float  # −1 for none
+    limit_damping: float
+    friction: float
+
+
 @njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
 def _substep_kernel(
-    x,
-    v,
-    w,
-    rest_length,
-    rest_local,
-    bend_rest,
-    static_local,
-    root_direction,
-    roots0,
-    frames0,
-    roots1,
-    frames1,
-    f,
-    dt,
-    damp,
-    euler,
-    dftl,
-    iterations,
-    gravity,
-    wind,
-    turbulence,
-    frequency,
-    scroll,
-    drag,
-    k_stretch,
-    k_bend,
-    bend_scale,
-    attenuation,
-    k_local,
-    k_global,
-    cos_limit,
-    sin_limit,
-    dftl_damping,
-    stretch_limit,
-    limit_damping,
-    spheres,
-    capsules,
-    sdf_values,
-    sdf_origin,
-    sdf_inv_voxel,
-    sdf_lfw,
-    margin,
-    friction,
-    clear,
-    shift,
-    energy,
-    bad,
+    x, v, clear, model, start, end, f, wind, scroll, shift, c, colliders, energy, bad
 ):
+    """One substep of every strand (see the module's docstring): state ``x``, ``v``,
+    ``clear`` (S, N, …) in place, the ``model``'s :class:`Strands` with the
+    :class:`Constants` ``c``, roots pinned a fraction ``f`` of the way from the pose
+    ``start`` to ``end`` (roots, frames), under ``wind`` (3,) with the noise at
+    ``scroll``, colliders that moved at most ``shift`` (m); ``energy`` and ``bad`` out,
+    per strand."""
+    w, rest_length, rest_local, bend_rest, margin, static_local, root_direction = model
+    roots0, frames0 = start
+    roots1, frames1 = end
+    (
+        dt,
+        damp,
+        euler,
+        dftl,
+        iterations,
+        gravity,
+        turbulence,
+        frequency,
+        drag,
+        k_stretch,
+        k_bend,
+        bend_scale,
+        attenuation,
+        k_local,
+        k_global,
+        cos_limit,
+        sin_limit,
+        dftl_damping,
+        stretch_limit,
+        limit_damping,
+        friction,
+    ) = c
     strands, n = x.shape[0], x.shape[1]
     shape = k_local > 0.0 or k_global[1] > 0.0
     correct = dftl or stretch_limit >= 0.0  # Almeida 2014 eq. 3.1 applies
@@ -416,12 +416,7 @@ def _substep_kernel(
                 ref,
                 gap2,
                 contact,
-                spheres,
-                capsules,
-                sdf_values,
-                sdf_origin,
-                sdf_inv_voxel,
-                sdf_lfw,
+                colliders,
                 M,
                 nb,
             )
@@ -438,12 +433,7 @@ def _substep_kernel(
             ref,
             gap2,
             contact,
-            spheres,
-            capsules,
-            sdf_values,
-            sdf_origin,
-            sdf_inv_voxel,
-            sdf_lfw,
+            colliders,
             M,
             nb,
         )  # collisions are hard: last
@@ -456,12 +446,7 @@ def _substep_kernel(
                 ref,
                 gap2,
                 contact,
-                spheres,
-                capsules,
-                sdf_values,
-                sdf_origin,
-                sdf_inv_voxel,
-                sdf_lfw,
+                colliders,
                 M,
                 nb,
             )
@@ -542,7 +527,7 @@ class Solver:
         )
         self.energy = np.zeros(model.strands)  # ½ Σ |Δx / dt|² per strand, last substep
         self._bad = np.zeros(model.strands, np.uint8)
-        self._for: object = None  # the params _constants were made for
+        self._for: object = None  # the params the constants were made for
 
     def global_profile(self) -> np.ndarray:
         """Per-vertex global shape stiffness (linearised): full up to the range start,
@@ -553,47 +538,52 @@ class Solver:
         fade = np.clip((end - t) / max(end - start, 1e-9), 0.0, 1.0)
         return linearised(p.shape_global * np.where(t <= start, 1.0, fade), p.iterations)
 
-    def _constants(self) -> tuple:
-        """The kernel's parameters that stay fixed while ``params`` does (made once)."""
+    def constants(self) -> tuple[Strands, Constants]:
+        """The kernel's strands and constants for ``params`` (made again only when the
+        params object changes; params cannot change in place, so they cannot go stale)."""
         p = self.params
         if self._for is not p:
             n = p.iterations
             cone = math.radians(p.cone_angle)
-            self._kept = (
-                (
-                    math.exp(-p.damping * p.substep),
-                    p.integrator == "euler",
-                    p.solver == "dftl",
-                    n,
-                    np.asarray(p.gravity, np.float64),
-                ),
-                (
-                    p.wind_turbulence,
-                    p.wind_frequency,
-                ),
-                (
-                    p.drag,
-                    linearised(p.stretch_stiffness, n),
-                    linearised(p.bend_stiffness, n),
-                    p.bend_scale,
-                    p.bend_attenuation,
-                    linearised(p.shape_local, n),
-                    self.global_profile(),
-                    math.cos(cone) if p.cone_angle < 180 else -2.0,
-                    math.sin(cone),
-                    p.dftl_damping,
-                    -1.0 if p.stretch_limit is None else p.stretch_limit,
-                    p.stretch_limit_damping,
-                ),
+            self._constants = Constants(
+                dt=p.substep,
+                damp=math.exp(-p.damping * p.substep),
+                euler=p.integrator == "euler",
+                dftl=p.solver == "dftl",
+                iterations=n,
+                gravity=np.asarray(p.gravity, np.float64),
+                turbulence=p.wind_turbulence,
+                frequency=p.wind_frequency,
+                drag=p.drag,
+                k_stretch=linearised(p.stretch_stiffness, n),
+                k_bend=linearised(p.bend_stiffness, n),
+                bend_scale=p.bend_scale,
+                attenuation=p.bend_attenuation,
+                k_local=linearised(p.shape_local, n),
+                k_global=self.global_profile(),
+                cos_limit=math.cos(cone) if p.cone_angle < 180 else -2.0,
+                sin_limit=math.sin(cone),
+                dftl_damping=p.dftl_damping,
+                stretch_limit=-1.0 if p.stretch_limit is None else p.stretch_limit,
+                limit_damping=p.stretch_limit_damping,
+                friction=p.friction,
             )
-            margin = np.full(
-                self.model.rest_length.shape[:1] + (self.model.vertices,), p.collision_margin
-            )
+            m = self.model
+            margin = np.full(m.rest_length.shape[:1] + (m.vertices,), p.collision_margin)
             if self.rest_clearance is not None:
                 np.minimum(margin, self.rest_clearance, out=margin)
-            self._margin = _blocked(margin, self.model.vertices)
+            w, length, local, bend = self._static
+            self._strands = Strands(
+                w,
+                length,
+                local,
+                bend,
+                _blocked(margin, m.vertices),
+                m.static_local,
+                m.root_direction,
+            )
             self._for = p
-        return self._kept
+        return self._strands, self._constants
 
     def substep(
         self,
@@ -602,40 +592,30 @@ class Solver:
         end: tuple[np.ndarray, np.ndarray],
         f: float,
         wind: np.ndarray,
-        colliders: tuple[np.ndarray, np.ndarray, tuple],
+        colliders: Colliders,
         moved: float = math.inf,
     ) -> None:
         """Advance ``state`` by one substep with the roots pinned a fraction ``f`` of the
         way from ``start`` to ``end`` (each (roots (S, 3), frames (S, 3, 3))), under
-        ``wind`` (3,) now, against ``colliders`` (spheres, capsules, SDF arguments), whose
+        ``wind`` (3,) now, against ``colliders`` (:class:`~.collision.Colliders`), whose
         surfaces moved at most ``moved`` (m) since the last substep (inf: unknown, every
         vertex is looked up again)."""
-        p, m = self.params, self.model
-        integration, noise, constraints = self._constants()
+        p = self.params
+        strands, constants = self.constants()
         scroll = np.asarray(p.wind_drift, np.float64) * state.time * p.wind_frequency
-        spheres, capsules, sdf = colliders
         _substep_kernel(
             state.x,
             state.v,
-            *self._static,
-            m.static_local,
-            m.root_direction,
-            *start,
-            *end,
-            f,
-            p.substep,
-            *integration,
-            wind,
-            *noise,
-            scroll,
-            *constraints,
-            spheres,
-            capsules,
-            *sdf,
-            self._margin,
-            p.friction,
             state.clear,
+            strands,
+            start,
+            end,
+            f,
+            wind,
+            scroll,
             moved,
+            constants,
+            colliders,
             self.energy,
             self._bad,
         )

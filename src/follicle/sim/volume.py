@@ -48,15 +48,14 @@ both are bound by the grid arithmetic, not by reading the hair.)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
-from numbers import Integral, Real
 
 import numpy as np
 from numba import njit, prange
 
 from ..arrays import FMA, all_finite
 from ..errors import InputError
+from ..validate import is_whole, number, positive, whole
 
 __all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume", "volume_step"]
 
@@ -80,14 +79,13 @@ class GridSpec:
         origin = np.array(self.origin, dtype=np.float64)
         if origin.shape != (3,) or not np.isfinite(origin).all():
             raise InputError(f"origin: expected 3 finite numbers, got {self.origin!r}")
-        if not isinstance(self.voxel, Real) or not math.isfinite(self.voxel) or self.voxel <= 0:
-            raise InputError(f"voxel: must be a finite size > 0 in metres, got {self.voxel!r}")
+        voxel = positive(self.voxel, "voxel", unit="m")
         shape = tuple(self.shape)
-        if len(shape) != 3 or not all(isinstance(n, Integral) and n >= 2 for n in shape):
+        if len(shape) != 3 or not all(is_whole(n) and n >= 2 for n in shape):
             raise InputError(f"shape: expected 3 vertex counts >= 2, got {self.shape!r}")
         origin.setflags(write=False)
         object.__setattr__(self, "origin", origin)
-        object.__setattr__(self, "voxel", float(self.voxel))
+        object.__setattr__(self, "voxel", voxel)
         object.__setattr__(self, "shape", tuple(int(n) for n in shape))
 
 
@@ -104,9 +102,7 @@ def grid_for(
     """
     pts = _points(points, "points")
     _check_resolution(resolution, voxel_size)
-    if isinstance(margin, bool) or not isinstance(margin, Integral) or margin < 1:
-        raise InputError(f"margin: must be an integer >= 1 (voxels), got {margin!r}")
-    return _fitted(pts, resolution, voxel_size, margin)
+    return _fitted(pts, resolution, voxel_size, whole(margin, "margin", 1))
 
 
 def _fitted(pts: np.ndarray, resolution: int, voxel_size: float | None, margin: int) -> GridSpec:
@@ -164,7 +160,7 @@ class VolumeGrid:
         vs = _strands(v, "v")
         if vs.shape != xs.shape:
             raise InputError(f"v: expected the shape of x {xs.shape}, got {vs.shape}")
-        passes = _blur_passes(blur_passes)
+        passes = whole(blur_passes, "blur_passes", 0)
         if spec is None:
             spec = grid_for(xs, margin=1 + passes)
         return _splat_grid(xs, vs, spec, passes)
@@ -213,11 +209,11 @@ def apply_volume(
         raise InputError(f"v: expected the shape of x {xs.shape}, got {v.shape}")
     if not all_finite(v):
         raise InputError("v: contains NaN or inf; fix the velocities")
-    dt = _number(dt, "dt", "a time step > 0 in seconds", lambda a: a > 0)
-    friction = _number(friction, "friction", "a number in [0, 1]", lambda a: 0 <= a <= 1)
-    repulsion = _number(repulsion, "repulsion", "a number >= 0", lambda a: a >= 0)
+    dt = positive(dt, "dt", unit="s")
+    friction = number(friction, "friction", lo=0.0, hi=1.0)
+    repulsion = positive(repulsion, "repulsion", allow_zero=True)
     free = _free_mask(inv_mass, xs.shape[:2])
-    passes = _blur_passes(blur_passes)
+    passes = whole(blur_passes, "blur_passes", 0)
     _check_resolution(resolution, voxel_size)
     return volume_step(xs, v, free, dt, friction, repulsion, passes, resolution, voxel_size)
 
@@ -293,28 +289,11 @@ def _query(points: object) -> np.ndarray:
 
 
 def _check_resolution(resolution: object, voxel_size: object) -> None:
-    """``resolution`` an integer >= 2; ``voxel_size`` None or a finite size > 0."""
-    if isinstance(resolution, bool) or not isinstance(resolution, Integral) or resolution < 2:
-        raise InputError(
-            f"resolution: must be an integer >= 2 (cells along the longest side), "
-            f"got {resolution!r}"
-        )
+    """``resolution`` (cells along the longest side) an integer >= 2; ``voxel_size`` None
+    or a finite size > 0."""
+    whole(resolution, "resolution", 2)
     if voxel_size is not None:
-        _number(voxel_size, "voxel_size", "a size > 0 in metres, or None", lambda a: a > 0)
-
-
-def _number(a: object, name: str, want: str, ok: Callable[[float], bool]) -> float:
-    """``a`` as a finite float for which ``ok`` holds, else an InputError naming ``name``."""
-    if isinstance(a, bool) or not isinstance(a, Real) or not math.isfinite(a) or not ok(a):
-        raise InputError(f"{name}: must be {want}, got {a!r}")
-    return float(a)
-
-
-def _blur_passes(blur_passes: object) -> int:
-    """``blur_passes`` as an int >= 0."""
-    if isinstance(blur_passes, bool) or not isinstance(blur_passes, Integral) or blur_passes < 0:
-        raise InputError(f"blur_passes: must be an integer >= 0, got {blur_passes!r}")
-    return int(blur_passes)
+        positive(voxel_size, "voxel_size", unit="m")
 
 
 def _free_mask(inv_mass: object, shape: tuple[int, int]) -> np.ndarray:

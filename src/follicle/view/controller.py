@@ -15,12 +15,14 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import FollicleError, InputError
 from ..pipeline import framed_camera, groom_scene, scene_camera
-from ..render import Camera, Light, Renderer, default_lights, save_png
+from ..render import Camera, Renderer, default_lights, save_png
 from ..render.options import parse_size
+from ..render.settings import RenderParams, light_table
 from ..render.video import Mp4Writer
 from ..scene import Scene, load_scene
 from ..sim.motion import head_motion, motion_pivot
 from ..sim.simulator import MODEL_KEYS
+from ..validate import positive, whole
 from .controls import check_key
 from .gust import Gust, GustySimulator
 from .overlay import background, drawable, guide_curves, volume_overlay
@@ -41,25 +43,6 @@ class Show:
     hairs: bool = True
     mesh: bool = True
     volume: bool = False
-
-
-def _positive(value: object, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
-        raise InputError(f"{name}: expected a finite number > 0, got {value!r}")
-    return float(value)
-
-
-def _light_table(light: Light) -> dict[str, object]:
-    """A light of the default rig as a [[render.lights]] table."""
-    table = {
-        "type": "ambient" if light.is_ambient else "directional",
-        "space": light.space,
-        "color": tuple(light.color),
-        "intensity": light.intensity,
-    }
-    if not light.is_ambient:
-        table["direction"] = tuple(light.direction)
-    return table
 
 
 def _turn(yaw: float, pitch: float, pivot: np.ndarray) -> np.ndarray:
@@ -97,7 +80,7 @@ class Controller:
         if not isinstance(scene, Scene):
             source = scene if source is None else source
             scene = load_scene(scene)
-        fps = _positive(fps, "fps")
+        fps = positive(fps, "fps")
         self.scene = scene
         self.source = None if source is None else Path(source)
         self.size = parse_size(size)
@@ -107,6 +90,7 @@ class Controller:
         self._video: Mp4Writer | None = None
         self._hair_limit: int | None = None
         self._renderer: Renderer | None = None
+        self._fast: tuple[RenderParams, RenderParams] | None = None  # [render], fast's copy
         self._quality = "full"
         self.quality = quality
         self.groom = groom_scene(scene)
@@ -139,7 +123,7 @@ class Controller:
         elif section == "groom":
             self.groom.params = new
             self.curves = self.image = None
-        elif key in ("size", "msaa", "background_top", "background_bottom"):
+        elif key in ("size", "msaa", "background_top", "background_bottom", "shadow_size"):
             self._drop_renderer()  # a new renderer on the next draw
         elif key in ("eye", "target", "fov"):
             self.camera = self._frame_camera()
@@ -155,15 +139,14 @@ class Controller:
         r = self.scene.render
         if r.lights:
             return [light.model_dump() for light in r.lights]
-        return [_light_table(light) for light in default_lights()]
+        return [light_table(light) for light in default_lights()]
 
     def set_light(self, index: int, key: str, value: object) -> None:
         """Set ``key`` (intensity, color, direction, ...) of light ``index`` of
         :meth:`lights`; the first change to the default rig makes it the scene's
         ``[[render.lights]]``. ConfigError names a bad key or value."""
         tables = self.lights()
-        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(tables):
-            raise InputError(f"light: expected an index in 0..{len(tables) - 1}, got {index!r}")
+        index = whole(index, "light", 0, len(tables) - 1)
         tables[index] = {**tables[index], key: value}
         self.set_param("render", "lights", tables)
 
@@ -273,7 +256,7 @@ class Controller:
         the [sim] wind, or the camera's view when there is none; it rises and falls
         smoothly over ``duration`` s of simulated time, on top of the [sim] wind, whose
         parameters stay as they are."""
-        strength, duration = _positive(strength, "strength"), _positive(duration, "duration")
+        strength, duration = positive(strength, "strength"), positive(duration, "duration")
         wind = np.asarray(self.scene.sim.wind, np.float64)
         along = wind if wind.any() else self.camera.basis()[2]
         vector = strength * along / np.linalg.norm(along)
@@ -304,7 +287,7 @@ class Controller:
         """Render the current state: (H, W, 4) uint8, top row first."""
         r = self.scene.render
         curves = self.drawn_curves()
-        mesh = self.mesh if self.show.mesh else None
+        mesh = self.sim.pose if self.show.mesh else None  # the skin where the roots are
         start = time.perf_counter()
         if curves is None and mesh is None:
             image = background(self.size, r.background_top, r.background_bottom)
@@ -318,24 +301,19 @@ class Controller:
 
     def _render(self, curves: HairCurves | None, mesh: object | None) -> np.ndarray:
         """The renderer's picture, with the [render] settings or :attr:`quality` fast's."""
-        r = self.scene.render
-        fast = self._quality == "fast"
+        settings = self._settings()
         if self._renderer is None:
-            self._renderer = Renderer(
-                size=self.size,
-                msaa=0 if fast else r.msaa,
-                background=(r.background_top, r.background_bottom),
-            )
-        return self._renderer.draw(
-            curves,
-            mesh,
-            camera=self.camera,
-            lights=r.light_list(),
-            shading=r.shading,
-            subdivisions=1 if fast else r.subdivisions,
-            shading_params=r.shading_params,
-            shadows=r.shadows and not fast,
-        )
+            self._renderer = Renderer.from_settings(settings.replace("viewer", size=self.size))
+        return self._renderer.draw(curves, mesh, camera=self.camera, settings=settings)
+
+    def _settings(self) -> RenderParams:
+        """The scene's [render] settings, or with :attr:`quality` fast the cheapest ones."""
+        r = self.scene.render
+        if self._quality != "fast":
+            return r
+        if self._fast is None or self._fast[0] is not r:  # made again when [render] changes
+            self._fast = (r, r.replace("viewer", msaa=0, shadows=False, subdivisions=1))
+        return self._fast[1]
 
     def step_frame(self) -> np.ndarray:
         """One frame of the viewer: a step when playing, then the render, recorded when
@@ -426,12 +404,7 @@ class Controller:
 
     def zoom(self, factor: float) -> None:
         """Move the camera towards its target (``factor`` < 1) or away (> 1)."""
-        if (
-            isinstance(factor, bool)
-            or not isinstance(factor, (int, float))
-            or not (0 < factor < math.inf)
-        ):
-            raise InputError(f"zoom: expected a finite factor > 0, got {factor!r}")
+        factor = positive(factor, "zoom")
         c = self.camera
         target = np.asarray(c.target, np.float64)
         eye = target + factor * (np.asarray(c.eye, np.float64) - target)

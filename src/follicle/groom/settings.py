@@ -1,0 +1,193 @@
+"""[groom]: how many hairs grow and how they look (Šik 2012 §2.2), and the tags that mark
+its textured properties (read by :mod:`follicle.groom.properties`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Annotated, Any, ClassVar, Literal
+
+from pydantic import Field, PlainValidator
+
+from ..settings import StrictSection, Vec3, shown
+
+__all__ = ["GroomParams", "PropertyTag"]
+
+
+def _in_range(x: object, bounds: dict[str, float]) -> float:
+    """``x`` as a float within ``bounds`` (pydantic-style ge/gt/le keys), else ValueError."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+        raise ValueError(f"expected a finite number (got {shown(x)})")
+    for key, sign, ok in (
+        ("ge", "≥", x >= bounds.get("ge", -math.inf)),
+        ("gt", ">", x > bounds.get("gt", -math.inf)),
+        ("le", "≤", x <= bounds.get("le", math.inf)),
+    ):
+        if not ok:
+            raise ValueError(f"must be {sign} {bounds[key]:g} (got {x!r})")
+    return float(x)
+
+
+def _prop_value(v: object, color: bool, bounds: dict[str, float]) -> float | tuple[float, ...]:
+    if not color:
+        return _in_range(v, bounds)
+    if not isinstance(v, (list, tuple)) or len(v) != 3:
+        raise ValueError(f"expected an [r, g, b] list of 3 numbers (got {shown(v)})")
+    try:
+        return tuple(_in_range(c, {"ge": 0.0, "le": 1.0}) for c in v)
+    except ValueError as exc:
+        raise ValueError(f"colour components {exc}") from None
+
+
+@dataclass(frozen=True)
+class PropertyTag:
+    """What marks a textured groom property in GroomParams' schema: an RGB colour or a
+    number, and whether the number is a fraction in [0, 1] (clipped after value ×
+    texture). :mod:`follicle.groom.properties` reads its lists from these tags."""
+
+    color: bool
+    fraction: bool
+
+
+def _prop(color: bool = False, **bounds: float) -> Any:
+    """A property (Šik 2012 §2.2.2): a number (or [r, g, b]), a texture path, or a table
+    ``{value, texture, wrap}``; the value at a root is value × texture(uv)."""
+
+    def check(v: object) -> object:
+        if isinstance(v, str):
+            if not v:
+                raise ValueError("empty texture path")
+            return v
+        if isinstance(v, dict):
+            unknown = sorted(set(v) - {"value", "texture", "wrap"})
+            if unknown:
+                raise ValueError(
+                    f"unknown key(s) {shown(unknown)}; a table takes value, texture, wrap"
+                )
+            if not isinstance(v.get("texture"), str) or not v["texture"]:
+                raise ValueError('a table needs texture = "image path or builtin:name"')
+            if v.get("wrap") not in (None, "repeat", "clamp"):
+                raise ValueError(f'wrap must be "repeat" or "clamp" (got {shown(v["wrap"])})')
+            out = dict(v)
+            out["value"] = _prop_value(v.get("value", (1.0,) * 3 if color else 1.0), color, bounds)
+            return out
+        return _prop_value(v, color, bounds)
+
+    tag = PropertyTag(color, not color and bounds == {"ge": 0.0, "le": 1.0})
+    return Annotated[Any, PlainValidator(check, json_schema_input_type=Any), tag]
+
+
+Length = _prop(ge=0.0, le=10.0)
+Fraction = _prop(ge=0.0, le=1.0)
+Color = _prop(color=True)
+
+
+class GroomParams(StrictSection):
+    """How many hairs grow and how they look (Šik 2012 §2.2).
+
+    Properties marked "(map)" take a number, a texture path (value 1 × texture) or a
+    table ``{value = ..., texture = "map.png", wrap = "repeat"}``: the value read at each
+    hair root's UV is value × texture(uv).
+    """
+
+    _section: ClassVar[str] = "groom"
+    _owner: ClassVar[str] = "Groom.params"
+
+    count: int = Field(20000, ge=0, le=50_000_000, description="number of hairs")
+    seed: int = Field(0, ge=0, lt=2**63, description="random seed")
+    density: str | Annotated[float, Field(gt=0, le=1e6)] | None = Field(
+        None,
+        description="root density: a number (uniform; at most 1e6), an image path"
+        " (PNG/JPEG/TIFF; 16-bit and float TIFF for HDR) or builtin:scalp; unset ="
+        " builtin:scalp on the built-in head, uniform elsewhere",
+    )
+    density_refine: int = Field(
+        0, ge=0, le=4, description="extra subdivision levels below the density texel size"
+    )
+    groups: str | None = Field(
+        None,
+        description="interpolation groups: an image (one group per colour), builtin:parting"
+        " or none; a hair takes guides of its own group only; unset = builtin:parting for"
+        " built-in guides on the built-in head (they part at its mid-plane), none elsewhere",
+    )
+    group_vertices: dict[str, Annotated[int, Field(ge=2, le=256)]] = Field(
+        default_factory=dict,
+        description='vertices per hair of a group, by colour: {"#ff0000" = 12}',
+    )
+    interpolation: Literal["idw", "barycentric", "offset"] = Field(
+        "idw",
+        description="idw: n+1 nearest guides; barycentric: the 3 guides of the enclosing"
+        " triangle of the guide roots; offset: the nearest guide, rotated or translated",
+    )
+    guide_samples: int = Field(
+        4, ge=1, le=32, description="idw: guides per hair (n; the (n+1)-th sets the radius)"
+    )
+    offset_mode: Literal["rotate", "translate"] = Field(
+        "rotate", description="offset: turn the guide shape by random angles, or shift it"
+    )
+    offset_angle: float = Field(
+        10.0, ge=0, le=90, description="offset rotate: largest random tilt, ± degrees"
+    )
+    vertices: int | None = Field(
+        None, ge=2, le=256, description="vertices per hair; unset = as many as the guides have"
+    )
+    cut: Fraction = Field(1.0, description="(map) where hairs end: 1 whole, 0.5 half, 0 none")
+    scale: _prop(gt=0.0, le=100.0) = Field(1.0, description="(map) length scale of hairs")
+    random_scale: Fraction = Field(
+        0.0, description="(map) random shortening: scale × (1 − random_scale·ξ)"
+    )
+    curl_radius: Length = Field(0.0, description="(map) curl helix radius, m (0: no curl)")
+    curl_frequency: _prop(ge=-10000.0, le=10000.0) = Field(
+        40.0, description="(map) curl turns per metre of hair at the root"
+    )
+    curl_frequency_tip: float | None = Field(
+        None, ge=-10000, le=10000, description="curl turns per metre at the tip; unset = root"
+    )
+    clump_count: int = Field(0, ge=0, le=1_000_000, description="clumps (0: no clumping)")
+    clump_root: Fraction = Field(0.0, description="(map) pull towards the clump centre at roots")
+    clump_tip: Fraction = Field(0.8, description="(map) pull towards the clump centre at tips")
+    clump_profile: float = Field(
+        1.0, gt=0, le=10, description="shape of the pull from root to tip: t^profile"
+    )
+    clump_noise: Fraction = Field(0.2, description="(map) random weakening of each hair's pull")
+    frizz_root: Length = Field(0.0, description="(map) frizz amplitude at the root, m")
+    frizz_tip: Length = Field(0.0, description="(map) frizz amplitude at the tip, m")
+    frizz_frequency: Vec3 = Field((20.0, 20.0, 20.0), description="frizz noise frequency, 1/m")
+    frizz_direction: Vec3 = Field((0.0, 1.0, 0.0), description="animated frizz: noise drift")
+    frizz_speed: float = Field(0.0, ge=0, le=1000, description="animated frizz: drift, m/s")
+    frizz_blend: Fraction = Field(0.0, description="(map) share of animated frizz")
+    kink_root: Length = Field(0.0, description="(map) kink amplitude at the root, m")
+    kink_tip: Length = Field(0.0, description="(map) kink amplitude at the tip, m")
+    kink_frequency: Vec3 = Field((60.0, 60.0, 60.0), description="kink noise frequency, 1/m")
+    root_width: _prop(gt=0.0, le=0.1) = Field(80e-6, description="(map) diameter at root, m")
+    tip_width: _prop(gt=0.0, le=0.1) = Field(30e-6, description="(map) diameter at tip, m")
+    root_color: Color = Field((0.03, 0.017, 0.009), description="(map) linear RGB at the root")
+    tip_color: Color = Field((0.085, 0.05, 0.025), description="(map) linear RGB at the tip")
+    hue_variation: _prop(ge=0.0, le=180.0) = Field(
+        0.0, description="(map) per-hair hue shift, ± degrees"
+    )
+    saturation_variation: Fraction = Field(0.0, description="(map) per-hair saturation shift, ±")
+    value_variation: Fraction = Field(0.0, description="(map) per-hair value shift, ±")
+    mutant_fraction: Fraction = Field(0.0, description="(map) share of hairs in mutant_color")
+    mutant_color: Color = Field((0.8, 0.8, 0.8), description="(map) linear RGB of mutant hairs")
+    root_opacity: Fraction = Field(1.0, description="(map) opacity at the root")
+    tip_opacity: Fraction = Field(1.0, description="(map) opacity at the tip")
+    strand_count: int = Field(1, ge=1, le=64, description="fibres per hair strand (1: plain)")
+    strand_splay_root: Length = Field(0.0, description="(map) strand radius at the root, m")
+    strand_splay_centre: Length = Field(0.002, description="(map) strand radius mid-way, m")
+    strand_splay_tip: Length = Field(0.001, description="(map) strand radius at the tip, m")
+    strand_twist: _prop(ge=-36000.0, le=36000.0) = Field(
+        0.0, description="(map) strand twist from root to tip, degrees"
+    )
+    strand_aspect: _prop(ge=0.0, le=100.0) = Field(
+        1.0, description="(map) strand cross-section: binormal / normal radius"
+    )
+    strand_offset: _prop(ge=-10.0, le=10.0) = Field(
+        0.0, description="(map) strand tips pushed along the curve normal (t³), m"
+    )
+    strand_randomize: Fraction = Field(0.0, description="(map) random shortening of fibres")
+    skip_threshold: Annotated[float, Field(gt=0.0, le=1.0)] | None = Field(
+        None,
+        description="drop a vertex whose tangent is within acos(threshold) of both"
+        " neighbours' (e.g. 0.9995); unset = keep all",
+    )

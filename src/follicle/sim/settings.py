@@ -1,0 +1,198 @@
+"""[sim]: guide-strand dynamics, and the colliders of ``[[sim.colliders]]``."""
+
+from __future__ import annotations
+
+from typing import Annotated, ClassVar, Literal
+
+from pydantic import Field, model_validator
+
+from ..settings import StrictSection, Unit, Vec3
+
+__all__ = ["SimParams", "ColliderParams", "MAX_ACCELERATION", "SHAPES"]
+
+# an acceleration on the hair (gravity, wind): beyond ±100 m/s² (10 g) the skin's
+# collisions and the strands' lengths fight and segments stretch (README: Dynamics)
+MAX_ACCELERATION = 100.0
+Accel = Annotated[float, Field(ge=-MAX_ACCELERATION, le=MAX_ACCELERATION)]
+Acceleration = Annotated[tuple[Accel, Accel, Accel], Field(strict=False)]
+
+
+# The collider shapes: each one's fields in the order the kernels read them, each a
+# point (moved with the head), a direction (turned with it) or a scalar (kept). A
+# shape's kind is its place here; :mod:`follicle.sim.collision` has a kernel for each
+# (a new shape: an entry here, its fields on ColliderParams, one kernel there).
+SHAPES: dict[str, tuple[tuple[str, str], ...]] = {
+    "sphere": (("centre", "point"), ("radius", "scalar")),
+    "capsule": (("a", "point"), ("b", "point"), ("radius", "scalar")),
+    "plane": (("centre", "point"), ("normal", "direction")),
+}
+
+
+class ColliderParams(StrictSection):
+    """A sphere (centre, radius), capsule (a, b, radius) or plane (centre: a point on it,
+    normal: the side the hair stays on) that the hair cannot enter."""
+
+    kind: Literal[tuple(SHAPES)] = Field("sphere", description=" or ".join(SHAPES))
+    centre: Vec3 = Field((0.0, 0.0, 0.0), description="sphere centre, or a point on the plane, m")
+    a: Vec3 = Field((0.0, 0.0, 0.0), description="capsule axis start, m")
+    b: Vec3 = Field((0.0, 0.0, 0.0), description="capsule axis end, m")
+    radius: float = Field(0.1, gt=0, le=100, description="radius, m")
+    normal: Vec3 = Field(
+        (0.0, 1.0, 0.0), description="plane normal, towards the side the hair stays on"
+    )
+    follow: bool = Field(
+        True, description="moves with the transform given to set_pose (the head); false: fixed"
+    )
+
+    @model_validator(mode="after")
+    def _normal_has_a_direction(self) -> ColliderParams:
+        if self.kind == "plane" and not any(self.normal):
+            raise ValueError("normal: a plane needs a non-zero normal, e.g. (0, 1, 0)")
+        return self
+
+
+class SimParams(StrictSection):
+    """Guide-strand dynamics (Almeida 2014 §3, Le Muzic 2012 §5.1.2–5.1.3)."""
+
+    _section: ClassVar[str] = "sim"
+    _owner: ClassVar[str] = "Simulator.params"
+
+    solver: Literal["pbd", "dftl"] = Field(
+        "pbd", description="inextensibility: PBD distance constraints or Dynamic Follow-The-Leader"
+    )
+    integrator: Literal["verlet", "euler"] = Field(
+        "verlet", description="Verlet (Le Muzic 2012 eq. 5.1) or semi-implicit Euler"
+    )
+    substep: float = Field(
+        1 / 120,
+        gt=0,
+        le=1 / 30,
+        description="internal fixed time step, s"
+        " (at most 1/30: longer steps let the skin sweep through the hair)",
+    )
+    iterations: int = Field(8, ge=1, le=200, description="constraint iterations per substep")
+    vertices: int | None = Field(
+        None, ge=2, le=256, description="vertices per simulated strand; unset = the guides'"
+    )
+    gravity: Acceleration = Field(
+        (0.0, -9.81, 0.0), description="gravity, m/s² (each component within ±100, about 10 g)"
+    )
+    damping: float = Field(0.5, ge=0, le=100, description="velocity damping per second")
+    drag: float = Field(
+        0.0, ge=0, le=1000, description="air drag b of −b·v (Le Muzic 2012 eq. 5.3), 1/s"
+    )
+    wind: Acceleration = Field(
+        (0.0, 0.0, 0.0),
+        description="wind acceleration w of Le Muzic"
+        " 2012 eq. 5.2, m/s² (each component within ±100)",
+    )
+    wind_turbulence: float = Field(
+        0.5, ge=0, le=10, description="noise added to the wind, relative to its strength"
+    )
+    wind_frequency: float = Field(4.0, ge=0, le=1000, description="turbulence frequency, 1/m")
+    wind_drift: Vec3 = Field(
+        (1.0, 0.0, 0.0), description="speed the turbulence pattern drifts with, m/s"
+    )
+    wind_gust: float = Field(
+        0.0,
+        ge=0,
+        le=100,
+        description="gusts: the wind × (1 + gust·g(t)), g a smooth noise in [0, 1]; 0 = steady",
+    )
+    wind_gust_period: float = Field(2.0, gt=0, le=1000, description="typical gust length, s")
+    stretch_stiffness: Unit = Field(1.0, description="PBD distance constraint stiffness")
+    stretch_limit: float | None = Field(
+        1e-4,
+        ge=0,
+        le=1,
+        description="PBD: afterwards no segment longer than (1 + limit) × rest; unset = off",
+    )
+    stretch_limit_damping: Unit = Field(
+        0.8,
+        description="PBD: the limit's moves leave velocities like DFTL's (Almeida 2014 eq. 3.1)",
+    )
+    bend_stiffness: Unit = Field(0.2, description="bending (Le Muzic 2012 eq. 5.6) stiffness")
+    bend_scale: float = Field(
+        1.0,
+        ge=0.5,
+        le=10,
+        description="bending rest distances × scale (> 1 stiffens; below"
+        " 0.5 the rest distances pull the strand into its root and fight inextensibility)",
+    )
+    bend_attenuation: float = Field(
+        1.0, ge=0, le=100, description="bending weakens along the strand: k / (1 + att·(i−1))"
+    )
+    cone_angle: float = Field(
+        180.0, gt=0, le=180, description="largest turn between segments, degrees; 180 = off"
+    )
+    shape_local: Unit = Field(
+        0.0, description="stiffness towards each segment's rest direction (local shape)"
+    )
+    shape_global: Unit = Field(
+        0.05,
+        description="stiffness towards the skinned rest pose (0.05 keeps a groom's"
+        " style under gravity and still lets it swing; 0 = hair falls freely)",
+    )
+    shape_global_range: Annotated[tuple[Unit, Unit], Field(strict=False)] = Field(
+        (0.0, 1.0),
+        description="global shape: full up to the first, zero from the second"
+        " (root-to-tip fractions)",
+    )
+    dftl_damping: Unit = Field(0.9, description="DFTL velocity correction s (Almeida 2014 eq. 3.1)")
+    collision_margin: float = Field(
+        0.002, ge=0, le=1, description="distance kept from colliders, m"
+    )
+    friction: Unit = Field(0.3, description="share of tangential speed lost in contact")
+    colliders: list[ColliderParams] = Field(
+        default_factory=list,
+        description="spheres, capsules and planes: [[sim.colliders]] tables",
+    )
+    skin_collision: bool = Field(
+        True, description="collide with the skin mesh through its signed distance field"
+    )
+    skin_voxel: float | None = Field(
+        None,
+        gt=0,
+        le=1,
+        description="skin SDF voxel size, m; unset = the mesh's longest side / 64",
+    )
+    volume_friction: Unit = Field(
+        0.05,
+        description="hair-hair friction: velocities pulled to the grid's (Almeida 2014 eq. 3.4)",
+    )
+    volume_repulsion: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="hair-hair repulsion down the density gradient, voxels"
+        " per substep (Almeida 2014 eq. 3.5–3.7)",
+    )
+    volume_resolution: int = Field(
+        32, ge=2, le=128, description="hair volume grid: cells along the hair's longest side"
+    )
+    volume_blur: int = Field(1, ge=0, le=8, description="box-blur passes on the volume grid")
+    motion: Literal["none", "turn", "nod", "shake"] = Field(
+        "none", description="`follicle simulate`: the built-in head animation"
+    )
+    motion_amplitude: float = Field(40.0, ge=0, le=180, description="head animation angle, degrees")
+    motion_period: float = Field(2.0, gt=0, le=100, description="head animation period, s")
+    motion_pivot: Vec3 | None = Field(
+        None, description="head animation pivot; unset = the neck (bottom centre of the mesh)"
+    )
+
+    @model_validator(mode="after")
+    def _range_ordered(self) -> SimParams:
+        if self.shape_global_range[0] > self.shape_global_range[1]:
+            raise ValueError("shape_global_range: the start must not exceed the end")
+        return self
+
+    @model_validator(mode="after")
+    def _wind_bounded(self) -> SimParams:
+        """Gusts and turbulence scale the wind: its peak, like gravity, stays ≤ 100 m/s²."""
+        peak = max(map(abs, self.wind)) * (1 + self.wind_gust) * (1 + self.wind_turbulence)
+        if peak > MAX_ACCELERATION:
+            raise ValueError(
+                f"wind × (1 + wind_gust) × (1 + wind_turbulence) peaks at {peak:.4g} m/s²; at"
+                f" most {MAX_ACCELERATION:g} (10 g): lower wind, wind_gust or wind_turbulence"
+            )
+        return self

@@ -1,0 +1,119 @@
+"""Checks of single values at the public boundary, one wording for every module.
+
+Each function returns the value in its plain Python type or raises :class:`InputError`
+naming the argument, what was expected and what was given::
+
+    number(0.0, "period", lo=0, lo_open=True, unit="s")
+    # InputError: period: must be > 0 s (got 0.0)
+    whole(0, "spp", 1, 65536)
+    # InputError: spp: expected a whole number in 1..65536 (got 0)
+
+A bool is never a number here (``True`` as a size is a typo, not 1), nor is a string
+(``"1"``): callers that parse text convert it first. NumPy scalars are numbers.
+Bounds are inclusive unless ``lo_open``/``hi_open``; ranges read ``≥ 0``, ``> 0``,
+``in [0, 1]`` and, for whole numbers, ``in 1..16``.
+"""
+
+from __future__ import annotations
+
+import math
+from numbers import Integral, Real
+
+from .errors import InputError
+
+__all__ = ["number", "positive", "whole", "is_whole"]
+
+_SHOWN = 60  # characters of a given value's repr kept in a message
+
+
+def _show(value: object) -> str:
+    """``repr(value)``, cut short so that a huge input cannot flood the message."""
+    text = repr(value)
+    return text if len(text) <= _SHOWN else text[: _SHOWN - 3] + "..."
+
+
+def _bound(x: float) -> str:
+    """A bound as written in a message: 0, 1, 0.5, 1e-06."""
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e15 else f"{x:g}"
+
+
+def _range(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool) -> str:
+    if lo is not None and hi is not None:
+        left, right = "(" if lo_open else "[", ")" if hi_open else "]"
+        return f"in {left}{_bound(lo)}, {_bound(hi)}{right}"
+    if lo is not None:
+        return f"{'>' if lo_open else '≥'} {_bound(lo)}"
+    if hi is not None:
+        return f"{'<' if hi_open else '≤'} {_bound(hi)}"
+    return ""
+
+
+def is_whole(value: object) -> bool:
+    """True for an int or NumPy integer (not a bool)."""
+    return isinstance(value, Integral) and not isinstance(value, bool)
+
+
+def number(
+    value: object,
+    name: str,
+    *,
+    lo: float | None = None,
+    hi: float | None = None,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    unit: str = "",
+) -> float:
+    """``value`` as a finite float within the bounds, else an InputError naming ``name``.
+
+    ``unit`` (e.g. ``"s"``) follows the range in the message. The messages are
+    ``name: expected a number ≥ 0 s (got '1')`` (not a real number, or a bool),
+    ``name: must be finite (got nan)`` and ``name: must be ≥ 0 s (got -0.5)``.
+    """
+    want = _range(lo, hi, lo_open, hi_open)
+    want_unit = f"{want} {unit}" if want and unit else want
+    if isinstance(value, bool) or not isinstance(value, Real):
+        expected = f"a number {want_unit}" if want_unit else "a number"
+        raise InputError(f"{name}: expected {expected} (got {_show(value)})")
+    try:
+        x = float(value)
+    except OverflowError:  # an int past float's range
+        x, shown = math.nan, _show(value)
+    else:
+        shown = str(x)
+    if not math.isfinite(x):
+        also = f" and {want_unit}" if want_unit else ""
+        raise InputError(f"{name}: must be finite{also} (got {shown})")
+    low = lo is not None and (x <= lo if lo_open else x < lo)
+    if low or (hi is not None and (x >= hi if hi_open else x > hi)):
+        raise InputError(f"{name}: must be {want_unit} (got {x})")
+    return x
+
+
+def positive(value: object, name: str, allow_zero: bool = False, *, unit: str = "") -> float:
+    """``value`` as a finite float > 0 (≥ 0 with ``allow_zero``): :func:`number`'s checks."""
+    return number(value, name, lo=0.0, lo_open=not allow_zero, unit=unit)
+
+
+def whole(
+    value: object,
+    name: str,
+    lo: int | None = None,
+    hi: int | None = None,
+    *,
+    what: str = "a whole number",
+) -> int:
+    """``value`` as an int in ``lo..hi`` (either bound may be None), else an InputError.
+
+    An int or NumPy integer only: 2.0 and True are refused. The message is
+    ``name: expected a whole number in 1..16 (got 2.5)`` (or ``≥ 1`` with one bound);
+    ``what`` replaces "a whole number", e.g. "a whole number of texels".
+    """
+    if is_whole(value) and (lo is None or value >= lo) and (hi is None or value <= hi):
+        return int(value)
+    if lo is not None and hi is not None:
+        want = f" in {lo}..{hi}"
+    elif lo is not None:
+        want = f" ≥ {lo}"
+    else:
+        want = "" if hi is None else f" ≤ {hi}"
+    raise InputError(f"{name}: expected {what}{want} (got {_show(value)})")
