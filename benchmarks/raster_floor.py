@@ -43,7 +43,7 @@ import numpy as np
 
 from follicle.groom.builtin_guides import builtin_guides
 from follicle.io.dispatch import save
-from follicle.mesh.load import load_mesh
+from follicle.io.mesh_load import load_mesh
 from follicle.pipeline import groom_scene
 from follicle.render import Renderer
 from follicle.render.context import get_context

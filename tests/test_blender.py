@@ -35,9 +35,9 @@ from follicle.cli import main as follicle_cli
 from follicle.io.alembic import save_abc
 from follicle.io.attributes import DEFAULT_WIDTH
 from follicle.io.dispatch import load_curves
+from follicle.io.mesh_load import load_mesh
 from follicle.io.targets import for_target
 from follicle.io.usd import save_usd
-from follicle.mesh.load import load_mesh
 from follicle.pipeline import groom_scene
 from follicle.scene import Scene
 

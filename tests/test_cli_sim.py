@@ -105,11 +105,11 @@ def test_same_scene_same_bytes(sim, tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--frames", 0], "frames: expected a whole number ≥ 1, got 0"),
-        (["--fps", 0], "fps: expected a finite number > 0, got 0.0"),
-        (["--fps", -24], "fps: expected a finite number > 0"),
-        (["--fps", "nan"], "fps: expected a finite number > 0, got nan"),
-        (["--fps", "inf"], "fps: expected a finite number > 0, got inf"),
+        (["--frames", 0], "frames: expected a whole number ≥ 1 (got 0)"),
+        (["--fps", 0], "fps: must be > 0 (got 0.0)"),
+        (["--fps", -24], "fps: must be > 0 (got -24.0)"),
+        (["--fps", "nan"], "fps: must be finite and > 0 (got nan)"),
+        (["--fps", "inf"], "fps: must be finite and > 0 (got inf)"),
         (["-o", "{dir}/c.abc"], "c.abc: output must end in .npz"),
         (["--count", -1], "[groom].count: Input should be greater than or equal to 0"),
         (["--motion", "spin"], "Invalid value for '--motion'"),

@@ -234,9 +234,9 @@ def test_errors_name_mesh_and_texture():
     with pytest.raises(InputError, match="mesh 'nouv' has no UVs.*'ramp' cannot be mapped"):
         displace(SkinMesh(verts, [[0, 1, 2]], name="nouv"), [0], [[0.2, 0.2]], texture)
     mesh = _plane()
-    with pytest.raises(InputError, match="'ramp': scale must be a finite number"):
+    with pytest.raises(InputError, match=r"'ramp' scale: must be finite \(got nan\)"):
         displace(mesh, [0], [[0.2, 0.2]], texture, scale=float("nan"))
-    with pytest.raises(InputError, match="scale must be a finite number, got 'big'"):
+    with pytest.raises(InputError, match=r"'ramp' scale: expected a number \(got 'big'\)"):
         displace(mesh, [0], [[0.2, 0.2]], texture, scale="big")
     with pytest.raises(InputError, match="must be a Texture, got ndarray"):
         displace(mesh, [0], [[0.2, 0.2]], np.ones((4, 4)))

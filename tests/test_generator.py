@@ -146,6 +146,23 @@ def test_a_cut_map_removes_hair_where_it_is_zero(tmp_path):
     assert (u < 0.625).all() and (u < 0.375).sum() > 300
 
 
+@pytest.mark.parametrize("key", ["frizz_tip", "kink_root", "curl_radius", "hue_variation"])
+def test_a_float_texture_that_turns_a_length_negative_is_refused_naming_it(key):
+    """value × texture under a length or amplitude's least value (0): a float texture with
+    negative texels somewhere is an InputError naming the key and the texture, not a
+    groom grown with negative amplitudes (or curls silently skipped)."""
+    mesh = _plane()
+    tex = np.ones((4, 4), np.float32)
+    tex[:, 3] = -0.5  # one column of texels below zero
+    mesh.textures["signed"] = Texture(tex, wrap="clamp", name="signed")
+    params = GroomParams(**{key: {"value": 0.01, "texture": "signed"}})
+    with pytest.raises(InputError, match=rf"\[groom\]\.{key}: value × texture 'signed' is -"):
+        Groom(mesh, _straight_guides(mesh), params).generate(2000)
+    tex[:, 3] = 0.0  # the same texture at zero there grows
+    mesh.textures["signed"] = Texture(tex, wrap="clamp", name="signed")
+    assert Groom(mesh, _straight_guides(mesh), params).generate(2000).curve_count > 0
+
+
 def test_scale_and_random_scale():
     mesh = _plane()
     guides = _straight_guides(mesh)
@@ -260,9 +277,9 @@ def test_counts_that_do_not_fit_in_memory_are_refused_with_an_estimate(head_groo
 
 
 def test_bad_arguments_name_themselves(head_groom):
-    with pytest.raises(InputError, match="count: must be ≥ 0"):
+    with pytest.raises(InputError, match=r"count: expected a whole number ≥ 0 \(got -1\)"):
         head_groom.generate(-1)
-    with pytest.raises(InputError, match="chunk_size: must be ≥ 1"):
+    with pytest.raises(InputError, match=r"chunk_size: expected a whole number ≥ 1 \(got 0\)"):
         list(head_groom.chunks(0, 10))
     with pytest.raises(InputError, match="ids: hair ids must be distinct"):
         head_groom.generate_at(np.array([0, 1]), np.full((2, 2), 0.3), ids=np.array([4, 4]))

@@ -57,7 +57,10 @@ def test_group_vertices_are_validated_against_the_colours():
     assert groups.vertex_count(0, 5) == 7 and groups.vertex_count(1, 5) == 5
     with pytest.raises(InputError, match=r"no interpolation group has colour '#00ff00'.*#0000ff"):
         InterpolationGroups(tex, {"#00ff00": 7})
-    with pytest.raises(InputError, match=r"group_vertices\['#ff0000'\]: need an integer ≥ 2"):
+    with pytest.raises(
+        InputError,
+        match=r"group_vertices\['#ff0000'\]: expected a whole number of vertices ≥ 2 \(got 1\)",
+    ):
         InterpolationGroups(tex, {"#ff0000": 1})
 
 

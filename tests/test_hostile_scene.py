@@ -29,7 +29,7 @@ from pydantic import BaseModel
 
 from follicle import ConfigError, FollicleError, FormatError, InputError
 from follicle.io.dispatch import load_curves
-from follicle.mesh.load import load_mesh
+from follicle.io.mesh_load import load_mesh
 from follicle.mesh.skin import MAX_COORDINATE, SkinMesh
 from follicle.mesh.texture import MAX_TEXTURE_PIXELS, Texture
 from follicle.scene import MAX_SCENE_BYTES, Scene, load_scene, parse_scene, scene_to_toml

@@ -300,7 +300,7 @@ EXTREMES = [
 # head would turn about a point a million metres away
 REFUSED = {  # the error and what it names
     ("substep", 1e-9): (ResourceError, r"\[sim\]\.substep"),  # 10⁴ substeps a step at most
-    ("skin_voxel", 1e-9): (InputError, r"\[sim\]\.skin_voxel"),
+    ("skin_voxel", 1e-9): (ResourceError, r"\[sim\]\.skin_voxel"),
     ("motion_pivot", (-1e6,) * 3): (InputError, r"\[sim\]\.motion_pivot"),
     ("motion_pivot", (1e6,) * 3): (InputError, r"\[sim\]\.motion_pivot"),
 }

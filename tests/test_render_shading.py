@@ -147,7 +147,7 @@ def test_each_model_has_its_parameters_and_shared_ones():
         ("marschner", {"specular": 0.3}, r"unknown key 'specular' for shading 'marschner'.*alpha"),
         ("kajiya-kay", {"shininess": 0}, r"shading_params\['shininess'\]: must be in \[0.1,"),
         ("scheuermann", {"sparkle": "lots"}, r"shading_params\['sparkle'\]: expected a number"),
-        ("marschner", {"beta": float("nan")}, r"shading_params\['beta'\]: must be in"),
+        ("marschner", {"beta": float("nan")}, r"shading_params\['beta'\]: must be finite and in"),
         ("kajiya-kay", {"specular_color": (1, 1)}, r"shading_params\['specular_color'\]"),
         ("kajiya-kay", {"shadow_density": True}, r"expected a number"),
         ("phong", None, r"shading: unknown model 'phong'; allowed: kajiya-kay, scheuermann"),

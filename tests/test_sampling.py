@@ -302,12 +302,15 @@ def test_bad_input_is_refused_with_a_named_error(tmp_path):
         (lambda: DensitySampler(no_uv, Texture(np.ones((2, 2)))), "mesh 'bald' has no UVs"),
         (lambda: DensitySampler(mesh, np.zeros((4, 4))), "zero everywhere"),
         (lambda: DensitySampler(mesh, -np.ones((4, 4))), "negative values"),
-        (lambda: DensitySampler(mesh, 0.0), "must be > 0"),
-        (lambda: DensitySampler(mesh, float("nan")), "must be > 0"),
+        (lambda: DensitySampler(mesh, 0.0), r"density: must be > 0 \(got 0.0\)"),
+        (
+            lambda: DensitySampler(mesh, float("nan")),
+            r"density: must be finite and > 0 \(got nan\)",
+        ),
         (lambda: DensitySampler(mesh, grid_factor=0), "grid_factor"),
         (lambda: DensitySampler("mesh"), "expected a SkinMesh"),
         (lambda: DensitySampler(mesh, tmp_path / "missing.png"), "does not exist"),
-        (lambda: DensitySampler(mesh).sample(-1), "n: expected a non-negative"),
+        (lambda: DensitySampler(mesh).sample(-1), r"n: expected a whole number ≥ 0 \(got -1\)"),
         (lambda: DensitySampler(mesh).sample(5, seed=1.5), "seed"),
         (lambda: DensitySampler(mesh).sample(5, sequence="sobol"), "sequence"),
     ]

@@ -404,7 +404,11 @@ def test_bad_kink_and_curl_parameters_name_the_parameter():
         curl(local, 0.1, 1.0, frequency_tip=np.inf)
     with pytest.raises(InputError, match=r"phase: expected a number or shape \(3,\)"):
         curl(local, 0.1, 1.0, phase=[0.0, 1.0])
-    for ramp in (-0.1, 1.5, [0.1, 0.2]):
-        with pytest.raises(InputError, match="ramp: expected one number in"):
+    for ramp, message in (
+        (-0.1, r"ramp: must be in \[0, 1\] \(got -0.1\)"),
+        (1.5, r"ramp: must be in \[0, 1\] \(got 1.5\)"),
+        ([0.1, 0.2], r"ramp: expected a number in \[0, 1\] \(got \[0.1, 0.2\]\)"),
+    ):
+        with pytest.raises(InputError, match=message):
             curl(local, 0.1, 1.0, ramp=ramp)
     np.testing.assert_array_equal(local, _straight(3, 4))

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 from numba import njit
 
-from follicle.errors import InputError
+from follicle.errors import InputError, ResourceError
 from follicle.mesh.head import builtin_head
 from follicle.mesh.skin import SkinMesh
 from follicle.sim.sdf import SDF, _grid, sdf_sample
@@ -281,13 +281,13 @@ def test_rejects_bad_meshes_and_settings(sphere):
 
 
 def test_rejects_a_grid_over_256_cubed_and_suggests_a_voxel_size(sphere):
-    with pytest.raises(InputError, match="voxel_size") as info:
+    with pytest.raises(ResourceError, match="voxel_size") as info:
         SDF.from_mesh(sphere.vertices, sphere.faces, voxel_size=1e-4)
     suggested = float(re.search(r"use voxel_size >= ([0-9.eE+-]+)", str(info.value)).group(1))
     lo, hi = sphere.vertices.min(axis=0), sphere.vertices.max(axis=0)
     dims, _ = _grid(lo, hi, suggested, None)  # the suggestion fits
     assert np.prod(dims) <= 256**3
-    with pytest.raises(InputError):
+    with pytest.raises(ResourceError):
         _grid(lo, hi, 0.97 * suggested, None)  # and is not far from the smallest that does
 
 

@@ -8,8 +8,8 @@ import pytest
 import trimesh
 
 from follicle.errors import FormatError, InputError
+from follicle.io.mesh_load import load_mesh
 from follicle.mesh.head import builtin_head
-from follicle.mesh.load import load_mesh
 from follicle.mesh.sampling import DensitySampler
 from follicle.mesh.skin import SkinMesh, SurfacePoints
 

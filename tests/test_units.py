@@ -18,7 +18,7 @@ from follicle import ConfigError, HairCurves, InputError
 from follicle.groom.builtin_guides import builtin_guides
 from follicle.groom.guides import load_guides
 from follicle.io.dispatch import load_curves, save
-from follicle.mesh.load import load_mesh
+from follicle.io.mesh_load import load_mesh
 from follicle.mesh.skin import SkinMesh
 from follicle.pipeline import groom_scene, grow
 from follicle.scene import Scene, load_scene, parse_scene, scene_from_toml

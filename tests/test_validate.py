@@ -69,6 +69,23 @@ def test_whole_returns_an_int_and_names_its_unit():
         whole(8, "shadow_size", 16, 4096, what="texels")
 
 
+def test_allow_none_passes_none_and_says_so_when_refusing():
+    assert whole(None, "hair_limit", 0, allow_none=True) is None
+    assert number(None, "time", allow_none=True) is None
+    assert whole(3, "hair_limit", 0, allow_none=True) == 3
+    assert number(0.5, "time", allow_none=True) == 0.5
+    with pytest.raises(
+        InputError, match=r"^hair_limit: expected a whole number ≥ 0 or None \(got -1\)$"
+    ):
+        whole(-1, "hair_limit", 0, allow_none=True)
+    with pytest.raises(InputError, match=r"^time: expected a number ≥ 0 s or None \(got 'x'\)$"):
+        number("x", "time", lo=0.0, unit="s", allow_none=True)
+    with pytest.raises(InputError, match=r"^time: must be finite \(got nan\)$"):
+        number(float("nan"), "time", allow_none=True)
+    with pytest.raises(InputError, match=r"^n: expected a whole number \(got None\)$"):
+        whole(None, "n")
+
+
 def test_resource_error_is_its_own_follicle_error():
     assert issubclass(ResourceError, FollicleError)
     assert not issubclass(ResourceError, (InputError, SimulationError, MemoryError))

@@ -36,7 +36,7 @@ _LAZY = {
     "DensitySampler": "follicle.mesh.sampling",
     "PropertyMap": "follicle.mesh.property",
     "displace": "follicle.mesh.displacement",
-    "load_mesh": "follicle.mesh.load",
+    "load_mesh": "follicle.io.mesh_load",
     "Guides": "follicle.groom.guides",
     "load_guides": "follicle.groom.guides",
     "Groom": "follicle.groom.generator",

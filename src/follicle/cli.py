@@ -138,7 +138,7 @@ def _interrupted(signum: int, frame: object) -> None:
     import os
     import signal
 
-    from .io.atomic import remove_pending
+    from .atomic import remove_pending
 
     remove_pending()
     name = signal.Signals(signum).name
@@ -348,8 +348,8 @@ def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
     simulation cache exports to animated USD or Alembic.
     """
     from .io.dispatch import load_curves, save
+    from .io.mesh_load import BUILTIN_MESHES
     from .io.sim_cache import is_cache
-    from .mesh.load import BUILTIN_MESHES
 
     tool = target_name or "generic"
     if (
@@ -373,8 +373,8 @@ def _export_mesh(source: str, out: str, target: str) -> None:
     """`follicle export builtin:head -o head.obj`: the skin alone, as a mesh file, or as
     the /Groom/Skin of a USD or Alembic file with no hair."""
     from .io.dispatch import save
-    from .mesh.load import load_mesh
-    from .mesh.save import MESH_WRITE_EXTENSIONS, save_mesh
+    from .io.mesh_load import load_mesh
+    from .io.mesh_save import MESH_WRITE_EXTENSIONS, save_mesh
 
     mesh = load_mesh(source)
     suffix = Path(out).suffix.lower()
@@ -413,7 +413,7 @@ def _export_cache(source: str, out: str, skin: bool = True, target: str = "gener
     cache = load_cache(source)
     mesh = None
     if skin:
-        from .mesh.load import load_mesh
+        from .io.mesh_load import load_mesh
         from .pipeline import cache_scene
 
         scene = cache_scene(cache)
@@ -633,8 +633,8 @@ def render(
     camera. `--engine mitsuba` path-traces a still with Mitsuba 3 instead."""
     from .errors import InputError
     from .io.dispatch import load_curves
+    from .io.mesh_load import load_mesh
     from .io.sim_cache import is_cache
-    from .mesh.load import load_mesh
     from .pipeline import grow as grow_scene
     from .pipeline import render_scene, render_scene_mitsuba
     from .scene import Scene, load_scene

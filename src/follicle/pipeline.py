@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -15,10 +14,11 @@ from .errors import ConfigError, FormatError, InputError, ResourceError
 from .groom.generator import Groom, load_texture, resolve_density
 from .groom.groups import InterpolationGroups, mesh_groups
 from .groom.guides import load_guides
-from .mesh.load import load_mesh
+from .io.mesh_load import load_mesh
 from .mesh.skin import SkinMesh
 from .render import Camera, Renderer, frame_camera, render, save_png
 from .scene import RenderParams, Scene, scene_from_toml, scene_to_toml
+from .validate import positive, whole
 
 if TYPE_CHECKING:
     from .io.sim_cache import SimCache
@@ -123,10 +123,8 @@ def simulate_scene(
     from .sim.motion import head_motion, motion_pivot
     from .sim.simulator import MAX_SUBSTEPS_PER_CALL, Simulator, substeps_per_step
 
-    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
-        raise InputError(f"frames: expected a whole number ≥ 1, got {frames!r}")
-    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not 0 < fps < math.inf:
-        raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
+    frames = whole(frames, "frames", 1)
+    fps = positive(fps, "fps")
     p = scene.sim
     per_frame = substeps_per_step(1.0 / fps, p.substep)
     if per_frame > MAX_SUBSTEPS_PER_CALL:  # refused now, not after growing the groom

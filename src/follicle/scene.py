@@ -31,7 +31,7 @@ from pydantic import (
 
 from .errors import ConfigError, FormatError
 from .groom.settings import GroomParams, PropertyTag
-from .io.inputs import input_file
+from .inputs import input_file
 from .io.targets import TARGET_NAMES
 from .render.settings import LightParams, RenderParams
 from .settings import StrictSection, format_errors, shown

@@ -23,15 +23,12 @@ from __future__ import annotations
 import logging
 import math
 import os
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 import numpy as np
 
 from .curves import HairCurves
 from .errors import InputError
-
-if TYPE_CHECKING:
-    from .mesh.skin import SkinMesh
 
 __all__ = [
     "Units",
@@ -250,16 +247,19 @@ def warn_guide_size(curves: HairCurves, mesh_diagonal: float, units: Units, sour
     return True
 
 
-def off_mesh_factor(roots: np.ndarray, mesh: SkinMesh, tolerance: float) -> float | None:
+def off_mesh_factor(
+    roots: np.ndarray, distance: Callable[[np.ndarray], np.ndarray], tolerance: float
+) -> float | None:
     """The factor (1/100, 1/1000, 100 or 1000) that puts most guide ``roots`` (the median
-    one) within ``tolerance`` of ``mesh``'s rest pose, still spread wider than it (not
-    merely shrunk onto a spot of a mesh through the origin), or None: roots that lie off
-    the mesh by such a factor were written in other units."""
+    one) within ``tolerance`` of the mesh (``distance`` (n,) of points (n, 3) from its
+    surface), still spread wider than it (not merely shrunk onto a spot of a mesh through
+    the origin), or None: roots that lie off the mesh by such a factor were written in
+    other units."""
     for factor in (1e-2, 1e-3, 1e2, 1e3):
         scaled = np.asarray(roots, dtype=np.float64) * factor
         if (
             np.linalg.norm(np.ptp(scaled, axis=0)) > tolerance
-            and np.median(mesh.closest_points(scaled, pose="rest")[2]) <= tolerance
+            and np.median(distance(scaled)) <= tolerance
         ):
             return factor
     return None

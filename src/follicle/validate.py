@@ -11,13 +11,18 @@ naming the argument, what was expected and what was given::
 A bool is never a number here (``True`` as a size is a typo, not 1), nor is a string
 (``"1"``): callers that parse text convert it first. NumPy scalars are numbers.
 Bounds are inclusive unless ``lo_open``/``hi_open``; ranges read ``≥ 0``, ``> 0``,
-``in [0, 1]`` and, for whole numbers, ``in 1..16``.
+``in [0, 1]`` and, for whole numbers, ``in 1..16``. ``allow_none=True`` lets an optional
+argument be None (returned as it is) and says "or None" when the value is refused::
+
+    whole(-1, "hair_limit", 0, allow_none=True)
+    # InputError: hair_limit: expected a whole number ≥ 0 or None (got -1)
 """
 
 from __future__ import annotations
 
 import math
 from numbers import Integral, Real
+from typing import Literal, overload
 
 from .errors import InputError
 
@@ -53,6 +58,30 @@ def is_whole(value: object) -> bool:
     return isinstance(value, Integral) and not isinstance(value, bool)
 
 
+@overload
+def number(
+    value: object,
+    name: str,
+    *,
+    lo: float | None = ...,
+    hi: float | None = ...,
+    lo_open: bool = ...,
+    hi_open: bool = ...,
+    unit: str = ...,
+    allow_none: Literal[False] = ...,
+) -> float: ...
+@overload
+def number(
+    value: object,
+    name: str,
+    *,
+    lo: float | None = ...,
+    hi: float | None = ...,
+    lo_open: bool = ...,
+    hi_open: bool = ...,
+    unit: str = ...,
+    allow_none: bool,
+) -> float | None: ...
 def number(
     value: object,
     name: str,
@@ -62,17 +91,23 @@ def number(
     lo_open: bool = False,
     hi_open: bool = False,
     unit: str = "",
-) -> float:
+    allow_none: bool = False,
+) -> float | None:
     """``value`` as a finite float within the bounds, else an InputError naming ``name``.
 
     ``unit`` (e.g. ``"s"``) follows the range in the message. The messages are
     ``name: expected a number ≥ 0 s (got '1')`` (not a real number, or a bool),
     ``name: must be finite (got nan)`` and ``name: must be ≥ 0 s (got -0.5)``.
+    With ``allow_none`` None is returned as it is and the first reads
+    ``expected a number ≥ 0 s or None``.
     """
+    if value is None and allow_none:
+        return None
     want = _range(lo, hi, lo_open, hi_open)
     want_unit = f"{want} {unit}" if want and unit else want
     if isinstance(value, bool) or not isinstance(value, Real):
         expected = f"a number {want_unit}" if want_unit else "a number"
+        expected += " or None" if allow_none else ""
         raise InputError(f"{name}: expected {expected} (got {_show(value)})")
     try:
         x = float(value)
@@ -94,6 +129,26 @@ def positive(value: object, name: str, allow_zero: bool = False, *, unit: str = 
     return number(value, name, lo=0.0, lo_open=not allow_zero, unit=unit)
 
 
+@overload
+def whole(
+    value: object,
+    name: str,
+    lo: int | None = ...,
+    hi: int | None = ...,
+    *,
+    what: str = ...,
+    allow_none: Literal[False] = ...,
+) -> int: ...
+@overload
+def whole(
+    value: object,
+    name: str,
+    lo: int | None = ...,
+    hi: int | None = ...,
+    *,
+    what: str = ...,
+    allow_none: bool,
+) -> int | None: ...
 def whole(
     value: object,
     name: str,
@@ -101,13 +156,18 @@ def whole(
     hi: int | None = None,
     *,
     what: str = "a whole number",
-) -> int:
+    allow_none: bool = False,
+) -> int | None:
     """``value`` as an int in ``lo..hi`` (either bound may be None), else an InputError.
 
     An int or NumPy integer only: 2.0 and True are refused. The message is
     ``name: expected a whole number in 1..16 (got 2.5)`` (or ``≥ 1`` with one bound);
-    ``what`` replaces "a whole number", e.g. "a whole number of texels".
+    ``what`` replaces "a whole number", e.g. "a whole number of texels". With
+    ``allow_none`` None is returned as it is and the message ends the range with
+    "or None".
     """
+    if value is None and allow_none:
+        return None
     if is_whole(value) and (lo is None or value >= lo) and (hi is None or value <= hi):
         return int(value)
     if lo is not None and hi is not None:
@@ -116,4 +176,5 @@ def whole(
         want = f" ≥ {lo}"
     else:
         want = "" if hi is None else f" ≤ {hi}"
+    want += " or None" if allow_none else ""
     raise InputError(f"{name}: expected {what}{want} (got {_show(value)})")

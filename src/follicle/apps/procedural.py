@@ -29,10 +29,10 @@ from typing import BinaryIO, TextIO
 import numpy as np
 
 from .. import spline
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FollicleError, FormatError, InputError
 from ..groom.generator import CHUNK, Groom
-from ..io.atomic import atomic_path
 from ..io.procedural_data import FrameData, VoxelGrid
 from ..io.rib import write_block
 from ..mesh.skin import SkinMesh

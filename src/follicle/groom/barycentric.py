@@ -31,6 +31,7 @@ from numba import njit, prange
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
+from ..validate import whole
 
 __all__ = ["GuideTriangulation"]
 
@@ -632,12 +633,7 @@ class GuideTriangulation:
     """
 
     def __init__(self, roots: np.ndarray, normals: np.ndarray, neighbours: int = 12) -> None:
-        if isinstance(neighbours, (bool, np.bool_)) or not isinstance(
-            neighbours, (int, np.integer)
-        ):
-            raise InputError(f"neighbours: expected an integer, got {neighbours!r}")
-        if not 3 <= neighbours <= 64:
-            raise InputError(f"neighbours: expected 3 to 64 nearest guides, got {neighbours}")
+        whole(neighbours, "neighbours", 3, 64, what="a whole number of nearest guides")
         self.roots = _vectors("roots", roots, "guide root positions", allow_empty=False)
         s = len(self.roots)
         n, length2 = _directions("normals", normals, s, "roots")

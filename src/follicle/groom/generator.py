@@ -34,6 +34,7 @@ from ..mesh.skin import SkinMesh, SurfacePoints
 from ..mesh.texture import Texture
 from ..rng import uniforms
 from ..threads import chained, ordered_map, workers
+from ..validate import whole
 from .appearance import hair_ends
 from .barycentric import GuideTriangulation
 from .clump import assign_clumps, clump
@@ -44,7 +45,7 @@ from .interpolate import blend_guides, guide_turn, idw_weights, tilt, translate_
 from .knn import PointGrid
 from .properties import GroomProperties
 from .settings import GroomParams
-from .shape import curl, curl_phase, frizz, kink
+from .shape import _RAMP, _curl, _frizz, _kink, curl_phase
 
 __all__ = ["Groom", "resolve_density", "load_texture"]
 
@@ -198,6 +199,13 @@ def _run(rows: np.ndarray) -> np.ndarray | slice:
 def _rows(value: np.ndarray, sel: np.ndarray | slice) -> np.ndarray:
     """Per-hair property rows ``sel``; a shared single row stays shared."""
     return value if len(value) == 1 else value[sel]
+
+
+def _shared_row(value: object) -> np.ndarray:
+    """A setting shared by every hair (a number or 3-vector) as the shape kernels take
+    it: one float64 row, (1,) or (1, 3)."""
+    arr = np.asarray(value, dtype=np.float64)
+    return arr.reshape(1, *arr.shape)
 
 
 class Groom:
@@ -370,12 +378,9 @@ class Groom:
         ``chunk_size`` ids."""
         count = self.params.count if count is None else count
         self._check_range(count, start)
-        if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
-            raise InputError(f"chunk_size: expected a whole number, got {chunk_size!r}")
-        if chunk_size < 1:
-            raise InputError(f"chunk_size: must be ≥ 1, got {chunk_size}")
-        for a in range(start, start + count, int(chunk_size)):
-            yield self.generate(min(int(chunk_size), start + count - a), a, time, pose=pose)
+        chunk_size = whole(chunk_size, "chunk_size", 1)
+        for a in range(start, start + count, chunk_size):
+            yield self.generate(min(chunk_size, start + count - a), a, time, pose=pose)
 
     def roots(self, count: int | None = None, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Roots (triangle int32, barycentric float32 (n, 2)) of hair ids [start, start +
@@ -443,11 +448,8 @@ class Groom:
     # ------------------------------------------------------------------ checks
     @staticmethod
     def _check_range(count: int, start: int) -> None:
-        for name, v in (("count", count), ("start", start)):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-                raise InputError(f"{name}: expected a whole number, got {v!r}")
-            if v < 0:
-                raise InputError(f"{name}: must be ≥ 0, got {v}")
+        whole(count, "count", 0)
+        whole(start, "start", 0)
         if start + count > 2**53:
             raise InputError(f"start + count: hair ids must stay below 2**53, got {start + count}")
 
@@ -687,27 +689,25 @@ class Groom:
             )
         if (props["frizz_root"] > 0).any() or (props["frizz_tip"] > 0).any():
             drift = np.asarray(p.frizz_direction) * (p.frizz_speed * time)
-            frizz(
+            _frizz(
                 local,
                 root,
                 prop("frizz_root"),
                 prop("frizz_tip"),
-                np.asarray(p.frizz_frequency),
-                drift,
+                _shared_row(p.frizz_frequency),
+                _shared_row(drift),
                 prop("frizz_blend"),
                 t,
-                check=False,
             )
         if (props["kink_root"] > 0).any() or (props["kink_tip"] > 0).any():
-            kink(
+            _kink(
                 local,
                 root,
+                frame,
                 prop("kink_root"),
                 prop("kink_tip"),
-                np.asarray(p.kink_frequency),
-                frame,
+                _shared_row(p.kink_frequency),
                 t,
-                check=False,
             )
         return self._finish(local, rows, ids, prop, n_total)
 
@@ -723,14 +723,16 @@ class Groom:
         if not (props["curl_radius"] > 0).any():
             return
         p = self.params
-        curl(
+        f_root = _rows(props["curl_frequency"], rows)
+        tip = p.curl_frequency_tip
+        _curl(
             local,
             _rows(props["curl_radius"], rows),
-            _rows(props["curl_frequency"], rows),
-            p.curl_frequency_tip,
+            f_root,
+            f_root if tip is None else _shared_row(tip),
             curl_phase(p.seed, ids),
-            t=t,
-            check=False,
+            _RAMP,
+            t,
         )
 
     def _finish(

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh.texture import Texture, checked_uv
+from ..validate import whole
 
 __all__ = ["InterpolationGroups", "color_label", "mesh_groups"]
 
@@ -65,11 +66,8 @@ class InterpolationGroups:
                     f"group_vertices: no interpolation group has colour {label!r}; the group"
                     f" texture's colours are {sorted(known)}"
                 )
-            if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 2:
-                raise InputError(
-                    f"group_vertices[{label!r}]: need an integer ≥ 2 vertices, got {count!r}"
-                )
-            self.vertices[known[key]] = int(count)
+            name = f"group_vertices[{label!r}]"
+            self.vertices[known[key]] = whole(count, name, 2, what="a whole number of vertices")
 
     @property
     def count(self) -> int:

@@ -117,7 +117,7 @@ def _warn_off_mesh(
     would put them on it; nothing when the mesh is off by that factor (its own size
     warning says what to set)."""
     hint = ""
-    factor = off_mesh_factor(roots, mesh, _FAR * size)
+    factor = off_mesh_factor(roots, lambda p: mesh.closest_points(p, pose="rest")[2], _FAR * size)
     if factor is not None:
         if any(math.isclose(factor * f, 1.0) for f in mesh_factors(size)):
             return

@@ -19,14 +19,13 @@ answers, byte for byte.
 from __future__ import annotations
 
 import math
-import operator
 
 import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
 from ..arrays import as_points
-from ..errors import InputError
+from ..validate import whole
 
 __all__ = ["PointGrid"]
 
@@ -120,15 +119,7 @@ class PointGrid:
         by the lower point index.
         """
         q = as_points("queries", queries)
-        if isinstance(k, (bool, np.bool_)):
-            raise InputError(f"k: expected an integer >= 1, got {k!r}")
-        try:
-            kk = operator.index(k)
-        except TypeError:
-            raise InputError(f"k: expected an integer >= 1, got {k!r}") from None
-        if kk < 1:
-            raise InputError(f"k: expected an integer >= 1, got {kk}")
-        kk = min(kk, self.n)
+        kk = min(whole(k, "k", 1), self.n)
         dist = np.empty((q.shape[0], kk), dtype=np.float64)
         index = np.empty((q.shape[0], kk), dtype=np.int64)
         if q.shape[0] == 0:

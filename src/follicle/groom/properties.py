@@ -12,6 +12,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from ..errors import InputError
 from ..mesh.property import PropertyMap
 from ..mesh.texture import Texture
 from .settings import GroomParams, PropertyTag
@@ -28,6 +29,7 @@ _TAGS = {
 SCALARS = tuple(name for name, tag in _TAGS.items() if not tag.color)
 COLORS = tuple(name for name, tag in _TAGS.items() if tag.color)
 FRACTIONS = frozenset(name for name, tag in _TAGS.items() if tag.fraction)
+LOWS = {name: tag.low for name, tag in _TAGS.items() if tag.low is not None}
 
 
 class GroomProperties:
@@ -60,6 +62,23 @@ class GroomProperties:
                 out[name] = value[:, 0] if prop.kind == "scalar" else value
             else:
                 out[name] = prop.evaluate(uv)
+                _check_low(name, prop, out[name])
             if name in FRACTIONS:
                 out[name] = np.clip(out[name], 0.0, 1.0)
         return out
+
+
+def _check_low(name: str, prop: PropertyMap, values: np.ndarray) -> None:
+    """InputError when value × texture falls below the property's least value somewhere
+    (a float texture with negative texels under a length or an amplitude), naming the
+    key, the texture and the fix: a texture cannot make a hair's length negative."""
+    low = LOWS.get(name)
+    if low is None or values.size == 0:
+        return
+    least = float(values.min())
+    if least < low:
+        texture = getattr(prop.texture, "name", "its texture")
+        raise InputError(
+            f"[groom].{name}: value × texture '{texture}' is {least:g} at some roots, below"
+            f" the least it may be ({low:g}); mend the texture (its texels scale the value)"
+        )

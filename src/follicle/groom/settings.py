@@ -42,11 +42,13 @@ def _prop_value(v: object, color: bool, bounds: dict[str, float]) -> float | tup
 @dataclass(frozen=True)
 class PropertyTag:
     """What marks a textured groom property in GroomParams' schema: an RGB colour or a
-    number, and whether the number is a fraction in [0, 1] (clipped after value ×
-    texture). :mod:`follicle.groom.properties` reads its lists from these tags."""
+    number, whether the number is a fraction in [0, 1] (clipped after value × texture),
+    and the least a number may be (``low``: a texture may not push a length or an
+    amplitude below 0). :mod:`follicle.groom.properties` reads its lists from these tags."""
 
     color: bool
     fraction: bool
+    low: float | None = None
 
 
 def _prop(color: bool = False, **bounds: float) -> Any:
@@ -73,7 +75,8 @@ def _prop(color: bool = False, **bounds: float) -> Any:
             return out
         return _prop_value(v, color, bounds)
 
-    tag = PropertyTag(color, not color and bounds == {"ge": 0.0, "le": 1.0})
+    fraction = not color and bounds == {"ge": 0.0, "le": 1.0}
+    tag = PropertyTag(color, fraction, None if color or fraction else bounds.get("ge"))
     return Annotated[Any, PlainValidator(check, json_schema_input_type=Any), tag]
 
 

@@ -8,8 +8,10 @@ interpolation and scaling, before the transform to world space (Šik 2012 §2.2.
 ``curl`` (a shape), ``frizz``, ``kink`` (Kink samples the vertices as they are then).
 
 Per-hair properties (already global × texture(uv)) are numbers or float64 arrays (n,).
-``check=False`` skips the scan of ``local`` for NaNs, for callers that made it (the
-generator); everything else is still validated.
+The public functions check every argument once, then call the unchecked ``_frizz``,
+``_kink`` and ``_curl``, which the generator calls directly with arrays it made: in
+kernel form, float64 C-contiguous per-hair rows, (n,) or (1,) and (n, 3) or (1, 3)
+(:func:`follicle.groom.params.per_hair`), and ``t`` (n, N) or (1, N).
 The curve parameter of vertex i is the ORIGINAL parametrisation t = i / (N - 1) (Šik 2012
 §2.2.8: cutting a hair keeps it); pass ``t`` ((N,) or (n, N), values in [0, 1]) to use
 another one, e.g. i / (N_uncut - 1) for cut hairs. Noise is a pure function of rest-pose
@@ -19,8 +21,6 @@ same bytes.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit, prange
 
@@ -29,11 +29,13 @@ from ..errors import InputError
 from ..frames import polyline_frames
 from ..noise import noise3
 from ..rng import uniforms
+from ..validate import number
 from .params import curve_parameter, per_hair, row
 
 __all__ = ["frizz", "kink", "curl", "curl_phase"]
 
 _TWO_PI = 2.0 * np.pi
+_RAMP = 0.15  # curl's default ramp: the share of the hair over which the radius grows in
 _ROOT_TANGENT = np.array([1.0, 0.0, 0.0])  # local +x: the first normal of the curl frame
 
 
@@ -152,7 +154,7 @@ def _curl_kernel(local, radius, f_root, f_tip, phase, ramp, t):
 
 
 # ---------------------------------------------------------------------------- validation
-def _check_local(local: object, scan: bool = True) -> np.ndarray:
+def _check_local(local: object) -> np.ndarray:
     if not isinstance(local, np.ndarray) or local.dtype != np.float64:
         kind = local.dtype if isinstance(local, np.ndarray) else type(local).__name__
         raise InputError(f"local: expected a float64 numpy array (changed in place), got {kind}")
@@ -160,7 +162,7 @@ def _check_local(local: object, scan: bool = True) -> np.ndarray:
         raise InputError(f"local: expected shape (n, N >= 1, 3), got {local.shape}")
     if not (local.flags.c_contiguous and local.flags.writeable):
         raise InputError("local: must be C-contiguous and writeable (it is changed in place)")
-    if scan and not all_finite(local):
+    if not all_finite(local):
         raise InputError("local: vertices must be finite (no NaN or inf)")
     return local
 
@@ -177,6 +179,28 @@ def _frame(rest_frame: object, n: int) -> list[np.ndarray]:
     return [per_hair(v, n, "rest_frame", vector=True) for v in rest_frame]
 
 
+# ------------------------------------------------------------------- unchecked, in kernel form
+def _frizz(local, roots, amp_root, amp_tip, frequency, offset, blend, t) -> None:
+    """:func:`frizz` on arguments in kernel form (the module notes); nothing is checked."""
+    _frizz_kernel(local, roots, amp_root, amp_tip, frequency, offset, blend, t)
+
+
+def _kink(local, roots, rest_frame, amp_root, amp_tip, frequency, t) -> None:
+    """:func:`kink` on arguments in kernel form, ``rest_frame`` a (T, B, N) sequence of
+    per-hair rows; nothing is checked."""
+    tangent, binormal, normal = rest_frame
+    _kink_kernel(local, roots, tangent, binormal, normal, amp_root, amp_tip, frequency, t)
+
+
+def _curl(local, radius, f_root, f_tip, phase, ramp, t) -> None:
+    """:func:`curl` on arguments in kernel form, ``ramp`` a float in [0, 1]; nothing is
+    checked."""
+    n, n_verts = local.shape[:2]
+    if n == 0 or n_verts < 2:
+        return
+    _curl_kernel(local, radius, f_root, f_tip, phase, ramp, t)
+
+
 # --------------------------------------------------------------------------------- public
 def frizz(
     local: np.ndarray,
@@ -187,8 +211,6 @@ def frizz(
     offset: np.ndarray = (0.0, 0.0, 0.0),
     blend: float | np.ndarray = 0.0,
     t: np.ndarray | None = None,
-    *,
-    check: bool = True,
 ) -> None:
     """Šik 2012 §2.2.5 Frizz, in place: one noise vector per hair bends the whole hair.
 
@@ -206,9 +228,9 @@ def frizz(
     the skin plane z = 0 is not moved below it (its z stops at 0; one below keeps its z),
     so frizz never pushes hair into the skin. F is not normalised (as in Šik 2012).
     """
-    local = _check_local(local, check)
+    local = _check_local(local)
     n, n_verts = local.shape[:2]
-    _frizz_kernel(
+    _frizz(
         local,
         per_hair(rest_roots, n, "rest_roots", vector=True),
         per_hair(amp_root, n, "amp_root", lo=0.0),
@@ -228,8 +250,6 @@ def kink(
     frequency: np.ndarray,
     rest_frame: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     t: np.ndarray | None = None,
-    *,
-    check: bool = True,
 ) -> None:
     """Šik 2012 §2.2.5 Kink, in place: a noise vector per vertex crimps the hair.
 
@@ -240,12 +260,12 @@ def kink(
     as in Šik 2012. Choice: the root vertex stays fixed (the paper's linear profile would
     move it by amp_root · K_0, off the skin).
     """
-    local = _check_local(local, check)
+    local = _check_local(local)
     n, n_verts = local.shape[:2]
-    _kink_kernel(
+    _kink(
         local,
         per_hair(rest_roots, n, "rest_roots", vector=True),
-        *_frame(rest_frame, n),
+        _frame(rest_frame, n),
         per_hair(amp_root, n, "amp_root", lo=0.0),
         per_hair(amp_tip, n, "amp_tip", lo=0.0),
         per_hair(frequency, n, "frequency", vector=True),
@@ -259,10 +279,8 @@ def curl(
     frequency: float | np.ndarray,
     frequency_tip: float | np.ndarray | None = None,
     phase: float | np.ndarray = 0.0,
-    ramp: float = 0.15,
+    ramp: float = _RAMP,
     t: np.ndarray | None = None,
-    *,
-    check: bool = True,
 ) -> None:
     """Almeida 2014 §3.1.2 Alg. 3 curly hair, in place: winds each hair into a helix about itself.
 
@@ -278,22 +296,14 @@ def curl(
     sqrt(h² + (2A sin(π f h))²) on a straight hair. ``phase`` (radians, per hair) turns
     the helix start; :func:`curl_phase` draws one per hair.
     """
-    local = _check_local(local, check)
+    local = _check_local(local)
     n, n_verts = local.shape[:2]
     radius = per_hair(radius, n, "radius", lo=0.0)
     f_root = per_hair(frequency, n, "frequency")
     f_tip = f_root if frequency_tip is None else per_hair(frequency_tip, n, "frequency_tip")
     phase = per_hair(phase, n, "phase")
-    try:
-        ramp_value = float(ramp)
-    except (TypeError, ValueError):
-        ramp_value = math.nan
-    if not 0.0 <= ramp_value <= 1.0:
-        raise InputError(f"ramp: expected one number in [0, 1], got {ramp!r}")
-    t = curve_parameter(t, n, n_verts)
-    if n == 0 or n_verts < 2:
-        return
-    _curl_kernel(local, radius, f_root, f_tip, phase, ramp_value, t)
+    ramp = number(ramp, "ramp", lo=0.0, hi=1.0)
+    _curl(local, radius, f_root, f_tip, phase, ramp, curve_parameter(t, n, n_verts))
 
 
 def curl_phase(seed: int, hair_ids: np.ndarray) -> np.ndarray:

@@ -75,18 +75,19 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FormatError, InputError
-from ..mesh.polymesh import skin_from_part
+from ..inputs import input_file
+from ..io.polymesh import skin_from_part
 from ..mesh.skin import SkinMesh
+from ..validate import number
 from .alembic_archive import COLOR_NAMES, GROOM_VERSION_KEYS
 from .alembic_guard import check_archive, read_curves, read_mesh
 from .alembic_sink import send
 from .animation import Animation, animation, as_guides
-from .atomic import atomic_path
 from .attributes import column, conventional
 from .guard import curves_from_parts
-from .inputs import input_file
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 
@@ -536,17 +537,10 @@ def abc_parts(
     reads and then joins them; ``stored`` parts also say whether Unreal's groom schema
     version is on the object or an Xform above it (``groom_schema``), for `follicle
     check`."""
-    if time is not None and (
-        isinstance(time, bool)
-        or not isinstance(time, (int, float, np.integer, np.floating))
-        or not np.isfinite(time)
-    ):
-        raise InputError(f"time: expected a finite number of seconds or None, got {time!r}")
+    time = number(time, "time", unit="s", allow_none=True)
     source = input_file(path, "Alembic file (.abc)")
     check_archive(source)
-    return source, read_curves(
-        source, None if time is None else float(time), bool(guides), bool(stored)
-    )
+    return source, read_curves(source, time, bool(guides), bool(stored))
 
 
 def load_abc_mesh(path: str | os.PathLike[str]) -> SkinMesh:
@@ -554,7 +548,7 @@ def load_abc_mesh(path: str | os.PathLike[str]) -> SkinMesh:
     first sample, as a SkinMesh: moved by the Xforms above it, polygons (wound
     clockwise, as Alembic keeps them) fanned into counter-clockwise triangles, its
     ``uv`` of vertex or faceVarying scope as per-vertex UVs split at seams
-    (:mod:`follicle.mesh.polymesh`). Further meshes are named in a warning and not
+    (:mod:`follicle.io.polymesh`). Further meshes are named in a warning and not
     read. Read in a guarded child process like :func:`load_abc`."""
     source = input_file(path, "Alembic file (.abc)")
     check_archive(source)

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
-from ..validate import whole
+from ..validate import positive, whole
 from .attributes import conventional
 from .targets import Target, for_target, get_target
 
@@ -136,9 +136,6 @@ def animation(
     if head is not None and in_units and tool.scale != 1.0:
         head = head.copy()
         head[:, :3, 3] *= tool.scale
-    rate = fps if fps is not None else cache_fps if cache_fps is not None else 24.0
-    real = (int, float, np.integer, np.floating)
-    if isinstance(rate, bool) or not isinstance(rate, real) or not 0 < rate < np.inf:
-        raise InputError(f"fps: expected a finite number > 0, got {rate!r}")
+    rate = positive(fps if fps is not None else cache_fps if cache_fps is not None else 24.0, "fps")
     start = whole(start, "start", what="a whole number (the first frame)")
-    return Animation(_checked(frames, head, tool, role, in_units), float(rate), start, head)
+    return Animation(_checked(frames, head, tool, role, in_units), rate, start, head)

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..arrays import all_finite
 from ..errors import FormatError
-from .inputs import input_file
+from ..inputs import input_file
 
 __all__ = ["BinaryFile", "open_binary", "read_bytes", "check_finite", "Spool"]
 

@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
-from .atomic import atomic_path
 from .attributes import DEFAULT_WIDTH, consistent
 from .binary import BinaryFile, Spool, check_finite, open_binary
 

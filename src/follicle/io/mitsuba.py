@@ -29,9 +29,9 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FormatError
-from .atomic import atomic_path
 from .attributes import widths
 from .binary import read_bytes
 from .text import line_at, parse_number, write_values

@@ -35,10 +35,10 @@ from typing import IO
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FormatError, InputError
-from .atomic import atomic_path
-from .inputs import input_file
+from ..inputs import input_file
 from .stream import Curves, as_chunks
 
 __all__ = ["FORMAT_VERSION", "save_npz", "load_npz", "save_arrays", "load_arrays"]

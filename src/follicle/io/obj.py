@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FormatError
-from .atomic import atomic_path
 from .binary import read_bytes
 from .text import join_continued, line_at, parse_number, write_values
 

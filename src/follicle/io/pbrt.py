@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import spline
+from ..atomic import atomic_path
 from ..curves import HairCurves
-from .atomic import atomic_path
 from .attributes import widths
 from .text import write_values
 

@@ -37,9 +37,9 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import InputError
-from .atomic import atomic_path
 from .attributes import DEFAULT_WIDTH, conventional
 from .stream import Curves, as_chunks
 from .text import write_values

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..arrays import RIGID_TOLERANCE, all_finite, frozen, rigid
 from ..errors import FormatError, InputError
+from ..validate import positive
 from .npz import load_arrays, save_arrays
 
 __all__ = [
@@ -111,13 +112,11 @@ class SimCache:
             rigid(tr[k], f"transforms: frame {k}")  # finite, last row 0 0 0 1, no scale
         fps = self.fps
         if isinstance(fps, np.ndarray) and fps.ndim == 0:
-            fps = fps.item()
-        real = (int, float, np.integer, np.floating)
-        if isinstance(fps, bool) or not isinstance(fps, real) or not 0 < fps < np.inf:
-            raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
+            fps = fps.item()  # as a loaded cache stores it
+        fps = positive(fps, "fps")
         object.__setattr__(self, "positions", frozen(pos))
         object.__setattr__(self, "transforms", frozen(tr))
-        object.__setattr__(self, "fps", float(fps))
+        object.__setattr__(self, "fps", fps)
         object.__setattr__(self, "scene_toml", _text("scene_toml", self.scene_toml))
         object.__setattr__(self, "base_dir", _text("base_dir", self.base_dir))
 

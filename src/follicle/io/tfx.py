@@ -43,10 +43,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import ResourceError
 from ..validate import whole
-from .atomic import atomic_path
 from .attributes import consistent
 from .binary import BinaryFile, Spool, check_finite, open_binary
 

@@ -55,13 +55,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 
+from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FormatError
+from ..inputs import input_file
 from .animation import Animation, animation, as_guides
-from .atomic import atomic_path
 from .attributes import column, conventional
 from .guard import curves_from_parts
-from .inputs import input_file
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 from .usd_guard import check_container, read_stage

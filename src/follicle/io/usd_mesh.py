@@ -5,7 +5,7 @@
 :mod:`follicle.io.usd_stage`, whose composition check, array checks and world matrix
 (transforms, metersPerUnit, a Z up axis) it shares. The first ``UsdGeomMesh`` in stage
 order becomes ``{"where", "name", "points", "face_counts", "face_indices", "uv",
-"uv_scope", "flip", "others"}`` for :func:`follicle.mesh.polymesh.skin_from_part`:
+"uv_scope", "flip", "others"}`` for :func:`follicle.io.polymesh.skin_from_part`:
 points in follicle's space (metres, +Y up), UVs from the first of the primvars
 :data:`UV_NAMES` that holds two numbers a value (indexed ones flattened).
 """

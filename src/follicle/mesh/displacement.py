@@ -10,12 +10,11 @@ normals. ``∂D`` is a forward difference of one texel.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..errors import InputError
 from ..frames import root_frames
+from ..validate import number
 from .skin import SkinMesh, SurfacePoints
 from .texture import Texture
 
@@ -51,14 +50,7 @@ def displace(
             f"mesh '{mesh.name}' has no UVs, so displacement texture '{texture.name}' cannot"
             " be mapped; use a mesh with texture coordinates"
         )
-    try:
-        factor = float(scale)
-    except (TypeError, ValueError):
-        factor = math.nan
-    if not math.isfinite(factor):
-        raise InputError(
-            f"displacement texture '{texture.name}': scale must be a finite number, got {scale!r}"
-        )
+    factor = number(scale, f"displacement texture '{texture.name}' scale")
 
     base = mesh.evaluate(triangles, bary, pose)
     tri = np.asarray(triangles).astype(np.int64)

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import os
+from numbers import Real
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +30,7 @@ from numba import njit, prange
 
 from ..errors import InputError
 from ..rng import halton_point, purpose_id, stream_key, uniform
-from ..validate import number, whole
+from ..validate import number, positive, whole
 from .skin import SkinMesh
 from .texture import Texture, bilinear
 
@@ -303,12 +304,8 @@ def _sample_kernel(records, grid, table, seed, halton, start, tri, bary, index):
 def _as_density(density: object) -> Texture | float | None:
     if density is None or isinstance(density, Texture):
         return density
-    if isinstance(density, bool):
-        raise InputError(f"density: expected a number, texture, path or array, got {density!r}")
-    if isinstance(density, (int, float, np.integer, np.floating)):
-        if not np.isfinite(density) or density <= 0:
-            raise InputError(f"density: a constant density must be > 0, got {density}")
-        return float(density)
+    if isinstance(density, (bool, Real)):  # a bool is refused as a number
+        return positive(density, "density")
     if isinstance(density, (str, os.PathLike)):
         return Texture.load(Path(density))
     return Texture(density, name="density")
@@ -499,9 +496,7 @@ class DensitySampler:
         guides). ``return_index`` adds each sample's sub-triangle (int32, an index
         into :attr:`pdf`).
         """
-        for name, value in (("n", n), ("start", start), ("seed", seed)):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-                raise InputError(f"{name}: expected a non-negative integer, got {value!r}")
+        n, start, seed = whole(n, "n", 0), whole(start, "start", 0), whole(seed, "seed", 0)
         if sequence not in SEQUENCES:
             raise InputError(f"sequence={sequence!r}; use one of {list(SEQUENCES)}")
         tri = np.empty(n, dtype=np.int32)

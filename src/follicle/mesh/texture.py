@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import FollicleError, FormatError, InputError
-from ..io.inputs import input_file
+from ..inputs import input_file
 
 __all__ = ["Texture", "WRAP_MODES", "MAX_TEXTURE_PIXELS"]
 

@@ -11,8 +11,8 @@ import os
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import InputError
-from ..io.atomic import atomic_path
 
 __all__ = ["linear_to_srgb", "srgb_to_linear", "encode_srgb8", "save_png"]
 

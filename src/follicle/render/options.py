@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..errors import InputError
+from ..validate import number, whole
 
 __all__ = [
     "SHADINGS",
@@ -146,14 +147,9 @@ def parse_size(size: object) -> tuple[int, int]:
         w, h = size  # type: ignore[misc]
     except (TypeError, ValueError):
         raise InputError(f"size: expected (width, height), got {size!r}") from None
-    out = []
-    for v in (w, h):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 < v <= MAX_SIZE:
-            raise InputError(
-                f"size: width and height must be integers in 1..{MAX_SIZE}, got {size!r}"
-            )
-        out.append(int(v))
-    return out[0], out[1]
+    w = whole(w, "size width", 1, MAX_SIZE, what="a whole number of pixels")
+    h = whole(h, "size height", 1, MAX_SIZE, what="a whole number of pixels")
+    return w, h
 
 
 def shading_params_for(shading: str) -> dict[str, Spec]:
@@ -177,11 +173,7 @@ def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str
         if isinstance(default, tuple):
             merged[key] = tuple(color3(value, f"shading_params[{key!r}]"))
             continue
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-            raise InputError(f"shading_params[{key!r}]: expected a number, got {value!r}")
-        if not lo <= float(value) <= hi:
-            raise InputError(f"shading_params[{key!r}]: must be in [{lo:g}, {hi:g}], got {value!r}")
-        merged[key] = float(value)
+        merged[key] = number(value, f"shading_params[{key!r}]", lo=lo, hi=hi)
     return merged
 
 

@@ -10,15 +10,15 @@ target and renamed when complete.
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 from collections.abc import Generator, Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import FormatError, InputError
-from ..io.atomic import atomic_path
+from ..validate import positive
 
 __all__ = ["Mp4Writer", "write_mp4"]
 
@@ -62,16 +62,6 @@ def _mp4_path(path: str | os.PathLike[str]) -> Path:
     return target
 
 
-def _check_fps(fps: object) -> float:
-    if (
-        isinstance(fps, bool)
-        or not isinstance(fps, (int, float, np.integer, np.floating))
-        or not 0 < fps < math.inf
-    ):
-        raise InputError(f"fps: expected a finite number > 0, got {fps!r}")
-    return float(fps)
-
-
 class Mp4Writer:
     """An H.264 MP4 at ``path`` written frame by frame (:meth:`write`), for frames that
     come one at a time (a live viewer). :meth:`close` finishes the file; :meth:`abort`
@@ -82,7 +72,7 @@ class Mp4Writer:
 
     def __init__(self, path: str | os.PathLike[str], fps: float) -> None:
         self.path = _mp4_path(path)
-        self.fps = _check_fps(fps)
+        self.fps = positive(fps, "fps")
         self._ffmpeg = _ffmpeg()
         self.frames = 0  # frames written so far
         self._size: tuple[int, ...] | None = None  # frame 0's (H, W)

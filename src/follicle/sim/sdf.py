@@ -46,7 +46,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..arrays import as_points, frozen, rigid
-from ..errors import InputError
+from ..errors import InputError, ResourceError
 from ..frames import normalize
 from ..mesh.skin import closest_weights
 from ..validate import positive, whole
@@ -116,7 +116,8 @@ class SDF:
         the bounds' diagonal, at least 3 voxels) with spacing ``voxel_size`` (default:
         the longest bounds axis / 64). Vertices nearer than ``band`` voxels (>= 1) to
         the mesh get exact distances; the rest get the distance to the closest triangle
-        found by their neighbours (see the module docstring).
+        found by their neighbours (see the module docstring). A grid of more than 256³
+        vertices is a ResourceError naming the smallest ``voxel_size`` that fits.
         """
         verts, tris = _check_mesh(vertices, faces)
         # >= 1: a grid vertex lies within one voxel of every triangle, seeds for all
@@ -246,7 +247,8 @@ def _grid(
     lo: np.ndarray, hi: np.ndarray, voxel: float, padding: float | None
 ) -> tuple[np.ndarray, np.ndarray]:
     """(vertex counts int64 (3,), origin (3,)) of the grid centred on the bounds lo…hi,
-    or InputError when it would hold more than 256³ vertices."""
+    or ResourceError when it would hold more than 256³ vertices (a valid voxel size, too
+    fine for the limit)."""
 
     def counts(h: float) -> np.ndarray:
         pad = max(_PAD_FRACTION * float(np.linalg.norm(hi - lo)), _PAD_MIN_VOXELS * h)
@@ -261,7 +263,7 @@ def _grid(
         fit = float(f"{voxel * (total / _MAX_VERTICES) ** (1.0 / 3.0):.3g}")
         while math.prod(int(d) for d in counts(fit)) > _MAX_VERTICES:  # smallest 3 digits
             fit = float(f"{fit * 1.01:.3g}")
-        raise InputError(
+        raise ResourceError(
             f"voxel_size: {voxel:.4g} gives a {dims[0]}×{dims[1]}×{dims[2]} grid ({total:,}"
             f" vertices), over the limit of 256³; use voxel_size >= {fit:.3g}"
         )

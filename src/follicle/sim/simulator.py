@@ -18,7 +18,6 @@ a cache) ever gets NaN from a step that returned.
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 from numba import njit, prange
@@ -30,6 +29,7 @@ from ..errors import InputError, ResourceError, SimulationError
 from ..groom.guides import Guides
 from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..noise import perlin
+from ..validate import number
 from .collision import NO_SDF, Colliders, clearance, colliders, penetration
 from .model import Model
 from .sdf import SDF
@@ -57,17 +57,9 @@ def substeps_per_step(dt: float, substep: float) -> int:
 def _seconds(dt: object) -> float:
     """``dt`` as a finite float ≥ 0: any real number (Python, NumPy scalar or 0-d array),
     not a bool, a string or an array of several values."""
-    value = dt
     if isinstance(dt, np.ndarray) and dt.ndim == 0 and dt.dtype.kind in "iuf":
-        value = dt.item()
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise InputError(f"dt: expected a finite number of seconds, got {dt!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise InputError(f"dt: expected a finite number of seconds, got {x}")
-    if x < 0:
-        raise InputError(f"dt: must be ≥ 0 s, got {x:g}")
-    return x
+        dt = dt.item()
+    return number(dt, "dt", lo=0.0, unit="s")
 
 
 def _numbers(value: object, name: str) -> np.ndarray:
@@ -132,6 +124,15 @@ def _reach(x, v, length):  # pragma: no cover - compiled
             far = max(far, d2)
         out[s] = math.sqrt(far) / length[s] if ok else np.nan
     return out
+
+
+def _skin_field(vertices: np.ndarray, faces: np.ndarray, voxel: float | None) -> SDF:
+    """The skin's SDF; its refusals (a voxel too small for the grid's limit) named by
+    the user's key, ``[sim].skin_voxel``."""
+    try:
+        return SDF.from_mesh(vertices, faces, voxel_size=voxel)
+    except (InputError, ResourceError) as exc:
+        raise type(exc)(f"[sim].skin_voxel: {exc}") from None
 
 
 def _orthonormal(tangent: np.ndarray, binormal: np.ndarray, normal: np.ndarray) -> np.ndarray:
@@ -209,15 +210,10 @@ class Simulator:
         self._pinned_cache: tuple[np.ndarray, np.ndarray] | None = None
         self.sdf = None  # the skin's SDF on the current pose
         if mesh is not None and params.skin_collision:
-            try:
-                self.sdf = SDF.from_mesh(mesh.vertices, mesh.faces, voxel_size=params.skin_voxel)
-            except InputError as exc:  # the user's name for the voxel size
-                raise InputError(f"[sim].skin_voxel: {exc}") from None
+            self.sdf = _skin_field(mesh.vertices, mesh.faces, params.skin_voxel)
             self._sdf_rest = self.sdf  # built on the pose rigid transforms are applied to
             if mesh.vertices is not mesh.rest_vertices:  # posed: rigid moves start from rest
-                self._sdf_rest = SDF.from_mesh(
-                    mesh.rest_vertices, mesh.faces, voxel_size=params.skin_voxel
-                )
+                self._sdf_rest = _skin_field(mesh.rest_vertices, mesh.faces, params.skin_voxel)
         roots, frames = self._pinned()
         rest = roots[:, None] + np.einsum("snk,ska->sna", self.model.rest_local, frames)
         near = clearance(rest, self._colliders(self._transform, self.sdf))
@@ -282,12 +278,10 @@ class Simulator:
                 bad = int(np.argmin(np.isfinite(verts).all(axis=1)))
                 raise InputError(f"vertices: vertex {bad} is not finite: {verts[bad].tolist()}")
             pose = self.mesh.posed(vertices=verts)
+            if self.sdf is not None:  # a deformed skin: a new field (its own frame), first
+                self.sdf = _skin_field(pose.vertices, pose.faces, self.params.skin_voxel)
             self._pinned_cache = None
             self._pose = pose
-            if self.sdf is not None:  # a deformed skin: a new field (its own frame)
-                self.sdf = SDF.from_mesh(
-                    pose.vertices, pose.faces, voxel_size=self.params.skin_voxel
-                )
 
     def teleport(self, transform: object | None = None, vertices: object | None = None) -> None:
         """Re-pose at once: every strand moves rigidly with its root frame (no explosion).

@@ -6,18 +6,11 @@ import os
 import time
 from collections.abc import Sequence
 
-from ..errors import InputError
 from ..scene import Scene, load_scene
+from ..validate import whole
 from .controller import Controller
 
 __all__ = ["view"]
-
-
-def _check_frames(frames: int | None) -> None:
-    if frames is not None and (
-        isinstance(frames, bool) or not isinstance(frames, int) or frames < 1
-    ):
-        raise InputError(f"frames: expected a whole number ≥ 1 or None, got {frames!r}")
 
 
 def view(
@@ -41,7 +34,7 @@ def view(
     ``scene`` is a path, that path), is where the panel saves the scene by default. A
     recording still on when the loop ends is finished.
     """
-    _check_frames(frames)
+    frames = whole(frames, "frames", 1, allow_none=True)
     if not isinstance(scene, Scene):
         source = scene if source is None else source
         scene = load_scene(scene)  # a bad scene fails before a window opens

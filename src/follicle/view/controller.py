@@ -176,11 +176,7 @@ class Controller:
 
     @hair_limit.setter
     def hair_limit(self, limit: int | None) -> None:
-        if limit is not None and (
-            isinstance(limit, bool) or not isinstance(limit, int) or limit < 0
-        ):
-            raise InputError(f"hair_limit: expected a whole number ≥ 0 or None, got {limit!r}")
-        self._hair_limit = limit
+        self._hair_limit = whole(limit, "hair_limit", 0, allow_none=True)
         self.curves = self.image = None
 
     @property

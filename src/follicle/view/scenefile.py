@@ -10,8 +10,8 @@ from pathlib import Path
 
 from pydantic.fields import FieldInfo
 
+from ..atomic import atomic_path
 from ..errors import FormatError
-from ..io.atomic import atomic_path
 from ..scene import Scene, scene_to_toml
 
 __all__ = ["relocated", "save_scene"]

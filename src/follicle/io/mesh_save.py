@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import FormatError
-from ..io.atomic import atomic_path
-from .skin import SkinMesh
+from ..mesh.skin import SkinMesh
 
 __all__ = ["save_mesh", "MESH_WRITE_EXTENSIONS"]
 

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FollicleError, FormatError, InputError
-from ..io.inputs import input_file
+from ..inputs import input_file
+from ..mesh.head import builtin_head
+from ..mesh.skin import SkinMesh
 from ..units import Units, units_for, warn_mesh_size
-from .head import builtin_head
-from .skin import SkinMesh
 
 __all__ = ["load_mesh", "MESH_EXTENSIONS", "BUILTIN_MESHES"]
 
@@ -32,7 +32,7 @@ def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
     ``.usda``, ``.usdc``, ``.usdz``) files give their first mesh (a warning names any
     others), with transforms applied and faceVarying UVs split at seams, read in a
     guarded child process (:func:`follicle.io.alembic.load_abc_mesh`,
-    :func:`follicle.mesh.polymesh.load_usd_mesh`; bad geometry in them is a FormatError,
+    :func:`follicle.io.polymesh.load_usd_mesh`; bad geometry in them is a FormatError,
     the file holding it). ``units`` are the file's (``"m"``, ``"cm"``,
     ``"mm"``, ``"in"`` or metres per unit; :mod:`follicle.units`): its vertices are
     converted to metres, and a size that suggests other units is logged as a warning.
@@ -105,7 +105,7 @@ def _scene_mesh(p: Path, ext: str, mpu: float) -> SkinMesh:
         from .polymesh import load_usd_mesh
 
         return load_usd_mesh(p)
-    from ..io.alembic import load_abc_mesh
+    from .alembic import load_abc_mesh
 
     mesh = load_abc_mesh(p)
     if mpu == 1.0:

@@ -11,7 +11,7 @@ import os
 import stat
 from pathlib import Path
 
-from ..errors import FormatError
+from .errors import FormatError
 
 __all__ = ["input_file"]
 

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, InputError
-from ..io.inputs import input_file
-from ..io.usd_guard import check_container, read_meshes
-from .skin import SkinMesh
+from ..inputs import input_file
+from ..mesh.skin import SkinMesh
+from .usd_guard import check_container, read_meshes
 
 __all__ = ["skin_from_part", "load_usd_mesh", "fan_triangles", "split_seams"]
 
