@@ -46,6 +46,17 @@ def test_the_table_has_a_row_a_shape_in_the_order_given():
     np.testing.assert_array_equal(table[2, 1:5], [1, 2, 3, 0.5])
 
 
+@pytest.mark.parametrize("kind", list(SHAPES))
+def test_every_shape_of_the_schema_has_a_kernel(kind):
+    """A kind in SHAPES whose kernel collide() does not call would be skipped silently:
+    a point just inside each default shape is found inside, one far off is found clear."""
+    shape = ColliderParams(kind=kind, a=(0, 0, 0), b=(0.2, 0, 0))
+    inside = {"sphere": (0.05, 0, 0), "capsule": (0.1, 0.05, 0), "plane": (0.3, -0.05, 0.2)}
+    x = np.array([[inside[kind], (0.0, 50.0, 0.0)]])
+    d = clearance(x, colliders([shape]))
+    assert d[0, 0] < 0.0 and 0.0 < d[0, 1] < np.inf
+
+
 def test_plane_clearance_is_the_signed_distance_along_the_normal():
     # the plane x + y = 1 (normal (1, 1, 0) / √2): distances exact on both sides
     plane = ColliderParams(kind="plane", centre=(1, 0, 0), normal=(1, 1, 0))

@@ -71,12 +71,6 @@ def grow(
     return groom.mesh, groom.generate(progress=progress)
 
 
-def scene_camera(params: RenderParams) -> Camera | None:
-    """The camera of a scene's [render] ``eye``/``target``; None when either is unset
-    (the renderers then frame hair and mesh at ``params.fov``)."""
-    return params.camera()
-
-
 def framed_camera(lo: np.ndarray, hi: np.ndarray, fov: float, aspect: float) -> Camera:
     """:func:`~follicle.render.frame_camera` on the box [lo, hi], without its near/far, so
     a camera kept over many frames has them fitted to each frame by the renderer."""
@@ -196,7 +190,7 @@ def _sequence_camera(
 ) -> Camera:
     """One camera for every frame of ``cache``: the scene's eye/target, else framed on
     frame 0's hair and the head and guides of all frames (no jumps, nothing leaves view)."""
-    fixed = scene_camera(params)
+    fixed = params.camera()
     if fixed is not None:
         return fixed
     boxes = [first.bounds()] if first.point_count else []

@@ -34,8 +34,21 @@ __all__ = [
     "NO_SDF",
 ]
 
-SPHERE, CAPSULE, PLANE = (tuple(SHAPES).index(k) for k in ("sphere", "capsule", "plane"))
-COLUMNS = 1 + max(sum(1 if t == "scalar" else 3 for _, t in f) for f in SHAPES.values())
+KINDS = tuple(SHAPES)  # a shape's kind: its place in SHAPES
+SPHERE, CAPSULE, PLANE = (KINDS.index(k) for k in ("sphere", "capsule", "plane"))
+
+
+def _layout(fields: tuple[tuple[str, str], ...]) -> tuple[tuple[str, str, int], ...]:
+    """Each field of a shape with its first column in a row (column 0 is the kind)."""
+    out, c = [], 1
+    for field, kind in fields:
+        out.append((field, kind, c))
+        c += 1 if kind == "scalar" else 3
+    return tuple(out)
+
+
+LAYOUT = {name: _layout(fields) for name, fields in SHAPES.items()}
+COLUMNS = 1 + max(sum(1 if k == "scalar" else 3 for _, k in f) for f in SHAPES.values())
 
 # sdf_sample's arguments for "no skin SDF": an empty grid
 NO_SDF = (np.zeros((0, 0, 0), np.float32), np.zeros(3), 1.0, np.eye(4))
@@ -43,8 +56,9 @@ NO_SDF = (np.zeros((0, 0, 0), np.float32), np.zeros(3), 1.0, np.eye(4))
 
 class Colliders(NamedTuple):
     """Everything the hair collides with, in world space, as the kernels take it:
-    ``shapes`` (K, COLUMNS) float64, a row a shape (:data:`SHAPES`); the skin's SDF as
-    :attr:`SDF.sample_args` (:data:`NO_SDF` for none)."""
+    ``shapes`` (K, COLUMNS) float64, a row a shape (:data:`SHAPES`, columns as
+    :data:`LAYOUT` places them); the skin's SDF as :attr:`SDF.sample_args`
+    (:data:`NO_SDF` for none)."""
 
     shapes: np.ndarray
     sdf_values: np.ndarray
@@ -52,20 +66,14 @@ class Colliders(NamedTuple):
     sdf_inv_voxel: float
     sdf_lfw: np.ndarray
 
-    @property
-    def empty(self) -> bool:
-        return self.shapes.shape[0] == 0 and self.sdf_values.size == 0
-
     def points(self) -> np.ndarray:
         """(M, 3) the shapes' points (sphere centres, capsule ends, a plane's point)."""
-        out = []
-        for row in self.shapes:
-            fields = SHAPES[tuple(SHAPES)[int(row[0])]]
-            c = 1
-            for _, kind in fields:
-                if kind == "point":
-                    out.append(row[c : c + 3])
-                c += 1 if kind == "scalar" else 3
+        out = [
+            row[c : c + 3]
+            for row in self.shapes
+            for _, kind, c in LAYOUT[KINDS[int(row[0])]]
+            if kind == "point"
+        ]
         return np.array(out, np.float64).reshape(-1, 3)
 
 
@@ -77,27 +85,21 @@ def colliders(
     order. A shape whose ``follow`` is true has its points moved and its directions
     turned by the rigid 4×4 ``transform`` (the head's; None: the identity); each
     direction is made unit length."""
-    names = tuple(SHAPES)
     m = np.eye(4) if transform is None else np.asarray(transform, np.float64)
     rows = []
     for shape in shapes:
         r, t = (m[:3, :3], m[:3, 3]) if getattr(shape, "follow", True) else (np.eye(3), 0.0)
         row = np.zeros(COLUMNS)
-        row[0] = names.index(shape.kind)
-        c = 1
-        for field, kind in SHAPES[shape.kind]:
+        row[0] = KINDS.index(shape.kind)
+        for field, kind, c in LAYOUT[shape.kind]:
             value = np.asarray(getattr(shape, field), np.float64)
             if kind == "scalar":
                 row[c] = value
-                c += 1
-                continue
-            if kind == "point":
-                value = r @ value + t
+            elif kind == "point":
+                row[c : c + 3] = r @ value + t
             else:
-                value = r @ value
-                value = value / np.linalg.norm(value)
-            row[c : c + 3] = value
-            c += 3
+                turned = r @ value
+                row[c : c + 3] = turned / np.linalg.norm(turned)
         rows.append(row)
     return Colliders(np.array(rows, np.float64).reshape(-1, COLUMNS), *sdf)
 

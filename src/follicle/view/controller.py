@@ -14,7 +14,7 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import FollicleError, InputError
-from ..pipeline import framed_camera, groom_scene, scene_camera
+from ..pipeline import framed_camera, groom_scene
 from ..render import Camera, Renderer, default_lights, save_png
 from ..render.options import parse_size
 from ..render.settings import RenderParams, light_table
@@ -410,7 +410,7 @@ class Controller:
     def _frame_camera(self) -> Camera:
         """The scene's eye/target, else framed on the head and the reach of the guides."""
         r = self.scene.render
-        fixed = scene_camera(r)
+        fixed = r.camera()
         if fixed is not None:
             return fixed
         lo, hi = (np.asarray(b, np.float64) for b in self.mesh.bounds("rest"))
