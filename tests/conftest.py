@@ -91,3 +91,13 @@ def _signal(proc: subprocess.Popen, signum: int) -> None:
         killpg(proc.pid, signum)
     except ProcessLookupError:
         pass
+
+
+@pytest.fixture(params=["opengl", "cpu"])
+def each_engine(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Run the test once per raster engine: ``follicle.render(...)`` without an
+    ``engine`` (and without settings) then draws with it."""
+    from follicle.render import settings
+
+    monkeypatch.setattr(settings, "_DEFAULTS", settings.RenderParams(engine=request.param))
+    return request.param

@@ -14,6 +14,8 @@ from follicle.render.settings import RenderParams
 from follicle.render.strands import back_to_front, segment_indices, strand_seeds
 from glmark import gl
 
+pytestmark = pytest.mark.usefixtures("each_engine")  # each test on both engines
+
 
 class StandInMesh:
     """The slice of SkinMesh the renderer uses."""
@@ -85,12 +87,17 @@ def test_strand_seeds_are_constant_per_curve_and_spread():
 
 @gl
 def test_thin_strands_accumulate_coverage():
-    """Sub-pixel strands add up: 8 stacked ones cover far more than one."""
+    """Sub-pixel strands add up: 8 stacked ones cover far more than one. Each lies along
+    the middle of a pixel row (an engine with area coverage splits a strand on a row
+    boundary between the two rows)."""
     size = (48, 48)
-    one = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0), width=2e-4)
-    many = HairCurves.concatenate(
-        [strand((-0.1, 0.0, -0.01 * k), (0.1, 0.0, -0.01 * k), width=2e-4) for k in range(8)]
-    )
+
+    def centred(z: float) -> HairCurves:
+        y = -0.5 * FRONT.pixel_scale(size[1]) * (1.0 - z)  # half a pixel down at depth 1 - z
+        return strand((-0.1, y, z), (0.1, y, z), width=2e-4)
+
+    one = centred(0.0)
+    many = HairCurves.concatenate([centred(-0.01 * k) for k in range(8)])
     kw = dict(
         camera=FRONT,
         size=size,
@@ -100,7 +107,7 @@ def test_thin_strands_accumulate_coverage():
         hair_color=(1.0, 1.0, 1.0),
         lights=[Light.ambient(intensity=1.0)],
     )
-    row = int(round(px((0, 0, 0), size)[1]))
+    row = int(px((0, -0.5 * FRONT.pixel_scale(size[1]), 0), size)[1])
     lum_one = render(one, **kw)[row, 24, 0].astype(int)
     lum_many = render(many, **kw)[row, 24, 0].astype(int)
     assert 0 < lum_one < 200

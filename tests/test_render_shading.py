@@ -13,6 +13,8 @@ from follicle.render.image import linear_to_srgb
 from follicle.render.options import SHADINGS, parse_shading
 from glmark import gl
 
+pytestmark = pytest.mark.usefixtures("each_engine")  # each test on both engines
+
 # an odd size puts the centre of pixel (100, 100) on the optical axis
 SIZE = (201, 201)
 FRONT = Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0), fov_y=35.0)

@@ -14,6 +14,8 @@ from follicle.render.shadows import automatic_layer, light_projection
 from glmark import gl
 from test_render import sphere
 
+pytestmark = pytest.mark.usefixtures("each_engine")  # each test on both engines
+
 SIZE = (201, 201)
 FRONT = Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0), fov_y=35.0)
 BLACK = (0.0, 0.0, 0.0)

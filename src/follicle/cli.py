@@ -589,9 +589,10 @@ def simulate(
 @click.option("--size", type=(int, int), default=None, help="Image width and height.")
 @click.option(
     "--engine",
-    type=click.Choice(["opengl", "mitsuba"]),
+    type=click.Choice([*_choices(RenderParams, "engine"), "mitsuba"]),
     default=None,
-    help="opengl (default) or mitsuba: a path-traced reference still (pbr extra).",
+    help="auto (default: opengl on a GPU, else cpu), opengl, cpu (follicle's strand"
+    " rasterizer) or mitsuba: a path-traced reference still (pbr extra).",
 )
 @click.option(
     "--shading",
@@ -645,13 +646,14 @@ def render(
             "size": size,
             "shading": shading,
             "msaa": None if msaa is None else int(msaa),
+            "engine": None if engine in (None, "mitsuba") else engine,
         }.items()
         if v is not None
     }
     if engine == "mitsuba":
         _not_for(source, "--engine mitsuba", shading=shading, msaa=msaa)
     else:
-        _not_for(source, "--engine opengl", spp=spp)
+        _not_for(source, f"--engine {engine or 'auto'}", spp=spp)
     if Path(source).suffix.lower() == ".toml":
         scene = _with_overrides(load_scene(source), count=count)
         target = out or scene.resolve(scene.output.image)
@@ -665,7 +667,8 @@ def render(
         _not_for(source, "a simulation cache", mesh=mesh_path)
         if engine == "mitsuba":
             raise InputError(
-                f"{source}: --engine mitsuba renders stills; a simulation cache renders with opengl"
+                f"{source}: --engine mitsuba renders stills; render a simulation cache with"
+                " --engine opengl or cpu"
             )
         _render_cache(source, out, overrides, count, frame_range)
         return

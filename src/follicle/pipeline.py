@@ -16,7 +16,7 @@ from .groom.groups import InterpolationGroups, mesh_groups
 from .groom.guides import load_guides
 from .io.mesh_load import load_mesh
 from .mesh.skin import SkinMesh
-from .render import Camera, Renderer, frame_camera, render, save_png
+from .render import Camera, frame_camera, make_renderer, render, save_png
 from .scene import RenderParams, Scene, scene_from_toml, scene_to_toml
 from .validate import positive, whole
 
@@ -242,7 +242,7 @@ def render_frames(
         return groom.follow(cache.positions[f], time=f / cache.fps, pose=skin), skin
 
     camera = _sequence_camera(cache, groom, frame(0)[0], params)
-    with Renderer.from_settings(params) as renderer:
+    with make_renderer(params) as renderer:
         for done, f in enumerate(frames, 1):
             image = renderer.draw(*frame(f), camera=camera, settings=params)
             yield f, image

@@ -18,7 +18,6 @@ wider hair is drawn as ribbons shaded per fragment.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -27,39 +26,28 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..validate import whole
-from .camera import (
-    Camera,
-    Light,
-    default_lights,
-    frame_camera,
-    hair_bounds,
-    scene_bounds,
-)
+from .camera import Camera
 from .context import get_context
-from .image import encode_srgb8, save_png
+from .frame import prepare_frame
+from .image import encode_srgb8
 from .options import (
-    ANGLE_PARAMS,
     DEFAULT_SHADOW_SIZE,
-    MAX_LIGHTS,
     MAX_SHADOW_SIZE,
-    check_mesh,
-    color3,
+    MAX_STEP_PX,
     parse_background,
-    parse_shading,
     parse_size,
     point_attr,
 )
 from .programs import get_program, set_uniforms, use_framebuffer
 from .shadows import UNITS as SHADOW_UNITS
-from .shadows import ShadowMaps, automatic_layer, light_projection
+from .shadows import ShadowMaps
 from .strands import back_to_front, curve_param, segment_indices, strand_seeds, vertex_tangents
 
 if TYPE_CHECKING:  # imported when used: pydantic is slow to load, `import follicle` quick
     from .settings import RenderParams
 
-__all__ = ["Renderer", "render"]
+__all__ = ["Renderer"]
 
-MAX_STEP_PX = 8.0  # longest Catmull-Rom step on screen: shading is interpolated along it
 # at one step a segment thin hair is drawn as plain lines shaded per vertex, without
 # the geometry shader (the same picture; False: through it, as at more steps)
 PLAIN_LINES = True
@@ -72,30 +60,6 @@ _HAIR_LAYOUT = (
     ("1f", "in_seed"),
 )
 _MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"))
-
-
-def _clip_range(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[float, float]:
-    """near/far: the camera's own, else fitted around the scene's bounding sphere."""
-    if camera.near is not None and camera.far is not None:
-        return float(camera.near), float(camera.far)
-    centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
-    _, _, forward = camera.basis()
-    depth = float((centre - camera.eye) @ forward)
-    far = camera.far if camera.far is not None else max(depth + 1.05 * radius, 1e-6)
-    near = camera.near
-    if near is None:
-        near = max(depth - 1.05 * radius, 1e-4 * far, 1e-6)
-    if far <= near:
-        far = near * 10.0
-    return float(near), float(far)
-
-
-def _nearest_depth(camera: Camera, lo: np.ndarray, hi: np.ndarray, near: float) -> float:
-    """View depth of the nearest corner of the box [lo, hi], at least ``near``."""
-    corners = np.array(
-        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
-    )
-    return max(float(np.min((corners - camera.eye) @ camera.basis()[2])), near)
 
 
 def _buffer_format(prog, vbo, layout) -> tuple:
@@ -220,80 +184,49 @@ class Renderer:
         if self._out_fbo is None:
             raise InputError("Renderer: already released")
         settings = with_overrides(settings, {})
-        params = parse_shading(settings.shading, settings.shading_params)
-        if curves is not None and not isinstance(curves, HairCurves):
-            raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
-        has_hair = curves is not None and curves.curve_count > 0
-        mesh_arrays = check_mesh(mesh) if mesh is not None else None
-        has_mesh = mesh_arrays is not None and len(mesh_arrays[1]) > 0
-        if not has_hair and not has_mesh:
-            raise InputError(
-                "render: nothing to draw; give non-empty curves and/or a mesh with faces"
-            )
-        shading, subdivisions, oit = settings.shading, settings.subdivisions, settings.oit
-        hair_color = color3(settings.hair_color, "hair_color")
-        skin_color = color3(settings.skin_color, "skin_color")
-        lights = settings.light_list()
-        if camera is None:
-            camera = settings.camera()
-
+        f = prepare_frame(settings, self.size, curves, mesh, camera, self._shadow.size)
+        params, camera, light = f.params, f.camera, f.light
         w, h = self.size
-        lo, hi = scene_bounds(curves if has_hair else None, mesh)
-        if camera is None:
-            camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
-        elif not isinstance(camera, Camera):
-            raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
-        near, far = _clip_range(camera, lo, hi)
-        view_proj = camera.projection_matrix(w / h, near, far) @ camera.view_matrix()
-        n_dir, dirs, rads, ambient = _light_uniforms(
-            default_lights() if lights is None else lights, camera
-        )
         right, _, forward = camera.basis()
-        model = {f"p_{k}": (np.radians(v) if k in ANGLE_PARAMS else v) for k, v in params.items()}
         frame = {
-            **model,
-            "n_lights": n_dir,
-            "light_dir": dirs.tobytes(),
-            "light_radiance": rads.tobytes(),
-            "ambient": tuple(ambient),
+            **f.model,
+            "n_lights": f.n_lights,
+            "light_dir": f.light_dirs.tobytes(),
+            "light_radiance": f.light_radiance.tobytes(),
+            "ambient": tuple(f.ambient),
             "root_occlusion": params["root_occlusion"],
             "roundness": params["roundness"],
             "shadow_density": params["shadow_density"],
             "shadows": False,
             **SHADOW_UNITS,  # distinct units even when unused: their sampler types differ
         }
-        light = None
-        if settings.shadows and n_dir > 0:
-            key = dirs[0].astype(np.float64)
-            light = (key, *light_projection(key, lo, hi, self._shadow.size))
+        subdivisions, oit = settings.subdivisions, settings.oit
         hair_gs = {"subdivisions": subdivisions}
 
         ctx = self.ctx
         released: list = []
         try:
             hair_vaos, skin_vaos = {}, None
-            if has_hair:
+            if f.curves is not None:
                 hair_vaos = self._hair_arrays(
-                    curves,
-                    shading,
+                    f.curves,
+                    settings.shading,
                     camera,
                     None if light is None else light[2],
-                    hair_color,
+                    f.hair_color,
                     float(settings.hair_width),
                     float(settings.hair_opacity),
                     oit,
                     subdivisions,
                     released,
                 )
-            if has_mesh:
-                skin_vaos = self._mesh_arrays(mesh_arrays, released)
+            if f.mesh is not None:
+                skin_vaos = self._mesh_arrays(f.mesh, released)
             if light is not None:
-                hair_lo, hair_hi = hair_bounds(curves) if has_hair else (lo, hi)
-                layer = params["shadow_layer"] or automatic_layer(hair_lo, hair_hi)
                 frame.update(
                     self._shadow.render(
                         light,
-                        layer,
+                        f.layer,
                         hair_vaos,
                         hair_gs,
                         skin_vaos["mesh_depth"] if skin_vaos else None,
@@ -301,7 +234,7 @@ class Renderer:
                 )
             self._shadow.bind()
             view = {
-                "view_proj": _mat(view_proj),
+                "view_proj": _mat(f.view_proj),
                 "eye": (*camera.eye, 1.0),
                 "view_forward": tuple(forward),
                 "view_right": tuple(right),
@@ -309,12 +242,12 @@ class Renderer:
                 "max_step_px": MAX_STEP_PX,
                 "viewport": (float(w), float(h)),
                 "line_stretch": self.msaa == 0,  # multisampled lines are 1-pixel rectangles
-                "oit_depth": _nearest_depth(camera, lo, hi, near),
+                "oit_depth": f.oit_depth,
                 "oit_sharpness": params["oit_sharpness"] if oit else 0.0,
             }
             use_framebuffer(self._hair_fbo)
             self._hair_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)  # and the shared depth
-            self._draw_opaque(skin_vaos, {**frame, **view}, skin_color, params["skin_wrap"])
+            self._draw_opaque(skin_vaos, {**frame, **view}, f.skin_color, params["skin_wrap"])
             self._draw_hair(hair_vaos.get("colour", []), {**frame, **view, **hair_gs}, oit)
             self._composite()
             raw = self._out_fbo.read(components=4, dtype="f2")
@@ -496,58 +429,3 @@ class Renderer:
             tex.use(unit)
         set_uniforms(vao.program, {"opaque": 0, "accum": 1, "weight": 2, "samples": self.msaa})
         vao.render(mode=ctx.TRIANGLES, vertices=3)
-
-
-def _light_uniforms(
-    lights: Sequence[Light], camera: Camera
-) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
-    """(directional count, directions, radiances, ambient); the first directional light
-    is the key, the one that casts shadows."""
-    directions, radiances = [], []
-    ambient = np.zeros(3)
-    for light in lights:
-        if not isinstance(light, Light):
-            raise InputError(f"lights: expected Light objects, got {type(light).__name__}")
-        if light.is_ambient:
-            ambient += light.radiance
-        else:
-            directions.append(light.world_direction(camera))
-            radiances.append(light.radiance)
-    if len(directions) > MAX_LIGHTS:
-        raise InputError(f"lights: at most {MAX_LIGHTS} directional lights, got {len(directions)}")
-    dirs = np.zeros((MAX_LIGHTS, 3), dtype="f4")
-    rads = np.zeros((MAX_LIGHTS, 3), dtype="f4")
-    if directions:
-        dirs[: len(directions)] = directions
-        rads[: len(radiances)] = radiances
-    return len(directions), dirs, rads, ambient
-
-
-def render(
-    curves: HairCurves | None,
-    mesh: object | None = None,
-    camera: Camera | None = None,
-    settings: RenderParams | None = None,
-    out: str | os.PathLike[str] | None = None,
-    **overrides: object,
-) -> np.ndarray:
-    """Render hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
-
-    ``settings`` is a :class:`~follicle.render.settings.RenderParams` (a scene's
-    ``[render]``; None: its defaults); keyword ``overrides`` change its keys (``size=(800,
-    600)``, ``shading="marschner"``, ``shadows=False``, ...) through
-    ``settings.replace``, so a bad value is a ConfigError naming ``[render].key``;
-    ``background`` also takes one colour or (top, bottom), and ``lights``
-    :class:`~follicle.render.Light` objects. ``camera`` None takes the settings' eye and
-    target, else frames the union of hair and mesh bounds at ``fov`` degrees
-    (vertical). When ``out`` is given the image is also written there as PNG
-    (atomically). See :class:`Renderer` and :meth:`Renderer.draw`.
-    """
-    from .settings import with_overrides
-
-    settings = with_overrides(settings, overrides)
-    with Renderer.from_settings(settings) as r:
-        image = r.draw(curves, mesh, camera=camera, settings=settings)
-    if out is not None:
-        save_png(image, out)
-    return image

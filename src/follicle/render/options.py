@@ -23,6 +23,7 @@ __all__ = [
     "MODEL_PARAMS",
     "ANGLE_PARAMS",
     "MAX_SHADOW_SIZE",
+    "MAX_STEP_PX",
     "DEFAULT_SHADOW_SIZE",
     "shading_params_for",
     "color3",
@@ -39,6 +40,8 @@ MAX_LIGHTS = 8
 MAX_SIZE = 8192
 MAX_SHADOW_SIZE = 4096
 DEFAULT_SHADOW_SIZE = 512  # texels per side of the key light's shadow maps
+# longest Catmull-Rom step on screen, pixels: shading is interpolated along a step
+MAX_STEP_PX = 8.0
 
 DEFAULT_HAIR_COLOR = (0.16, 0.09, 0.045)  # linear RGB, a mid brown
 DEFAULT_HAIR_WIDTH = 80e-6  # diameter, metres

@@ -16,6 +16,7 @@ from pydantic import BeforeValidator, Field, model_validator
 from ..errors import ConfigError, InputError
 from ..settings import RGB, StrictSection, Unit, Vec3, not_bool, shown
 from .camera import DEFAULT_FOV, Camera, Light
+from .engines import ENGINES
 from .options import (
     DEFAULT_BACKGROUND,
     DEFAULT_HAIR_COLOR,
@@ -94,6 +95,11 @@ class RenderParams(StrictSection):
         tuple[Annotated[int, Field(ge=1, le=MAX_SIZE)], Annotated[int, Field(ge=1, le=MAX_SIZE)]],
         Field(strict=False),
     ] = Field((960, 960), description="image width and height, pixels")
+    engine: Literal[ENGINES] = Field(  # type: ignore[valid-type]
+        "opengl",
+        description="raster engine: opengl, cpu (follicle's strand rasterizer) or auto"
+        " (OpenGL on a GPU, the CPU engine on a software GL or without EGL)",
+    )
     shading: Literal[SHADINGS] = Field(  # type: ignore[valid-type]
         "kajiya-kay", description="hair shading model"
     )

@@ -15,7 +15,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import FollicleError, InputError
 from ..pipeline import framed_camera, groom_scene
-from ..render import Camera, Renderer, default_lights, save_png
+from ..render import Camera, CpuRenderer, Renderer, default_lights, make_renderer, save_png
 from ..render.options import parse_size
 from ..render.settings import RenderParams, light_table
 from ..render.video import Mp4Writer
@@ -58,7 +58,8 @@ def _turn(yaw: float, pitch: float, pivot: np.ndarray) -> np.ndarray:
 
 class Controller:
     """A live simulation of ``scene`` (a Scene, a TOML path or None for the default) seen
-    through an offscreen :class:`~follicle.render.Renderer` of ``size`` pixels.
+    through an offscreen renderer of the scene's engine
+    (:func:`~follicle.render.make_renderer`) of ``size`` pixels.
 
     Each :meth:`step_frame` advances the simulation by ``1 / fps`` seconds (when
     playing), poses the head (the scene's ``[sim].motion``, repeated, times the manual
@@ -89,7 +90,7 @@ class Controller:
         self.gusts: list[Gust] = []  # the sim's wind bursts, dropped once over
         self._video: Mp4Writer | None = None
         self._hair_limit: int | None = None
-        self._renderer: Renderer | None = None
+        self._renderer: Renderer | CpuRenderer | None = None
         self._fast: tuple[RenderParams, RenderParams] | None = None  # [render], fast's copy
         self._quality = "full"
         self.quality = quality
@@ -299,7 +300,7 @@ class Controller:
         """The renderer's picture, with the [render] settings or :attr:`quality` fast's."""
         settings = self._settings()
         if self._renderer is None:
-            self._renderer = Renderer.from_settings(settings.replace("viewer", size=self.size))
+            self._renderer = make_renderer(settings.replace("viewer", size=self.size))
         return self._renderer.draw(curves, mesh, camera=self.camera, settings=settings)
 
     def _settings(self) -> RenderParams:

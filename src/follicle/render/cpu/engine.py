@@ -1,0 +1,356 @@
+"""The CPU engine: follicle's own strand rasterizer, numba kernels over plain arrays, for
+machines whose OpenGL is a software rasterizer (or missing). Like the compute
+rasterizers that draw thin strands in Unreal and Frostbite, it skips the
+general-purpose pipeline that wastes its work on sub-pixel lines.
+
+A frame, as the OpenGL engine's (:mod:`follicle.render.opengl`), from the same set-up
+(:func:`follicle.render.frame.prepare_frame`):
+
+1. the key light's maps (shadows on): the skin's depth, then the deep opacity maps'
+   nearest hair depth and four opacity layers (Yuksel & Keyser 2008), drawn by the
+   same strand kernels as the colour;
+2. the opaque layer: the background gradient and the skin, rasterized into a depth
+   buffer and shaded once per pixel (Lambert with wrap, shadowed);
+3. the hair: every segment smoothed by Catmull-Rom, cut into steps by its screen length
+   and bend, each step projected and shaded (:mod:`.steps`); segments binned into
+   32-pixel tiles (:mod:`.bins`); the tiles drawn in parallel with analytic coverage
+   and weighted blended order-independent transparency (:mod:`.lines`);
+4. the resolve: the hair's weighted average over the opaque layer by 1 − Π(1 − α),
+   encoded to 8-bit sRGB.
+
+Each tile belongs to one thread and every list is in drawing order, so the picture is
+the same, byte for byte, for any number of threads.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from ...curves import HairCurves
+from ...validate import whole
+from ..camera import Camera
+from ..frame import Frame, hair_vertices, prepare_frame
+from ..image import encode_srgb8
+from ..options import (
+    DEFAULT_SHADOW_SIZE,
+    MAX_SHADOW_SIZE,
+    MAX_STEP_PX,
+    parse_background,
+    parse_size,
+)
+from .bins import TILE, bin_boxes
+from .lines import PASSES, draw_strands, segment_boxes
+from .shading import MODELS, pack_model, pack_shadow
+from .steps import fill_steps, segment_steps
+from .triangles import draw_triangles, project_triangles, shade_skin
+
+if TYPE_CHECKING:
+    from ..settings import RenderParams
+
+__all__ = ["CpuRenderer"]
+
+STAGES = ("shadows", "skin", "steps", "bin", "raster", "resolve")
+
+
+@njit(cache=True, parallel=True)
+def _resolve(buf, behind, out):
+    """Weighted blended OIT's last step: the hair's average colour Σcαw / Σαw covers the
+    opaque layer by 1 − Π(1 − α)."""
+    h, w = behind.shape[:2]
+    for i in prange(h):
+        for j in range(w):
+            weight = buf[i, j, 3]
+            keep = buf[i, j, 4]
+            for c in range(3):
+                hair = buf[i, j, c] / weight if weight > 0.0 else 0.0
+                out[i, j, c] = hair + (behind[i, j, c] - hair) * keep
+            out[i, j, 3] = 1.0
+
+
+def _gradient(size: tuple[int, int], top: np.ndarray, bottom: np.ndarray) -> np.ndarray:
+    """The background: bottom to top, linear over the pixel centres, (H, W, 3) float32."""
+    w, h = size
+    v = ((h - 0.5 - np.arange(h)) / h)[:, None]
+    rows = bottom[None, :] + (top - bottom)[None, :] * v
+    return np.ascontiguousarray(np.broadcast_to(rows[:, None, :], (h, w, 3)), dtype=np.float32)
+
+
+def _view(eye: np.ndarray, perspective: bool, forward, right, pixel: float, step: float):
+    return np.array([*eye, float(perspective), *forward, *right, pixel, step], np.float64)
+
+
+class CpuRenderer:
+    """The CPU engine, with :class:`~follicle.render.Renderer`'s interface: ``size``
+    (width, height), ``msaa`` (accepted for the same settings; coverage here is
+    analytic, so it draws no samples), ``background`` and ``shadow_size``. Holds no
+    resources: :meth:`release` does nothing. :attr:`timings` has the seconds of each
+    stage of the last frame (:data:`STAGES`)."""
+
+    def __init__(
+        self,
+        size: Sequence[int] = (960, 960),
+        msaa: int = 4,
+        background: object = None,
+        shadow_size: int = DEFAULT_SHADOW_SIZE,
+    ) -> None:
+        self.size = parse_size(size)
+        self.msaa = whole(msaa, "msaa", 0, 64, what="samples per pixel (0 or 1: off)")
+        self.shadow_size = whole(shadow_size, "shadow_size", 16, MAX_SHADOW_SIZE, what="texels")
+        self.background = parse_background(background)
+        self.timings = dict.fromkeys(STAGES, 0.0)
+        self._backdrop = _gradient(self.size, *self.background)
+
+    @classmethod
+    def from_settings(cls, settings: RenderParams | None = None) -> CpuRenderer:
+        """A renderer of the ``size``, ``msaa``, background and ``shadow_size`` of
+        ``settings`` (None: defaults)."""
+        from ..settings import with_overrides
+
+        s = with_overrides(settings, {})
+        return cls(s.size, s.msaa, s.background, s.shadow_size)
+
+    def release(self) -> None:
+        """Nothing to free (the API of :class:`~follicle.render.Renderer`)."""
+
+    def __enter__(self) -> CpuRenderer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+    # ------------------------------------------------------------------ drawing
+    def draw(
+        self,
+        curves: HairCurves | None = None,
+        mesh: object | None = None,
+        camera: Camera | None = None,
+        settings: RenderParams | None = None,
+    ) -> np.ndarray:
+        """Render one frame; returns (H, W, 4) uint8, top row first, sRGB, alpha 255.
+        The arguments are :meth:`follicle.render.Renderer.draw`'s."""
+        from ..settings import with_overrides
+
+        settings = with_overrides(settings, {})
+        f = prepare_frame(settings, self.size, curves, mesh, camera, self.shadow_size)
+        times = dict.fromkeys(STAGES, 0.0)
+        clock = time.perf_counter()
+        attrs = hair_vertices(f) if f.curves is not None else None
+        shadow = self._shadow_maps(f, attrs)
+        times["shadows"] = time.perf_counter() - clock
+
+        clock = time.perf_counter()
+        behind, ref = self._opaque(f, shadow)
+        times["skin"] = time.perf_counter() - clock
+        w, h = self.size
+        linear = np.empty((h, w, 4), np.float32)
+        if f.curves is None:
+            linear[..., :3], linear[..., 3] = behind, 1.0
+        else:
+            cam = f.camera
+            right, _, forward = cam.basis()
+            view = _view(cam.eye, True, forward, right, cam.pixel_scale(h), MAX_STEP_PX)
+            p = f.params
+            clock = time.perf_counter()
+            steps, step_start = self._steps(
+                f,
+                attrs,
+                f.view_proj,
+                view,
+                (w, h),
+                True,
+                np.array([p["root_occlusion"], p["roundness"]], np.float64),
+                shadow,
+            )
+            times["steps"] = time.perf_counter() - clock
+            clock = time.perf_counter()
+            boxes = segment_boxes(steps, step_start)
+            order = None
+            if not settings.oit:  # "over" blending: segments back to front
+                order = _back_to_front(steps, step_start)
+                boxes = boxes[order]
+            tile_start, items = bin_boxes(boxes, TILE, *_tiles(w, h))
+            if order is not None:
+                items = order[items].astype(np.int32)
+            times["bin"] = time.perf_counter() - clock
+            clock = time.perf_counter()
+            consts = np.array([f.oit_depth, p["oit_sharpness"], 1.0], np.float64)
+            if settings.oit:
+                buf = np.zeros((h, w, 5), np.float32)
+                buf[..., 4] = 1.0
+                mode = PASSES["oit"]
+            else:
+                buf = behind.copy()
+                mode = PASSES["over"]
+            nx = _tiles(w, h)[0]
+            draw_strands(
+                mode,
+                steps,
+                step_start,
+                tile_start,
+                items,
+                TILE,
+                nx,
+                buf,
+                ref,
+                ref,
+                consts,
+                _threads(),
+            )
+            times["raster"] = time.perf_counter() - clock
+            clock = time.perf_counter()
+            if settings.oit:
+                _resolve(buf, behind, linear)
+            else:
+                linear[..., :3], linear[..., 3] = buf, 1.0
+            times["resolve"] = time.perf_counter() - clock
+        clock = time.perf_counter()
+        image = encode_srgb8(linear.astype(np.float16))
+        image[..., 3] = 255
+        times["resolve"] += time.perf_counter() - clock
+        self.timings = times
+        return image
+
+    def _steps(self, f: Frame, attrs, vp, view, size, shade, common, shadow):
+        """The hair's steps seen through ``vp`` (see :mod:`.steps`)."""
+        curves = f.curves
+        assert curves is not None
+        points = np.ascontiguousarray(curves.points, dtype=np.float32)
+        offsets = np.ascontiguousarray(curves.offsets, dtype=np.int64)
+        counts, seg_base = segment_steps(points, offsets, view, f.settings.subdivisions)
+        step_start = np.zeros(len(counts) + 1, np.int64)
+        np.cumsum(counts + 1, out=step_start[1:])
+        steps = fill_steps(
+            points,
+            offsets,
+            attrs,
+            seg_base,
+            step_start,
+            np.ascontiguousarray(vp, np.float64),
+            view,
+            float(size[0]),
+            float(size[1]),
+            shade,
+            MODELS[f.settings.shading],
+            pack_model(f.settings.shading, f.params),
+            common,
+            f.n_lights,
+            f.light_dirs,
+            f.light_radiance,
+            np.asarray(f.ambient, np.float64),
+            shadow,
+        )
+        return steps, step_start
+
+    def _shadow_maps(self, f: Frame, attrs) -> tuple:
+        """The key light's maps and lookup numbers (see shading.key_visibility); a map
+        of one texel and shadows off when there is no key light or shadows are off."""
+        if f.light is None:
+            one = np.ones((1, 1), np.float32)
+            return (
+                np.eye(4),
+                one,
+                np.zeros((1, 1, 4), np.float32),
+                one,
+                pack_shadow(False, 1, 1, 0, 0),
+            )
+        direction, matrix, texel, depth_range = f.light
+        size = self.shadow_size
+        nx, ny = _tiles(size, size)
+        skin = np.ones((size, size), np.float32)
+        if f.mesh is not None:
+            vertices, faces, _ = f.mesh
+            faces = np.ascontiguousarray(faces, np.int64)
+            screen, boxes = project_triangles(vertices, faces, matrix, size, size, False)
+            tile_start, items = bin_boxes(boxes, TILE, nx, ny)
+            dummy_tri = np.empty((1, 1), np.int32)
+            dummy_bary = np.empty((1, 1, 2), np.float32)
+            draw_triangles(
+                screen, faces, tile_start, items, TILE, nx, skin, dummy_tri, dummy_bary, False
+            )
+        first = np.ones((size, size, 1), np.float32)
+        layers = np.zeros((size, size, 4), np.float32)
+        if f.curves is not None:
+            right = matrix[0, :3] / np.linalg.norm(matrix[0, :3])
+            view = _view(direction, False, -direction, right, texel, 1e9)
+            off = (np.eye(4), np.ones((1, 1), np.float32), np.zeros((1, 1, 4), np.float32))
+            off += (np.ones((1, 1), np.float32), pack_shadow(False, 1, 1, 0, 0))
+            steps, step_start = self._steps(
+                f, attrs, matrix, view, (size, size), False, np.zeros(2), off
+            )
+            boxes = segment_boxes(steps, step_start)
+            tile_start, items = bin_boxes(boxes, TILE, nx, ny)
+            consts = np.array([1.0, 0.0, f.layer / depth_range], np.float64)
+            args = (steps, step_start, tile_start, items, TILE, nx)
+            draw_strands(PASSES["nearest"], *args, first, skin, skin, consts, _threads())
+            draw_strands(PASSES["layers"], *args, layers, first[..., 0], skin, consts, _threads())
+        shadow = pack_shadow(
+            True, f.layer / depth_range, 1.0 / depth_range, texel, float(f.params["shadow_density"])
+        )
+        return (
+            np.ascontiguousarray(matrix, np.float64),
+            first[..., 0].copy(),
+            layers,
+            skin,
+            shadow,
+        )
+
+    def _opaque(self, f: Frame, shadow: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """The background and the shaded skin (H, W, 3), and the skin's view depth (H, W;
+        +inf where there is none). With ``msaa`` 2 or more the skin is drawn and shaded
+        at 2 × 2 samples a pixel and averaged (its silhouette anti-aliased); the hair is
+        then tested against the farthest of a pixel's samples."""
+        w, h = self.size
+        if f.mesh is None:
+            return self._backdrop.copy(), np.full((h, w), np.inf, np.float64)
+        k = 2 if self.msaa >= 2 else 1
+        sw, sh = w * k, h * k
+        behind = np.repeat(np.repeat(self._backdrop, k, axis=0), k, axis=1)  # a copy
+        depth = np.full((sh, sw), np.inf, np.float64)
+        vertices, faces, normals = f.mesh
+        faces = np.ascontiguousarray(faces, np.int64)
+        screen, boxes = project_triangles(vertices, faces, f.view_proj, sw, sh, True)
+        nx, ny = _tiles(sw, sh)
+        tile_start, items = bin_boxes(boxes, TILE, nx, ny)
+        tri = np.full((sh, sw), -1, np.int32)
+        bary = np.zeros((sh, sw, 2), np.float32)
+        draw_triangles(screen, faces, tile_start, items, TILE, nx, depth, tri, bary, True)
+        shade_skin(
+            tri,
+            bary,
+            vertices,
+            normals,
+            faces,
+            np.asarray(f.camera.eye, np.float64),
+            np.asarray(f.skin_color, np.float64),
+            float(f.params["skin_wrap"]),
+            f.n_lights,
+            f.light_dirs,
+            f.light_radiance,
+            np.asarray(f.ambient, np.float64),
+            shadow,
+            behind,
+        )
+        if k == 1:
+            return behind, depth
+        colour = behind.reshape(h, k, w, k, 3).mean(axis=(1, 3), dtype=np.float64)
+        return colour.astype(np.float32), depth.reshape(h, k, w, k).max(axis=(1, 3))
+
+
+def _threads() -> int:
+    return numba.get_num_threads()
+
+
+def _tiles(w: int, h: int) -> tuple[int, int]:
+    return (w + TILE - 1) // TILE, (h + TILE - 1) // TILE
+
+
+def _back_to_front(steps: np.ndarray, step_start: np.ndarray) -> np.ndarray:
+    """Segments ordered farthest first by the view depth of their middle step."""
+    middle = steps[(step_start[:-1] + step_start[1:] - 1) // 2, 2]
+    return np.argsort(-np.nan_to_num(middle, nan=-np.inf), kind="stable").astype(np.int64)

@@ -1,0 +1,349 @@
+"""The hair and skin shading of the CPU engine: the same models, lights and shadow
+lookups as the OpenGL shaders (``shaders/shade_*.glsl``, ``lights.glsl``,
+``hair_radiance.glsl``, ``mesh_fs.glsl``), as numba functions over plain tuples.
+
+Kajiya-Kay (Almeida 2014 §3.3.1 eq. 3.8–3.9; Le Muzic 2012 §5.2.3), Scheuermann 2004
+(Almeida 2014 §3.3.1, Alg. 5–6) and the real-time Marschner et al. 2003 model; the key
+light's visibility through deep opacity maps (Yuksel & Keyser 2008) and the skin's
+shadow map with 2×2 percentage-closer filtering. The model's parameters come packed in
+one float64 array (:func:`pack_model`) in the order of :data:`PARAM_ORDER`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..options import ANGLE_PARAMS, SHADINGS
+
+__all__ = ["MODELS", "PARAM_ORDER", "pack_model", "pack_shadow"]
+
+MODELS = {name: i for i, name in enumerate(SHADINGS)}
+_KK = ("diffuse", "specular", "shininess", "specular_color", "specular2", "shininess2")
+_KK += ("shift", "shift2")
+PARAM_ORDER = {
+    "kajiya-kay": _KK,
+    "scheuermann": (*_KK, "shift_noise", "sparkle", "noise_frequency"),
+    "marschner": ("alpha", "beta", "r", "tt", "trt", "tt_width", "eta", "diffuse"),
+}
+_U32 = np.uint64(0xFFFFFFFF)
+
+
+def pack_model(shading: str, params: dict[str, object]) -> np.ndarray:
+    """The model's parameters as one float64 array (a colour takes three places; angles
+    in radians), in :data:`PARAM_ORDER`."""
+    out: list[float] = []
+    for key in PARAM_ORDER[shading]:
+        value = params[key]
+        if isinstance(value, (tuple, list)):
+            out.extend(float(v) for v in value)
+        else:
+            out.append(math.radians(value) if key in ANGLE_PARAMS else float(value))
+    return np.array(out, dtype=np.float64)
+
+
+def pack_shadow(
+    enabled: bool, layer_depth: float, depth_per_metre: float, texel: float, density: float
+) -> np.ndarray:
+    """The shadow lookup's numbers: on, layer thickness and depth units per metre (light
+    depth, 0..1), texel size (m), κ of exp(−κ·opacity)."""
+    return np.array([float(enabled), layer_depth, depth_per_metre, texel, density], np.float64)
+
+
+# ----------------------------------------------------------------------------- vectors
+@njit(cache=True)
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(cache=True)
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(cache=True)
+def scaled(a, s):
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+@njit(cache=True)
+def added(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@njit(cache=True)
+def unit(a):
+    n = math.sqrt(dot(a, a))
+    if n <= 0.0:
+        return a
+    return (a[0] / n, a[1] / n, a[2] / n)
+
+
+# ----------------------------------------------------------------------------- noise
+@njit(cache=True)
+def _hash01(x):
+    """hair_common.glsl's lowbias32 mix of a 32-bit unsigned integer, to [0, 1)."""
+    x = x & _U32
+    x ^= x >> np.uint64(16)
+    x = (x * np.uint64(0x7FEB352D)) & _U32
+    x ^= x >> np.uint64(15)
+    x = (x * np.uint64(0x846CA68B)) & _U32
+    x ^= x >> np.uint64(16)
+    return float(x) * (1.0 / 4294967296.0)
+
+
+@njit(cache=True)
+def _strand_noise(seed, x):
+    """Smooth value noise along a strand: x in cycles, seed in [0, 1) picks the strand."""
+    i = math.floor(x)
+    f = x - i
+    base = (np.uint64(np.int64(seed * 16777216.0)) * np.uint64(1024)) & _U32
+    base = (base + np.uint64(np.int64(i) & 1023)) & _U32
+    s = f * f * (3.0 - 2.0 * f)
+    a = _hash01(base)
+    return a + (_hash01(base + np.uint64(1)) - a) * s
+
+
+# ----------------------------------------------------------------------------- models
+@njit(cache=True)
+def _kk_specular(T, L, E, p):
+    """Almeida 2014 eq. 3.9 on the cone of mirror directions around T."""
+    tl = dot(T, L)
+    te = dot(T, E)
+    c = math.sqrt(max(0.0, 1.0 - tl * tl)) * math.sqrt(max(0.0, 1.0 - te * te)) - tl * te
+    return max(c, 0.0) ** p
+
+
+@njit(cache=True)
+def _strand_specular(T, H, p):
+    """Scheuermann 2004 (Almeida 2014 Alg. 6 lines 19–21): sin(T, H)^p, faded out as T
+    turns away from H."""
+    th = dot(T, H)
+    x = min(max(th + 1.0, 0.0), 1.0)  # smoothstep(-1, 0, th)
+    return x * x * (3.0 - 2.0 * x) * math.sqrt(max(0.0, 1.0 - th * th)) ** p
+
+
+@njit(cache=True)
+def _gaussian(width, x):
+    return math.exp(-0.5 * x * x / (width * width)) / (width * math.sqrt(2.0 * math.pi))
+
+
+@njit(cache=True)
+def _fresnel(eta, c):
+    """Unpolarised Fresnel reflectance of a dielectric at incidence cosine c."""
+    sin_t2 = (1.0 - c * c) / (eta * eta)
+    if sin_t2 >= 1.0:
+        return 1.0
+    ct = math.sqrt(1.0 - sin_t2)
+    rs = (c - eta * ct) / (c + eta * ct)
+    rp = (eta * c - ct) / (eta * c + ct)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+@njit(cache=True, inline="always")
+def _light(lrad, i, key):
+    s = key if i == 0 else 1.0
+    return (lrad[i, 0] * s, lrad[i, 1] * s, lrad[i, 2] * s)
+
+
+@njit(cache=True, inline="always")
+def _shade_tangent(model, prm, T, N, E, base, t, seed, key, nl, ldir, lrad, amb):
+    """Kajiya-Kay (model 0) or Scheuermann (model 1): diffuse, a white primary and a
+    tinted secondary lobe on tangents shifted along N (shade_kajiya_kay.glsl,
+    shade_scheuermann.glsl)."""
+    jitter = 0.0
+    mask = 1.0
+    if model == 1:
+        x = t * prm[12]
+        jitter = prm[10] * (_strand_noise(seed, x) - 0.5)
+        m = _strand_noise(seed + 0.5 - math.floor(seed + 0.5), 2.3 * x + 0.37)
+        mask = 1.0 + (m - 1.0) * prm[11]
+    T1 = unit(added(T, scaled(N, prm[8] + jitter)))
+    T2 = unit(added(T, scaled(N, prm[9] + jitter)))
+    dr = dg = db = 0.0
+    sr = sg = sb = 0.0
+    for i in range(nl):
+        L = (float(ldir[i, 0]), float(ldir[i, 1]), float(ldir[i, 2]))
+        rad = _light(lrad, i, key)
+        if model == 0:
+            tl = dot(T, L)
+            d = math.sqrt(max(0.0, 1.0 - tl * tl))
+            s1 = _kk_specular(T1, L, E, prm[2])
+            s2 = _kk_specular(T2, L, E, prm[7])
+        else:
+            H = unit(added(L, E))
+            d = max(0.0, 0.75 * dot(N, L) + 0.25)
+            s1 = _strand_specular(T1, H, prm[2])
+            s2 = mask * _strand_specular(T2, H, prm[7])
+        dr += rad[0] * d
+        dg += rad[1] * d
+        db += rad[2] * d
+        sr += rad[0] * (prm[1] * prm[3] * s1 + prm[6] * base[0] * s2)
+        sg += rad[1] * (prm[1] * prm[4] * s1 + prm[6] * base[1] * s2)
+        sb += rad[2] * (prm[1] * prm[5] * s1 + prm[6] * base[2] * s2)
+    k = prm[0]
+    return (
+        base[0] * (amb[0] + k * dr) + sr,
+        base[1] * (amb[1] + k * dg) + sg,
+        base[2] * (amb[2] + k * db) + sb,
+    )
+
+
+@njit(cache=True, inline="always")
+def _shade_marschner(prm, T, E, base, key, nl, ldir, lrad, amb):
+    """Marschner et al. 2003, simplified for real time (shade_marschner.glsl): R, TT and
+    TRT lobes with the hair colour as an absorption per fibre diameter, and a sin(T, L)
+    diffuse term."""
+    alpha, beta, p_r, p_tt, p_trt, tt_width, eta, p_diffuse = (
+        prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7],
+    )  # fmt: skip
+    sig = (
+        -math.log(min(max(base[0], 1e-4), 1.0)),
+        -math.log(min(max(base[1], 1e-4), 1.0)),
+        -math.log(min(max(base[2], 1e-4), 1.0)),
+    )
+    sin_r = min(max(dot(T, E), -1.0), 1.0)
+    theta_r = math.asin(sin_r)
+    Ep = added(E, scaled(T, -sin_r))
+    r = base[0] * amb[0]
+    g = base[1] * amb[1]
+    b = base[2] * amb[2]
+    for i in range(nl):
+        L = (float(ldir[i, 0]), float(ldir[i, 1]), float(ldir[i, 2]))
+        rad = _light(lrad, i, key)
+        sin_i = min(max(dot(T, L), -1.0), 1.0)
+        theta_i = math.asin(sin_i)
+        cos_i = math.sqrt(1.0 - sin_i * sin_i)
+        theta_h = 0.5 * (theta_i + theta_r)
+        theta_d = 0.5 * (theta_r - theta_i)
+        cos_d = max(math.cos(theta_d), 0.2)
+        Lp = added(L, scaled(T, -sin_i))
+        cos_phi = dot(Lp, Ep) / math.sqrt(max(dot(Lp, Lp) * dot(Ep, Ep), 1e-12))
+        phi = math.acos(min(max(cos_phi, -1.0), 1.0))
+        m_r = _gaussian(beta, theta_h - alpha)
+        m_tt = _gaussian(0.5 * beta, theta_h + 0.5 * alpha)
+        m_trt = _gaussian(2.0 * beta, theta_h + 1.5 * alpha)
+        sin_d = math.sin(theta_d)
+        cos_t = math.sqrt(1.0 - sin_d * sin_d / (eta * eta))
+        eta_2d = math.sqrt(eta * eta - sin_d * sin_d) / cos_d
+        f_centre = _fresnel(eta, cos_d)
+        n_r = 0.25 * math.cos(0.5 * phi) * _fresnel(eta, cos_d * math.cos(0.5 * phi))
+        tt = (1.0 - f_centre) * (1.0 - f_centre) * _gaussian(tt_width, math.pi - phi)
+        cos_gt = math.sqrt(1.0 - 0.75 / (eta_2d * eta_2d))
+        f_trt = _fresnel(eta, 0.5 * cos_d)
+        trt = 0.25 * (1.0 - f_trt) * (1.0 - f_trt) * f_trt
+        scale = 1.0 / (cos_d * cos_d)
+        path = 2.0 * cos_gt / cos_t
+        for c in range(3):
+            s = (
+                p_r * m_r * n_r
+                + p_tt * m_tt * tt * math.exp(-sig[c] / cos_t)
+                + p_trt * m_trt * trt * math.exp(-sig[c] * path)
+            ) * scale
+            v = rad[c] * (s * cos_i + p_diffuse * base[c] * cos_i)
+            if c == 0:
+                r += v
+            elif c == 1:
+                g += v
+            else:
+                b += v
+    return (r, g, b)
+
+
+# ----------------------------------------------------------------------------- shadows
+@njit(cache=True, inline="always")
+def _dom_opacity(first, layers, qx, qy, z, layer_depth):
+    """Hair opacity in front of light depth z at texel (qx, qy), counted linearly
+    across each of the four layers (lights.glsl, dom_opacity)."""
+    x = (z - first[qy, qx]) / layer_depth
+    total = 0.0
+    for k in range(4):
+        total += layers[qy, qx, k] * min(max(x - k, 0.0), 1.0)
+    return total
+
+
+@njit(cache=True, inline="always")
+def key_visibility(p, lift, lvp, first, layers, skin, sh):
+    """Share of the key light reaching world point p: the deep opacity maps' hair
+    transmittance exp(−κ·opacity), bilinear over the four nearest texels, times the
+    skin shadow map's 2×2 percentage-closer filter. The lookup moves ``lift`` metres
+    plus 1.5 texels towards the light (no self-shadowing)."""
+    if sh[0] == 0.0:
+        return 1.0
+    sx = (lvp[0, 0] * p[0] + lvp[0, 1] * p[1] + lvp[0, 2] * p[2] + lvp[0, 3]) * 0.5 + 0.5
+    sy = (lvp[1, 0] * p[0] + lvp[1, 1] * p[1] + lvp[1, 2] * p[2] + lvp[1, 3]) * 0.5 + 0.5
+    sz = (lvp[2, 0] * p[0] + lvp[2, 1] * p[1] + lvp[2, 2] * p[2] + lvp[2, 3]) * 0.5 + 0.5
+    if sx < 0.0 or sy < 0.0 or sx > 1.0 or sy > 1.0:
+        return 1.0
+    z = sz - (lift + 1.5 * sh[3]) * sh[2]
+    size = first.shape[0]
+    stx = sx * size - 0.5
+    sty = sy * size - 0.5
+    fx0 = math.floor(stx)
+    fy0 = math.floor(sty)
+    fx = stx - fx0
+    fy = sty - fy0
+    hi = size - 1
+    x0 = min(max(int(fx0), 0), hi)
+    x1 = min(max(int(fx0) + 1, 0), hi)
+    y0 = min(max(int(fy0), 0), hi)
+    y1 = min(max(int(fy0) + 1, 0), hi)
+    ld = sh[1]
+    o00 = _dom_opacity(first, layers, x0, y0, z, ld)
+    o10 = _dom_opacity(first, layers, x1, y0, z, ld)
+    o01 = _dom_opacity(first, layers, x0, y1, z, ld)
+    o11 = _dom_opacity(first, layers, x1, y1, z, ld)
+    a = o00 + (o10 - o00) * fx
+    b = o01 + (o11 - o01) * fx
+    opacity = a + (b - a) * fy
+    l00 = 1.0 if z <= skin[y0, x0] else 0.0
+    l10 = 1.0 if z <= skin[y0, x1] else 0.0
+    l01 = 1.0 if z <= skin[y1, x0] else 0.0
+    l11 = 1.0 if z <= skin[y1, x1] else 0.0
+    a = l00 + (l10 - l00) * fx
+    b = l01 + (l11 - l01) * fx
+    lit = a + (b - a) * fy
+    return lit * math.exp(-sh[4] * opacity)
+
+
+# ----------------------------------------------------------------------------- radiance
+@njit(cache=True, inline="always")
+def hair_radiance(
+    model, prm, common, P, T, N, E, base, t, seed, width, v2, nl, ldir, lrad, amb, shadow
+):
+    """hair_radiance.glsl: the model under the key light's shadow, darkened towards the
+    root (``common[0]``, root_occlusion) and the ribbon's edges (``common[1]``,
+    roundness; v2 the mean of v² over the shaded area). ``shadow`` is (light matrix,
+    first depths, layers, skin depths, :func:`pack_shadow`)."""
+    key = key_visibility(P, width, shadow[0], shadow[1], shadow[2], shadow[3], shadow[4])
+    if model == 2:
+        rgb = _shade_marschner(prm, T, E, base, key, nl, ldir, lrad, amb)
+    else:
+        rgb = _shade_tangent(model, prm, T, N, E, base, t, seed, key, nl, ldir, lrad, amb)
+    tt = 1.0 - min(max(t, 0.0), 1.0)
+    s = (1.0 - common[0] * tt * math.sqrt(tt)) * (1.0 - common[1] * v2)
+    return (rgb[0] * s, rgb[1] * s, rgb[2] * s)
+
+
+@njit(cache=True, inline="always")
+def skin_radiance(P, N, E, skin, wrap, nl, ldir, lrad, amb, shadow):
+    """mesh_fs.glsl: two-sided Lambert with a wrap-around term, the key light shadowed
+    by hair and skin, looked up two texels off the surface (no acne)."""
+    if dot(N, E) < 0.0:
+        N = scaled(N, -1.0)
+    lift = 2.0 * shadow[4][3]
+    q = added(P, scaled(N, lift))
+    key = key_visibility(q, 0.0, shadow[0], shadow[1], shadow[2], shadow[3], shadow[4])
+    r = amb[0]
+    g = amb[1]
+    b = amb[2]
+    for i in range(nl):
+        L = (float(ldir[i, 0]), float(ldir[i, 1]), float(ldir[i, 2]))
+        rad = _light(lrad, i, key)
+        s = max((dot(N, L) + wrap) / (1.0 + wrap), 0.0)
+        r += rad[0] * s
+        g += rad[1] * s
+        b += rad[2] * s
+    return (skin[0] * r, skin[1] * g, skin[2] * b)

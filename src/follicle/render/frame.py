@@ -1,0 +1,189 @@
+"""What every raster engine works out before it draws a frame: the camera and its clip
+range, the lights, the shading model's parameters, the key light's shadow view and the
+hair's per-vertex attributes, from the curves, the mesh and the
+:class:`~follicle.render.settings.RenderParams`. The OpenGL engine uploads it as
+uniforms and buffers; the CPU engine hands it to its kernels. One set-up, so the two
+draw the same picture.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import InputError
+from .camera import Camera, Light, default_lights, frame_camera, hair_bounds, scene_bounds
+from .options import ANGLE_PARAMS, MAX_LIGHTS, check_mesh, color3, parse_shading, point_attr
+from .shadows import automatic_layer, light_projection
+
+if TYPE_CHECKING:
+    from .settings import RenderParams
+
+__all__ = ["Frame", "prepare_frame", "hair_vertices", "light_arrays"]
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame's set-up (see :func:`prepare_frame`)."""
+
+    settings: RenderParams
+    size: tuple[int, int]
+    camera: Camera
+    near: float
+    far: float
+    view_proj: np.ndarray  # (4, 4) float64, world -> clip
+    params: dict[str, object]  # the shading model's parameters and the common ones
+    n_lights: int  # directional lights; the first is the key
+    light_dirs: np.ndarray  # (MAX_LIGHTS, 3) float32, unit, towards the lights
+    light_radiance: np.ndarray  # (MAX_LIGHTS, 3) float32
+    ambient: np.ndarray  # (3,) float64
+    hair_color: np.ndarray
+    skin_color: np.ndarray
+    curves: HairCurves | None  # None: no hair to draw
+    mesh: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # vertices, faces, normals
+    light: tuple[np.ndarray, np.ndarray, float, float] | None  # key light: direction,
+    # orthographic matrix, texel size, depth range (shadows on); None: no shadows
+    layer: float  # deep opacity map layer thickness, metres
+    oit_depth: float  # view depth of the nearest corner of the scene box
+
+    @property
+    def model(self) -> dict[str, object]:
+        """The parameters as the shaders take them (``p_`` names, angles in radians)."""
+        return {
+            f"p_{k}": (np.radians(v) if k in ANGLE_PARAMS else v) for k, v in self.params.items()
+        }
+
+
+def _clip_range(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[float, float]:
+    """near/far: the camera's own, else fitted around the scene's bounding sphere."""
+    if camera.near is not None and camera.far is not None:
+        return float(camera.near), float(camera.far)
+    centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+    _, _, forward = camera.basis()
+    depth = float((centre - camera.eye) @ forward)
+    far = camera.far if camera.far is not None else max(depth + 1.05 * radius, 1e-6)
+    near = camera.near
+    if near is None:
+        near = max(depth - 1.05 * radius, 1e-4 * far, 1e-6)
+    if far <= near:
+        far = near * 10.0
+    return float(near), float(far)
+
+
+def _nearest_depth(camera: Camera, lo: np.ndarray, hi: np.ndarray, near: float) -> float:
+    """View depth of the nearest corner of the box [lo, hi], at least ``near``."""
+    corners = np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
+    return max(float(np.min((corners - camera.eye) @ camera.basis()[2])), near)
+
+
+def light_arrays(
+    lights: Sequence[Light], camera: Camera
+) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """(directional count, directions, radiances, ambient); the first directional light
+    is the key, the one that casts shadows."""
+    directions, radiances = [], []
+    ambient = np.zeros(3)
+    for light in lights:
+        if not isinstance(light, Light):
+            raise InputError(f"lights: expected Light objects, got {type(light).__name__}")
+        if light.is_ambient:
+            ambient += light.radiance
+        else:
+            directions.append(light.world_direction(camera))
+            radiances.append(light.radiance)
+    if len(directions) > MAX_LIGHTS:
+        raise InputError(f"lights: at most {MAX_LIGHTS} directional lights, got {len(directions)}")
+    dirs = np.zeros((MAX_LIGHTS, 3), dtype="f4")
+    rads = np.zeros((MAX_LIGHTS, 3), dtype="f4")
+    if directions:
+        dirs[: len(directions)] = directions
+        rads[: len(radiances)] = radiances
+    return len(directions), dirs, rads, ambient
+
+
+def prepare_frame(
+    settings: RenderParams,
+    size: tuple[int, int],
+    curves: HairCurves | None,
+    mesh: object | None,
+    camera: Camera | None,
+    shadow_size: int,
+) -> Frame:
+    """Check what is to be drawn and work out the frame (``settings`` already whole:
+    :func:`~follicle.render.settings.with_overrides`). ``camera`` None: the settings'
+    eye and target, else :func:`frame_camera` around hair and mesh."""
+    params = parse_shading(settings.shading, settings.shading_params)
+    if curves is not None and not isinstance(curves, HairCurves):
+        raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
+    has_hair = curves is not None and curves.curve_count > 0
+    mesh_arrays = check_mesh(mesh) if mesh is not None else None
+    has_mesh = mesh_arrays is not None and len(mesh_arrays[1]) > 0
+    if not has_hair and not has_mesh:
+        raise InputError("render: nothing to draw; give non-empty curves and/or a mesh with faces")
+    hair_color = color3(settings.hair_color, "hair_color")
+    skin_color = color3(settings.skin_color, "skin_color")
+    lights = settings.light_list()
+    if camera is None:
+        camera = settings.camera()
+    w, h = size
+    lo, hi = scene_bounds(curves if has_hair else None, mesh)
+    if camera is None:
+        camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
+    elif not isinstance(camera, Camera):
+        raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
+    near, far = _clip_range(camera, lo, hi)
+    view_proj = camera.projection_matrix(w / h, near, far) @ camera.view_matrix()
+    n_dir, dirs, rads, ambient = light_arrays(
+        default_lights() if lights is None else lights, camera
+    )
+    light = None
+    if settings.shadows and n_dir > 0:
+        key = dirs[0].astype(np.float64)
+        light = (key, *light_projection(key, lo, hi, shadow_size))
+    hair_lo, hair_hi = hair_bounds(curves) if has_hair else (lo, hi)
+    layer = float(params["shadow_layer"]) or automatic_layer(hair_lo, hair_hi)
+    return Frame(
+        settings=settings,
+        size=(w, h),
+        camera=camera,
+        near=near,
+        far=far,
+        view_proj=view_proj,
+        params=params,
+        n_lights=n_dir,
+        light_dirs=dirs,
+        light_radiance=rads,
+        ambient=ambient,
+        hair_color=hair_color,
+        skin_color=skin_color,
+        curves=curves if has_hair else None,
+        mesh=mesh_arrays if has_mesh else None,
+        light=light,
+        layer=layer,
+        oit_depth=_nearest_depth(camera, lo, hi, near),
+    )
+
+
+def hair_vertices(frame: Frame) -> np.ndarray:
+    """Per vertex (P, 7) float32: width, colour (3), opacity, t (0 root .. 1 tip), seed
+    (per strand) — the curves' own point data where they have it, the settings' else."""
+    from .strands import curve_param, strand_seeds
+
+    curves = frame.curves
+    assert curves is not None
+    s = frame.settings
+    n = curves.point_count
+    pd = curves.point_data
+    data = np.empty((n, 7), dtype="f4")
+    data[:, 0] = point_attr(pd, "width", (n,), float(s.hair_width))
+    data[:, 1:4] = point_attr(pd, "color", (n, 3), frame.hair_color)
+    data[:, 4] = point_attr(pd, "opacity", (n,), float(s.hair_opacity))
+    data[:, 5] = curve_param(curves.offsets, n)
+    data[:, 6] = strand_seeds(curves.offsets)
+    return data
