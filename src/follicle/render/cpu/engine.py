@@ -303,14 +303,14 @@ class CpuRenderer:
     def _opaque(self, f: Frame, shadow: tuple) -> tuple[np.ndarray, np.ndarray]:
         """The background and the shaded skin (H, W, 3), and the skin's view depth (H, W;
         +inf where there is none). With ``msaa`` 2 or more the skin is drawn and shaded
-        at 2 × 2 samples a pixel and averaged (its silhouette anti-aliased); the hair is
-        then tested against the farthest of a pixel's samples."""
+        at 2 × 2 samples a pixel, each triangle shaded once a pixel (its silhouette
+        anti-aliased); the hair is then tested against the farthest of a pixel's
+        samples."""
         w, h = self.size
         if f.mesh is None:
             return self._backdrop.copy(), np.full((h, w), np.inf, np.float64)
         k = 2 if self.msaa >= 2 else 1
         sw, sh = w * k, h * k
-        behind = np.repeat(np.repeat(self._backdrop, k, axis=0), k, axis=1)  # a copy
         depth = np.full((sh, sw), np.inf, np.float64)
         vertices, faces, normals = f.mesh
         faces = np.ascontiguousarray(faces, np.int64)
@@ -320,9 +320,11 @@ class CpuRenderer:
         tri = np.full((sh, sw), -1, np.int32)
         bary = np.zeros((sh, sw, 2), np.float32)
         draw_triangles(screen, faces, tile_start, items, TILE, nx, depth, tri, bary, True)
+        behind = self._backdrop.copy()
         shade_skin(
             tri,
             bary,
+            k,
             vertices,
             normals,
             faces,
@@ -336,10 +338,9 @@ class CpuRenderer:
             shadow,
             behind,
         )
-        if k == 1:
-            return behind, depth
-        colour = behind.reshape(h, k, w, k, 3).mean(axis=(1, 3), dtype=np.float64)
-        return colour.astype(np.float32), depth.reshape(h, k, w, k).max(axis=(1, 3))
+        if k > 1:
+            depth = depth.reshape(h, k, w, k).max(axis=(1, 3))
+        return behind, depth
 
 
 def _threads() -> int:

@@ -113,34 +113,69 @@ def draw_triangles(screen, faces, tile_start, items, tile, nx, depth, tri, bary,
                             depth[i, j] = z
 
 
+@njit(cache=True, inline="always")
+def _skin_sample(f, b1, b2, vertices, normals, faces, eye, skin, wrap, nl, ldir, lrad, amb, shadow):
+    """The skin's radiance at barycentrics (b1, b2) of triangle f."""
+    b0 = 1.0 - b1 - b2
+    v0, v1, v2 = faces[f, 0], faces[f, 1], faces[f, 2]
+    P = (
+        b0 * vertices[v0, 0] + b1 * vertices[v1, 0] + b2 * vertices[v2, 0],
+        b0 * vertices[v0, 1] + b1 * vertices[v1, 1] + b2 * vertices[v2, 1],
+        b0 * vertices[v0, 2] + b1 * vertices[v1, 2] + b2 * vertices[v2, 2],
+    )
+    N = unit(
+        (
+            b0 * normals[v0, 0] + b1 * normals[v1, 0] + b2 * normals[v2, 0],
+            b0 * normals[v0, 1] + b1 * normals[v1, 1] + b2 * normals[v2, 1],
+            b0 * normals[v0, 2] + b1 * normals[v1, 2] + b2 * normals[v2, 2],
+        )
+    )
+    E = unit((eye[0] - P[0], eye[1] - P[1], eye[2] - P[2]))
+    return skin_radiance(P, N, E, skin, wrap, nl, ldir, lrad, amb, shadow)
+
+
 @njit(cache=True, parallel=True)
 def shade_skin(
-    tri, bary, vertices, normals, faces, eye, skin, wrap, nl, ldir, lrad, amb, shadow, out
+    tri, bary, k, vertices, normals, faces, eye, skin, wrap, nl, ldir, lrad, amb, shadow, out
 ):
-    """The skin's linear RGB into ``out`` (H, W, 3) where a triangle was drawn."""
-    h, w = tri.shape
+    """The skin's linear RGB into ``out`` (H, W, 3) over the background already there.
+
+    ``tri`` and ``bary`` hold k × k samples a pixel (multisampling): as a GPU's MSAA,
+    each triangle in a pixel is shaded once (at the first of its samples) and weighs
+    by the share of the samples it covers; the rest keeps the background."""
+    h, w = out.shape[:2]
+    inv = 1.0 / (k * k)
     for i in prange(h):
         for j in range(w):
-            f = tri[i, j]
-            if f < 0:
+            r = g = b = 0.0
+            empty = 0
+            for s in range(k * k):
+                si, sj = i * k + s // k, j * k + s % k
+                f = tri[si, sj]
+                if f < 0:
+                    empty += 1
+                    continue
+                seen = False
+                for t in range(s):  # shaded already at an earlier sample
+                    if tri[i * k + t // k, j * k + t % k] == f:
+                        seen = True
+                        break
+                if seen:
+                    continue
+                count = 0
+                for t in range(s, k * k):
+                    if tri[i * k + t // k, j * k + t % k] == f:
+                        count += 1
+                rgb = _skin_sample(
+                    f, bary[si, sj, 0], bary[si, sj, 1], vertices, normals, faces, eye,
+                    skin, wrap, nl, ldir, lrad, amb, shadow,
+                )  # fmt: skip
+                r += rgb[0] * count
+                g += rgb[1] * count
+                b += rgb[2] * count
+            if empty == k * k:
                 continue
-            b1, b2 = bary[i, j, 0], bary[i, j, 1]
-            b0 = 1.0 - b1 - b2
-            v0, v1, v2 = faces[f, 0], faces[f, 1], faces[f, 2]
-            P = (
-                b0 * vertices[v0, 0] + b1 * vertices[v1, 0] + b2 * vertices[v2, 0],
-                b0 * vertices[v0, 1] + b1 * vertices[v1, 1] + b2 * vertices[v2, 1],
-                b0 * vertices[v0, 2] + b1 * vertices[v1, 2] + b2 * vertices[v2, 2],
-            )
-            N = unit(
-                (
-                    b0 * normals[v0, 0] + b1 * normals[v1, 0] + b2 * normals[v2, 0],
-                    b0 * normals[v0, 1] + b1 * normals[v1, 1] + b2 * normals[v2, 1],
-                    b0 * normals[v0, 2] + b1 * normals[v1, 2] + b2 * normals[v2, 2],
-                )
-            )
-            E = unit((eye[0] - P[0], eye[1] - P[1], eye[2] - P[2]))
-            rgb = skin_radiance(P, N, E, skin, wrap, nl, ldir, lrad, amb, shadow)
-            out[i, j, 0] = rgb[0]
-            out[i, j, 1] = rgb[1]
-            out[i, j, 2] = rgb[2]
+            keep = empty * inv
+            out[i, j, 0] = r * inv + out[i, j, 0] * keep
+            out[i, j, 1] = g * inv + out[i, j, 1] * keep
+            out[i, j, 2] = b * inv + out[i, j, 2] * keep

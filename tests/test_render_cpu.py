@@ -1,0 +1,124 @@
+"""The CPU engine (follicle.render.cpu) against the OpenGL engine, and on its own: the
+same picture on the examples gallery within the stated tolerance, the same bytes for any
+thread count, the automatic engine choice. (Every test of test_render*.py also runs on
+both engines, through the ``each_engine`` fixture.)"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+
+from follicle.errors import ConfigError, InputError
+from follicle.pipeline import grow, render_scene
+from follicle.render import CpuRenderer, Renderer, engines, make_renderer, render
+from follicle.render.settings import RenderParams
+from follicle.scene import Scene, load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+GALLERY = sorted((ROOT / "examples").glob("*.toml"))
+# the tolerance stated in the README: per example, over the RGB of every pixel, in
+# 8-bit sRGB levels (measured: means 0.74-2.11, 99th percentiles 9-17)
+MEAN_LEVELS, P99_LEVELS = 3.0, 24.0
+
+
+def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    d = np.abs(a[..., :3].astype(int) - b[..., :3].astype(int))
+    return float(d.mean()), float(np.percentile(d, 99))
+
+
+@pytest.mark.parametrize("path", GALLERY, ids=[p.stem for p in GALLERY])
+def test_the_gallery_looks_the_same_on_both_engines(path):
+    scene = load_scene(path)
+    mesh, curves = grow(scene)
+    params = scene.render.replace("test", size=(320, 320))
+    gl = render_scene(curves, mesh, params.replace("test", engine="opengl"))
+    cpu = render_scene(curves, mesh, params.replace("test", engine="cpu"))
+    mean, p99 = difference(cpu, gl)
+    assert mean <= MEAN_LEVELS and p99 <= P99_LEVELS, (mean, p99)
+    # a real comparison: the hair is there, and another picture is far outside it
+    assert np.abs(cpu.astype(int) - cpu[0, 0].astype(int)).max() > 60
+    lit_otherwise = render_scene(curves, mesh, params.replace("test", engine="cpu", shadows=False))
+    assert difference(lit_otherwise, gl)[1] > P99_LEVELS / 4
+
+
+@pytest.fixture(scope="module")
+def small_scene():
+    scene = Scene()
+    scene = scene.replace(groom=scene.groom.replace(count=3000))
+    return grow(scene)
+
+
+@pytest.mark.parametrize("oit", [True, False])
+def test_same_bytes_for_any_thread_count(small_scene, oit):
+    mesh, curves = small_scene
+    settings = RenderParams(size=(200, 150), engine="cpu", oit=oit, shading="scheuermann")
+    before = numba.get_num_threads()
+    images = []
+    try:
+        for threads in sorted({1, before}):
+            numba.set_num_threads(threads)
+            images.append(render(curves, mesh, settings=settings))
+    finally:
+        numba.set_num_threads(before)
+    assert images[0].std() > 5  # hair, skin and shadows, not a blank frame
+    for image in images[1:]:
+        np.testing.assert_array_equal(image, images[0])
+
+
+def test_the_renderer_reuses_and_reports_its_stages(small_scene):
+    mesh, curves = small_scene
+    settings = RenderParams(size=(96, 96), engine="cpu")
+    with make_renderer(settings) as r:
+        assert isinstance(r, CpuRenderer)
+        first = r.draw(curves, mesh, settings=settings)
+        np.testing.assert_array_equal(r.draw(curves, mesh, settings=settings), first)
+        assert set(r.timings) == {"shadows", "skin", "steps", "bin", "raster", "resolve"}
+        assert all(t >= 0 for t in r.timings.values())
+    assert first.shape == (96, 96, 4) and np.all(first[..., 3] == 255)
+
+
+class _FakeContext:
+    def __init__(self, renderer: str) -> None:
+        self.info = {"GL_RENDERER": renderer}
+
+
+@pytest.mark.parametrize(
+    ("gl", "chosen"),
+    [
+        ("llvmpipe (LLVM 15.0.6, 256 bits)", "cpu"),
+        ("softpipe", "cpu"),
+        ("NVIDIA H200/PCIe/SSE2", "opengl"),
+        ("AMD Radeon RX 7900 XTX (radeonsi, navi31, LLVM 15.0.7, DRM 3.54)", "opengl"),
+        (None, "cpu"),  # no EGL at all
+    ],
+)
+def test_auto_takes_opengl_only_on_a_gpu(monkeypatch, gl, chosen):
+    from follicle.errors import FollicleError
+    from follicle.render import context
+
+    def fake():
+        if gl is None:
+            raise FollicleError("cannot create a headless OpenGL context")
+        return _FakeContext(gl)
+
+    monkeypatch.setattr(context, "get_context", fake)
+    monkeypatch.setattr(engines, "_automatic", {})
+    assert engines.resolve_engine("auto") == chosen
+    assert engines.resolve_engine("cpu") == "cpu"
+    assert engines.resolve_engine("opengl") == "opengl"
+    kind = CpuRenderer if chosen == "cpu" else Renderer
+    if chosen == "cpu":  # a Renderer would need the (faked) context
+        with make_renderer(RenderParams(engine="auto", size=(8, 8))) as r:
+            assert isinstance(r, kind)
+
+
+def test_a_bad_engine_names_the_key():
+    with pytest.raises(ConfigError, match=r"\[render\]\.engine"):
+        RenderParams().replace("scene.toml", engine="vulkan")
+    with pytest.raises(ConfigError, match="engine"):
+        render(None, None, engine="directx")
+    with pytest.raises(InputError, match="engine: expected one of auto, opengl, cpu"):
+        engines.resolve_engine("metal")
