@@ -3,7 +3,7 @@ import pytest
 
 from follicle import HairCurves, InputError
 from follicle.pipeline import render_scene
-from follicle.render import opengl
+from follicle.render import frame
 from follicle.scene import RenderParams
 
 HAIR = HairCurves.from_array(
@@ -21,8 +21,8 @@ def _framed_camera(monkeypatch, params):
         framed.append(frame_camera(*args, **kwargs))
         return framed[-1]
 
-    frame_camera = opengl.frame_camera
-    monkeypatch.setattr(opengl, "frame_camera", spy)
+    frame_camera = frame.frame_camera
+    monkeypatch.setattr(frame, "frame_camera", spy)
     render_scene(HAIR, None, params)
     return framed[0] if framed else None
 

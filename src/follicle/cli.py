@@ -653,7 +653,7 @@ def render(
     if engine == "mitsuba":
         _not_for(source, "--engine mitsuba", shading=shading, msaa=msaa)
     else:
-        _not_for(source, f"--engine {engine or 'auto'}", spp=spp)
+        _not_for(source, f"--engine {engine}" if engine else "--engine opengl or cpu", spp=spp)
     if Path(source).suffix.lower() == ".toml":
         scene = _with_overrides(load_scene(source), count=count)
         target = out or scene.resolve(scene.output.image)
