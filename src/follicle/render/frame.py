@@ -19,11 +19,12 @@ from ..errors import InputError
 from .camera import Camera, Light, default_lights, frame_camera, hair_bounds, scene_bounds
 from .options import ANGLE_PARAMS, MAX_LIGHTS, check_mesh, color3, parse_shading, point_attr
 from .shadows import automatic_layer, light_projection
+from .strands import StrandTables
 
 if TYPE_CHECKING:
     from .settings import RenderParams
 
-__all__ = ["Frame", "prepare_frame", "hair_vertices", "light_arrays"]
+__all__ = ["Frame", "drawable", "prepare_frame", "hair_vertices", "light_arrays"]
 
 
 @dataclass(frozen=True)
@@ -107,6 +108,21 @@ def light_arrays(
     return len(directions), dirs, rads, ambient
 
 
+def drawable(
+    curves: HairCurves | None, mesh: object | None
+) -> tuple[HairCurves | None, tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
+    """What a render draws: the curves when they have any, the mesh's (vertices, faces,
+    normals) when it has faces; an InputError for the wrong types or for nothing."""
+    if curves is not None and not isinstance(curves, HairCurves):
+        raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
+    mesh_arrays = check_mesh(mesh) if mesh is not None else None
+    hair = curves if curves is not None and curves.curve_count > 0 else None
+    skin = mesh_arrays if mesh_arrays is not None and len(mesh_arrays[1]) > 0 else None
+    if hair is None and skin is None:
+        raise InputError("render: nothing to draw; give non-empty curves and/or a mesh with faces")
+    return hair, skin
+
+
 def prepare_frame(
     settings: RenderParams,
     size: tuple[int, int],
@@ -119,20 +135,14 @@ def prepare_frame(
     :func:`~follicle.render.settings.with_overrides`). ``camera`` None: the settings'
     eye and target, else :func:`frame_camera` around hair and mesh."""
     params = parse_shading(settings.shading, settings.shading_params)
-    if curves is not None and not isinstance(curves, HairCurves):
-        raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
-    has_hair = curves is not None and curves.curve_count > 0
-    mesh_arrays = check_mesh(mesh) if mesh is not None else None
-    has_mesh = mesh_arrays is not None and len(mesh_arrays[1]) > 0
-    if not has_hair and not has_mesh:
-        raise InputError("render: nothing to draw; give non-empty curves and/or a mesh with faces")
+    hair, skin = drawable(curves, mesh)
     hair_color = color3(settings.hair_color, "hair_color")
     skin_color = color3(settings.skin_color, "skin_color")
     lights = settings.light_list()
     if camera is None:
         camera = settings.camera()
     w, h = size
-    lo, hi = scene_bounds(curves if has_hair else None, mesh)
+    lo, hi = scene_bounds(hair, mesh)
     if camera is None:
         camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
     elif not isinstance(camera, Camera):
@@ -146,7 +156,7 @@ def prepare_frame(
     if settings.shadows and n_dir > 0:
         key = dirs[0].astype(np.float64)
         light = (key, *light_projection(key, lo, hi, shadow_size))
-    hair_lo, hair_hi = hair_bounds(curves) if has_hair else (lo, hi)
+    hair_lo, hair_hi = hair_bounds(hair) if hair is not None else (lo, hi)
     layer = float(params["shadow_layer"]) or automatic_layer(hair_lo, hair_hi)
     return Frame(
         settings=settings,
@@ -162,28 +172,27 @@ def prepare_frame(
         ambient=ambient,
         hair_color=hair_color,
         skin_color=skin_color,
-        curves=curves if has_hair else None,
-        mesh=mesh_arrays if has_mesh else None,
+        curves=hair,
+        mesh=skin,
         light=light,
         layer=layer,
         oit_depth=_nearest_depth(camera, lo, hi, near),
     )
 
 
-def hair_vertices(frame: Frame) -> np.ndarray:
+def hair_vertices(frame: Frame, tables: StrandTables, out: np.ndarray | None = None) -> np.ndarray:
     """Per vertex (P, 7) float32: width, colour (3), opacity, t (0 root .. 1 tip), seed
-    (per strand) — the curves' own point data where they have it, the settings' else."""
-    from .strands import curve_param, strand_seeds
-
+    (per strand) — the curves' own point data where they have it, the settings' else;
+    t and the seeds from the renderer's ``tables``. Written into ``out`` when given (a
+    (P, 7) view, e.g. the columns of a vertex buffer)."""
     curves = frame.curves
     assert curves is not None
     s = frame.settings
     n = curves.point_count
     pd = curves.point_data
-    data = np.empty((n, 7), dtype="f4")
+    data = np.empty((n, 7), dtype="f4") if out is None else out
     data[:, 0] = point_attr(pd, "width", (n,), float(s.hair_width))
     data[:, 1:4] = point_attr(pd, "color", (n, 3), frame.hair_color)
     data[:, 4] = point_attr(pd, "opacity", (n,), float(s.hair_opacity))
-    data[:, 5] = curve_param(curves.offsets, n)
-    data[:, 6] = strand_seeds(curves.offsets)
+    data[:, 5], data[:, 6] = tables.param_and_seeds(curves.offsets)
     return data

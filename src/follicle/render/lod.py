@@ -24,9 +24,9 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..rng import uniforms
-from ..validate import number, positive, whole
+from ..validate import number, positive
 from .camera import Camera
-from .options import DEFAULT_HAIR_WIDTH
+from .options import DEFAULT_HAIR_WIDTH, parse_size
 
 __all__ = ["keep_mask", "thin_out", "lod_fraction"]
 
@@ -127,12 +127,7 @@ def lod_fraction(
     curves = _curves(curves)
     if not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
-    try:
-        size_w, size_h = size
-    except (TypeError, ValueError):
-        raise InputError(f"size: expected (width, height) in pixels, got {size!r}") from None
-    whole(size_w, "size width", 1)
-    height = whole(size_h, "size height", 1)
+    height = parse_size(size)[1]
     max_width_px = positive(max_width_px, "max_width_px", unit="px")
     min_fraction = _fraction(min_fraction, "min_fraction")
     default_width = positive(default_width, "default_width", unit="m")

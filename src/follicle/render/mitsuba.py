@@ -41,8 +41,9 @@ from ..errors import InputError
 from ..io.mitsuba import save_mitsuba
 from ..validate import whole
 from .camera import Camera, Light, default_lights, frame_camera, scene_bounds
+from .frame import drawable
 from .image import encode_srgb8, save_png
-from .options import check_mesh, color3, parse_background, parse_size, point_attr
+from .options import background_rows, color3, parse_background, parse_size, point_attr
 
 if TYPE_CHECKING:
     from .settings import RenderParams
@@ -225,13 +226,6 @@ def _sensor(mi, camera: Camera, size: tuple[int, int], spp: int, seed: int) -> d
     }
 
 
-def _gradient(background, height: int) -> np.ndarray:
-    """The GL background per row (H, 1, 3): ``top`` at the top edge, ``bottom`` below."""
-    top, bottom = background
-    y = 1.0 - (np.arange(height) + 0.5) / height
-    return (bottom + (top - bottom) * y[:, None])[:, None, :]
-
-
 def render_mitsuba(
     curves: HairCurves | None,
     mesh: object | None = None,
@@ -258,16 +252,10 @@ def render_mitsuba(
     from .settings import with_overrides
 
     settings = with_overrides(settings, overrides)
-    if curves is not None and not isinstance(curves, HairCurves):
-        raise InputError(f"curves: expected HairCurves or None, got {type(curves).__name__}")
     w, h = parse_size(settings.size)
     spp = whole(spp, "spp", 1, MAX_SPP)
     seed = whole(seed, "seed", 0, 2**32 - 1)
-    has_hair = curves is not None and curves.curve_count > 0
-    mesh_arrays = check_mesh(mesh) if mesh is not None else None
-    has_mesh = mesh_arrays is not None and len(mesh_arrays[1]) > 0
-    if not has_hair and not has_mesh:
-        raise InputError("render: nothing to draw; give non-empty curves and/or a mesh with faces")
+    hair, skin = drawable(curves, mesh)
     hair_color = color3(settings.hair_color, "hair_color")
     skin_color = color3(settings.skin_color, "skin_color")
     hair_width = settings.hair_width
@@ -276,7 +264,7 @@ def render_mitsuba(
     if camera is None:
         camera = settings.camera()
     if camera is None:
-        lo, hi = scene_bounds(curves if has_hair else None, mesh)
+        lo, hi = scene_bounds(hair, mesh)
         camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
@@ -288,15 +276,15 @@ def render_mitsuba(
         **_emitters(default_lights() if lights is None else lights, camera),
     }
     with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
-        if has_hair:
-            scene["hair"] = _hair_shape(mi, curves, hair_color, hair_width, Path(folder))
-        if has_mesh:
-            scene["skin"] = _skin_shape(mi, mesh_arrays, skin_color)
+        if hair is not None:
+            scene["hair"] = _hair_shape(mi, hair, hair_color, hair_width, Path(folder))
+        if skin is not None:
+            scene["skin"] = _skin_shape(mi, skin, skin_color)
         with _reporting(mi, progress):
             rgba = np.array(mi.render(mi.load_dict(scene), seed=seed, spp=spp), dtype=np.float64)
     alpha = np.clip(rgba[..., 3:], 0.0, 1.0)
     linear = np.empty((h, w, 4))
-    linear[..., :3] = rgba[..., :3] + (1.0 - alpha) * _gradient(background, h)
+    linear[..., :3] = rgba[..., :3] + (1.0 - alpha) * background_rows(background, h)[:, None, :]
     linear[..., 3] = 1.0
     image = encode_srgb8(linear)
     if out is not None:

@@ -25,23 +25,19 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
-from ..validate import whole
 from .camera import Camera
 from .context import get_context
-from .frame import prepare_frame
+from .engines import RasterRenderer
+from .frame import Frame, hair_vertices, prepare_frame
 from .image import encode_srgb8
 from .options import (
     DEFAULT_SHADOW_SIZE,
-    MAX_SHADOW_SIZE,
     MAX_STEP_PX,
-    parse_background,
-    parse_size,
-    point_attr,
 )
 from .programs import get_program, set_uniforms, use_framebuffer
 from .shadows import UNITS as SHADOW_UNITS
 from .shadows import ShadowMaps
-from .strands import back_to_front, curve_param, segment_indices, strand_seeds, vertex_tangents
+from .strands import StrandTables, back_to_front, vertex_tangents
 
 if TYPE_CHECKING:  # imported when used: pydantic is slow to load, `import follicle` quick
     from .settings import RenderParams
@@ -74,7 +70,7 @@ def _mat(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(m.T, dtype="f4").tobytes()
 
 
-class Renderer:
+class Renderer(RasterRenderer):
     """An offscreen OpenGL renderer that owns its framebuffers.
 
     ``size`` is (width, height) in pixels; ``msaa`` the samples per pixel (0 or 1:
@@ -92,12 +88,9 @@ class Renderer:
         background: object = None,
         shadow_size: int = DEFAULT_SHADOW_SIZE,
     ) -> None:
-        self.size = parse_size(size)
-        msaa = whole(msaa, "msaa", 0, 64, what="samples per pixel (0 or 1: off)")
-        shadow_size = whole(shadow_size, "shadow_size", 16, MAX_SHADOW_SIZE, what="texels")
-        self.background = parse_background(background)
+        super().__init__(size, msaa, background, shadow_size)
         self.ctx = ctx = get_context()
-        samples = 0 if msaa <= 1 else min(msaa, int(ctx.max_samples))
+        samples = 0 if self.msaa <= 1 else min(self.msaa, int(ctx.max_samples))
         self.msaa = samples
         w, h = self.size
         self._opaque = ctx.texture((w, h), 4, samples=samples, dtype="f2")
@@ -108,21 +101,12 @@ class Renderer:
         self._hair_fbo = ctx.framebuffer([self._accum, self._weight], self._depth)
         self._out = ctx.renderbuffer((w, h), 4, dtype="f2")
         self._out_fbo = ctx.framebuffer([self._out])
-        self._shadow = ShadowMaps(ctx, shadow_size)
-        self._strands: tuple | None = None
+        self._shadow = ShadowMaps(ctx, self.shadow_size)
+        self._tables = StrandTables()
         self._fullscreen = {
             name: ctx.vertex_array(get_program(ctx, name), [])
             for name in ("background", "composite_msaa" if samples else "composite")
         }
-
-    @classmethod
-    def from_settings(cls, settings: RenderParams | None = None) -> Renderer:
-        """A renderer of the ``size``, ``msaa``, background and ``shadow_size`` of
-        ``settings`` (:class:`~follicle.render.settings.RenderParams`; None: defaults)."""
-        from .settings import with_overrides
-
-        s = with_overrides(settings, {})
-        return cls(s.size, s.msaa, s.background, s.shadow_size)
 
     # ------------------------------------------------------------------ lifetime
     def release(self) -> None:
@@ -143,12 +127,6 @@ class Renderer:
             obj.release()
         self._shadow.release()
         self._out_fbo = None
-
-    def __enter__(self) -> Renderer:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.release()
 
     # ------------------------------------------------------------------ drawing
     def draw(
@@ -208,18 +186,7 @@ class Renderer:
         try:
             hair_vaos, skin_vaos = {}, None
             if f.curves is not None:
-                hair_vaos = self._hair_arrays(
-                    f.curves,
-                    settings.shading,
-                    camera,
-                    None if light is None else light[2],
-                    f.hair_color,
-                    float(settings.hair_width),
-                    float(settings.hair_opacity),
-                    oit,
-                    subdivisions,
-                    released,
-                )
+                hair_vaos = self._hair_arrays(f, None if light is None else light[2], released)
             if f.mesh is not None:
                 skin_vaos = self._mesh_arrays(f.mesh, released)
             if light is not None:
@@ -261,20 +228,8 @@ class Renderer:
         image[..., 3] = 255  # the background is opaque
         return image
 
-    def _hair_arrays(
-        self,
-        curves,
-        shading,
-        camera,
-        light_texel,
-        hair_color,
-        hair_width,
-        hair_opacity,
-        oit,
-        subdivisions,
-        released,
-    ) -> dict[str, list]:
-        """Upload the hair once; the vertex arrays that draw it, by pass (``colour``:
+    def _hair_arrays(self, f: Frame, light_texel: float | None, released: list) -> dict[str, list]:
+        """Upload the hair of frame ``f`` once; the vertex arrays that draw it, by pass (``colour``:
         (vertex array, primitive) pairs; ``hair_depth``, ``hair_opacity``, drawn as lines
         with adjacency, only with a ``light_texel`` size).
 
@@ -284,15 +239,12 @@ class Renderer:
         to the ribbon programs (shaded per fragment).
         """
         ctx = self.ctx
-        n = curves.point_count
-        pd = curves.point_data
-        segments, t, seeds = self._strand_tables(curves.offsets)
-        data = np.empty((n, 10), dtype="f4")  # position, width, colour, opacity, t, seed
+        curves, camera = f.curves, f.camera
+        shading, oit, subdivisions = f.settings.shading, f.settings.oit, f.settings.subdivisions
+        segments = self._tables.segments(curves.offsets)
+        data = np.empty((curves.point_count, 10), dtype="f4")  # position, hair_vertices
         data[:, 0:3] = curves.points
-        data[:, 3] = point_attr(pd, "width", (n,), hair_width)
-        data[:, 4:7] = point_attr(pd, "color", (n, 3), hair_color)
-        data[:, 7] = point_attr(pd, "opacity", (n,), hair_opacity)
-        data[:, 8], data[:, 9] = t, seeds
+        hair_vertices(f, self._tables, data[:, 3:])
         depth = (curves.points - camera.eye.astype("f4")) @ camera.basis()[2].astype("f4")
         pixel = camera.pixel_scale(self.size[1]) * np.maximum(depth, 1e-9)
         vbo = ctx.buffer(data)
@@ -349,21 +301,6 @@ class Renderer:
             pair += arrays(["hair_depth", "hair_opacity"], wide)
             vaos["hair_depth"], vaos["hair_opacity"] = pair[0::2], pair[1::2]
         return vaos
-
-    def _strand_tables(self, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Segment indices, curve parameter and seeds of ``offsets``; kept for the next
-        frame, which usually has the same curves."""
-        cached = self._strands
-        if cached is None or not np.array_equal(cached[0], offsets):
-            n = int(offsets[-1])
-            cached = (
-                np.array(offsets),
-                segment_indices(offsets),
-                curve_param(offsets, n),
-                strand_seeds(offsets),
-            )
-            self._strands = cached
-        return cached[1:]
 
     def _mesh_arrays(self, arrays, released):
         ctx = self.ctx

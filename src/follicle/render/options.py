@@ -28,6 +28,7 @@ __all__ = [
     "shading_params_for",
     "color3",
     "parse_background",
+    "background_rows",
     "parse_size",
     "parse_shading",
     "check_mesh",
@@ -143,6 +144,15 @@ def parse_background(background: object) -> tuple[np.ndarray, np.ndarray]:
             f" ((r, g, b) top, (r, g, b) bottom), got shape {arr.shape}"
         )
     return top, bottom
+
+
+def background_rows(background: tuple[np.ndarray, np.ndarray], height: int) -> np.ndarray:
+    """The background gradient per image row, top row first, (H, 3) float64: ``bottom``
+    to ``top`` (:func:`parse_background`'s pair) linear over the pixel centres, as the
+    OpenGL engine's full-screen triangle interpolates it."""
+    top, bottom = (np.asarray(c, np.float64) for c in background)
+    y = 1.0 - (np.arange(height) + 0.5) / height  # 0 at the bottom edge, 1 at the top
+    return bottom[None, :] + (top - bottom)[None, :] * y[:, None]
 
 
 def parse_size(size: object) -> tuple[int, int]:

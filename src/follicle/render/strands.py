@@ -7,7 +7,14 @@ import numpy as np
 
 from .camera import Camera
 
-__all__ = ["segment_indices", "back_to_front", "curve_param", "strand_seeds", "vertex_tangents"]
+__all__ = [
+    "segment_indices",
+    "back_to_front",
+    "curve_param",
+    "strand_seeds",
+    "vertex_tangents",
+    "StrandTables",
+]
 
 
 def segment_indices(offsets: np.ndarray) -> np.ndarray:
@@ -81,3 +88,34 @@ def vertex_tangents(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
         behind = p[flat] - p[np.maximum(flat - 1, offsets[curve])]
         out[flat] = np.where(tip[:, None], behind, ahead)
     return out
+
+
+class StrandTables:
+    """What a renderer derives from a curve layout alone — the curve parameter and seeds
+    per vertex, and (asked for) the lines-adjacency segments — kept for the next frame,
+    which usually has the same curves (the viewer, a simulation's frames)."""
+
+    def __init__(self) -> None:
+        self._offsets: np.ndarray | None = None
+        self._tables: dict[str, np.ndarray] = {}
+
+    def _for(self, offsets: np.ndarray) -> dict[str, np.ndarray]:
+        if self._offsets is None or not np.array_equal(self._offsets, offsets):
+            self._offsets = np.array(offsets)
+            self._tables = {}
+        return self._tables
+
+    def param_and_seeds(self, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`curve_param` and :func:`strand_seeds` of ``offsets``."""
+        tables = self._for(offsets)
+        if "t" not in tables:
+            tables["t"] = curve_param(offsets, int(offsets[-1]))
+            tables["seed"] = strand_seeds(offsets)
+        return tables["t"], tables["seed"]
+
+    def segments(self, offsets: np.ndarray) -> np.ndarray:
+        """:func:`segment_indices` of ``offsets``."""
+        tables = self._for(offsets)
+        if "segments" not in tables:
+            tables["segments"] = segment_indices(offsets)
+        return tables["segments"]

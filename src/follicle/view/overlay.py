@@ -11,6 +11,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..render import Camera
 from ..render.image import encode_srgb8
+from ..render.options import background_rows
 from ..scene import SimParams
 from ..sim.volume import VolumeGrid, grid_for
 
@@ -51,10 +52,8 @@ def background(size: Sequence[int], top: Sequence[float], bottom: Sequence[float
     is left with the hair, guides and head all hidden: the renderer draws nothing
     only with an error)."""
     w, h = size
-    y = 1.0 - (np.arange(h) + 0.5) / h  # 0 at the bottom edge, 1 at the top
-    rgb = np.asarray(bottom)[None] + y[:, None] * (np.asarray(top) - np.asarray(bottom))[None]
     linear = np.ones((h, w, 4), np.float32)
-    linear[..., :3] = rgb[:, None].astype(np.float32)
+    linear[..., :3] = background_rows((top, bottom), h)[:, None].astype(np.float32)
     return encode_srgb8(linear)
 
 

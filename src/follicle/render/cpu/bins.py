@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["TILE", "CHUNKS", "bin_boxes", "dealt_tiles"]
+__all__ = ["TILE", "CHUNKS", "bin_boxes", "dealt_tiles", "tile_bounds"]
 
 TILE = 32  # pixels per tile side
 CHUNKS = 64  # binning chunks (fixed: the lists' order must not depend on threads)
@@ -30,6 +30,14 @@ def dealt_tiles(tile_start):
 
 
 @njit(cache=True)
+def tile_bounds(k, nx, tile, w, h):
+    """Pixel columns [x_lo, x_hi) and rows [y_lo, y_hi) of tile k of a w × h image."""
+    ty, tx = divmod(k, nx)
+    x_lo, y_lo = tx * tile, ty * tile
+    return x_lo, min(x_lo + tile, w), y_lo, min(y_lo + tile, h)
+
+
+@njit(cache=True)
 def _tile_range(lo, hi, tile, n):
     """First and last tile (inclusive) that [lo, hi] pixels touch; last < first: none."""
     if not (hi >= 0.0 and lo < n * tile):  # NaN boxes fall out here too
@@ -37,6 +45,22 @@ def _tile_range(lo, hi, tile, n):
     a = max(int(math.floor(lo / tile)), 0)
     b = min(int(math.floor(hi / tile)), n - 1)
     return a, b
+
+
+@njit(cache=True)
+def _chunk(boxes, lo, hi, tile, nx, ny, row, items):
+    """The tiles of primitives lo .. hi − 1: each entry counted in ``row`` (per tile),
+    and with ``items`` not empty also written there at ``row``'s cursors."""
+    write = len(items) > 0
+    for p in range(lo, hi):
+        tx0, tx1 = _tile_range(boxes[p, 0], boxes[p, 1], tile, nx)
+        ty0, ty1 = _tile_range(boxes[p, 2], boxes[p, 3], tile, ny)
+        for ty in range(ty0, ty1 + 1):
+            for tx in range(tx0, tx1 + 1):
+                k = ty * nx + tx
+                if write:
+                    items[row[k]] = p
+                row[k] += 1
 
 
 @njit(cache=True, parallel=True)
@@ -49,13 +73,9 @@ def bin_boxes(boxes, tile, nx, ny):
     ntiles = nx * ny
     per = (m + CHUNKS - 1) // CHUNKS
     counts = np.zeros((CHUNKS, ntiles), np.int64)
+    nothing = np.empty(0, np.int32)
     for ch in prange(CHUNKS):
-        for p in range(ch * per, min((ch + 1) * per, m)):
-            tx0, tx1 = _tile_range(boxes[p, 0], boxes[p, 1], tile, nx)
-            ty0, ty1 = _tile_range(boxes[p, 2], boxes[p, 3], tile, ny)
-            for ty in range(ty0, ty1 + 1):
-                for tx in range(tx0, tx1 + 1):
-                    counts[ch, ty * nx + tx] += 1
+        _chunk(boxes, ch * per, min((ch + 1) * per, m), tile, nx, ny, counts[ch], nothing)
     # tile-major prefix sum: within a tile, chunk 0's entries first
     cursor = np.empty((CHUNKS, ntiles), np.int64)
     start = np.zeros(ntiles + 1, np.int64)
@@ -67,13 +87,7 @@ def bin_boxes(boxes, tile, nx, ny):
             total += counts[ch, k]
     start[ntiles] = total
     items = np.empty(total, np.int32)
-    for ch in prange(CHUNKS):
-        for p in range(ch * per, min((ch + 1) * per, m)):
-            tx0, tx1 = _tile_range(boxes[p, 0], boxes[p, 1], tile, nx)
-            ty0, ty1 = _tile_range(boxes[p, 2], boxes[p, 3], tile, ny)
-            for ty in range(ty0, ty1 + 1):
-                for tx in range(tx0, tx1 + 1):
-                    k = ty * nx + tx
-                    items[cursor[ch, k]] = p
-                    cursor[ch, k] += 1
+    if total:
+        for ch in prange(CHUNKS):
+            _chunk(boxes, ch * per, min((ch + 1) * per, m), tile, nx, ny, cursor[ch], items)
     return start, items

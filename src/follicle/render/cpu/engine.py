@@ -25,7 +25,7 @@ the same, byte for byte, for any number of threads.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numba
@@ -33,20 +33,15 @@ import numpy as np
 from numba import njit, prange
 
 from ...curves import HairCurves
-from ...validate import whole
 from ..camera import Camera
+from ..engines import RasterRenderer
 from ..frame import Frame, hair_vertices, prepare_frame
 from ..image import encode_srgb8
-from ..options import (
-    DEFAULT_SHADOW_SIZE,
-    MAX_SHADOW_SIZE,
-    MAX_STEP_PX,
-    parse_background,
-    parse_size,
-)
+from ..options import MAX_STEP_PX, background_rows
+from ..strands import StrandTables
 from .bins import TILE, bin_boxes
 from .lines import PASSES, draw_strands, segment_boxes
-from .shading import MODELS, pack_model, pack_shadow
+from .shading import MODELS, no_shadow, pack_model, pack_shadow
 from .steps import fill_steps, segment_steps
 from .triangles import draw_triangles, project_triangles, shade_skin
 
@@ -73,56 +68,29 @@ def _resolve(buf, behind, out):
             out[i, j, 3] = 1.0
 
 
-def _gradient(size: tuple[int, int], top: np.ndarray, bottom: np.ndarray) -> np.ndarray:
-    """The background: bottom to top, linear over the pixel centres, (H, W, 3) float32."""
-    w, h = size
-    v = ((h - 0.5 - np.arange(h)) / h)[:, None]
-    rows = bottom[None, :] + (top - bottom)[None, :] * v
-    return np.ascontiguousarray(np.broadcast_to(rows[:, None, :], (h, w, 3)), dtype=np.float32)
-
-
 def _view(eye: np.ndarray, perspective: bool, forward, right, pixel: float, step: float):
     return np.array([*eye, float(perspective), *forward, *right, pixel, step], np.float64)
 
 
-class CpuRenderer:
-    """The CPU engine, with :class:`~follicle.render.Renderer`'s interface: ``size``
-    (width, height), ``msaa`` (accepted for the same settings; coverage here is
-    analytic, so it draws no samples), ``background`` and ``shadow_size``. Holds no
-    resources: :meth:`release` does nothing. :attr:`timings` has the seconds of each
-    stage of the last frame (:data:`STAGES`)."""
+class CpuRenderer(RasterRenderer):
+    """The CPU engine, with :class:`~follicle.render.Renderer`'s interface
+    (:class:`~follicle.render.engines.RasterRenderer`): ``size``, ``msaa`` (coverage here
+    is analytic; 2 or more supersamples the skin 2 × 2), ``background`` and
+    ``shadow_size``. Holds no GPU resources. After a :meth:`draw`, :attr:`timings` has
+    the seconds of each stage of that frame (:data:`STAGES`)."""
 
-    def __init__(
-        self,
-        size: Sequence[int] = (960, 960),
-        msaa: int = 4,
-        background: object = None,
-        shadow_size: int = DEFAULT_SHADOW_SIZE,
-    ) -> None:
-        self.size = parse_size(size)
-        self.msaa = whole(msaa, "msaa", 0, 64, what="samples per pixel (0 or 1: off)")
-        self.shadow_size = whole(shadow_size, "shadow_size", 16, MAX_SHADOW_SIZE, what="texels")
-        self.background = parse_background(background)
-        self.timings = dict.fromkeys(STAGES, 0.0)
-        self._backdrop = _gradient(self.size, *self.background)
+    timings: dict[str, float]  # the last frame's, set by draw
 
-    @classmethod
-    def from_settings(cls, settings: RenderParams | None = None) -> CpuRenderer:
-        """A renderer of the ``size``, ``msaa``, background and ``shadow_size`` of
-        ``settings`` (None: defaults)."""
-        from ..settings import with_overrides
+    @cached_property
+    def _backdrop(self) -> np.ndarray:
+        """The background gradient, (H, W, 3) float32."""
+        w, h = self.size
+        rows = background_rows(self.background, h).astype(np.float32)
+        return np.ascontiguousarray(np.broadcast_to(rows[:, None, :], (h, w, 3)))
 
-        s = with_overrides(settings, {})
-        return cls(s.size, s.msaa, s.background, s.shadow_size)
-
-    def release(self) -> None:
-        """Nothing to free (the API of :class:`~follicle.render.Renderer`)."""
-
-    def __enter__(self) -> CpuRenderer:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.release()
+    @cached_property
+    def _tables(self) -> StrandTables:
+        return StrandTables()
 
     # ------------------------------------------------------------------ drawing
     def draw(
@@ -140,7 +108,7 @@ class CpuRenderer:
         f = prepare_frame(settings, self.size, curves, mesh, camera, self.shadow_size)
         times = dict.fromkeys(STAGES, 0.0)
         clock = time.perf_counter()
-        attrs = hair_vertices(f) if f.curves is not None else None
+        attrs = hair_vertices(f, self._tables) if f.curves is not None else None
         shadow = self._shadow_maps(f, attrs)
         times["shadows"] = time.perf_counter() - clock
 
@@ -237,7 +205,7 @@ class CpuRenderer:
             float(size[1]),
             shade,
             MODELS[f.settings.shading],
-            pack_model(f.settings.shading, f.params),
+            pack_model(f.settings.shading, f.model),
             common,
             f.n_lights,
             f.light_dirs,
@@ -251,37 +219,20 @@ class CpuRenderer:
         """The key light's maps and lookup numbers (see shading.key_visibility); a map
         of one texel and shadows off when there is no key light or shadows are off."""
         if f.light is None:
-            one = np.ones((1, 1), np.float32)
-            return (
-                np.eye(4),
-                one,
-                np.zeros((1, 1, 4), np.float32),
-                one,
-                pack_shadow(False, 1, 1, 0, 0),
-            )
+            return no_shadow()
         direction, matrix, texel, depth_range = f.light
         size = self.shadow_size
         nx, ny = _tiles(size, size)
         skin = np.ones((size, size), np.float32)
         if f.mesh is not None:
-            vertices, faces, _ = f.mesh
-            faces = np.ascontiguousarray(faces, np.int64)
-            screen, boxes = project_triangles(vertices, faces, matrix, size, size, False)
-            tile_start, items = bin_boxes(boxes, TILE, nx, ny)
-            dummy_tri = np.empty((1, 1), np.int32)
-            dummy_bary = np.empty((1, 1, 2), np.float32)
-            draw_triangles(
-                screen, faces, tile_start, items, TILE, nx, skin, dummy_tri, dummy_bary, False
-            )
+            _skin_raster(f.mesh, matrix, skin, None, None)
         first = np.ones((size, size, 1), np.float32)
         layers = np.zeros((size, size, 4), np.float32)
         if f.curves is not None:
             right = matrix[0, :3] / np.linalg.norm(matrix[0, :3])
             view = _view(direction, False, -direction, right, texel, 1e9)
-            off = (np.eye(4), np.ones((1, 1), np.float32), np.zeros((1, 1, 4), np.float32))
-            off += (np.ones((1, 1), np.float32), pack_shadow(False, 1, 1, 0, 0))
             steps, step_start = self._steps(
-                f, attrs, matrix, view, (size, size), False, np.zeros(2), off
+                f, attrs, matrix, view, (size, size), False, np.zeros(2), no_shadow()
             )
             boxes = segment_boxes(steps, step_start)
             tile_start, items = bin_boxes(boxes, TILE, nx, ny)
@@ -312,14 +263,10 @@ class CpuRenderer:
         k = 2 if self.msaa >= 2 else 1
         sw, sh = w * k, h * k
         depth = np.full((sh, sw), np.inf, np.float64)
-        vertices, faces, normals = f.mesh
-        faces = np.ascontiguousarray(faces, np.int64)
-        screen, boxes = project_triangles(vertices, faces, f.view_proj, sw, sh, True)
-        nx, ny = _tiles(sw, sh)
-        tile_start, items = bin_boxes(boxes, TILE, nx, ny)
         tri = np.full((sh, sw), -1, np.int32)
         bary = np.zeros((sh, sw, 2), np.float32)
-        draw_triangles(screen, faces, tile_start, items, TILE, nx, depth, tri, bary, True)
+        _skin_raster(f.mesh, f.view_proj, depth, tri, bary)
+        vertices, faces, normals = f.mesh
         behind = self._backdrop.copy()
         shade_skin(
             tri,
@@ -327,7 +274,7 @@ class CpuRenderer:
             k,
             vertices,
             normals,
-            faces,
+            np.ascontiguousarray(faces, np.int64),
             np.asarray(f.camera.eye, np.float64),
             np.asarray(f.skin_color, np.float64),
             float(f.params["skin_wrap"]),
@@ -341,6 +288,23 @@ class CpuRenderer:
         if k > 1:
             depth = depth.reshape(h, k, w, k).max(axis=(1, 3))
         return behind, depth
+
+
+def _skin_raster(mesh: tuple, matrix: np.ndarray, depth: np.ndarray, tri, bary) -> None:
+    """The skin's triangles through ``matrix`` into ``depth`` (its shape the raster's):
+    with ``tri`` and ``bary`` the camera's (view depth, triangle and barycentrics per
+    sample), without the light's (biased light depth)."""
+    vertices, faces, _ = mesh
+    faces = np.ascontiguousarray(faces, np.int64)
+    camera = tri is not None
+    h, w = depth.shape
+    screen, boxes = project_triangles(vertices, faces, matrix, w, h, camera)
+    nx, ny = _tiles(w, h)
+    tile_start, items = bin_boxes(boxes, TILE, nx, ny)
+    if not camera:
+        tri, bary = np.empty((1, 1), np.int32), np.empty((1, 1, 2), np.float32)
+    args = (screen, faces, tile_start, items, TILE, nx, depth, tri, bary, camera, _threads())
+    draw_triangles(*args)
 
 
 def _threads() -> int:

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .bins import dealt_tiles
+from .bins import dealt_tiles, tile_bounds
 
 __all__ = ["PASSES", "segment_boxes", "draw_strands"]
 
@@ -145,9 +145,7 @@ def draw_strands(
     order = dealt_tiles(tile_start)
     for t in prange(threads):
         for k in order[t::threads]:
-            ty, tx = divmod(k, nx)
-            x_lo, y_lo = tx * tile, ty * tile
-            x_hi, y_hi = min(x_lo + tile, w), min(y_lo + tile, h)
+            x_lo, x_hi, y_lo, y_hi = tile_bounds(k, nx, tile, w, h)
             for e in range(tile_start[k], tile_start[k + 1]):
                 s = items[e]
                 for j in range(step_start[s], step_start[s + 1] - 1):

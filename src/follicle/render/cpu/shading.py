@@ -16,9 +16,9 @@ import math
 import numpy as np
 from numba import njit
 
-from ..options import ANGLE_PARAMS, SHADINGS
+from ..options import SHADINGS
 
-__all__ = ["MODELS", "PARAM_ORDER", "pack_model", "pack_shadow"]
+__all__ = ["MODELS", "PARAM_ORDER", "pack_model", "pack_shadow", "no_shadow"]
 
 MODELS = {name: i for i, name in enumerate(SHADINGS)}
 _KK = ("diffuse", "specular", "shininess", "specular_color", "specular2", "shininess2")
@@ -31,17 +31,24 @@ PARAM_ORDER = {
 _U32 = np.uint64(0xFFFFFFFF)
 
 
-def pack_model(shading: str, params: dict[str, object]) -> np.ndarray:
-    """The model's parameters as one float64 array (a colour takes three places; angles
-    in radians), in :data:`PARAM_ORDER`."""
+def pack_model(shading: str, model: dict[str, object]) -> np.ndarray:
+    """The model's parameters as one float64 array in :data:`PARAM_ORDER` (a colour
+    takes three places), from the shaders' uniforms
+    (:attr:`follicle.render.frame.Frame.model`: ``p_`` names, angles in radians)."""
     out: list[float] = []
     for key in PARAM_ORDER[shading]:
-        value = params[key]
+        value = model[f"p_{key}"]
         if isinstance(value, (tuple, list)):
             out.extend(float(v) for v in value)
         else:
-            out.append(math.radians(value) if key in ANGLE_PARAMS else float(value))
+            out.append(float(value))
     return np.array(out, dtype=np.float64)
+
+
+def no_shadow() -> tuple:
+    """The shadow lookup's arguments with shadows off (one-texel maps, never read)."""
+    one = np.ones((1, 1), np.float32)
+    return (np.eye(4), one, np.zeros((1, 1, 4), np.float32), one, pack_shadow(False, 1, 1, 0, 0))
 
 
 def pack_shadow(

@@ -11,6 +11,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .bins import dealt_tiles, tile_bounds
 from .shading import skin_radiance, unit
 
 __all__ = ["project_triangles", "draw_triangles", "shade_skin"]
@@ -62,55 +63,55 @@ def project_triangles(vertices, faces, vp, size_x, size_y, camera):
 
 
 @njit(cache=True, parallel=True)
-def draw_triangles(screen, faces, tile_start, items, tile, nx, depth, tri, bary, camera):
+def draw_triangles(screen, faces, tile_start, items, tile, nx, depth, tri, bary, camera, threads):
     """Rasterize every tile's triangles, nearest wins (``depth`` (H, W) starts at +inf or
     the far value). ``camera``: perspective-correct barycentrics into ``bary`` (H, W, 2)
-    and the triangle into ``tri`` (H, W); else the light's biased depth only."""
+    and the triangle into ``tri`` (H, W); else the light's biased depth only. The tiles
+    are dealt to the ``threads`` as :func:`~.bins.dealt_tiles` orders them."""
     h, w = depth.shape
-    ntiles = len(tile_start) - 1
-    for k in prange(ntiles):
-        ty, tx = divmod(k, nx)
-        x_lo, y_lo = tx * tile, ty * tile
-        x_hi, y_hi = min(x_lo + tile, w), min(y_lo + tile, h)
-        for e in range(tile_start[k], tile_start[k + 1]):
-            f = items[e]
-            a, b, c = screen[faces[f, 0]], screen[faces[f, 1]], screen[faces[f, 2]]
-            area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-            if not abs(area) > 1e-12:
-                continue
-            inv = 1.0 / area
-            j0 = max(int(math.floor(min(a[0], b[0], c[0]) - 0.5)), x_lo)
-            j1 = min(int(math.ceil(max(a[0], b[0], c[0]) - 0.5)), x_hi - 1)
-            i0 = max(int(math.floor(min(a[1], b[1], c[1]) - 0.5)), y_lo)
-            i1 = min(int(math.ceil(max(a[1], b[1], c[1]) - 0.5)), y_hi - 1)
-            bias = 0.0
-            if not camera:
-                # dz/dx and dz/dy of the triangle's plane, per texel
-                dzx = ((b[2] - a[2]) * (c[1] - a[1]) - (c[2] - a[2]) * (b[1] - a[1])) * inv
-                dzy = ((c[2] - a[2]) * (b[0] - a[0]) - (b[2] - a[2]) * (c[0] - a[0])) * inv
-                bias = 2.0 * max(abs(dzx), abs(dzy)) + 4.0 * _UNIT_DEPTH
-            for i in range(i0, i1 + 1):
-                py = i + 0.5
-                for j in range(j0, j1 + 1):
-                    px = j + 0.5
-                    l1 = ((px - a[0]) * (c[1] - a[1]) - (py - a[1]) * (c[0] - a[0])) * inv
-                    l2 = ((b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0])) * inv
-                    l0 = 1.0 - l1 - l2
-                    if l0 < 0.0 or l1 < 0.0 or l2 < 0.0:
-                        continue
-                    if camera:  # perspective-correct: 1/depth is linear on screen
-                        q0, q1, q2 = l0 / a[2], l1 / b[2], l2 / c[2]
-                        s = q0 + q1 + q2
-                        z = 1.0 / s
-                        if z < depth[i, j]:
-                            depth[i, j] = z
-                            tri[i, j] = f
-                            bary[i, j, 0] = q1 / s
-                            bary[i, j, 1] = q2 / s
-                    else:
-                        z = l0 * a[2] + l1 * b[2] + l2 * c[2] + bias
-                        if z < depth[i, j]:
-                            depth[i, j] = z
+    order = dealt_tiles(tile_start)
+    for t in prange(threads):
+        for k in order[t::threads]:
+            x_lo, x_hi, y_lo, y_hi = tile_bounds(k, nx, tile, w, h)
+            for e in range(tile_start[k], tile_start[k + 1]):
+                f = items[e]
+                a, b, c = screen[faces[f, 0]], screen[faces[f, 1]], screen[faces[f, 2]]
+                area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+                if not abs(area) > 1e-12:
+                    continue
+                inv = 1.0 / area
+                j0 = max(int(math.floor(min(a[0], b[0], c[0]) - 0.5)), x_lo)
+                j1 = min(int(math.ceil(max(a[0], b[0], c[0]) - 0.5)), x_hi - 1)
+                i0 = max(int(math.floor(min(a[1], b[1], c[1]) - 0.5)), y_lo)
+                i1 = min(int(math.ceil(max(a[1], b[1], c[1]) - 0.5)), y_hi - 1)
+                bias = 0.0
+                if not camera:
+                    # dz/dx and dz/dy of the triangle's plane, per texel
+                    dzx = ((b[2] - a[2]) * (c[1] - a[1]) - (c[2] - a[2]) * (b[1] - a[1])) * inv
+                    dzy = ((c[2] - a[2]) * (b[0] - a[0]) - (b[2] - a[2]) * (c[0] - a[0])) * inv
+                    bias = 2.0 * max(abs(dzx), abs(dzy)) + 4.0 * _UNIT_DEPTH
+                for i in range(i0, i1 + 1):
+                    py = i + 0.5
+                    for j in range(j0, j1 + 1):
+                        px = j + 0.5
+                        l1 = ((px - a[0]) * (c[1] - a[1]) - (py - a[1]) * (c[0] - a[0])) * inv
+                        l2 = ((b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0])) * inv
+                        l0 = 1.0 - l1 - l2
+                        if l0 < 0.0 or l1 < 0.0 or l2 < 0.0:
+                            continue
+                        if camera:  # perspective-correct: 1/depth is linear on screen
+                            q0, q1, q2 = l0 / a[2], l1 / b[2], l2 / c[2]
+                            s = q0 + q1 + q2
+                            z = 1.0 / s
+                            if z < depth[i, j]:
+                                depth[i, j] = z
+                                tri[i, j] = f
+                                bary[i, j, 0] = q1 / s
+                                bary[i, j, 1] = q2 / s
+                        else:
+                            z = l0 * a[2] + l1 * b[2] + l2 * c[2] + bias
+                            if z < depth[i, j]:
+                                depth[i, j] = z
 
 
 @njit(cache=True, inline="always")
