@@ -11,9 +11,18 @@ import numba
 import numpy as np
 import pytest
 
+from follicle.curves import HairCurves
 from follicle.errors import ConfigError, InputError
 from follicle.pipeline import grow, render_scene
-from follicle.render import CpuRenderer, engines, make_renderer, render
+from follicle.render import (
+    Camera,
+    CpuRenderer,
+    Light,
+    engines,
+    make_renderer,
+    render,
+    srgb_to_linear,
+)
 from follicle.render.settings import RenderParams
 from follicle.scene import Scene, load_scene
 
@@ -22,6 +31,7 @@ GALLERY = sorted((ROOT / "examples").glob("*.toml"))
 # the tolerance stated in the README: per example, over the RGB of every pixel, in
 # 8-bit sRGB levels (measured: means 0.74-2.11, 99th percentiles 9-17)
 MEAN_LEVELS, P99_LEVELS = 3.0, 24.0
+ENGINES = ("opengl", "cpu")
 
 
 def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
@@ -121,3 +131,28 @@ def test_a_bad_engine_names_the_key():
         render(None, None, engine="directx")
     with pytest.raises(InputError, match="engine: expected one of auto, opengl, cpu"):
         engines.resolve_engine("metal")
+
+
+def test_wide_hair_covers_the_ribbon_the_opengl_engine_draws():
+    """Hair many pixels wide, bending on screen, is a ribbon on both engines: the same
+    covered pixels (no spikes where a short piece runs across the strand)."""
+    t = np.linspace(0.0, 1.0, 12)
+    pts = np.stack([0.3 * (t - 0.5), 0.08 * np.sin(9.0 * t), np.zeros_like(t)], axis=1)
+    curves = HairCurves.from_array(pts[None], point_data={"width": np.full(12, 0.02)})
+    kw = dict(
+        camera=Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0)),
+        size=(240, 160),
+        background=(0.0, 0.0, 0.0),
+        hair_color=(1.0, 1.0, 1.0),
+        lights=[Light.ambient(intensity=1.0)],
+        shading_params={"root_occlusion": 0.0, "roundness": 0.0},
+        msaa=0,
+        shadows=False,
+    )
+    cover = [srgb_to_linear(render(curves, engine=e, **kw)[..., 0] / 255.0) for e in ENGINES]
+    gl, cpu = (c.sum() for c in cover)  # pixels' worth of ribbon
+    assert gl > 600  # the ribbon: 6 px wide, about 165 px long
+    assert abs(cpu - gl) < 0.02 * gl, (cpu, gl)
+    masks = [c > 0.5 for c in cover]  # no holes at the bends, no spikes off them
+    union, both = (masks[0] | masks[1]).sum(), (masks[0] & masks[1]).sum()
+    assert both / union > 0.95, (both, union)

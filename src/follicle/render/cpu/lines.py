@@ -1,9 +1,11 @@
-"""Strands rasterized per tile: each piece between two steps is walked along its major
-axis one pixel column (or row) at a time, and the pixels across it get the share of
-their area the hair covers — the overlap of the pixel with the hair's cross-section
-(its width over the cosine of its slope), so a hair a tenth of a pixel wide adds a
-tenth of its opacity along its length and coverage is exact for any width (analytic
-coverage, no multisampling). Ends are half open, so consecutive pieces share no pixel.
+"""Strands rasterized per tile. A piece between two steps thinner than a pixel is walked
+along its major axis one pixel column (or row) at a time, and the pixels across it get
+the share of their area the hair covers — the overlap of the pixel with the hair's
+cross-section (its width over the cosine of its slope), so a hair a tenth of a pixel
+wide adds a tenth of its opacity along its length (analytic coverage, no
+multisampling). A piece a pixel wide or more is a flat-ended ribbon: each pixel of its
+box whose centre lies beside it gets the overlap, across the piece, of its width with
+the ribbon's. Ends are half open, so consecutive pieces share no pixel.
 
 What a fragment does depends on the pass (:data:`PASSES`): weighted blended
 order-independent transparency (McGuire & Bavoil 2013) or "over" blending for the
@@ -41,7 +43,7 @@ def segment_boxes(steps, step_start):
         for k in range(step_start[s], step_start[s + 1]):
             if math.isnan(steps[k, 2]):
                 continue
-            pad = 1.5 * steps[k, 3] + 1.0
+            pad = 2.0 * steps[k, 3] + 1.0
             x0 = min(x0, steps[k, 0] - pad)
             x1 = max(x1, steps[k, 0] + pad)
             y0 = min(y0, steps[k, 1] - pad)
@@ -63,11 +65,36 @@ def _oit_weight(depth, consts):
 
 
 @njit(cache=True, fastmath=FAST, inline="always")
-def _piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, consts):
-    """Rasterize the piece from step a to step b (rows of STEP_FIELDS) inside the tile
-    [x_lo, x_hi) × [y_lo, y_hi). A fragment of coverage-weighted opacity α behind the
-    opaque layer ``ref`` is dropped; otherwise, by pass: OIT sums (Σcαw, Σαw, Π(1 − α)),
-    "over", the nearest depth, or α added to its deep-opacity layer."""
+def _fragment(mode, buf, first, ref, row, col, u, cover, a, b, wa, wb, consts):
+    """A fragment at (row, col), ``u`` along the piece a → b, covering ``cover`` of the
+    pixel: dropped behind the opaque layer ``ref``; otherwise, by pass, into the OIT
+    sums (Σcαw, Σαw, Π(1 − α)), "over", the nearest depth, or its deep-opacity layer."""
+    depth = a[2] + (b[2] - a[2]) * u
+    if not depth < ref[row, col]:  # behind the skin
+        return
+    alpha = min((a[4] + (b[4] - a[4]) * u) * cover, 1.0)
+    if mode == 0:
+        aw = alpha * (wa + (wb - wa) * u)
+        buf[row, col, 0] += (a[5] + (b[5] - a[5]) * u) * aw
+        buf[row, col, 1] += (a[6] + (b[6] - a[6]) * u) * aw
+        buf[row, col, 2] += (a[7] + (b[7] - a[7]) * u) * aw
+        buf[row, col, 3] += aw
+        buf[row, col, 4] *= 1.0 - alpha
+    elif mode == 1:
+        for ch in range(3):
+            v = a[5 + ch] + (b[5 + ch] - a[5 + ch]) * u
+            buf[row, col, ch] += (v - buf[row, col, ch]) * alpha
+    elif mode == 2:
+        buf[row, col, 0] = min(buf[row, col, 0], depth)
+    else:
+        k = int(math.floor((depth - first[row, col]) / consts[2]))
+        buf[row, col, min(max(k, 0), 3)] += alpha
+
+
+@njit(cache=True, fastmath=FAST, inline="always")
+def _thin_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, consts):
+    """A piece under a pixel wide: a pixel column (row) at a time along its major axis,
+    the pixels across it covered by the hair's cross-section (width / cos of the slope)."""
     ax, ay, bx, by = a[0], a[1], b[0], b[1]
     dx, dy = bx - ax, by - ay
     major_x = abs(dx) >= abs(dy)
@@ -90,9 +117,6 @@ def _piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, consts):
         return
     slope = d1 / d0
     sec = math.sqrt(1.0 + slope * slope)
-    # the OIT weight changes little along a piece: linear between its ends
-    wa = _oit_weight(a[2], consts) if mode == 0 else 0.0
-    wb = _oit_weight(b[2], consts) if mode == 0 else 0.0
     inv = 1.0 / d0
     for c in range(c0, c1 + 1):
         u = (c + 0.5 - a0) * inv
@@ -102,34 +126,75 @@ def _piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, consts):
         hi = centre + half
         r0 = max(int(math.floor(lo)), lo1)
         r1 = min(int(math.floor(hi)), hi1 - 1)
-        if r0 > r1:
-            continue
-        depth = a[2] + (b[2] - a[2]) * u
-        opacity = a[4] + (b[4] - a[4]) * u
         for q in range(r0, r1 + 1):
             cover = min(hi, q + 1.0) - max(lo, float(q))
             if cover <= 0.0:
                 continue
-            row, col = (q, c) if major_x else (c, q)
-            if not depth < ref[row, col]:  # behind the skin
-                continue
-            alpha = min(opacity * cover, 1.0)
-            if mode == 0:
-                aw = alpha * (wa + (wb - wa) * u)
-                buf[row, col, 0] += (a[5] + (b[5] - a[5]) * u) * aw
-                buf[row, col, 1] += (a[6] + (b[6] - a[6]) * u) * aw
-                buf[row, col, 2] += (a[7] + (b[7] - a[7]) * u) * aw
-                buf[row, col, 3] += aw
-                buf[row, col, 4] *= 1.0 - alpha
-            elif mode == 1:
-                for ch in range(3):
-                    v = a[5 + ch] + (b[5 + ch] - a[5 + ch]) * u
-                    buf[row, col, ch] += (v - buf[row, col, ch]) * alpha
-            elif mode == 2:
-                buf[row, col, 0] = min(buf[row, col, 0], depth)
+            if major_x:
+                _fragment(mode, buf, first, ref, q, c, u, cover, a, b, wa, wb, consts)
             else:
-                k = int(math.floor((depth - first[row, col]) / consts[2]))
-                buf[row, col, min(max(k, 0), 3)] += alpha
+                _fragment(mode, buf, first, ref, c, q, u, cover, a, b, wa, wb, consts)
+
+
+@njit(cache=True, inline="always")
+def _joint(step, dx, dy):
+    """The unit screen tangent at ``step`` (its joint with the next piece lies across
+    it), pointing along the piece (dx, dy); the piece's own direction where the step
+    has none."""
+    tx, ty = step[8], step[9]
+    if tx == 0.0 and ty == 0.0:
+        tx, ty = dx, dy
+    return (tx, ty) if tx * dx + ty * dy >= 0.0 else (-tx, -ty)
+
+
+@njit(cache=True, fastmath=FAST, inline="always")
+def _wide_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, consts):
+    """A piece a pixel wide or more: a ribbon. A pixel of its box is its when its centre
+    lies past the line across the hair at a and before the one at b (each across the
+    screen tangent there, so consecutive pieces tile a bending ribbon without gaps or
+    overlaps, as the OpenGL engine's strips do), covered by the overlap of the pixel's
+    width across the piece with the ribbon's."""
+    ax, ay = a[0], a[1]
+    dx, dy = b[0] - ax, b[1] - ay
+    length2 = dx * dx + dy * dy
+    if length2 == 0.0:
+        return
+    inv_len = 1.0 / math.sqrt(length2)
+    nx, ny = -dy * inv_len, dx * inv_len  # unit, across the piece
+    tax, tay = _joint(a, dx, dy)
+    tbx, tby = _joint(b, dx, dy)
+    pad = 2.0 * max(a[3], b[3]) + 1.0
+    j0 = max(int(math.floor(min(ax, b[0]) - pad)), x_lo)
+    j1 = min(int(math.ceil(max(ax, b[0]) + pad)), x_hi - 1)
+    i0 = max(int(math.floor(min(ay, b[1]) - pad)), y_lo)
+    i1 = min(int(math.ceil(max(ay, b[1]) + pad)), y_hi - 1)
+    for i in range(i0, i1 + 1):
+        py = i + 0.5 - ay
+        for j in range(j0, j1 + 1):
+            px = j + 0.5 - ax
+            if px * tax + py * tay < 0.0:  # before the joint at a
+                continue
+            if (px - dx) * tbx + (py - dy) * tby >= 0.0:  # at or past the joint at b
+                continue
+            d = px * nx + py * ny
+            u = min(max((px * dx + py * dy) / length2, 0.0), 1.0)
+            half = a[3] + (b[3] - a[3]) * u
+            cover = min(d + 0.5, half) - max(d - 0.5, -half)
+            if cover > 0.0:
+                _fragment(mode, buf, first, ref, i, j, u, cover, a, b, wa, wb, consts)
+
+
+@njit(cache=True, fastmath=FAST, inline="always")
+def _piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, consts):
+    """Rasterize the piece from step a to step b (rows of STEP_FIELDS) inside the tile
+    [x_lo, x_hi) × [y_lo, y_hi): thin along its major axis, wide as a ribbon."""
+    # the OIT weight changes little along a piece: linear between its ends
+    wa = _oit_weight(a[2], consts) if mode == 0 else 0.0
+    wb = _oit_weight(b[2], consts) if mode == 0 else 0.0
+    if max(a[3], b[3]) >= 0.5:
+        _wide_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, consts)
+    else:
+        _thin_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, consts)
 
 
 @njit(cache=True, parallel=True)
@@ -154,10 +219,10 @@ def draw_strands(
                     if math.isnan(a[2]) or math.isnan(b[2]):
                         continue
                     if (
-                        max(a[0], b[0]) + 1.5 * max(a[3], b[3]) + 1.0 < x_lo
-                        or min(a[0], b[0]) - 1.5 * max(a[3], b[3]) - 1.0 > x_hi
-                        or max(a[1], b[1]) + 1.5 * max(a[3], b[3]) + 1.0 < y_lo
-                        or min(a[1], b[1]) - 1.5 * max(a[3], b[3]) - 1.0 > y_hi
+                        max(a[0], b[0]) + 2.0 * max(a[3], b[3]) + 1.0 < x_lo
+                        or min(a[0], b[0]) - 2.0 * max(a[3], b[3]) - 1.0 > x_hi
+                        or max(a[1], b[1]) + 2.0 * max(a[3], b[3]) + 1.0 < y_lo
+                        or min(a[1], b[1]) - 2.0 * max(a[3], b[3]) - 1.0 > y_hi
                     ):
                         continue
                     _piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, consts)

@@ -22,8 +22,9 @@ __all__ = ["STEP_FIELDS", "MAX_SUBDIVISIONS", "segment_steps", "fill_steps"]
 
 # x, y: pixels (camera: y down from the top; light: texel rows upwards); depth: view
 # depth, metres (camera) or light depth 0..1; half: half the width in pixels; then the
-# opacity and the shaded linear RGB
-STEP_FIELDS = ("x", "y", "depth", "half", "opacity", "r", "g", "b")
+# opacity, the shaded linear RGB, and the unit tangent on screen (where wide pieces
+# meet: 0, 0 when it has no direction there)
+STEP_FIELDS = ("x", "y", "depth", "half", "opacity", "r", "g", "b", "tx", "ty")
 MAX_SUBDIVISIONS = 16
 CHORD_TOLERANCE_PX = 0.25  # largest gap between spline and steps, pixels
 
@@ -159,7 +160,7 @@ def fill_steps(
     (3), pixel scale, longest step in pixels. ``shade`` False: the light's passes, which
     need the shape only.
     """
-    out = np.empty((step_start[-1], 8), np.float32)
+    out = np.empty((step_start[-1], len(STEP_FIELDS)), np.float32)
     n_curves = len(offsets) - 1
     eye = (view[0], view[1], view[2])
     perspective = view[3] > 0.5
@@ -209,13 +210,22 @@ def fill_steps(
                 tan = unit(tan) if dot(tan, tan) > 0.0 else forward
                 row = out[s0 + k]
                 x, y, depth = _project(pos, vp, view, size_x, size_y)
+                px = _pixel_size(pos, view)
                 width = attrs[i, 0] + (attrs[i + 1, 0] - attrs[i, 0]) * u
                 opacity = attrs[i, 4] + (attrs[i + 1, 4] - attrs[i, 4]) * u
                 row[0] = x
                 row[1] = y
                 row[2] = depth
-                row[3] = 0.5 * width / _pixel_size(pos, view)
+                row[3] = 0.5 * width / px
                 row[4] = opacity
+                # the screen tangent: towards the point a pixel further along the hair
+                x2, y2, _ = _project(added(pos, scaled(tan, px)), vp, view, size_x, size_y)
+                tx, ty = x2 - x, y2 - y
+                tlen = math.sqrt(tx * tx + ty * ty)
+                if tlen > 1e-6:
+                    row[8], row[9] = tx / tlen, ty / tlen
+                else:
+                    row[8] = row[9] = 0.0
                 if not shade:
                     row[5] = row[6] = row[7] = 0.0
                     continue
