@@ -156,3 +156,20 @@ def test_wide_hair_covers_the_ribbon_the_opengl_engine_draws():
     masks = [c > 0.5 for c in cover]  # no holes at the bends, no spikes off them
     union, both = (masks[0] | masks[1]).sum(), (masks[0] & masks[1]).sum()
     assert both / union > 0.95, (both, union)
+
+
+def test_render_lod_draws_a_share_of_the_hairs_and_keeps_the_look(small_scene):
+    from follicle.render.frame import prepare_frame
+
+    mesh, curves = small_scene
+    base = RenderParams(size=(320, 240), engine="cpu", shadows=False)
+    lod = base.replace("test", lod=1.0)
+    frame = prepare_frame(lod, lod.size, curves, mesh, None, 512)
+    # 80 µm hair about 0.1 px wide here: about a tenth of the hairs, ten times as wide
+    assert 0.05 <= frame.lod < 0.3
+    assert abs(frame.curves.curve_count - frame.lod * curves.curve_count) < 0.05 * 3000
+    assert prepare_frame(base, base.size, curves, mesh, None, 512).curves is curves
+    every, thinned = render(curves, mesh, settings=base), render(curves, mesh, settings=lod)
+    mean, _ = difference(thinned, every)
+    assert 0.0 < mean < 4.0, mean  # the same brightness, other strands
+    assert render(curves, mesh, settings=lod.replace("test", lod=64.0)).shape == every.shape

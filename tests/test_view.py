@@ -20,7 +20,7 @@ from follicle.errors import ConfigError, FormatError, InputError
 from follicle.scene import load_scene, parse_scene
 from follicle.view import Controller, view
 from follicle.view.app import _finish
-from follicle.view.controller import Show
+from follicle.view.controller import HOLD_LEAST, Show
 from glmark import gl
 
 SCENE = """\
@@ -466,3 +466,36 @@ def test_window_is_resizable_and_the_render_follows(tmp_path):
     done = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split("\n")[-2] == "1 (120, 200, 4)"
+
+
+def test_hold_fps_draws_fewer_wider_hairs_and_comes_back():
+    c = Controller(small_scene(), size=(160, 90), hold_fps=15.0)
+    try:
+        every = c.drawn_curves()
+        assert c.lod == 1.0 and every.curve_count == 1500
+        c._hold(4.0 / 15.0)  # four times over budget: at most halved
+        assert c.lod == 0.5
+        half = c.drawn_curves()
+        assert half.curve_count == 750
+        ids = set(half.curve_data["hair_id"].tolist())
+        assert ids <= set(every.curve_data["hair_id"].tolist())
+        width = np.add.reduceat(half.point_data["width"], half.offsets[:-1]).sum()
+        full = np.add.reduceat(every.point_data["width"], every.offsets[:-1]).sum()
+        assert abs(width - full) < 0.05 * full  # the coverage kept
+        for _ in range(20):
+            c._hold(1.0)
+        assert c.lod == HOLD_LEAST
+        c._hold(0.9 / 15.0)  # just under budget: no change
+        assert c.lod == HOLD_LEAST
+        least = set(c.drawn_curves().curve_data["hair_id"].tolist())
+        assert least <= ids  # nested: no popping
+        for _ in range(40):
+            c._hold(0.01)  # well under budget: back to all of them
+        assert c.lod == 1.0 and c.drawn_curves().curve_count == 1500
+        c.step_frame()
+        assert c.stats()["lod"] == c.lod
+    finally:
+        c.release()
+    with pytest.raises(InputError, match="hold_fps"):
+        Controller(small_scene(), size=(16, 9), hold_fps=-1)
+    assert Controller(small_scene(), size=(16, 9), hold_fps=0).hold_fps is None

@@ -820,6 +820,14 @@ def _not_for(source: str, what: str, **options: object) -> None:
     show_default=True,
     help="fast: no MSAA, no shadows, one curve step per segment.",
 )
+@click.option(
+    "--hold-fps",
+    type=float,
+    default=None,
+    help="Hold this frame rate by drawing fewer, wider hairs when a frame is slow (0: off;"
+    " default 15 in an open-ended session, off with --frames, whose frames are then"
+    " the same every run).",
+)
 def view(
     scene_path: str | None,
     frames: int | None,
@@ -829,6 +837,7 @@ def view(
     count: int | None,
     offscreen: bool,
     quality: str,
+    hold_fps: float | None,
 ) -> None:
     """Live viewer: the scene's hair simulated and rendered in a window, with a parameter
     panel (README § Viewer). Needs the view extra: pip install 'follicle[view]'."""
@@ -850,14 +859,15 @@ def view(
         window=not offscreen,
         quality=quality,
         source=scene_path,
+        hold_fps=(15.0 if frames is None else 0.0) if hold_fps is None else hold_fps,
     )
     w, h = size
     s = ctl.stats()
     click.echo(
         f"{ctl.frame} frames of {s['hairs']:,} hairs from {s['guides']:,} guides,"
         f" {w}×{h}: {ctl.loop_fps:.2f} frames/s (last frame: step {s['step_ms']:.0f} ms,"
-        f" groom {s['groom_ms']:.0f} ms, render {s['render_ms']:.0f} ms)"
-        + (f" → {screenshot}" if screenshot else "")
+        f" groom {s['groom_ms']:.0f} ms, render {s['render_ms']:.0f} ms,"
+        f" {s['lod']:.0%} of the hairs drawn)" + (f" → {screenshot}" if screenshot else "")
     )
 
 

@@ -17,6 +17,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from .camera import Camera, Light, default_lights, frame_camera, hair_bounds, scene_bounds
+from .lod import lod_fraction, thin_out
 from .options import ANGLE_PARAMS, MAX_LIGHTS, check_mesh, color3, parse_shading, point_attr
 from .shadows import automatic_layer, light_projection
 from .strands import StrandTables
@@ -50,6 +51,7 @@ class Frame:
     # orthographic matrix, texel size, depth range (shadows on); None: no shadows
     layer: float  # deep opacity map layer thickness, metres
     oit_depth: float  # view depth of the nearest corner of the scene box
+    lod: float  # the share of the hairs drawn ([render].lod; 1: all)
 
     @property
     def model(self) -> dict[str, object]:
@@ -133,7 +135,8 @@ def prepare_frame(
 ) -> Frame:
     """Check what is to be drawn and work out the frame (``settings`` already whole:
     :func:`~follicle.render.settings.with_overrides`). ``camera`` None: the settings'
-    eye and target, else :func:`frame_camera` around hair and mesh."""
+    eye and target, else :func:`frame_camera` around hair and mesh. With ``[render].lod``
+    the hair drawn is thinned out to the share :func:`~.lod.lod_fraction` gives."""
     params = parse_shading(settings.shading, settings.shading_params)
     hair, skin = drawable(curves, mesh)
     hair_color = color3(settings.hair_color, "hair_color")
@@ -148,6 +151,12 @@ def prepare_frame(
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
     near, far = _clip_range(camera, lo, hi)
+    hair_lo, hair_hi = hair_bounds(hair) if hair is not None else (lo, hi)
+    drawn = 1.0
+    if settings.lod > 0 and hair is not None:  # of all the hair: framing and bounds stay
+        width = float(settings.hair_width)
+        drawn = lod_fraction(hair, camera, (w, h), settings.lod, default_width=width)
+        hair = thin_out(hair, drawn, default_width=width)
     view_proj = camera.projection_matrix(w / h, near, far) @ camera.view_matrix()
     n_dir, dirs, rads, ambient = light_arrays(
         default_lights() if lights is None else lights, camera
@@ -156,7 +165,6 @@ def prepare_frame(
     if settings.shadows and n_dir > 0:
         key = dirs[0].astype(np.float64)
         light = (key, *light_projection(key, lo, hi, shadow_size))
-    hair_lo, hair_hi = hair_bounds(hair) if hair is not None else (lo, hi)
     layer = float(params["shadow_layer"]) or automatic_layer(hair_lo, hair_hi)
     return Frame(
         settings=settings,
@@ -177,6 +185,7 @@ def prepare_frame(
         light=light,
         layer=layer,
         oit_depth=_nearest_depth(camera, lo, hi, near),
+        lod=drawn,
     )
 
 

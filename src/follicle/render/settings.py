@@ -134,6 +134,14 @@ class RenderParams(StrictSection):
         description="most Catmull-Rom steps per segment"
         " (fewer where it is short and straight on screen)",
     )
+    lod: float = Field(
+        0.0,
+        ge=0,
+        le=64,
+        description="level of detail: draw a share of the hairs, widened to keep their"
+        " coverage, so that they are at most this many pixels wide (from the hair's"
+        " on-screen width); 0 = every hair",
+    )
     eye: Vec3 | None = Field(None, description="camera position; unset = framed automatically")
     target: Vec3 | None = Field(None, description="camera target; unset = framed automatically")
     fov: float = Field(DEFAULT_FOV, gt=1, lt=170, description="vertical field of view, degrees")

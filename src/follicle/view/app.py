@@ -23,6 +23,7 @@ def view(
     visible: bool = True,
     quality: str = "full",
     source: str | os.PathLike[str] | None = None,
+    hold_fps: float | None = None,
 ) -> Controller:
     """Simulate and render ``scene`` live; returns the Controller when the loop ends.
 
@@ -31,7 +32,8 @@ def view(
     writes the last frame's render as PNG. ``fps`` is the simulated frame rate (each
     frame steps 1 / fps s); the overlay shows the rate actually reached. ``quality``
     is the Controller's ("full" or "fast"); ``source``, the scene's file (when
-    ``scene`` is a path, that path), is where the panel saves the scene by default. A
+    ``scene`` is a path, that path), is where the panel saves the scene by default;
+    ``hold_fps`` the frame rate the Controller holds by level of detail (None: off). A
     recording still on when the loop ends is finished.
     """
     frames = whole(frames, "frames", 1, allow_none=True)
@@ -39,7 +41,7 @@ def view(
         source = scene if source is None else source
         scene = load_scene(scene)  # a bad scene fails before a window opens
     if not window:
-        ctl = Controller(scene, size, fps, quality, source)
+        ctl = Controller(scene, size, fps, quality, source, hold_fps)
         try:
             _loop(ctl, frames, lambda image, rate: False)
             _finish(ctl, screenshot)
@@ -53,7 +55,7 @@ def view(
     win = Window(size, "follicle view", visible)
     try:
         with use_context(win.ctx):
-            ctl = Controller(scene, size, fps, quality, source)
+            ctl = Controller(scene, size, fps, quality, source, hold_fps)
             panel = Panel(win, ctl)
             try:
 

@@ -32,6 +32,7 @@ __all__ = ["Controller", "Show", "QUALITIES"]
 
 QUALITIES = ("full", "fast")  # fast: no MSAA, no shadows, one Catmull-Rom step per segment
 DEFAULT_SCENE_FILE = "follicle_view.toml"  # where the scene is saved when not read from a file
+HOLD_LEAST = 0.05  # the least share of the hairs drawn to hold a frame rate
 
 
 @dataclass
@@ -67,7 +68,8 @@ class Controller:
     :meth:`set_param` changes a ``[sim]``, ``[groom]`` or ``[render]`` key live;
     :meth:`save_scene` writes the scene as edited. ``quality`` "fast" renders with the
     renderer's cheapest settings; ``source`` is the scene file (given a path, that
-    path), the default of :meth:`save_scene`.
+    path), the default of :meth:`save_scene`. ``hold_fps`` (None or 0: off) holds that
+    frame rate by drawing fewer hairs, widened (level of detail, :attr:`lod`).
     """
 
     def __init__(
@@ -77,11 +79,15 @@ class Controller:
         fps: float = 30.0,
         quality: str = "full",
         source: str | os.PathLike[str] | None = None,
+        hold_fps: float | None = None,
     ) -> None:
         if not isinstance(scene, Scene):
             source = scene if source is None else source
             scene = load_scene(scene)
         fps = positive(fps, "fps")
+        hold = positive(hold_fps, "hold_fps", allow_zero=True) if hold_fps is not None else 0.0
+        self.hold_fps = hold or None
+        self._lod = 1.0
         self.scene = scene
         self.source = None if source is None else Path(source)
         self.size = parse_size(size)
@@ -260,15 +266,31 @@ class Controller:
         self.gusts.append(Gust(self.sim.state.time, duration, vector))
 
     def hair(self) -> HairCurves:
-        """The displayed hair, grown from the simulated guides on the current pose (the
-        first :attr:`hair_limit` hairs when set)."""
+        """The displayed hair, grown from the simulated guides on the current pose: the
+        first :attr:`hair_limit` hairs when set, and of those the first :attr:`lod`
+        share, widened by the share left out so they cover what all of them would (each
+        hair's root comes from its own random stream, so the first hairs are an even,
+        nested subset: the level of detail Unreal's and TressFX's strand LOD draw)."""
         if self.curves is None:
             start = time.perf_counter()
             count = self.scene.groom.count
             count = count if self._hair_limit is None else min(count, self._hair_limit)
-            self.curves = self.groom.follow(self.sim, count=count, time=self.time)
+            drawn = self._drawn(count)
+            curves = self.groom.follow(self.sim, count=drawn, time=self.time)
+            if drawn < count and "width" in curves.point_data:
+                curves.point_data["width"] = curves.point_data["width"] * (count / drawn)
+            self.curves = curves
             self.timings["groom"] = time.perf_counter() - start
         return self.curves
+
+    def _drawn(self, count: int) -> int:
+        """How many of ``count`` hairs :attr:`lod` draws."""
+        return count if self._lod >= 1.0 else max(1, min(count, round(count * self._lod)))
+
+    @property
+    def lod(self) -> float:
+        """The share of the hairs drawn to hold :attr:`hold_fps` (1: all of them)."""
+        return self._lod
 
     def drawn_curves(self) -> HairCurves | None:
         """The curves drawn, as :attr:`show` says: the hairs, the guides (wide, orange),
@@ -326,7 +348,25 @@ class Controller:
                 self._video = None  # the writer has dropped its file
                 raise
         self.timings["frame"] = time.perf_counter() - start
+        self._hold(self.timings["frame"])
         return image
+
+    def _hold(self, seconds: float) -> None:
+        """Level of detail for :attr:`hold_fps`: a frame over its budget draws fewer hairs
+        next time (in proportion, at most halving, never below :data:`HOLD_LEAST`); one
+        well under it, 10 % more, up to all of them. The hairs drawn are the first ones
+        (:meth:`hair`), so they are nested: hairs come and go at the margin, none pop,
+        and the ones left out are not grown at all."""
+        if self.hold_fps is None or seconds <= 0.0:
+            return
+        budget = 1.0 / self.hold_fps
+        before = self._lod
+        if seconds > budget:
+            self._lod = max(HOLD_LEAST, self._lod * max(0.5, budget / seconds))
+        elif seconds < 0.8 * budget and self._lod < 1.0:
+            self._lod = min(1.0, self._lod * 1.1)
+        if self._lod != before:
+            self.curves = self.image = None  # grown again at the new share
 
     # ------------------------------------------------------------------ recording
     def start_recording(self, path: str | os.PathLike[str]) -> None:
@@ -360,6 +400,7 @@ class Controller:
             "frame": self.frame,
             "time": self.time,
             "hairs": 0 if self.curves is None else self.curves.curve_count,
+            "lod": self._lod,
             "guides": self.sim.model.strands,
             **{f"{k}_ms": 1000.0 * v for k, v in self.timings.items()},
             **self.sim.stats,

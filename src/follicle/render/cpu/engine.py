@@ -41,7 +41,7 @@ from ..options import MAX_STEP_PX, background_rows
 from ..strands import StrandTables
 from .bins import TILE, bin_boxes
 from .lines import PASSES, draw_strands, segment_boxes
-from .shading import MODELS, no_shadow, pack_model, pack_shadow
+from .shading import MODELS, no_shadow, pack_model, pack_powers, pack_shadow
 from .steps import fill_steps, segment_steps
 from .triangles import draw_triangles, project_triangles, shade_skin
 
@@ -92,6 +92,10 @@ class CpuRenderer(RasterRenderer):
     def _tables(self) -> StrandTables:
         return StrandTables()
 
+    @cached_property
+    def _buffers(self) -> dict[str, np.ndarray]:
+        return {}
+
     # ------------------------------------------------------------------ drawing
     def draw(
         self,
@@ -116,7 +120,7 @@ class CpuRenderer(RasterRenderer):
         behind, ref = self._opaque(f, shadow)
         times["skin"] = time.perf_counter() - clock
         w, h = self.size
-        linear = np.empty((h, w, 4), np.float32)
+        linear = self._buffer("linear", (h, w, 4), np.float32, None)
         if f.curves is None:
             linear[..., :3], linear[..., 3] = behind, 1.0
         else:
@@ -149,7 +153,7 @@ class CpuRenderer(RasterRenderer):
             clock = time.perf_counter()
             consts = np.array([f.oit_depth, p["oit_sharpness"], 1.0], np.float64)
             if settings.oit:
-                buf = np.zeros((h, w, 5), np.float32)
+                buf = self._buffer("oit", (h, w, 5), np.float32, 0.0)
                 buf[..., 4] = 1.0
                 mode = PASSES["oit"]
             else:
@@ -206,6 +210,7 @@ class CpuRenderer(RasterRenderer):
             shade,
             MODELS[f.settings.shading],
             pack_model(f.settings.shading, f.model),
+            pack_powers(f.settings.shading, f.model),
             common,
             f.n_lights,
             f.light_dirs,
@@ -223,11 +228,11 @@ class CpuRenderer(RasterRenderer):
         direction, matrix, texel, depth_range = f.light
         size = self.shadow_size
         nx, ny = _tiles(size, size)
-        skin = np.ones((size, size), np.float32)
+        skin = self._buffer("light skin", (size, size), np.float32, 1.0)
         if f.mesh is not None:
             _skin_raster(f.mesh, matrix, skin, None, None)
-        first = np.ones((size, size, 1), np.float32)
-        layers = np.zeros((size, size, 4), np.float32)
+        first = self._buffer("nearest", (size, size, 1), np.float32, 1.0)
+        layers = self._buffer("layers", (size, size, 4), np.float32, 0.0)
         if f.curves is not None:
             right = matrix[0, :3] / np.linalg.norm(matrix[0, :3])
             view = _view(direction, False, -direction, right, texel, 1e9)
@@ -245,7 +250,7 @@ class CpuRenderer(RasterRenderer):
         )
         return (
             np.ascontiguousarray(matrix, np.float64),
-            first[..., 0].copy(),
+            first[..., 0],
             layers,
             skin,
             shadow,
@@ -259,18 +264,20 @@ class CpuRenderer(RasterRenderer):
         samples."""
         w, h = self.size
         if f.mesh is None:
-            return self._backdrop.copy(), np.full((h, w), np.inf, np.float64)
+            return self._backdrop, self._buffer("ref", (h, w), np.float64, np.inf)
         k = 2 if self.msaa >= 2 else 1
-        sw, sh = w * k, h * k
-        depth = np.full((sh, sw), np.inf, np.float64)
-        tri = np.full((sh, sw), -1, np.int32)
-        bary = np.zeros((sh, sw, 2), np.float32)
+        depth = self._buffer("depth", (h * k, w * k), np.float64, np.inf)
+        tri = self._buffer("tri", (h * k, w * k), np.int32, -1)
+        bary = self._buffer("bary", (h * k, w * k, 2), np.float32, None)
         _skin_raster(f.mesh, f.view_proj, depth, tri, bary)
         vertices, faces, normals = f.mesh
-        behind = self._backdrop.copy()
+        behind = self._buffer("behind", (h, w, 3), np.float32, None)
+        np.copyto(behind, self._backdrop)
+        ref = self._buffer("ref", (h, w), np.float64, None)
         shade_skin(
             tri,
             bary,
+            depth,
             k,
             vertices,
             normals,
@@ -284,10 +291,19 @@ class CpuRenderer(RasterRenderer):
             np.asarray(f.ambient, np.float64),
             shadow,
             behind,
+            ref,
         )
-        if k > 1:
-            depth = depth.reshape(h, k, w, k).max(axis=(1, 3))
-        return behind, depth
+        return behind, ref
+
+    def _buffer(self, name: str, shape: tuple, dtype, fill: object) -> np.ndarray:
+        """A work array kept from frame to frame (no fresh pages each frame), set to
+        ``fill`` (None: left as it is)."""
+        buf = self._buffers.get(name)
+        if buf is None or buf.shape != shape or buf.dtype != dtype:
+            buf = self._buffers[name] = np.empty(shape, dtype)
+        if fill is not None:
+            buf.fill(fill)
+        return buf
 
 
 def _skin_raster(mesh: tuple, matrix: np.ndarray, depth: np.ndarray, tri, bary) -> None:

@@ -23,7 +23,7 @@ __all__ = ["STEP_FIELDS", "MAX_SUBDIVISIONS", "segment_steps", "fill_steps"]
 # x, y: pixels (camera: y down from the top; light: texel rows upwards); depth: view
 # depth, metres (camera) or light depth 0..1; half: half the width in pixels; then the
 # opacity, the shaded linear RGB, and the unit tangent on screen (where wide pieces
-# meet: 0, 0 when it has no direction there)
+# meet; 0, 0 on a step under a pixel wide, or where it has no direction)
 STEP_FIELDS = ("x", "y", "depth", "half", "opacity", "r", "g", "b", "tx", "ty")
 MAX_SUBDIVISIONS = 16
 CHORD_TOLERANCE_PX = 0.25  # largest gap between spline and steps, pixels
@@ -146,6 +146,7 @@ def fill_steps(
     shade,
     model,
     prm,
+    powers,
     common,
     nl,
     ldir,
@@ -162,6 +163,7 @@ def fill_steps(
     """
     out = np.empty((step_start[-1], len(STEP_FIELDS)), np.float32)
     n_curves = len(offsets) - 1
+    lvp, dom_first, dom_layers, dom_skin, sh = shadow  # separate: see hair_radiance
     eye = (view[0], view[1], view[2])
     perspective = view[3] > 0.5
     forward = (view[4], view[5], view[6])
@@ -218,14 +220,15 @@ def fill_steps(
                 row[2] = depth
                 row[3] = 0.5 * width / px
                 row[4] = opacity
-                # the screen tangent: towards the point a pixel further along the hair
-                x2, y2, _ = _project(added(pos, scaled(tan, px)), vp, view, size_x, size_y)
-                tx, ty = x2 - x, y2 - y
-                tlen = math.sqrt(tx * tx + ty * ty)
-                if tlen > 1e-6:
-                    row[8], row[9] = tx / tlen, ty / tlen
-                else:
-                    row[8] = row[9] = 0.0
+                # the screen tangent (where wide pieces meet): towards the point a pixel
+                # further along the hair
+                row[8] = row[9] = 0.0
+                if row[3] >= 0.5:
+                    x2, y2, _ = _project(added(pos, scaled(tan, px)), vp, view, size_x, size_y)
+                    tx, ty = x2 - x, y2 - y
+                    tlen = math.sqrt(tx * tx + ty * ty)
+                    if tlen > 1e-6:
+                        row[8], row[9] = tx / tlen, ty / tlen
                 if not shade:
                     row[5] = row[6] = row[7] = 0.0
                     continue
@@ -249,6 +252,7 @@ def fill_steps(
                 rgb = hair_radiance(
                     model,
                     prm,
+                    powers,
                     common,
                     pos,
                     tan,
@@ -263,7 +267,11 @@ def fill_steps(
                     ldir,
                     lrad,
                     amb,
-                    shadow,
+                    lvp,
+                    dom_first,
+                    dom_layers,
+                    dom_skin,
+                    sh,
                 )
                 row[5] = rgb[0]
                 row[6] = rgb[1]

@@ -115,7 +115,10 @@ def draw_triangles(screen, faces, tile_start, items, tile, nx, depth, tri, bary,
 
 
 @njit(cache=True, inline="always")
-def _skin_sample(f, b1, b2, vertices, normals, faces, eye, skin, wrap, nl, ldir, lrad, amb, shadow):
+def _skin_sample(
+    f, b1, b2, vertices, normals, faces, eye, skin, wrap, nl, ldir, lrad, amb,
+    lvp, dom_first, dom_layers, dom_skin, sh,
+):  # fmt: skip
     """The skin's radiance at barycentrics (b1, b2) of triangle f."""
     b0 = 1.0 - b1 - b2
     v0, v1, v2 = faces[f, 0], faces[f, 1], faces[f, 2]
@@ -132,26 +135,49 @@ def _skin_sample(f, b1, b2, vertices, normals, faces, eye, skin, wrap, nl, ldir,
         )
     )
     E = unit((eye[0] - P[0], eye[1] - P[1], eye[2] - P[2]))
-    return skin_radiance(P, N, E, skin, wrap, nl, ldir, lrad, amb, shadow)
+    return skin_radiance(
+        P, N, E, skin, wrap, nl, ldir, lrad, amb, lvp, dom_first, dom_layers, dom_skin, sh
+    )
 
 
 @njit(cache=True, parallel=True)
 def shade_skin(
-    tri, bary, k, vertices, normals, faces, eye, skin, wrap, nl, ldir, lrad, amb, shadow, out
+    tri,
+    bary,
+    depth,
+    k,
+    vertices,
+    normals,
+    faces,
+    eye,
+    skin,
+    wrap,
+    nl,
+    ldir,
+    lrad,
+    amb,
+    shadow,
+    out,
+    ref,
 ):
-    """The skin's linear RGB into ``out`` (H, W, 3) over the background already there.
+    """The skin's linear RGB into ``out`` (H, W, 3) over the background already there,
+    and into ``ref`` (H, W) the farthest depth of each pixel's samples (what the hair
+    is tested against).
 
-    ``tri`` and ``bary`` hold k × k samples a pixel (multisampling): as a GPU's MSAA,
-    each triangle in a pixel is shaded once (at the first of its samples) and weighs
-    by the share of the samples it covers; the rest keeps the background."""
+    ``tri``, ``bary`` and ``depth`` hold k × k samples a pixel (multisampling): as a
+    GPU's MSAA, each triangle in a pixel is shaded once (at the first of its samples)
+    and weighs by the share of the samples it covers; the rest keeps the background."""
     h, w = out.shape[:2]
     inv = 1.0 / (k * k)
+    lvp, dom_first, dom_layers, dom_skin, sh = shadow  # separate: see hair_radiance
     for i in prange(h):
         for j in range(w):
             r = g = b = 0.0
             empty = 0
+            far = -np.inf
             for s in range(k * k):
                 si, sj = i * k + s // k, j * k + s % k
+                far = max(far, depth[si, sj])
                 f = tri[si, sj]
                 if f < 0:
                     empty += 1
@@ -169,11 +195,12 @@ def shade_skin(
                         count += 1
                 rgb = _skin_sample(
                     f, bary[si, sj, 0], bary[si, sj, 1], vertices, normals, faces, eye,
-                    skin, wrap, nl, ldir, lrad, amb, shadow,
+                    skin, wrap, nl, ldir, lrad, amb, lvp, dom_first, dom_layers, dom_skin, sh,
                 )  # fmt: skip
                 r += rgb[0] * count
                 g += rgb[1] * count
                 b += rgb[2] * count
+            ref[i, j] = far
             if empty == k * k:
                 continue
             keep = empty * inv
