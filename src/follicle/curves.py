@@ -186,8 +186,8 @@ class HairCurves:
         """
         if not self.point_count:
             raise InputError("bounds: the curves are empty")
-        pts = self.points.astype(np.float64)
-        return pts.min(axis=0), pts.max(axis=0)
+        pts = self.points  # float32: its extremes are exact in float64, no copy needed
+        return pts.min(axis=0).astype(np.float64), pts.max(axis=0).astype(np.float64)
 
     def __getitem__(self, key: int | slice | Sequence[int] | np.ndarray) -> HairCurves:
         """Select curves by index, slice, index array or boolean mask."""

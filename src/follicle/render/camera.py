@@ -209,11 +209,18 @@ def hair_bounds(curves: HairCurves) -> tuple[np.ndarray, np.ndarray]:
     return lo - pad, hi + pad
 
 
-def scene_bounds(curves: HairCurves | None, mesh: object | None) -> tuple[np.ndarray, np.ndarray]:
-    """Bounding box of the hair (:func:`hair_bounds`, when it has points) and the mesh's
-    current pose: what :func:`frame_camera` frames when a renderer gets no camera."""
+def scene_bounds(
+    curves: HairCurves | None,
+    mesh: object | None,
+    hair_box: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bounding box of the hair (:func:`hair_bounds`, when it has points; ``hair_box``
+    when the caller has it already) and the mesh's current pose: what
+    :func:`frame_camera` frames when a renderer gets no camera."""
     boxes = []
-    if curves is not None and curves.point_count:
+    if hair_box is not None:
+        boxes.append(hair_box)
+    elif curves is not None and curves.point_count:
         boxes.append(hair_bounds(curves))
     if mesh is not None:
         lo, hi = mesh.bounds("current")  # type: ignore[attr-defined]

@@ -145,13 +145,14 @@ def prepare_frame(
     if camera is None:
         camera = settings.camera()
     w, h = size
-    lo, hi = scene_bounds(hair, mesh)
+    hair_box = hair_bounds(hair) if hair is not None else None
+    lo, hi = scene_bounds(hair, mesh, hair_box)
     if camera is None:
         camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
     near, far = _clip_range(camera, lo, hi)
-    hair_lo, hair_hi = hair_bounds(hair) if hair is not None else (lo, hi)
+    hair_lo, hair_hi = hair_box if hair_box is not None else (lo, hi)
     drawn = 1.0
     if settings.lod > 0 and hair is not None:  # of all the hair: framing and bounds stay
         width = float(settings.hair_width)
