@@ -28,17 +28,20 @@ def main() -> None:
     args = parser.parse_args()
 
     scene = Scene()
-    scene.render.size = (args.size, args.size)
+    params = scene.render.replace(size=(args.size, args.size))
     mesh, curves = grow(scene)
     start = time.perf_counter()
-    gl = render_scene(curves, mesh, scene.render, out=str(OUT / "default_opengl.png"))
+    gl = render_scene(curves, mesh, params, out=str(OUT / "default_opengl.png"))
     middle = time.perf_counter()
-    mi = render_scene_mitsuba(curves, mesh, scene.render, out=str(OUT / "default_mitsuba.png"),
-                              spp=args.spp)
+    mi = render_scene_mitsuba(
+        curves, mesh, params, out=str(OUT / "default_mitsuba.png"), spp=args.spp
+    )
     end = time.perf_counter()
     save_png(np.concatenate([gl, mi], axis=1), OUT / "default_side_by_side.png")
-    print(f"{curves.curve_count:,} hairs, {args.size}², OpenGL {middle - start:.1f} s,"
-          f" Mitsuba {args.spp} spp {end - middle:.1f} s → {OUT}")
+    print(
+        f"{curves.curve_count:,} hairs, {args.size}², OpenGL {middle - start:.1f} s,"
+        f" Mitsuba {args.spp} spp {end - middle:.1f} s → {OUT}"
+    )
 
 
 if __name__ == "__main__":

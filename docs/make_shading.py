@@ -44,8 +44,9 @@ def main() -> None:
         mesh, curves = grow(scene)
         for model in SHADINGS:
             tuned = scene.render.shading_params if model == scene.render.shading else {}
-            params = scene.render.model_copy(update={
-                "size": SIZE, "shading": model, "shading_params": tuned, "shadows": True})
+            params = scene.render.model_copy(
+                update={"size": SIZE, "shading": model, "shading_params": tuned, "shadows": True}
+            )
             start = time.perf_counter()
             image = render_scene(curves, mesh, params)
             save(image, OUT / f"{name}_{model}.png")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from follicle.errors import InputError
-from follicle.render import Camera, Light, frame_camera
+from follicle.render import Camera, Light, fit_camera, frame_camera
 from follicle.render.camera import default_lights
 
 
@@ -73,12 +73,47 @@ def test_frame_camera_fits_box_and_fills_view(aspect, direction):
     xy, depth = cam.project(corners, (w, h))
     assert np.all(depth > cam.near) and np.all(depth < cam.far)
     assert np.all(xy >= 0) and np.all(xy[:, 0] <= w) and np.all(xy[:, 1] <= h)
-    # the tighter axis is filled to 1 / margin
+    # the fuller axis is filled to 1 / margin (but for the 1e-3 pad of every point)
     fill = max((xy[:, 0].max() - xy[:, 0].min()) / w, (xy[:, 1].max() - xy[:, 1].min()) / h)
-    assert fill > 0.8
-    # centred: the box centre projects to the image centre
-    c, _ = cam.project([(lo + hi) / 2], (w, h))
-    np.testing.assert_allclose(c[0], (w / 2, h / 2), atol=1e-6)
+    assert fill == pytest.approx(1 / 1.1, abs=0.01)
+    # centred: the corners' picture has equal margins left and right, top and bottom
+    np.testing.assert_allclose(xy.min(axis=0), (w, h) - xy.max(axis=0), atol=1e-6)
+
+
+@pytest.mark.parametrize("aspect", [1.0, 1.6])
+def test_fit_camera_frames_a_round_silhouette_tighter_than_its_box(aspect):
+    """A ball of points fills the view to 1 / margin; its box's corners stick out of the
+    ball's silhouette, so framing them (the old way) leaves the ball smaller."""
+    rng = np.random.default_rng(3)
+    d = rng.normal(size=(4000, 3))
+    ball = 0.1 * d / np.linalg.norm(d, axis=1, keepdims=True) + (0.2, 1.5, -0.3)
+    w, h = int(round(300 * aspect)), 300
+    fitted = fit_camera(ball, aspect=aspect, margin=1.1)
+    boxed = frame_camera(ball.min(axis=0), ball.max(axis=0), aspect=aspect, margin=1.1)
+
+    def fill(cam):
+        xy, depth = cam.project(ball, (w, h))
+        assert np.all(depth > cam.near) and np.all(depth < cam.far)
+        assert np.all(xy >= 0) and np.all(xy[:, 0] <= w) and np.all(xy[:, 1] <= h)
+        return max(np.ptp(xy[:, 0]) / w, np.ptp(xy[:, 1]) / h)
+
+    assert fill(fitted) == pytest.approx(1 / 1.1, abs=0.01)
+    assert fill(boxed) < 0.8 * fill(fitted)
+
+
+def test_fit_camera_keeps_balls_of_radius_inside():
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    cam = fit_camera(points, direction=(0, 0, 1), radius=0.25, margin=1.0)
+    # the balls' silhouettes touch the image edges: the image spans x from -0.25 to 1.25
+    xy, _ = cam.project([(-0.25, 0.0, 0.0), (1.25, 0.0, 0.0)], (400, 400))
+    assert xy[0, 0] >= -1e-6 and xy[1, 0] <= 400 + 1e-6
+    assert xy[1, 0] - xy[0, 0] > 390
+    with pytest.raises(InputError):
+        fit_camera(np.zeros((0, 3)))
+    with pytest.raises(InputError):
+        fit_camera([[0.0, 0.0, math.inf]])
+    with pytest.raises(InputError):
+        fit_camera(points, radius=-1)
 
 
 def test_frame_camera_point_box():

@@ -256,7 +256,9 @@ def test_hair_in_front_of_mesh_is_visible():
         curves, mesh, camera=FRONT, size=size, hair_color=(0, 1, 0), shading_params=FLAT
     )
     without = render(None, mesh, camera=FRONT, size=size)
-    diff = np.any(with_hair != without, axis=2)
+    # the hair moves the light's shadow-map grid: the skin's soft shadow edges (the
+    # terminator) may change by a level
+    diff = np.any(np.abs(with_hair.astype(int) - without) > 2, axis=2)
     rows = np.nonzero(diff)[0]
     assert rows.size and abs(rows.mean() + 0.5 - 80) < 2
     assert with_hair[80, 80, 1] > with_hair[80, 80, 0]  # green hair over the skin

@@ -34,6 +34,12 @@ def smoothstep(e0: float, e1: float, x: float) -> float:
 
 
 # ---------------------------------------------------------------- the formulas
+def primary_color(base, p) -> np.ndarray:
+    """The primary lobe's colour: specular_color towards the hair's hue by specular_tint."""
+    hue = base / max(base.max(), 1e-6)
+    return np.asarray(p["specular_color"]) * (1 + (hue - 1) * p["specular_tint"])
+
+
 def kajiya_kay(T, N, E, L, base, p) -> np.ndarray:
     """Almeida 2014 eq. 3.8 (diffuse sin(T, L)) and 3.9 (specular), two shifted lobes."""
 
@@ -43,7 +49,7 @@ def kajiya_kay(T, N, E, L, base, p) -> np.ndarray:
         return max(c, 0.0) ** exponent
 
     t1, t2 = unit(T + p["shift"] * N), unit(T + p["shift2"] * N)
-    spec = p["specular"] * np.asarray(p["specular_color"]) * cone(t1, p["shininess"])
+    spec = p["specular"] * primary_color(base, p) * cone(t1, p["shininess"])
     spec2 = p["specular2"] * base * cone(t2, p["shininess2"])
     return base * p["diffuse"] * np.sqrt(max(0.0, 1 - (T @ L) ** 2)) + spec + spec2
 
@@ -57,7 +63,7 @@ def scheuermann(T, N, E, L, base, p) -> np.ndarray:
         return smoothstep(-1.0, 0.0, th) * np.sqrt(max(0.0, 1 - th * th)) ** exponent
 
     t1, t2 = unit(T + p["shift"] * N), unit(T + p["shift2"] * N)
-    spec = p["specular"] * np.asarray(p["specular_color"]) * lobe(t1, p["shininess"])
+    spec = p["specular"] * primary_color(base, p) * lobe(t1, p["shininess"])
     spec2 = p["specular2"] * base * lobe(t2, p["shininess2"])
     return base * p["diffuse"] * max(0.0, 0.75 * (N @ L) + 0.25) + spec + spec2
 

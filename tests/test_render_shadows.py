@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import trimesh
 
 from follicle.curves import HairCurves
 from follicle.render import Camera, Light, Renderer, render
@@ -12,7 +13,7 @@ from follicle.render.image import srgb_to_linear
 from follicle.render.settings import RenderParams
 from follicle.render.shadows import automatic_layer, light_projection
 from glmark import gl
-from test_render import sphere
+from test_render import StandInMesh, sphere
 
 pytestmark = pytest.mark.usefixtures("each_engine")  # each test on both engines
 
@@ -215,3 +216,47 @@ def test_a_reused_renderer_draws_what_a_fresh_one_does(size):
         fresh = r.draw(b, sphere(0.02), **kw)
     np.testing.assert_array_equal(first, fresh)
     np.testing.assert_array_equal(again, fresh)
+
+
+def plate_over_floor() -> StandInMesh:
+    """A floor at z = 0 and, 4 cm above it, a plate over x < -0.05 (thin boxes)."""
+    floor = trimesh.creation.box(extents=(0.3, 0.3, 0.002))
+    floor.apply_translation((0.0, 0.0, -0.001))
+    plate = trimesh.creation.box(extents=(0.2, 0.3, 0.002))
+    plate.apply_translation((-0.15, 0.0, 0.04))
+    return StandInMesh(trimesh.util.concatenate([floor, plate]))
+
+
+@gl
+@pytest.mark.parametrize("softness", [0.0, 0.01])
+def test_the_skin_shadow_edge_is_as_soft_as_skin_softness(softness):
+    """The plate's shadow falls on the floor 3 cm past its edge (light from −x, 37° off
+    the normal); across the edge the floor's brightness ramps from the shadow to the
+    light over about ``skin_softness`` (a box filter: 10–90 % over 0.8 of its width),
+    and over a shadow-map texel or two with 0."""
+    camera = Camera(eye=(0.0, 0.0, 0.6), target=(0.0, 0.0, 0.0), fov_y=12.0)
+    size = (401, 401)
+    kw = dict(
+        camera=camera,
+        size=size,
+        background=BLACK,
+        msaa=0,
+        skin_color=(0.6, 0.6, 0.6),
+        lights=[Light((-0.6, 0.0, 0.8), space="world")],
+        shading_params={"skin_wrap": 0.0, "skin_softness": softness},
+    )
+    img = render(None, plate_over_floor(), shadows=True, **kw)
+    xs = np.linspace(-0.045, 0.04, 341)
+    xy, _ = camera.project(np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)]), size)
+    row = srgb_to_linear(img[200, :, 0] / 255.0)
+    profile = row[np.floor(xy[:, 0]).astype(int)]
+    dark, lit = profile[xs < -0.035].mean(), profile[xs > 0.02].mean()
+    assert lit > 4 * dark + 0.05  # a real shadow, and the floor beyond it fully lit
+    share = (profile - dark) / (lit - dark)
+    x10, x90 = xs[np.argmax(share > 0.1)], xs[np.argmax(share > 0.9)]
+    assert -0.04 < x10 < x90 < 0.0  # around the geometric edge at x = -0.02
+    width = x90 - x10
+    if softness:
+        assert 0.5 * 0.8 * softness < width < 1.5 * 0.8 * softness, width
+    else:
+        assert width < 2.5e-3, width

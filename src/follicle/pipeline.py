@@ -16,7 +16,7 @@ from .groom.groups import InterpolationGroups, mesh_groups
 from .groom.guides import load_guides
 from .io.mesh_load import load_mesh
 from .mesh.skin import SkinMesh
-from .render import Camera, frame_camera, make_renderer, render, save_png
+from .render import Camera, fit_camera, make_renderer, render, save_png
 from .scene import RenderParams, Scene, scene_from_toml, scene_to_toml
 from .validate import positive, whole
 
@@ -71,10 +71,10 @@ def grow(
     return groom.mesh, groom.generate(progress=progress)
 
 
-def framed_camera(lo: np.ndarray, hi: np.ndarray, fov: float, aspect: float) -> Camera:
-    """:func:`~follicle.render.frame_camera` on the box [lo, hi], without its near/far, so
+def framed_camera(points: np.ndarray, fov: float, aspect: float) -> Camera:
+    """:func:`~follicle.render.fit_camera` on ``points`` (N, 3), without its near/far, so
     a camera kept over many frames has them fitted to each frame by the renderer."""
-    framed = frame_camera(lo, hi, fov_y=fov, aspect=aspect)
+    framed = fit_camera(points, fov_y=fov, aspect=aspect)
     return Camera(eye=framed.eye, target=framed.target, up=framed.up, fov_y=fov)
 
 
@@ -193,15 +193,23 @@ def _sequence_camera(
     fixed = params.camera()
     if fixed is not None:
         return fixed
-    boxes = [first.bounds()] if first.point_count else []
-    pts = cache.positions.reshape(-1, 3)
-    boxes.append((pts.min(axis=0).astype(np.float64), pts.max(axis=0).astype(np.float64)))
+    parts = [first.points] if first.point_count else []
+    parts.append(cache.positions.reshape(-1, 3))
+    hull = _hull(groom.mesh.used_vertices("rest"))  # a rigid motion moves the hull along
     for transform in cache.transforms:
-        boxes.append(groom.mesh.posed(transform=transform).bounds("current"))
-    lo = np.min([b[0] for b in boxes], axis=0)
-    hi = np.max([b[1] for b in boxes], axis=0)
+        parts.append((hull @ transform[:3, :3].T + transform[:3, 3]).astype(np.float32))
     w, h = params.size
-    return framed_camera(lo, hi, params.fov, w / h)
+    return framed_camera(np.concatenate(parts), params.fov, w / h)
+
+
+def _hull(points: np.ndarray) -> np.ndarray:
+    """The points on the convex hull of ``points`` (all of them for a flat set)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        return points[ConvexHull(points).vertices]
+    except (QhullError, ValueError):
+        return points
 
 
 def _check_frames(cache: SimCache, frames: range | None) -> range:

@@ -162,8 +162,10 @@ class GroomParams(StrictSection):
     kink_root: Length = Field(0.0, description="(map) kink amplitude at the root, m")
     kink_tip: Length = Field(0.0, description="(map) kink amplitude at the tip, m")
     kink_frequency: Vec3 = Field((60.0, 60.0, 60.0), description="kink noise frequency, 1/m")
-    root_width: _prop(gt=0.0, le=0.1) = Field(80e-6, description="(map) diameter at root, m")
-    tip_width: _prop(gt=0.0, le=0.1) = Field(30e-6, description="(map) diameter at tip, m")
+    root_width: _prop(gt=0.0, le=0.1) = Field(
+        240e-6, description="(map) diameter at root, m (3× a real hair: README, Rendering)"
+    )
+    tip_width: _prop(gt=0.0, le=0.1) = Field(90e-6, description="(map) diameter at tip, m")
     root_color: Color = Field((0.03, 0.017, 0.009), description="(map) linear RGB at the root")
     tip_color: Color = Field((0.085, 0.05, 0.025), description="(map) linear RGB at the tip")
     hue_variation: _prop(ge=0.0, le=180.0) = Field(

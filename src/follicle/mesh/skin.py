@@ -200,9 +200,14 @@ class SkinMesh:
     def face_count(self) -> int:
         return len(self.faces)
 
+    def used_vertices(self, pose: str = "rest") -> np.ndarray:
+        """The vertices faces use (M, 3) in ``pose``: what is drawn and framed, without
+        stray points a file may carry."""
+        return self._verts(pose)[np.unique(self.faces)]
+
     def bounds(self, pose: str = "rest") -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned bounds ((3,), (3,)) of the vertices used by faces."""
-        used = self._verts(pose)[np.unique(self.faces)]
+        used = self.used_vertices(pose)
         return used.min(axis=0), used.max(axis=0)
 
     def __repr__(self) -> str:

@@ -1,6 +1,6 @@
 """Rendering: camera and lights, the OpenGL and CPU hair engines, PNG output."""
 
-from .camera import Camera, Light, default_lights, frame_camera
+from .camera import Camera, Light, default_lights, fit_camera, frame_camera
 from .cpu import CpuRenderer
 from .engines import make_renderer, render
 from .image import linear_to_srgb, save_png, srgb_to_linear
@@ -14,6 +14,7 @@ __all__ = [
     "CpuRenderer",
     "make_renderer",
     "default_lights",
+    "fit_camera",
     "frame_camera",
     "save_png",
     "linear_to_srgb",

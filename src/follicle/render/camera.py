@@ -25,9 +25,12 @@ __all__ = [
     "Light",
     "DEFAULT_FOV",
     "default_lights",
+    "fit_camera",
     "frame_camera",
+    "frame_scene",
     "hair_bounds",
     "scene_bounds",
+    "scene_points",
 ]
 
 DEFAULT_FOV = 30.0  # vertical field of view, degrees: every camera's and [render].fov's
@@ -155,6 +158,80 @@ class Camera:
         return 2.0 * math.tan(math.radians(self.fov_y) / 2.0) / float(height)
 
 
+def fit_camera(
+    points: object,
+    direction: Sequence[float] = (0.35, 0.15, 1.0),
+    fov_y: float = DEFAULT_FOV,
+    aspect: float = 1.0,
+    margin: float = 1.1,
+    up: Sequence[float] = (0.0, 1.0, 0.0),
+    radius: float = 0.0,
+) -> Camera:
+    """The closest camera looking along ``-direction`` that sees every point of ``points``
+    (N, 3), each grown to a ball of ``radius``, inside the image shrunk by ``margin``
+    (1.1 leaves ~5 % of free border on each side of the fuller axis), the points'
+    picture centred; near/far bracket them.
+
+    For a fixed view direction this has a closed form: with (x, y, z) the points along
+    the camera's right, up and back axes, the eye at ``o_x, o_y, D`` and tx = tan(fov/2)
+    · aspect / margin, every point needs |x − o_x| + r·√(1 + tx²) ≤ tx·(D − z) (and the
+    same in y). Both sides hold for all points iff max(x + tx·z) − min(x − tx·z) + 2r√(1
+    + tx²) ≤ 2·tx·D, so D is the larger of the two axes' bounds and o is the midpoint of
+    each axis's feasible range (then centred in the picture). Unlike fitting a bounding
+    box's corners, this frames a round head as tightly as its silhouette allows.
+    """
+    pts = np.asarray(points)
+    if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
+        raise InputError(f"fit_camera points: expected an (N, 3) array, N > 0, got {pts.shape}")
+    lo = pts.min(axis=0).astype(np.float64)
+    hi = pts.max(axis=0).astype(np.float64)
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise InputError("fit_camera points: must be finite")
+    d = _vec3(direction, "fit_camera direction")
+    if np.linalg.norm(d) <= 0:
+        raise InputError("fit_camera direction: must not be the zero vector")
+    margin = number(margin, "fit_camera margin", lo=1.0)
+    aspect = positive(aspect, "fit_camera aspect")
+    fov_y = _fov(fov_y, "fit_camera fov_y")
+    radius = number(radius, "fit_camera radius", lo=0.0)
+    centre = 0.5 * (lo + hi)
+    # a point (or flat) set still needs some extent to frame
+    pad = 1e-3 * max(1.0, float(np.abs(centre).max()))
+    if float(np.max(hi - lo)) + 2.0 * radius < 2.0 * pad:
+        radius = pad
+    back = normalize(d)  # centre -> eye
+    forward = -back
+    right = normalize(np.cross(forward, _perpendicular_up(forward, _vec3(up, "fit_camera up"))))
+    cam_up = np.cross(right, forward)
+    ty = math.tan(math.radians(fov_y) / 2.0) / margin
+    tx = ty * aspect
+    basis = np.stack([right, cam_up, back], axis=1)  # columns: the camera's axes
+    local = (pts - centre.astype(pts.dtype)) @ basis.astype(pts.dtype)
+    x, y, z = (local[:, k].astype(np.float64) for k in range(3))
+    dist, offset = 0.0, [0.0, 0.0]
+    for k, (c, t) in enumerate(((x, tx), (y, ty))):
+        grow = radius * math.sqrt(1.0 + t * t)
+        above = float(np.max(c + t * z)) + grow  # o ≥ above − t·D
+        below = float(np.min(c - t * z)) - grow  # o ≤ below + t·D
+        dist = max(dist, (above - below) / (2.0 * t))
+        offset[k] = 0.5 * (above + below)
+    extent = float(np.linalg.norm(hi - lo)) + 2.0 * radius
+    nearest, farthest = float(z.max()), float(z.min())
+    dist = max(dist, nearest + 1e-2 * extent)  # the eye stays in front of every point
+    inv = 1.0 / (dist - z)
+    for k, c in enumerate((x, y)):
+        # the midpoint of the feasible range centres the fuller axis exactly; Newton
+        # steps on (max + min of the projected picture) centre the other one too
+        for _ in range(4):
+            u = (c - offset[k]) * inv
+            i, j = int(np.argmax(u)), int(np.argmin(u))
+            offset[k] += (u[i] + u[j]) / (inv[i] + inv[j])
+    target = centre + offset[0] * right + offset[1] * cam_up
+    near = max(0.5 * (dist - nearest - radius), 1e-3 * dist)
+    far = dist - farthest + radius + 0.1 * extent
+    return Camera(target + back * dist, target, up=tuple(up), fov_y=fov_y, near=near, far=far)
+
+
 def frame_camera(
     lo: object,
     hi: object,
@@ -164,42 +241,41 @@ def frame_camera(
     margin: float = 1.1,
     up: Sequence[float] = (0.0, 1.0, 0.0),
 ) -> Camera:
-    """A camera looking at the centre of the box ``[lo, hi]`` that fits it to the view.
-
-    ``direction`` points from the box centre towards the eye. The eye distance is the
-    smallest at which all eight corners project inside the image shrunk by
-    ``margin`` (1.1 leaves ~5 % of free border on each side of the tighter axis);
-    near/far bracket the box.
-    """
+    """:func:`fit_camera` on the eight corners of the box ``[lo, hi]``: the box centred
+    and fitted to the view. ``direction`` points from the box centre towards the eye."""
     lo, hi = _vec3(lo, "frame_camera lo"), _vec3(hi, "frame_camera hi")
     if np.any(hi < lo):
         raise InputError(f"frame_camera: hi {hi.tolist()} is below lo {lo.tolist()}")
-    d = _vec3(direction, "frame_camera direction")
-    if np.linalg.norm(d) <= 0:
-        raise InputError("frame_camera direction: must not be the zero vector")
-    margin = number(margin, "frame_camera margin", lo=1.0)
-    aspect = positive(aspect, "frame_camera aspect")
-    fov_y = _fov(fov_y, "frame_camera fov_y")
-    centre = 0.5 * (lo + hi)
-    # a point (or flat) box still needs some extent to frame
-    pad = 1e-3 * max(1.0, float(np.abs(centre).max()))
-    half = np.maximum(0.5 * (hi - lo), pad)
-    back = normalize(d)  # centre -> eye
-    forward = -back
-    right = normalize(np.cross(forward, _perpendicular_up(forward, _vec3(up, "frame_camera up"))))
-    cam_up = np.cross(right, forward)
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    corners = signs * half
-    x, y, z = corners @ right, corners @ cam_up, corners @ back
-    ty = math.tan(math.radians(fov_y) / 2.0) / margin
-    tx = ty * aspect
-    # corner depth is D - z; it must satisfy |x| <= tx (D - z) and |y| <= ty (D - z)
-    dist = float(np.max(z + np.maximum(np.abs(x) / tx, np.abs(y) / ty)))
-    radius = float(np.linalg.norm(half))
-    dist = max(dist, radius * 1.001)
-    near = max(0.5 * (dist - radius), 1e-3 * dist)
-    far = dist + 2.0 * radius
-    return Camera(centre + back * dist, centre, up=tuple(up), fov_y=fov_y, near=near, far=far)
+    corners = np.array([[a[0], b[1], c[2]] for a in (lo, hi) for b in (lo, hi) for c in (lo, hi)])
+    return fit_camera(corners, direction, fov_y, aspect, margin, up)
+
+
+def scene_points(curves: HairCurves | None, mesh: object | None) -> tuple[np.ndarray, float]:
+    """What :func:`fit_camera` frames when a renderer gets no camera: the hair's points
+    and the mesh's vertices in its current pose (N, 3), and the ball radius (half the
+    widest hair)."""
+    parts: list[np.ndarray] = []
+    radius = 0.0
+    if curves is not None and curves.point_count:
+        parts.append(curves.points)
+        if "width" in curves.point_data:
+            radius = float(np.max(curves.point_data["width"])) / 2
+    if mesh is not None:
+        dtype = parts[0].dtype if parts else np.float64
+        used = np.unique(np.asarray(mesh.faces))  # type: ignore[attr-defined]
+        parts.append(np.asarray(mesh.vertices, dtype)[used])  # type: ignore[attr-defined]
+    if not parts:
+        raise InputError("scene_points: nothing to frame; give curves with points or a mesh")
+    return (parts[0] if len(parts) == 1 else np.concatenate(parts)), radius
+
+
+def frame_scene(
+    curves: HairCurves | None, mesh: object | None, fov_y: float, aspect: float
+) -> Camera:
+    """The camera a renderer uses when it gets none: :func:`fit_camera` on the hair and
+    the mesh (:func:`scene_points`) from the default direction."""
+    points, radius = scene_points(curves, mesh)
+    return fit_camera(points, fov_y=fov_y, aspect=aspect, radius=radius)
 
 
 def hair_bounds(curves: HairCurves) -> tuple[np.ndarray, np.ndarray]:

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
-from .camera import Camera, Light, default_lights, frame_camera, hair_bounds, scene_bounds
+from .camera import Camera, Light, default_lights, frame_scene, hair_bounds, scene_bounds
 from .lod import lod_fraction, thin_out
 from .options import ANGLE_PARAMS, MAX_LIGHTS, check_mesh, color3, parse_shading, point_attr
 from .shadows import automatic_layer, light_projection
@@ -135,7 +135,7 @@ def prepare_frame(
 ) -> Frame:
     """Check what is to be drawn and work out the frame (``settings`` already whole:
     :func:`~follicle.render.settings.with_overrides`). ``camera`` None: the settings'
-    eye and target, else :func:`frame_camera` around hair and mesh. With ``[render].lod``
+    eye and target, else :func:`~.camera.frame_scene` around hair and mesh. With ``[render].lod``
     the hair drawn is thinned out to the share :func:`~.lod.lod_fraction` gives."""
     params = parse_shading(settings.shading, settings.shading_params)
     hair, skin = drawable(curves, mesh)
@@ -148,7 +148,7 @@ def prepare_frame(
     hair_box = hair_bounds(hair) if hair is not None else None
     lo, hi = scene_bounds(hair, mesh, hair_box)
     if camera is None:
-        camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
+        camera = frame_scene(hair, mesh, settings.fov, w / h)
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
     near, far = _clip_range(camera, lo, hi)

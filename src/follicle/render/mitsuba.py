@@ -40,7 +40,7 @@ from ..curves import HairCurves
 from ..errors import InputError
 from ..io.mitsuba import save_mitsuba
 from ..validate import whole
-from .camera import Camera, Light, default_lights, frame_camera, scene_bounds
+from .camera import Camera, Light, default_lights, frame_scene
 from .frame import drawable
 from .image import encode_srgb8, save_png
 from .options import background_rows, color3, parse_background, parse_size, point_attr
@@ -264,8 +264,7 @@ def render_mitsuba(
     if camera is None:
         camera = settings.camera()
     if camera is None:
-        lo, hi = scene_bounds(hair, mesh)
-        camera = frame_camera(lo, hi, fov_y=settings.fov, aspect=w / h)
+        camera = frame_scene(hair, mesh, settings.fov, w / h)
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
     mi = _mitsuba()

@@ -194,6 +194,7 @@ class Renderer(RasterRenderer):
                     self._shadow.render(
                         light,
                         f.layer,
+                        float(params["skin_softness"]),
                         hair_vaos,
                         hair_gs,
                         skin_vaos["mesh_depth"] if skin_vaos else None,

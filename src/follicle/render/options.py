@@ -57,11 +57,18 @@ DEFAULT_BACKGROUND = ((0.33, 0.36, 0.41), (0.08, 0.085, 0.1))
 # the ribbon normal); on a head seen from the light's side that puts the band nearer the
 # tips. The primary (R) lobe goes towards the root, the tinted one (TRT) towards the tip.
 Spec = tuple[object, float, float, str]
+SPECULAR_TINT = 0.6  # dark hair keeps its colour where the primary lobe is seen at grazing
 COMMON_PARAMS: dict[str, Spec] = {
     "root_occlusion": (0.65, 0.0, 1.0, "darkening towards the root, 0 .. 1"),
     "roundness": (0.35, 0.0, 1.0, "darkening towards the ribbon edges (hair over 1 px wide)"),
     "skin_wrap": (0.1, 0.0, 1.0, "wrap-around term of the skin's Lambert shading"),
     "shadow_density": (0.7, 0.0, 100.0, "κ of the hair shadow transmittance exp(−κ·opacity)"),
+    "skin_softness": (
+        0.01,
+        0.0,
+        0.1,
+        "width of the skin's own shadow edges, m (a box filter over the shadow map; 0: a texel)",
+    ),
     "shadow_layer": (
         0.0,
         0.0,
@@ -78,7 +85,7 @@ COMMON_PARAMS: dict[str, Spec] = {
 MODEL_PARAMS: dict[str, dict[str, Spec]] = {
     "kajiya-kay": {
         "diffuse": (0.6, 0.0, 10.0, "K_d, eq. 3.8"),
-        "specular": (0.4, 0.0, 10.0, "K_s, eq. 3.9: the primary (white) highlight"),
+        "specular": (0.4, 0.0, 10.0, "K_s, eq. 3.9: the primary highlight"),
         "shininess": (120.0, 0.1, 10000.0, "p, eq. 3.9"),
         "specular_color": ((1.0, 0.97, 0.92), 0.0, 100.0, "primary highlight colour"),
         "specular2": (0.5, 0.0, 10.0, "second highlight, tinted by the hair (0: off)"),
@@ -90,10 +97,16 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
             "primary tangent shift along the ribbon normal (> 0: the lobe tilts towards the root)",
         ),
         "shift2": (-0.12, -1.0, 1.0, "second highlight tangent shift"),
+        "specular_tint": (
+            SPECULAR_TINT,
+            0.0,
+            1.0,
+            "primary highlight's colour towards the hair's hue: 0 specular_color, 1 its hue",
+        ),
     },
     "scheuermann": {
         "diffuse": (0.6, 0.0, 10.0, "K_d of max(0, 0.75 N·L + 0.25) (Almeida 2014 Alg. 6)"),
-        "specular": (0.5, 0.0, 10.0, "primary (white) highlight"),
+        "specular": (0.5, 0.0, 10.0, "primary highlight"),
         "shininess": (128.0, 0.1, 10000.0, "primary exponent (Alg. 6: 128)"),
         "specular_color": ((1.0, 0.97, 0.92), 0.0, 100.0, "primary highlight colour"),
         "specular2": (1.0, 0.0, 10.0, "secondary highlight, tinted by the hair colour"),
@@ -105,6 +118,12 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
             "primary tangent shift along the ribbon normal (> 0: lobe towards the root)",
         ),
         "shift2": (-0.12, -1.0, 1.0, "secondary tangent shift (< 0: towards the tip)"),
+        "specular_tint": (
+            SPECULAR_TINT,
+            0.0,
+            1.0,
+            "primary highlight's colour towards the hair's hue: 0 specular_color, 1 its hue",
+        ),
         "shift_noise": (0.3, 0.0, 2.0, "± noise added to both shifts along each strand"),
         "sparkle": (0.6, 0.0, 1.0, "how much noise masks the secondary highlight"),
         "noise_frequency": (12.0, 0.0, 1000.0, "noise cycles per hair length"),
@@ -153,6 +172,15 @@ def background_rows(background: tuple[np.ndarray, np.ndarray], height: int) -> n
     top, bottom = (np.asarray(c, np.float64) for c in background)
     y = 1.0 - (np.arange(height) + 0.5) / height  # 0 at the bottom edge, 1 at the top
     return bottom[None, :] + (top - bottom)[None, :] * y[:, None]
+
+
+MAX_SOFT = 8  # texels: a skin receiver reads at most (2·8 + 2)² of them, at edges only
+
+
+def soft_radius(softness: float, texel: float) -> int:
+    """The skin receivers' filter radius r in texels: a box (2r + 1) texels wide as near
+    ``softness`` metres as whole texels allow, at most :data:`MAX_SOFT`."""
+    return min(max(int(round((softness / texel - 1.0) / 2.0)), 0), MAX_SOFT)
 
 
 def parse_size(size: object) -> tuple[int, int]:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import normalize
+from .options import soft_radius
 from .programs import set_uniforms, use_framebuffer
 
 __all__ = ["ShadowMaps", "automatic_layer", "light_projection"]
@@ -58,8 +59,8 @@ class ShadowMaps:
         self.ctx = ctx
         self.size = size
         self.skin_depth = ctx.depth_texture((size, size))
-        self.skin_depth.compare_func = "<="  # a sampler2DShadow: 2x2 PCF with LINEAR
-        self.skin_depth.filter = (ctx.LINEAR, ctx.LINEAR)
+        self.skin_depth.compare_func = ""  # read as depths: lights.glsl filters the tests
+        self.skin_depth.filter = (ctx.NEAREST, ctx.NEAREST)
         self.first = ctx.texture((size, size), 1, dtype="f4")
         self.layers = ctx.texture((size, size), LAYERS, dtype="f4")
         for tex in (self.skin_depth, self.first, self.layers):
@@ -93,6 +94,7 @@ class ShadowMaps:
         self,
         light: tuple[np.ndarray, np.ndarray, float, float],
         layer: float,
+        softness: float,
         hair_vaos: dict[str, list],
         hair_uniforms: dict,
         skin_vao,
@@ -100,7 +102,8 @@ class ShadowMaps:
         """Render the maps; returns the receivers' uniforms.
 
         ``light`` is (direction towards the light, :func:`light_projection` matrix, texel
-        size, depth range); layers are ``layer`` metres thick. ``hair_vaos`` maps
+        size, depth range); layers are ``layer`` metres thick; skin receivers filter the
+        skin's shadow ``softness`` metres wide (:func:`soft_radius`). ``hair_vaos`` maps
         ``hair_depth`` / ``hair_opacity`` to the vertex arrays that draw the hair (lines
         and ribbons; empty: no hair), ``hair_uniforms`` are the geometry shader's
         settings apart from the view; ``skin_vao`` draws the skin with ``mesh_depth``
@@ -160,6 +163,7 @@ class ShadowMaps:
             "layer_depth": layer_depth,
             "depth_per_metre": 1.0 / depth_range,
             "light_texel": texel,
+            "skin_soft": soft_radius(softness, texel),
             **UNITS,
         }
 

@@ -455,7 +455,6 @@ class Controller:
         fixed = r.camera()
         if fixed is not None:
             return fixed
-        lo, hi = (np.asarray(b, np.float64) for b in self.mesh.bounds("rest"))
-        x = self.sim.positions.reshape(-1, 3)
-        lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
-        return framed_camera(lo, hi, r.fov, self.size[0] / self.size[1])
+        skin = self.mesh.used_vertices("rest")
+        x = self.sim.positions.reshape(-1, 3).astype(np.float64)
+        return framed_camera(np.concatenate([skin, x]), r.fov, self.size[0] / self.size[1])

@@ -37,7 +37,7 @@ from ..camera import Camera
 from ..engines import RasterRenderer
 from ..frame import Frame, hair_vertices, prepare_frame
 from ..image import encode_srgb8
-from ..options import MAX_STEP_PX, background_rows
+from ..options import MAX_STEP_PX, background_rows, soft_radius
 from ..strands import StrandTables
 from .bins import TILE, bin_boxes
 from .lines import PASSES, draw_strands, segment_boxes
@@ -246,7 +246,12 @@ class CpuRenderer(RasterRenderer):
             draw_strands(PASSES["nearest"], *args, first, skin, skin, consts, _threads())
             draw_strands(PASSES["layers"], *args, layers, first[..., 0], skin, consts, _threads())
         shadow = pack_shadow(
-            True, f.layer / depth_range, 1.0 / depth_range, texel, float(f.params["shadow_density"])
+            True,
+            f.layer / depth_range,
+            1.0 / depth_range,
+            texel,
+            float(f.params["shadow_density"]),
+            soft_radius(float(f.params["skin_softness"]), texel),
         )
         return (
             np.ascontiguousarray(matrix, np.float64),

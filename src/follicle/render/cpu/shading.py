@@ -30,7 +30,7 @@ __all__ = [
 
 MODELS = {name: i for i, name in enumerate(SHADINGS)}
 _KK = ("diffuse", "specular", "shininess", "specular_color", "specular2", "shininess2")
-_KK += ("shift", "shift2")
+_KK += ("shift", "shift2", "specular_tint")
 PARAM_ORDER = {
     "kajiya-kay": _KK,
     "scheuermann": (*_KK, "shift_noise", "sparkle", "noise_frequency"),
@@ -75,11 +75,18 @@ def no_shadow() -> tuple:
 
 
 def pack_shadow(
-    enabled: bool, layer_depth: float, depth_per_metre: float, texel: float, density: float
+    enabled: bool,
+    layer_depth: float,
+    depth_per_metre: float,
+    texel: float,
+    density: float,
+    soft: int = 0,
 ) -> np.ndarray:
     """The shadow lookup's numbers: on, layer thickness and depth units per metre (light
-    depth, 0..1), texel size (m), κ of exp(−κ·opacity)."""
-    return np.array([float(enabled), layer_depth, depth_per_metre, texel, density], np.float64)
+    depth, 0..1), texel size (m), κ of exp(−κ·opacity), the skin receivers' filter
+    radius in texels (:func:`~follicle.render.options.soft_radius`)."""
+    values = [float(enabled), layer_depth, depth_per_metre, texel, density, float(soft)]
+    return np.array(values, np.float64)
 
 
 # ----------------------------------------------------------------------------- vectors
@@ -192,18 +199,24 @@ def _light(lrad, i, key):
 
 @njit(cache=True, inline="always")
 def _shade_tangent(model, prm, powers, T, N, E, base, t, seed, key, nl, ldir, lrad, amb):
-    """Kajiya-Kay (model 0) or Scheuermann (model 1): diffuse, a white primary and a
-    tinted secondary lobe on tangents shifted along N (shade_kajiya_kay.glsl,
-    shade_scheuermann.glsl)."""
+    """Kajiya-Kay (model 0) or Scheuermann (model 1): diffuse, a primary lobe towards
+    the hair's hue by specular_tint and a secondary lobe tinted by the hair colour, on
+    tangents shifted along N (shade_kajiya_kay.glsl, shade_scheuermann.glsl)."""
     jitter = 0.0
     mask = 1.0
     if model == 1:
-        x = t * prm[12]
-        jitter = prm[10] * (_strand_noise(seed, x) - 0.5)
+        x = t * prm[13]
+        jitter = prm[11] * (_strand_noise(seed, x) - 0.5)
         m = _strand_noise(seed + 0.5 - math.floor(seed + 0.5), 2.3 * x + 0.37)
-        mask = 1.0 + (m - 1.0) * prm[11]
+        mask = 1.0 + (m - 1.0) * prm[12]
     T1 = unit(added(T, scaled(N, prm[8] + jitter)))
     T2 = unit(added(T, scaled(N, prm[9] + jitter)))
+    # the primary lobe's colour towards the hair's hue (hair_common.glsl: tinted)
+    tint = prm[10]
+    top = max(max(base[0], base[1]), max(base[2], 1e-6))
+    pr = prm[1] * prm[3] * (1.0 + (base[0] / top - 1.0) * tint)
+    pg = prm[1] * prm[4] * (1.0 + (base[1] / top - 1.0) * tint)
+    pb = prm[1] * prm[5] * (1.0 + (base[2] / top - 1.0) * tint)
     dr = dg = db = 0.0
     sr = sg = sb = 0.0
     for i in range(nl):
@@ -222,9 +235,9 @@ def _shade_tangent(model, prm, powers, T, N, E, base, t, seed, key, nl, ldir, lr
         dr += rad[0] * d
         dg += rad[1] * d
         db += rad[2] * d
-        sr += rad[0] * (prm[1] * prm[3] * s1 + prm[6] * base[0] * s2)
-        sg += rad[1] * (prm[1] * prm[4] * s1 + prm[6] * base[1] * s2)
-        sb += rad[2] * (prm[1] * prm[5] * s1 + prm[6] * base[2] * s2)
+        sr += rad[0] * (pr * s1 + prm[6] * base[0] * s2)
+        sg += rad[1] * (pg * s1 + prm[6] * base[1] * s2)
+        sb += rad[2] * (pb * s1 + prm[6] * base[2] * s2)
     k = prm[0]
     return (
         base[0] * (amb[0] + k * dr) + sr,
@@ -307,11 +320,48 @@ def _dom_opacity(first, layers, qx, qy, z, layer_depth):
 
 
 @njit(cache=True, inline="always")
-def key_visibility(p, lift, lvp, first, layers, skin, sh):
+def _skin_lit(skin, stx, sty, z, r):
+    """lights.glsl skin_lit: the skin's shadow test over a box 2r + 1 texels wide around
+    (stx, sty), each texel weighted by its overlap (r = 0: the 2x2 bilinear PCF); the
+    corners and centre answer alone where they agree."""
+    hi = skin.shape[0] - 1
+    qx = int(math.floor(stx))
+    qy = int(math.floor(sty))
+    fx = stx - qx
+    fy = sty - qy
+    if r > 0:
+        c = _lit(skin, qx, qy, z, hi)
+        corners = (
+            _lit(skin, qx - r, qy - r, z, hi)
+            + _lit(skin, qx + r + 1, qy - r, z, hi)
+            + _lit(skin, qx - r, qy + r + 1, z, hi)
+            + _lit(skin, qx + r + 1, qy + r + 1, z, hi)
+        )
+        if corners == 4.0 * c:
+            return c
+    total = 0.0
+    for j in range(-r, r + 2):
+        wy = 1.0 - fy if j == -r else (fy if j == r + 1 else 1.0)
+        row = 0.0
+        for i in range(-r, r + 2):
+            wx = 1.0 - fx if i == -r else (fx if i == r + 1 else 1.0)
+            row += wx * _lit(skin, qx + i, qy + j, z, hi)
+        total += wy * row
+    width = 2.0 * r + 1.0
+    return total / (width * width)
+
+
+@njit(cache=True, inline="always")
+def _lit(skin, x, y, z, hi):
+    return 1.0 if z <= skin[min(max(y, 0), hi), min(max(x, 0), hi)] else 0.0
+
+
+@njit(cache=True, inline="always")
+def key_visibility(p, lift, soft, lvp, first, layers, skin, sh):
     """Share of the key light reaching world point p: the deep opacity maps' hair
     transmittance exp(−κ·opacity), bilinear over the four nearest texels, times the
-    skin shadow map's 2×2 percentage-closer filter. The lookup moves ``lift`` metres
-    plus 1.5 texels towards the light (no self-shadowing)."""
+    skin shadow map's test filtered 2·soft + 1 texels wide (:func:`_skin_lit`). The
+    lookup moves ``lift`` metres plus 1.5 texels towards the light (no self-shadowing)."""
     if sh[0] == 0.0:
         return 1.0
     sx = (lvp[0, 0] * p[0] + lvp[0, 1] * p[1] + lvp[0, 2] * p[2] + lvp[0, 3]) * 0.5 + 0.5
@@ -340,14 +390,7 @@ def key_visibility(p, lift, lvp, first, layers, skin, sh):
     a = o00 + (o10 - o00) * fx
     b = o01 + (o11 - o01) * fx
     opacity = a + (b - a) * fy
-    l00 = 1.0 if z <= skin[y0, x0] else 0.0
-    l10 = 1.0 if z <= skin[y0, x1] else 0.0
-    l01 = 1.0 if z <= skin[y1, x0] else 0.0
-    l11 = 1.0 if z <= skin[y1, x1] else 0.0
-    a = l00 + (l10 - l00) * fx
-    b = l01 + (l11 - l01) * fx
-    lit = a + (b - a) * fy
-    return lit * math.exp(-sh[4] * opacity)
+    return _skin_lit(skin, stx, sty, z, soft) * math.exp(-sh[4] * opacity)
 
 
 # ----------------------------------------------------------------------------- radiance
@@ -362,7 +405,7 @@ def hair_radiance(
     matrix, first depths, layers, skin depths and :func:`pack_shadow` — as separate
     arguments: a tuple of arrays handed to an inlined function costs reference counts
     per call, measured at 100 ns, most of a step's shading."""
-    key = key_visibility(P, width, lvp, first, layers, skin, sh)
+    key = key_visibility(P, width, 0, lvp, first, layers, skin, sh)
     if model == 2:
         rgb = _shade_marschner(prm, T, E, base, key, nl, ldir, lrad, amb)
     else:
@@ -376,12 +419,18 @@ def hair_radiance(
 def skin_radiance(P, N, E, color, wrap, nl, ldir, lrad, amb, lvp, first, layers, skin, sh):
     """mesh_fs.glsl: two-sided Lambert of ``color`` with a wrap-around term, the key
     light shadowed by hair and skin (the lookup's arguments as :func:`hair_radiance`'s),
-    looked up two texels off the surface (no acne)."""
+    looked up two texels off the surface and nearer the light by the filter's width
+    times the surface's slope (no acne), the skin's own shadow filtered ``sh[5]``
+    texels about."""
     if dot(N, E) < 0.0:
         N = scaled(N, -1.0)
     lift = 2.0 * sh[3]
     q = added(P, scaled(N, lift))
-    key = key_visibility(q, 0.0, lvp, first, layers, skin, sh)
+    # the filter's width in depth as the surface slopes away from the key light
+    soft = int(sh[5])
+    c = max(abs(N[0] * ldir[0, 0] + N[1] * ldir[0, 1] + N[2] * ldir[0, 2]), 0.2)
+    slope = (soft + 1.0) * sh[3] * math.sqrt(1.0 - c * c) / c
+    key = key_visibility(q, slope, soft, lvp, first, layers, skin, sh)
     r = amb[0]
     g = amb[1]
     b = amb[2]

@@ -18,6 +18,14 @@ float strand_noise(float seed, float x) {
     return mix(hash01(base), hash01(base + 1u), f * f * (3.0 - 2.0 * f));
 }
 
+// A highlight colour towards the hair's hue by `tint` (0: white .. 1: the hue at full
+// brightness): the physical models' lobes that enter the fibre (Marschner's TRT) carry
+// its colour, so dark hair's sheen stays brown instead of turning grey at grazing angles.
+vec3 tinted(vec3 base, float tint) {
+    vec3 hue = base / max(max(base.r, base.g), max(base.b, 1e-6));
+    return mix(vec3(1.0), hue, tint);
+}
+
 // Radiance leaving hair point P towards the eye (E, unit). T: unit tangent, root to tip;
 // N: unit ribbon normal facing the eye (turned across a wide ribbon like a cylinder's);
 // base: hair colour; t: 0 at the root .. 1 at the tip; seed: per strand;

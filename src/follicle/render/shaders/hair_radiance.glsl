@@ -6,7 +6,7 @@ uniform float roundness;
 
 vec3 hair_radiance(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed,
                    float width, float v2) {
-    float key = key_light_visibility(P, width);
+    float key = key_light_visibility(P, width, 0);
     float occlusion = 1.0 - root_occlusion * pow(1.0 - clamp(t, 0.0, 1.0), 1.5);
     return hair_shade(P, T, N, E, base, t, seed, key) * occlusion * (1.0 - roundness * v2);
 }

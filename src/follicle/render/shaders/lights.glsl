@@ -14,7 +14,8 @@ uniform bool shadows;
 uniform mat4 light_view_proj;       // world -> light clip space
 uniform sampler2D dom_depth;        // depth of the nearest hair per texel, 0 .. 1
 uniform sampler2D dom_layers;       // hair opacity in 4 layers behind it
-uniform sampler2DShadow skin_depth; // the skin's depth
+uniform sampler2D skin_depth;       // the skin's depth (NEAREST, no comparison)
+uniform int skin_soft;              // skin receivers' filter radius, texels
 uniform float layer_depth;          // one layer's thickness, light depth units
 uniform float depth_per_metre;      // light depth units per metre
 uniform float light_texel;          // world size of a shadow-map texel, metres
@@ -30,9 +31,38 @@ float dom_opacity(ivec2 q, float z) {
     return dot(layers, clamp(vec4(x) - vec4(0.0, 1.0, 2.0, 3.0), 0.0, 1.0));
 }
 
+// Share of the skin's shadow test passed over a box (2r + 1) texels wide around st
+// (texel centres at whole st): each texel's test weighted by its overlap with the box,
+// so r = 0 is the 2x2 bilinear percentage-closer filter. Where the box's corners and
+// centre agree the answer is theirs: the full sum runs at shadow edges only.
+float skin_lit(vec2 st, float z, int r) {
+    ivec2 hi = textureSize(skin_depth, 0) - 1;
+    ivec2 q = ivec2(floor(st));
+    vec2 f = st - vec2(q);
+    if (r > 0) {
+        float c = step(z, texelFetch(skin_depth, clamp(q, ivec2(0), hi), 0).r);
+        float corners = step(z, texelFetch(skin_depth, clamp(q + ivec2(-r, -r), ivec2(0), hi), 0).r)
+                      + step(z, texelFetch(skin_depth, clamp(q + ivec2(r + 1, -r), ivec2(0), hi), 0).r)
+                      + step(z, texelFetch(skin_depth, clamp(q + ivec2(-r, r + 1), ivec2(0), hi), 0).r)
+                      + step(z, texelFetch(skin_depth, clamp(q + ivec2(r + 1, r + 1), ivec2(0), hi), 0).r);
+        if (corners == 4.0 * c) return c;
+    }
+    float sum = 0.0;
+    for (int j = -r; j <= r + 1; ++j) {
+        float wy = j == -r ? 1.0 - f.y : (j == r + 1 ? f.y : 1.0);
+        for (int i = -r; i <= r + 1; ++i) {
+            float wx = i == -r ? 1.0 - f.x : (i == r + 1 ? f.x : 1.0);
+            sum += wx * wy * step(z, texelFetch(skin_depth, clamp(q + ivec2(i, j), ivec2(0), hi), 0).r);
+        }
+    }
+    float width = float(2 * r + 1);
+    return sum / (width * width);
+}
+
 // Share of the key light reaching world point p. The lookup moves `lift` metres (the
-// receiver's own thickness) plus 1.5 texels towards the light: no self-shadowing.
-float key_light_visibility(vec3 p, float lift) {
+// receiver's own thickness) plus 1.5 texels towards the light: no self-shadowing. The
+// skin's shadow is filtered over 2·soft + 1 texels (skin_lit).
+float key_light_visibility(vec3 p, float lift, int soft) {
     if (!shadows) return 1.0;
     vec3 s = (light_view_proj * vec4(p, 1.0)).xyz * 0.5 + 0.5;
     if (any(lessThan(s.xy, vec2(0.0))) || any(greaterThan(s.xy, vec2(1.0)))) return 1.0;
@@ -48,6 +78,5 @@ float key_light_visibility(vec3 p, float lift) {
     float o01 = dom_opacity(clamp(q + ivec2(0, 1), ivec2(0), hi), z);
     float o11 = dom_opacity(clamp(q + ivec2(1, 1), ivec2(0), hi), z);
     float opacity = mix(mix(o00, o10, f.x), mix(o01, o11, f.x), f.y);
-    float skin = texture(skin_depth, vec3(s.xy, z));  // 2x2 percentage-closer filtering
-    return skin * exp(-shadow_density * opacity);
+    return skin_lit(st, z, soft) * exp(-shadow_density * opacity);
 }

@@ -12,6 +12,7 @@ uniform float p_specular2;
 uniform float p_shininess2;
 uniform float p_shift;
 uniform float p_shift2;
+uniform float p_specular_tint;
 uniform float p_shift_noise;
 uniform float p_sparkle;
 uniform float p_noise_frequency;
@@ -29,6 +30,7 @@ vec3 hair_shade(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed, 
     // a positive shift tilts the tangent towards N, moving the lobe towards the root
     vec3 T1 = normalize(T + (p_shift + jitter) * N);
     vec3 T2 = normalize(T + (p_shift2 + jitter) * N);
+    vec3 primary = p_specular * p_specular_color * tinted(base, p_specular_tint);
     vec3 diffuse = vec3(0.0);
     vec3 specular = vec3(0.0);
     for (int i = 0; i < n_lights; ++i) {
@@ -36,7 +38,7 @@ vec3 hair_shade(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed, 
         vec3 radiance = light_radiance[i] * (i == 0 ? key : 1.0);
         vec3 H = normalize(L + E);
         diffuse += radiance * max(0.0, 0.75 * dot(N, L) + 0.25);
-        specular += radiance * (p_specular * p_specular_color * strand_specular(T1, H, p_shininess)
+        specular += radiance * (primary * strand_specular(T1, H, p_shininess)
                                 + p_specular2 * mask * base * strand_specular(T2, H, p_shininess2));
     }
     return base * (ambient + p_diffuse * diffuse) + specular;
