@@ -131,7 +131,7 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
     "marschner": {
         "alpha": (-7.0, -30.0, 30.0, "R lobe shift α, degrees (TT: −α/2, TRT: −3α/2)"),
         "beta": (5.0, 0.5, 45.0, "R lobe width β, degrees (TT: β/2, TRT: 2β)"),
-        "r": (2.0, 0.0, 100.0, "R (surface reflection) strength (1: a smooth fibre's Fresnel)"),
+        "r": (1.0, 0.0, 100.0, "R (surface reflection) strength (1: a smooth fibre's Fresnel)"),
         "tt": (1.0, 0.0, 100.0, "TT (transmission) strength"),
         "trt": (3.0, 0.0, 100.0, "TRT (internal reflection) strength"),
         "tt_width": (25.0, 1.0, 180.0, "azimuthal width of the TT lobe around φ = π, degrees"),
