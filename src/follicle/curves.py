@@ -13,7 +13,7 @@ from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .arrays import all_finite
+from .arrays import all_finite, point_bounds
 from .errors import InputError
 
 __all__ = ["HairCurves"]
@@ -186,8 +186,7 @@ class HairCurves:
         """
         if not self.point_count:
             raise InputError("bounds: the curves are empty")
-        pts = self.points  # float32: its extremes are exact in float64, no copy needed
-        return pts.min(axis=0).astype(np.float64), pts.max(axis=0).astype(np.float64)
+        return point_bounds(self.points)  # float32 extremes are exact in float64
 
     def __getitem__(self, key: int | slice | Sequence[int] | np.ndarray) -> HairCurves:
         """Select curves by index, slice, index array or boolean mask."""

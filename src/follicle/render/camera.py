@@ -14,7 +14,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
+from ..arrays import all_finite, point_bounds
 from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
@@ -181,11 +183,12 @@ def fit_camera(
     box's corners, this frames a round head as tightly as its silhouette allows.
     """
     pts = np.asarray(points)
+    if pts.dtype.kind != "f":
+        pts = pts.astype(np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
         raise InputError(f"fit_camera points: expected an (N, 3) array, N > 0, got {pts.shape}")
-    lo = pts.min(axis=0).astype(np.float64)
-    hi = pts.max(axis=0).astype(np.float64)
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+    lo, hi = point_bounds(pts)
+    if not all_finite(pts):
         raise InputError("fit_camera points: must be finite")
     d = _vec3(direction, "fit_camera direction")
     if np.linalg.norm(d) <= 0:
@@ -211,8 +214,8 @@ def fit_camera(
     dist, offset = 0.0, [0.0, 0.0]
     for k, (c, t) in enumerate(((x, tx), (y, ty))):
         grow = radius * math.sqrt(1.0 + t * t)
-        above = float(np.max(c + t * z)) + grow  # o ≥ above − t·D
-        below = float(np.min(c - t * z)) - grow  # o ≤ below + t·D
+        above, below = _bounds(c, z, t)
+        above, below = above + grow, below - grow  # o ≥ above − t·D, o ≤ below + t·D
         dist = max(dist, (above - below) / (2.0 * t))
         offset[k] = 0.5 * (above + below)
     extent = float(np.linalg.norm(hi - lo)) + 2.0 * radius
@@ -223,13 +226,36 @@ def fit_camera(
         # the midpoint of the feasible range centres the fuller axis exactly; Newton
         # steps on (max + min of the projected picture) centre the other one too
         for _ in range(4):
-            u = (c - offset[k]) * inv
-            i, j = int(np.argmax(u)), int(np.argmin(u))
-            offset[k] += (u[i] + u[j]) / (inv[i] + inv[j])
+            offset[k] += _centring_step(c, inv, offset[k])
     target = centre + offset[0] * right + offset[1] * cam_up
     near = max(0.5 * (dist - nearest - radius), 1e-3 * dist)
     far = dist - farthest + radius + 0.1 * extent
     return Camera(target + back * dist, target, up=tuple(up), fov_y=fov_y, near=near, far=far)
+
+
+@njit(cache=True)
+def _bounds(c: np.ndarray, z: np.ndarray, t: float) -> tuple[float, float]:
+    """max(c + t·z) and min(c − t·z) in one pass, no temporaries."""
+    above, below = -np.inf, np.inf
+    for k in range(len(c)):
+        above = max(above, c[k] + t * z[k])
+        below = min(below, c[k] - t * z[k])
+    return above, below
+
+
+@njit(cache=True)
+def _centring_step(c: np.ndarray, inv: np.ndarray, o: float) -> float:
+    """One Newton step on max + min of the projected picture u = (c − o)·inv: one pass,
+    no temporaries (the numpy form took 100 ms a frame for 1.6 M hair points)."""
+    hi, lo = -np.inf, np.inf
+    i = j = 0
+    for k in range(len(c)):
+        u = (c[k] - o) * inv[k]
+        if u > hi:
+            hi, i = u, k
+        if u < lo:
+            lo, j = u, k
+    return (hi + lo) / (inv[i] + inv[j])
 
 
 def frame_camera(

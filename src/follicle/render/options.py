@@ -57,7 +57,13 @@ DEFAULT_BACKGROUND = ((0.33, 0.36, 0.41), (0.08, 0.085, 0.1))
 # the ribbon normal); on a head seen from the light's side that puts the band nearer the
 # tips. The primary (R) lobe goes towards the root, the tinted one (TRT) towards the tip.
 Spec = tuple[object, float, float, str]
-SPECULAR_TINT = 0.6  # dark hair keeps its colour where the primary lobe is seen at grazing
+# dark hair keeps its colour where the primary lobe is seen at grazing angles
+SPECULAR_TINT: Spec = (
+    0.6,
+    0.0,
+    1.0,
+    "primary highlight's colour towards the hair's hue: 0 specular_color, 1 its hue",
+)
 COMMON_PARAMS: dict[str, Spec] = {
     "root_occlusion": (0.65, 0.0, 1.0, "darkening towards the root, 0 .. 1"),
     "roundness": (0.35, 0.0, 1.0, "darkening towards the ribbon edges (hair over 1 px wide)"),
@@ -97,12 +103,7 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
             "primary tangent shift along the ribbon normal (> 0: the lobe tilts towards the root)",
         ),
         "shift2": (-0.12, -1.0, 1.0, "second highlight tangent shift"),
-        "specular_tint": (
-            SPECULAR_TINT,
-            0.0,
-            1.0,
-            "primary highlight's colour towards the hair's hue: 0 specular_color, 1 its hue",
-        ),
+        "specular_tint": SPECULAR_TINT,
     },
     "scheuermann": {
         "diffuse": (0.6, 0.0, 10.0, "K_d of max(0, 0.75 N·L + 0.25) (Almeida 2014 Alg. 6)"),
@@ -118,12 +119,7 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
             "primary tangent shift along the ribbon normal (> 0: lobe towards the root)",
         ),
         "shift2": (-0.12, -1.0, 1.0, "secondary tangent shift (< 0: towards the tip)"),
-        "specular_tint": (
-            SPECULAR_TINT,
-            0.0,
-            1.0,
-            "primary highlight's colour towards the hair's hue: 0 specular_color, 1 its hue",
-        ),
+        "specular_tint": SPECULAR_TINT,
         "shift_noise": (0.3, 0.0, 2.0, "± noise added to both shifts along each strand"),
         "sparkle": (0.6, 0.0, 1.0, "how much noise masks the secondary highlight"),
         "noise_frequency": (12.0, 0.0, 1000.0, "noise cycles per hair length"),
