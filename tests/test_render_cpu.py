@@ -23,6 +23,8 @@ from follicle.render import (
     render,
     srgb_to_linear,
 )
+from follicle.render.cpu.steps import space_order
+from follicle.render.image import half_bits
 from follicle.render.settings import RenderParams
 from follicle.scene import Scene, load_scene
 
@@ -76,6 +78,45 @@ def test_same_bytes_for_any_thread_count(small_scene, oit):
     assert images[0].std() > 5  # hair, skin and shadows, not a blank frame
     for image in images[1:]:
         np.testing.assert_array_equal(image, images[0])
+
+
+def test_the_resolve_encodes_as_the_half_float_readback():
+    """The CPU engine encodes in its resolve kernel through half_bits; it must give the
+    bytes numpy's float32 → float16 conversion gives (ties to even, subnormals,
+    overflow), which the OpenGL engine's read-back goes through."""
+    edges = [
+        0x00000000, 0x80000000, 0x7F800000, 0xFF800000,  # ±0, ±inf
+        0x477FEFFF, 0x477FF000, 0x477FF001,  # just under, at, over 65520 (→ inf)
+        0x33000000, 0x33000001, 0x33800000,  # 2^-25 (a tie to 0), above, 2^-24
+        0x387FC000, 0x387FE000, 0x38800000,  # the largest subnormal, the tie, 2^-14
+        0x3F800FFF, 0x3F801000, 0x3F801001, 0x3F803000,  # ties to even around 1
+        0x3B4D2E1C, 0x3F7FFFFF, 0xBF000000,  # 0.0031308, just under 1, -0.5
+    ]  # fmt: skip
+    bits = np.concatenate([np.arange(0, 2**32, 4099, dtype=np.uint64), edges]).astype(np.uint32)
+    values = bits.view(np.float32)
+    with np.errstate(over="ignore"):
+        expected = values.astype(np.float16).view(np.uint16)
+    ours = np.array([half_bits(int(b)) for b in bits[::97]] + [half_bits(b) for b in edges])
+    pick = np.concatenate([np.arange(0, len(bits) - len(edges), 97), np.arange(-len(edges), 0)])
+    keep = ~np.isnan(values[pick])
+    np.testing.assert_array_equal(ours[keep], expected[pick][keep])
+    assert np.all(np.isnan(np.array(ours[~keep], np.uint16).view(np.float16)))
+
+
+def test_curves_are_drawn_in_the_order_of_their_roots_in_space():
+    """space_order: the Morton order of the roots' cells (x the lowest bit, then y, z),
+    stable within a cell; a permutation of every curve."""
+    roots = np.array(
+        [[0, 0, 1], [0, 1, 0], [1, 0, 0], [0, 0, 0], [0.001, 0, 0], [1, 1, 1]], np.float32
+    )
+    points = np.repeat(roots, 2, axis=0)
+    points[1::2, 2] += 0.5  # each curve's second point; the grid is over the roots
+    offsets = np.arange(0, 13, 2, dtype=np.int64)
+    order = space_order(points, offsets, 6)
+    assert order.tolist() == [3, 4, 2, 1, 0, 5]
+    hair = HairCurves.from_polylines([np.cumsum(np.ones((9, 3)), 0) * k for k in range(1, 50)])
+    order = space_order(hair.points.astype(np.float32), hair.offsets, 6)
+    assert sorted(order.tolist()) == list(range(49))
 
 
 def test_the_renderer_reuses_and_reports_its_stages(small_scene):

@@ -10,11 +10,19 @@ from __future__ import annotations
 import os
 
 import numpy as np
+from numba import njit
 
 from ..atomic import atomic_path
 from ..errors import InputError
 
-__all__ = ["linear_to_srgb", "srgb_to_linear", "encode_srgb8", "save_png"]
+__all__ = [
+    "linear_to_srgb",
+    "srgb_to_linear",
+    "encode_srgb8",
+    "half_bits",
+    "srgb8_table",
+    "save_png",
+]
 
 
 def linear_to_srgb(linear: object) -> np.ndarray:
@@ -61,6 +69,42 @@ def _half_luts() -> tuple[np.ndarray, np.ndarray]:
         alpha = np.round(np.clip(values, 0.0, 1.0) * 255.0).astype(np.uint8)
         _LUTS = (colour, alpha)
     return _LUTS
+
+
+def srgb8_table() -> np.ndarray:
+    """sRGB 8-bit codes of every float16 bit pattern (65536,) uint8: with
+    :func:`half_bits`, a kernel's way to encode as :func:`encode_srgb8` does."""
+    return _half_luts()[0]
+
+
+@njit(cache=True, inline="always")
+def half_bits(bits):
+    """The float16 bit pattern nearest (ties to even, as numpy's and the GPU's
+    conversion) to the float32 whose bit pattern is ``bits`` (an integer)."""
+    sign = (bits >> 16) & 0x8000
+    exponent = (bits >> 23) & 0xFF
+    mantissa = bits & 0x7FFFFF
+    if exponent == 0xFF:  # inf, NaN
+        return sign | 0x7C00 | (0x200 if mantissa else 0)
+    e = exponent - 112  # rebiased: 127 - 15
+    if e >= 31:
+        return sign | 0x7C00
+    if e <= 0:  # a float16 subnormal, or zero
+        if e < -10:
+            return sign
+        mantissa |= 0x800000
+        shift = 14 - e
+        h = mantissa >> shift
+        rest = mantissa & ((1 << shift) - 1)
+        halfway = 1 << (shift - 1)
+        if rest > halfway or (rest == halfway and (h & 1)):
+            h += 1
+        return sign | h
+    h = sign | (e << 10) | (mantissa >> 13)
+    rest = mantissa & 0x1FFF
+    if rest > 0x1000 or (rest == 0x1000 and (h & 1)):
+        h += 1  # a carry into the exponent is right, up to inf
+    return h
 
 
 def _encode_half(bits: np.ndarray) -> np.ndarray:

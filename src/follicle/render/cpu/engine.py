@@ -36,13 +36,13 @@ from ...curves import HairCurves
 from ..camera import Camera
 from ..engines import RasterRenderer
 from ..frame import Frame, hair_vertices, prepare_frame
-from ..image import encode_srgb8
+from ..image import half_bits, srgb8_table
 from ..options import MAX_STEP_PX, background_rows, soft_radius
 from ..strands import StrandTables
 from .bins import TILE, bin_boxes
 from .lines import PASSES, draw_strands, segment_boxes
 from .shading import MODELS, no_shadow, pack_model, pack_powers, pack_shadow
-from .steps import fill_steps, segment_steps
+from .steps import fill_steps, segment_steps, space_order
 from .triangles import draw_triangles, project_triangles, shade_skin
 
 if TYPE_CHECKING:
@@ -50,22 +50,35 @@ if TYPE_CHECKING:
 
 __all__ = ["CpuRenderer"]
 
+# the roots' grid that orders the curves (.steps.space_order): 64 cells an axis
+SPACE_ORDER_BITS = 6
 STAGES = ("shadows", "skin", "steps", "bin", "raster", "resolve")
 
 
 @njit(cache=True, parallel=True)
-def _resolve(buf, behind, out):
-    """Weighted blended OIT's last step: the hair's average colour Σcαw / Σαw covers the
-    opaque layer by 1 − Π(1 − α)."""
+def _resolve(buf, behind, blend, table, out):
+    """The frame to 8-bit sRGB (``out`` (H, W, 4) uint8, alpha 255): with ``blend``,
+    weighted blended OIT's last step, the hair's average colour Σcαw / Σαw over the
+    opaque layer ``behind`` by 1 − Π(1 − α); without, ``buf``'s colour as it is.
+    Encoded through float16 and ``table`` (:func:`~follicle.render.image.srgb8_table`):
+    the bytes of :func:`~follicle.render.image.encode_srgb8` on the half-float image
+    the OpenGL engine reads back, in one pass instead of three."""
     h, w = behind.shape[:2]
     for i in prange(h):
+        row = np.empty(3 * w, np.float32)
         for j in range(w):
-            weight = buf[i, j, 3]
-            keep = buf[i, j, 4]
             for c in range(3):
-                hair = buf[i, j, c] / weight if weight > 0.0 else 0.0
-                out[i, j, c] = hair + (behind[i, j, c] - hair) * keep
-            out[i, j, 3] = 1.0
+                if blend:
+                    weight = buf[i, j, 3]
+                    hair = buf[i, j, c] / weight if weight > 0.0 else 0.0
+                    row[3 * j + c] = hair + (behind[i, j, c] - hair) * buf[i, j, 4]
+                else:
+                    row[3 * j + c] = buf[i, j, c]
+        bits = row.view(np.uint32)
+        for j in range(w):
+            for c in range(3):
+                out[i, j, c] = table[half_bits(np.int64(bits[3 * j + c]))]
+            out[i, j, 3] = 255
 
 
 def _view(eye: np.ndarray, perspective: bool, forward, right, pixel: float, step: float):
@@ -112,17 +125,17 @@ class CpuRenderer(RasterRenderer):
         f = prepare_frame(settings, self.size, curves, mesh, camera, self.shadow_size)
         times = dict.fromkeys(STAGES, 0.0)
         clock = time.perf_counter()
-        attrs = hair_vertices(f, self._tables) if f.curves is not None else None
-        shadow = self._shadow_maps(f, attrs)
+        hair = self._hair(f) if f.curves is not None else None
+        shadow = self._shadow_maps(f, hair)
         times["shadows"] = time.perf_counter() - clock
 
         clock = time.perf_counter()
         behind, ref = self._opaque(f, shadow)
         times["skin"] = time.perf_counter() - clock
         w, h = self.size
-        linear = self._buffer("linear", (h, w, 4), np.float32, None)
+        image = np.empty((h, w, 4), np.uint8)
         if f.curves is None:
-            linear[..., :3], linear[..., 3] = behind, 1.0
+            _resolve(behind, behind, False, srgb8_table(), image)
         else:
             cam = f.camera
             right, _, forward = cam.basis()
@@ -131,7 +144,7 @@ class CpuRenderer(RasterRenderer):
             clock = time.perf_counter()
             steps, step_start = self._steps(
                 f,
-                attrs,
+                hair,
                 f.view_proj,
                 view,
                 (w, h),
@@ -176,30 +189,32 @@ class CpuRenderer(RasterRenderer):
             )
             times["raster"] = time.perf_counter() - clock
             clock = time.perf_counter()
-            if settings.oit:
-                _resolve(buf, behind, linear)
-            else:
-                linear[..., :3], linear[..., 3] = buf, 1.0
+            _resolve(buf, behind, bool(settings.oit), srgb8_table(), image)
             times["resolve"] = time.perf_counter() - clock
-        clock = time.perf_counter()
-        image = encode_srgb8(linear.astype(np.float16))
-        image[..., 3] = 255
-        times["resolve"] += time.perf_counter() - clock
         self.timings = times
         return image
 
-    def _steps(self, f: Frame, attrs, vp, view, size, shade, common, shadow):
-        """The hair's steps seen through ``vp`` (see :mod:`.steps`)."""
+    def _hair(self, f: Frame) -> tuple:
+        """The hair's arrays for the step kernels: control points, offsets, the curves
+        in space order (:func:`.steps.space_order`) and the vertex attributes."""
         curves = f.curves
         assert curves is not None
         points = np.ascontiguousarray(curves.points, dtype=np.float32)
         offsets = np.ascontiguousarray(curves.offsets, dtype=np.int64)
-        counts, seg_base = segment_steps(points, offsets, view, f.settings.subdivisions)
+        order = space_order(points, offsets, SPACE_ORDER_BITS)
+        return points, offsets, order, hair_vertices(f, self._tables)
+
+    def _steps(self, f: Frame, hair, vp, view, size, shade, common, shadow):
+        """The hair's steps seen through ``vp`` (see :mod:`.steps`), the curves in
+        space order."""
+        points, offsets, order, attrs = hair
+        counts, seg_base = segment_steps(points, offsets, order, view, f.settings.subdivisions)
         step_start = np.zeros(len(counts) + 1, np.int64)
         np.cumsum(counts + 1, out=step_start[1:])
         steps = fill_steps(
             points,
             offsets,
+            order,
             attrs,
             seg_base,
             step_start,
@@ -220,7 +235,7 @@ class CpuRenderer(RasterRenderer):
         )
         return steps, step_start
 
-    def _shadow_maps(self, f: Frame, attrs) -> tuple:
+    def _shadow_maps(self, f: Frame, hair) -> tuple:
         """The key light's maps and lookup numbers (see shading.key_visibility); a map
         of one texel and shadows off when there is no key light or shadows are off."""
         if f.light is None:
@@ -237,7 +252,7 @@ class CpuRenderer(RasterRenderer):
             right = matrix[0, :3] / np.linalg.norm(matrix[0, :3])
             view = _view(direction, False, -direction, right, texel, 1e9)
             steps, step_start = self._steps(
-                f, attrs, matrix, view, (size, size), False, np.zeros(2), no_shadow()
+                f, hair, matrix, view, (size, size), False, np.zeros(2), no_shadow()
             )
             boxes = segment_boxes(steps, step_start)
             tile_start, items = bin_boxes(boxes, TILE, nx, ny)

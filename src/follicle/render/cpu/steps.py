@@ -3,8 +3,9 @@ spline (Le Muzic 2012 §5.2.1, the geometry shader's power form), cut into as ma
 as its on-screen length and bend need, each step projected and — seen from the camera —
 shaded, as ``hair_gs.glsl`` and ``hair_step.glsl`` do on the GPU.
 
-Two passes over the curves in parallel: count the steps of every segment, then fill
-them at their prefix-summed places, so the output is the same for any thread count. A
+Two passes over the curves in parallel, taken in the space order of their roots
+(:func:`space_order`): count the steps of every segment, then fill them at their
+prefix-summed places, so the output is the same for any thread count. A
 step is one row of :data:`STEP_FIELDS`; a step outside the clip volume has a NaN depth
 and the pieces touching it are not drawn.
 """
@@ -18,7 +19,7 @@ from numba import njit, prange
 
 from .shading import added, cross, dot, hair_radiance, scaled, unit
 
-__all__ = ["STEP_FIELDS", "MAX_SUBDIVISIONS", "segment_steps", "fill_steps"]
+__all__ = ["STEP_FIELDS", "MAX_SUBDIVISIONS", "space_order", "segment_steps", "fill_steps"]
 
 # x, y: pixels (camera: y down from the top; light: texel rows upwards); depth: view
 # depth, metres (camera) or light depth 0..1; half: half the width in pixels; then the
@@ -99,21 +100,72 @@ def _step_count(p0, p1, p2, p3, view, most):
     return min(max(int(math.ceil(steps)), 1), most)
 
 
+@njit(cache=True)
+def _spread(v):
+    """The low 10 bits of v moved to every third bit (one axis of a Morton code)."""
+    v &= 0x3FF
+    v = (v | (v << 16)) & 0x30000FF
+    v = (v | (v << 8)) & 0x300F00F
+    v = (v | (v << 4)) & 0x30C30C3
+    return (v | (v << 2)) & 0x9249249
+
+
+@njit(cache=True)
+def space_order(points, offsets, bits):
+    """The curves in space order: sorted, stably, by the Morton code of the cell of a
+    2^bits-per-axis grid over the roots that holds their root.
+
+    Their steps are stored in that order, so a screen tile meets its segments closer
+    together in memory: in curve order a tile of long hair gathers segments from all
+    over the steps array, and reading them costs more than drawing them (100,000
+    hairs × 16 at 1280×720: the colour pass 0.97 s in curve order, 0.88 s in this one,
+    1.16 s shuffled)."""
+    n = len(offsets) - 1
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    for c in range(n):
+        for d in range(3):
+            lo[d] = min(lo[d], points[offsets[c], d])
+            hi[d] = max(hi[d], points[offsets[c], d])
+    cells = 1 << bits
+    scale = np.zeros(3)
+    for d in range(3):
+        if hi[d] > lo[d]:
+            scale[d] = cells / (hi[d] - lo[d])
+    keys = np.zeros(n, np.int64)
+    start = np.zeros((1 << (3 * bits)) + 1, np.int64)
+    for c in range(n):
+        if offsets[c + 1] > offsets[c]:
+            for d in range(3):
+                q = int((points[offsets[c], d] - lo[d]) * scale[d])
+                keys[c] |= _spread(min(max(q, 0), cells - 1)) << d
+        start[keys[c] + 1] += 1
+    for k in range(1, len(start)):
+        start[k] += start[k - 1]
+    order = np.empty(n, np.int64)
+    for c in range(n):
+        order[start[keys[c]]] = c
+        start[keys[c]] += 1
+    return order
+
+
 @njit(cache=True, parallel=True)
-def segment_steps(points, offsets, view, subdivisions):
-    """Per segment (curves' segments in order), its step count; and per curve the index
-    of its first segment (C + 1,)."""
+def segment_steps(points, offsets, order, view, subdivisions):
+    """Per segment, the curves taken in ``order``, its step count; and per curve (in
+    that order) the index of its first segment (C + 1,)."""
     n_curves = len(offsets) - 1
     seg_base = np.zeros(n_curves + 1, np.int64)
-    for c in range(n_curves):
-        seg_base[c + 1] = seg_base[c] + max(offsets[c + 1] - offsets[c] - 1, 0)
+    for q in range(n_curves):
+        c = order[q]
+        seg_base[q + 1] = seg_base[q] + max(offsets[c + 1] - offsets[c] - 1, 0)
     counts = np.empty(seg_base[-1], np.int64)
     most = min(subdivisions, MAX_SUBDIVISIONS)
-    for c in prange(n_curves):
+    for q in prange(n_curves):
+        c = order[q]
         first, last = offsets[c], offsets[c + 1] - 1
         for i in range(first, last):
             p0, p1, p2, p3 = _neighbours(points, first, last, i)
-            counts[seg_base[c] + i - first] = _step_count(p0, p1, p2, p3, view, most)
+            counts[seg_base[q] + i - first] = _step_count(p0, p1, p2, p3, view, most)
     return counts, seg_base
 
 
@@ -136,6 +188,7 @@ def _project(p, vp, view, size_x, size_y):
 def fill_steps(
     points,
     offsets,
+    order,
     attrs,
     seg_base,
     step_start,
@@ -168,10 +221,11 @@ def fill_steps(
     perspective = view[3] > 0.5
     forward = (view[4], view[5], view[6])
     right = (view[7], view[8], view[9])
-    for c in prange(n_curves):
+    for q in prange(n_curves):
+        c = order[q]
         first, last = offsets[c], offsets[c + 1] - 1
         for i in range(first, last):
-            seg = seg_base[c] + i - first
+            seg = seg_base[q] + i - first
             s0 = step_start[seg]
             n = step_start[seg + 1] - s0 - 1
             p0, p1, p2, p3 = _neighbours(points, first, last, i)
