@@ -14,10 +14,26 @@ import math
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["TILE", "CHUNKS", "bin_boxes", "dealt_tiles", "tile_bounds"]
+__all__ = ["TILE_SIDES", "CHUNKS", "tile_grid", "bin_boxes", "dealt_tiles", "tile_bounds"]
 
-TILE = 32  # pixels per tile side
+# tile sides in pixels, largest first (see tile_grid); at 1280×720 on two threads, 100,000
+# hairs: the colour pass 0.79 s with 32-pixel tiles, 0.55 s with 64, 0.51 s with 128
+TILE_SIDES = (128, 64, 32)
+TILES_PER_THREAD = 8
 CHUNKS = 64  # binning chunks (fixed: the lists' order must not depend on threads)
+
+
+def tile_grid(w: int, h: int, threads: int) -> tuple[int, int, int]:
+    """The tile side for a w × h raster and the tiles across and down: the largest of
+    :data:`TILE_SIDES` that still gives each thread :data:`TILES_PER_THREAD` tiles to
+    balance. Large tiles draw faster — a segment is listed in fewer tiles, so its
+    pieces are fetched and tested fewer times —, and the side changes no byte of the
+    picture (every pixel is one tile's, and its fragments come in the same order)."""
+    for side in TILE_SIDES:
+        nx, ny = -(-w // side), -(-h // side)
+        if nx * ny >= TILES_PER_THREAD * threads:
+            break
+    return side, nx, ny
 
 
 @njit(cache=True)

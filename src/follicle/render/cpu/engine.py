@@ -39,7 +39,7 @@ from ..frame import Frame, hair_vertices, prepare_frame
 from ..image import half_bits, srgb8_table
 from ..options import MAX_STEP_PX, background_rows, soft_radius
 from ..strands import StrandTables
-from .bins import TILE, bin_boxes
+from .bins import bin_boxes, tile_grid
 from .lines import PASSES, draw_strands, segment_boxes
 from .shading import MODELS, no_shadow, pack_model, pack_powers, pack_shadow
 from .steps import fill_steps, segment_steps, space_order
@@ -159,7 +159,8 @@ class CpuRenderer(RasterRenderer):
             if not settings.oit:  # "over" blending: segments back to front
                 order = _back_to_front(steps, step_start)
                 boxes = boxes[order]
-            tile_start, items = bin_boxes(boxes, TILE, *_tiles(w, h))
+            tile, nx, ny = _tiles(w, h)
+            tile_start, items = bin_boxes(boxes, tile, nx, ny)
             if order is not None:
                 items = order[items].astype(np.int32)
             times["bin"] = time.perf_counter() - clock
@@ -172,14 +173,13 @@ class CpuRenderer(RasterRenderer):
             else:
                 buf = behind.copy()
                 mode = PASSES["over"]
-            nx = _tiles(w, h)[0]
             draw_strands(
                 mode,
                 steps,
                 step_start,
                 tile_start,
                 items,
-                TILE,
+                tile,
                 nx,
                 buf,
                 ref,
@@ -242,7 +242,7 @@ class CpuRenderer(RasterRenderer):
             return no_shadow()
         direction, matrix, texel, depth_range = f.light
         size = self.shadow_size
-        nx, ny = _tiles(size, size)
+        tile, nx, ny = _tiles(size, size)
         skin = self._buffer("light skin", (size, size), np.float32, 1.0)
         if f.mesh is not None:
             _skin_raster(f.mesh, matrix, skin, None, None)
@@ -255,9 +255,9 @@ class CpuRenderer(RasterRenderer):
                 f, hair, matrix, view, (size, size), False, np.zeros(2), no_shadow()
             )
             boxes = segment_boxes(steps, step_start)
-            tile_start, items = bin_boxes(boxes, TILE, nx, ny)
+            tile_start, items = bin_boxes(boxes, tile, nx, ny)
             consts = np.array([1.0, 0.0, f.layer / depth_range], np.float64)
-            args = (steps, step_start, tile_start, items, TILE, nx)
+            args = (steps, step_start, tile_start, items, tile, nx)
             draw_strands(PASSES["nearest"], *args, first, skin, skin, consts, _threads())
             draw_strands(PASSES["layers"], *args, layers, first[..., 0], skin, consts, _threads())
         shadow = pack_shadow(
@@ -335,11 +335,11 @@ def _skin_raster(mesh: tuple, matrix: np.ndarray, depth: np.ndarray, tri, bary) 
     camera = tri is not None
     h, w = depth.shape
     screen, boxes = project_triangles(vertices, faces, matrix, w, h, camera)
-    nx, ny = _tiles(w, h)
-    tile_start, items = bin_boxes(boxes, TILE, nx, ny)
+    tile, nx, ny = _tiles(w, h)
+    tile_start, items = bin_boxes(boxes, tile, nx, ny)
     if not camera:
         tri, bary = np.empty((1, 1), np.int32), np.empty((1, 1, 2), np.float32)
-    args = (screen, faces, tile_start, items, TILE, nx, depth, tri, bary, camera, _threads())
+    args = (screen, faces, tile_start, items, tile, nx, depth, tri, bary, camera, _threads())
     draw_triangles(*args)
 
 
@@ -347,8 +347,9 @@ def _threads() -> int:
     return numba.get_num_threads()
 
 
-def _tiles(w: int, h: int) -> tuple[int, int]:
-    return (w + TILE - 1) // TILE, (h + TILE - 1) // TILE
+def _tiles(w: int, h: int) -> tuple[int, int, int]:
+    """Tile side, tiles across and down for a w × h raster (:func:`.bins.tile_grid`)."""
+    return tile_grid(w, h, _threads())
 
 
 def _back_to_front(steps: np.ndarray, step_start: np.ndarray) -> np.ndarray:
