@@ -39,6 +39,7 @@ _LAZY = {
     "load_mesh": "follicle.io.mesh_load",
     "Guides": "follicle.groom.guides",
     "load_guides": "follicle.groom.guides",
+    "GuideEditor": "follicle.groom.editor",
     "Groom": "follicle.groom.generator",
     "Simulator": "follicle.sim.simulator",
     "Scene": "follicle.scene",

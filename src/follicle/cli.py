@@ -1,5 +1,5 @@
-"""The ``follicle`` command: demo, grow, export, check, export-rib, simulate, render, view,
-info.
+"""The ``follicle`` command: demo, grow, groom, export, check, export-rib, simulate, render,
+view, info.
 
 Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
 traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
@@ -280,6 +280,37 @@ def grow(
             save(_grown_chunks(groom, progress, tally, tool), path, **extras)
         hairs, points = tally
     click.echo(f"{hairs:,} hairs, {points:,} points → {path}")
+
+
+@main.command()
+@click.argument("strokes_path", metavar="STROKES", type=click.Path())
+@click.option("--guides", default=None, help="Guides to start from (default: the log's).")
+@click.option(
+    "--mesh", default=None, help="Skin mesh of the guides (default: the log's, else builtin:head)."
+)
+@click.option(
+    "-o", "--out", required=True, type=click.Path(), help="Guides file to write (.usda, .npz, …)."
+)
+def groom(strokes_path: str, guides: str | None, mesh: str | None, out: str) -> None:
+    """Replay a stroke log (brushes on the guides, README: Grooming by hand) headless
+    and save the guides it makes."""
+    from .groom.editor import GuideEditor
+    from .groom.guides import load_guides
+    from .groom.strokes import load_strokes, replay
+    from .io.mesh_load import load_mesh
+
+    _check_writable_suffix(out, _curve_suffixes())
+    doc = load_strokes(strokes_path)
+    source = guides or doc.get("guides")
+    if source is None:
+        raise click.UsageError(f"{strokes_path} names no guides; give --guides")
+    skin = load_mesh(mesh or doc.get("mesh") or "builtin:head")
+    with _step("groom"):
+        editor = GuideEditor(load_guides(source, skin))
+        replay(editor, doc, strokes_path)
+    editor.save(out)
+    entries = len(doc["strokes"])  # type: ignore[arg-type]
+    click.echo(f"{entries:,} strokes, {editor.guides.count:,} guides → {out}")
 
 
 def _check_target(path: str, target: str) -> None:

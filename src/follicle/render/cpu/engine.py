@@ -46,9 +46,10 @@ from .steps import fill_steps, segment_steps, space_order
 from .triangles import draw_triangles, project_triangles, shade_skin
 
 if TYPE_CHECKING:
+    from ...mesh.skin import SkinMesh
     from ..settings import RenderParams
 
-__all__ = ["CpuRenderer"]
+__all__ = ["CpuRenderer", "skin_depth"]
 
 # the roots' grid that orders the curves (.steps.space_order): 64 cells an axis
 SPACE_ORDER_BITS = 6
@@ -341,6 +342,21 @@ def _skin_raster(mesh: tuple, matrix: np.ndarray, depth: np.ndarray, tri, bary) 
         tri, bary = np.empty((1, 1), np.int32), np.empty((1, 1, 2), np.float32)
     args = (screen, faces, tile_start, items, tile, nx, depth, tri, bary, camera, _threads())
     draw_triangles(*args)
+
+
+def skin_depth(mesh: SkinMesh, camera: Camera, size: tuple[int, int]) -> np.ndarray:
+    """The view depth of the skin's rest pose at each pixel centre of a ``size`` = (w,
+    h) picture through ``camera`` ((h, w) float64, +inf where there is no skin): what
+    hides a point from the camera, for tools that pick what the user sees."""
+    w, h = size
+    near, far = camera.clip_range()
+    vp = camera.projection_matrix(w / h, near, far) @ camera.view_matrix()
+    depth = np.full((h, w), np.inf)
+    tri = np.empty((h, w), np.int32)
+    bary = np.empty((h, w, 2), np.float32)
+    skin = (np.asarray(mesh.rest_vertices, np.float64), mesh.faces, None)
+    _skin_raster(skin, np.ascontiguousarray(vp), depth, tri, bary)
+    return depth
 
 
 def _threads() -> int:

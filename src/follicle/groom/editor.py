@@ -1,0 +1,448 @@
+"""Grooming by hand: brush strokes on the guides, with undo, redo and save.
+
+A :class:`GuideEditor` holds the guides' world positions at rest and applies strokes:
+a brush (:data:`~follicle.groom.brushes.BRUSHES`) dragged along a polyline of pixels
+of a ``size`` viewport seen through a :class:`~follicle.render.Camera` — what the
+viewer sends as the mouse moves, and what a script or a stroke log replays. The
+brush acts on the guide vertices under it (within ``radius`` pixels, with a smooth
+falloff) that the camera sees — not those behind the head, tested against the skin's
+depth drawn by the CPU engine — so a stroke over the face does not comb the back of
+the head. The same strokes give the same bytes.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import InputError
+from ..mesh.skin import SkinMesh
+from ..render.camera import Camera
+from ..render.options import parse_size
+from ..validate import number, positive
+from . import brushes
+from .guides import Guides
+from .strokes import load_strokes, replay, save_strokes, stroke_entry
+
+__all__ = ["GuideEditor"]
+
+HISTORY = 256  # strokes kept for undo
+SPACING = 0.25  # a stroke's dabs this share of the radius apart
+NEIGHBOURS = 4  # existing guides an added guide takes its shape from
+MAX_DABS = 100_000  # dabs in one stroke (a stroke log cannot ask for a hang)
+_RANGES = {"length": (-1.0, 1.0)}  # strength; others 0..1
+
+
+@dataclass(frozen=True)
+class _State:
+    """One version of the guides: world positions at rest (S, V, 3) float64, and each
+    root's triangle (S,) and barycentric coordinates (S, 2)."""
+
+    points: np.ndarray
+    triangles: np.ndarray
+    bary: np.ndarray
+
+
+class GuideEditor:
+    """Edit ``guides`` with brushes (see :meth:`stroke`); :attr:`guides` is the current
+    :class:`~follicle.Guides` (same mesh and interpolation groups, the guides' vertex
+    count). ``margin`` is how far off the skin a brush leaves every vertex (None: a
+    quarter of the skin SDF's voxel)."""
+
+    def __init__(
+        self, guides: Guides, mesh: SkinMesh | None = None, margin: float | None = None
+    ) -> None:
+        if not isinstance(guides, Guides):
+            raise InputError(f"guides: expected follicle.Guides, got {type(guides).__name__}")
+        if mesh is not None and not guides.mesh.same_skin(mesh):
+            raise InputError(f"mesh: the guides are bound to '{guides.mesh.name}', not to it")
+        self.mesh = guides.mesh
+        self.groups = guides.groups
+        n = guides.vertex_count
+        points = guides.rest_shapes(n).astype(np.float64) + guides.root_positions[:, None]
+        self._state = _State(points, guides.triangles.copy(), guides.bary.copy())
+        self._margin = None if margin is None else number(margin, "margin", lo=0.0, unit="m")
+        self._undo: list[_State] = []
+        self._redo: list[_State] = []
+        self._guides: Guides | None = guides
+        self._frames: tuple | None = None
+        self._last_view: tuple | None = None
+        self.log: list[dict[str, object]] = []  # strokes, undos and redos, in order
+
+    # ------------------------------------------------------------------ state
+    @property
+    def guides(self) -> Guides:
+        """The guides as they are now."""
+        if self._guides is None:
+            s = self._state
+            data = {"root_triangle": s.triangles, "root_bary": s.bary}
+            curves = HairCurves.from_array(s.points.astype(np.float32), curve_data=data)
+            self._guides = Guides(curves, self.mesh, s.points.shape[1], self.groups)
+        return self._guides
+
+    @property
+    def points(self) -> np.ndarray:
+        """The guides' world positions at rest (S, V, 3), read-only."""
+        view = self._state.points.view()
+        view.flags.writeable = False
+        return view
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    def undo(self) -> bool:
+        """Take back the last stroke; False when there is none."""
+        return self._swap(self._undo, self._redo, "undo")
+
+    def redo(self) -> bool:
+        """Apply again the last stroke taken back; False when there is none."""
+        return self._swap(self._redo, self._undo, "redo")
+
+    def _swap(self, source: list[_State], target: list[_State], action: str) -> bool:
+        if not source:
+            return False
+        target.append(self._state)
+        self._set(source.pop())
+        self.log.append({action: True})
+        return True
+
+    def _commit(self, state: _State) -> None:
+        self._undo.append(self._state)
+        del self._undo[:-HISTORY]
+        self._redo.clear()
+        self._set(state)
+
+    def _set(self, state: _State) -> None:
+        self._state = state
+        self._guides = None
+
+    def save(self, path: str | os.PathLike[str], **options: object) -> Path:
+        """Write the guides (with their root bindings) to ``path`` in the curves format
+        its extension names (:func:`follicle.save`)."""
+        from ..io.dispatch import save
+
+        return save(self.guides.curves, path, **options)
+
+    # ---------------------------------------------------------------- strokes
+    def stroke(
+        self,
+        brush: str,
+        path: object,
+        camera: Camera,
+        radius: float,
+        strength: float = 0.5,
+        size: Sequence[int] = (960, 540),
+        **options: object,
+    ) -> np.ndarray:
+        """Apply ``brush`` along ``path`` ((K, 2) pixels, x right and y down from the
+        top-left of a ``size`` = (w, h) viewport seen through ``camera``) with a brush
+        ``radius`` pixels wide and ``strength`` (0..1; −1..1 for ``length``, negative
+        shrinks). Returns the indices of the guides it changed (for ``delete``, of the
+        guides removed, numbered as before the stroke; for ``add``, of the new ones).
+
+        Brushes: ``comb`` drags the vertices along the stroke, keeping segment lengths;
+        ``cut`` cuts the guides the stroke crosses where it crosses them; ``length``
+        grows or shrinks the guides under it (extending along the tip); ``puff`` lifts
+        them towards the skin normal near the root; ``smooth`` relaxes their curvature;
+        ``add`` plants new guides on the skin under the stroke (one a ``spacing`` pixels,
+        default the radius), shaped from their neighbours; ``delete`` removes the
+        guides whose roots are under it. Lengths stay exact under comb, puff and
+        smooth, and no vertex is left inside the skin.
+        """
+        if brush not in brushes.BRUSHES:
+            raise InputError(f"brush: {brush!r} is not one of {list(brushes.BRUSHES)}")
+        if not isinstance(camera, Camera):
+            raise InputError(f"camera: expected follicle.Camera, got {type(camera).__name__}")
+        line = _path(path)
+        radius = positive(radius, "radius", unit="px")
+        lo, hi = _RANGES.get(brush, (0.0, 1.0))
+        strength = number(strength, "strength", lo=lo, hi=hi)
+        w, h = parse_size(size)
+        spacing = options.pop("spacing", None) if brush == "add" else None
+        if options:
+            raise InputError(f"{brush}: unknown option(s) {sorted(options)}")
+        view = self._view(camera, (w, h))
+        if brush == "cut":
+            changed = self._cut(view, line)
+        elif brush == "delete":
+            changed = self._delete(view, _dabs(line, radius), radius)
+        elif brush == "add":
+            step = radius if spacing is None else positive(spacing, "spacing", unit="px")
+            changed = self._add(view, _dabs(line, step))
+        else:
+            changed = self._brush(brush, view, _dabs(line, radius * SPACING), radius, strength)
+        extra = {} if spacing is None else {"spacing": float(spacing)}
+        self.log.append(stroke_entry(brush, line.tolist(), camera, radius, strength, (w, h), extra))
+        return changed
+
+    def save_strokes(
+        self, path: str | os.PathLike[str], mesh: str | None = None, guides: str | None = None
+    ) -> Path:
+        """Write :attr:`log` as a stroke log (:mod:`follicle.groom.strokes`) naming the
+        ``mesh`` and ``guides`` it started from, for ``follicle groom`` to replay."""
+        return save_strokes(self, path, mesh, guides)
+
+    def replay(self, path: str | os.PathLike[str]) -> None:
+        """Apply a stroke log's strokes, undos and redos in order."""
+        replay(self, load_strokes(path), os.fspath(path))
+
+    def _brush(self, brush: str, view: _View, dabs: np.ndarray, radius: float, strength: float):
+        """comb, smooth, puff and length: one dab at each point of the stroke, on the
+        vertices the camera sees at the stroke's start (only guides that come within
+        ``radius`` of the stroke on screen are looked at: no others can move)."""
+        s = self._state
+        xy, seen = view.seen(s.points, self.mesh)
+        lo, hi = dabs.min(axis=0) - radius, dabs.max(axis=0) + radius
+        near = ((xy.max(axis=1) >= lo) & (xy.min(axis=1) <= hi)).all(axis=1)
+        which = np.flatnonzero(near & seen[:, 1:].any(axis=1))
+        points = s.points[which]
+        seen = seen[which]
+        lengths = brushes.segment_lengths(points)
+        normals = self._root_frames.normal[which]
+        touched = np.zeros(len(which), bool)
+        reach = np.empty(points.shape[:2])
+        depth = np.empty(points.shape[:2])
+        w, h = view.size
+        for k in range(len(dabs) if len(which) and strength != 0.0 else 0):
+            cx, cy = dabs[k]
+            hit = brushes.dab(points, view.matrix, w, h, cx, cy, radius, seen, reach, depth)
+            if not hit.any():
+                continue
+            touched |= hit
+            weight = strength * reach
+            hits = np.flatnonzero(hit)
+            if brush == "comb":
+                if k + 1 == len(dabs):
+                    break
+                brushes.comb(points, weight, depth, view.step(dabs[k + 1] - dabs[k]), hits)
+            elif brush == "smooth":
+                brushes.smooth(points, weight, hits)
+            elif brush == "puff":
+                brushes.puff(points, weight, normals, hits)
+            else:  # length: a stroke one radius long changes it by strength × weight
+                step = np.linalg.norm(dabs[min(k + 1, len(dabs) - 1)] - dabs[k]) / radius
+                grow = 1.0 + strength * reach.max(axis=1) * (step if len(dabs) > 1 else 1.0)
+                total = lengths[hit].sum(axis=1)
+                points[hit] = brushes.resized(points[hit], total * np.maximum(grow[hit], 0.0))
+                lengths = brushes.segment_lengths(points)
+            brushes.follow(points, lengths, self._skin, self._clearance, hits)
+        changed = which[touched]
+        if len(changed):
+            edited = s.points.copy()
+            edited[which] = points
+            self._commit(_State(edited, s.triangles, s.bary))
+        return changed
+
+    def _cut(self, view: _View, line: np.ndarray) -> np.ndarray:
+        s = self._state
+        xy, seen = view.seen(s.points, self.mesh)
+        depth = view.project(s.points)[1]
+        at = brushes.cut_lengths(s.points, xy, depth, line, seen[:, 1:] & seen[:, :-1])
+        changed = np.flatnonzero(np.isfinite(at))
+        if len(changed):
+            points = s.points.copy()
+            points[changed] = brushes.resized(points[changed], at[changed])
+            self._commit(_State(points, s.triangles, s.bary))
+        return changed
+
+    def _delete(self, view: _View, dabs: np.ndarray, radius: float) -> np.ndarray:
+        s = self._state
+        xy, seen = view.seen(s.points[:, :1], self.mesh)
+        near = np.linalg.norm(xy[:, 0, None] - dabs[None], axis=2).min(axis=1) <= radius
+        gone = np.flatnonzero(near & seen[:, 0])
+        if len(gone) == len(s.points):
+            raise InputError("delete: the stroke would remove every guide; keep at least one")
+        if len(gone):
+            keep = np.setdiff1d(np.arange(len(s.points)), gone)
+            self._commit(_State(s.points[keep], s.triangles[keep], s.bary[keep]))
+        return gone
+
+    def _add(self, view: _View, dabs: np.ndarray) -> np.ndarray:
+        """New guides where the rays through the dabs first meet the skin, each shaped
+        as the inverse-distance blend of its nearest guides' shapes in their root frames
+        (Šik 2012 §2.2.4), put in its own root frame."""
+        s = self._state
+        hits = self._skin_hits(view, dabs)
+        if len(hits) == 0:
+            return np.zeros(0, np.int64)
+        triangles, bary, _ = self.mesh.closest_points(hits, pose="rest")
+        frame = self.mesh.evaluate(triangles, bary, pose="rest")
+        old = self._root_frames
+        local = np.einsum("snk,sak->sna", s.points - old.position[:, None], _axes(old))
+        k = min(NEIGHBOURS, len(s.points))
+        gap = np.linalg.norm(frame.position[:, None] - old.position[None], axis=2)
+        near = np.argsort(gap, axis=1, kind="stable")[:, :k]
+        weight = 1.0 / np.maximum(np.take_along_axis(gap, near, axis=1), 1e-9)
+        weight /= weight.sum(axis=1, keepdims=True)
+        shape = np.einsum("nk,nkva->nva", weight, local[near])
+        new = frame.position[:, None] + np.einsum("nva,nak->nvk", shape, _axes(frame))
+        # the blend's segments are shorter than its neighbours' where they point apart
+        target = np.einsum("nk,nk->n", weight, brushes.segment_lengths(s.points)[near].sum(2))
+        new = brushes.resized(new, target)
+        brushes.follow(new, brushes.segment_lengths(new), self._skin, self._clearance)
+        self._commit(
+            _State(
+                np.concatenate([s.points, new]),
+                np.concatenate([s.triangles, triangles]),
+                np.concatenate([s.bary, bary]),
+            )
+        )
+        return np.arange(len(s.points), len(s.points) + len(new))
+
+    def _skin_hits(self, view: _View, dabs: np.ndarray) -> np.ndarray:
+        """The first points of the skin along the camera rays through ``dabs`` (those
+        that miss it left out)."""
+        eye = view.camera.eye
+        corners = self.mesh.rest_vertices[self.mesh.faces]  # (F, 3, 3)
+        out = []
+        for direction in view.rays(dabs):
+            t = _ray_hits(eye, direction, corners)
+            if np.isfinite(t).any():
+                out.append(eye + np.nanmin(t) * direction)
+        return np.array(out).reshape(-1, 3)
+
+    # ---------------------------------------------------------------- helpers
+    def _view(self, camera: Camera, size: tuple[int, int]) -> _View:
+        """The view of ``camera`` at ``size``, the last one again while they stay the
+        same (the skin's depth is drawn once for many strokes)."""
+        key = (*camera.eye, *camera.target, *camera.up, camera.fov_y, *camera.clip_range(), *size)
+        if self._last_view is None or self._last_view[0] != key:
+            self._last_view = (key, _View(camera, size))
+        return self._last_view[1]
+
+    @property
+    def _root_frames(self):
+        """The roots' skin frames (positions, normals, tangents, binormals) now; kept
+        while the roots stay where they are (only add and delete move them)."""
+        s = self._state
+        key = (s.triangles, s.bary)
+        if self._frames is None or self._frames[0] is not s.triangles:
+            self._frames = (key[0], self.mesh.evaluate(*key, pose="rest"))
+        return self._frames[1]
+
+    @cached_property
+    def _skin(self):
+        from ..sim.sdf import SDF
+
+        return SDF.from_mesh(self.mesh.rest_vertices, self.mesh.faces)
+
+    @cached_property
+    def _clearance(self) -> float:
+        return self._skin.voxel * 0.25 if self._margin is None else self._margin
+
+
+class _View:
+    """A camera and its viewport: projection to pixels, pixel steps to world moves, rays."""
+
+    def __init__(self, camera: Camera, size: tuple[int, int]) -> None:
+        self.camera = camera
+        self.size = size
+        self.right, self.up, self.forward = camera.basis()
+        self.pixel = camera.pixel_scale(size[1])
+        near, far = camera.clip_range()
+        self.matrix = camera.projection_matrix(size[0] / size[1], near, far) @ camera.view_matrix()
+        self._skin: np.ndarray | None = None
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels (..., 2) and view depths (...) of points (..., 3)."""
+        xy, depth = self.camera.project(points.reshape(-1, 3), self.size)
+        return xy.reshape(*points.shape[:-1], 2), depth.reshape(points.shape[:-1])
+
+    def seen(self, points: np.ndarray, mesh: SkinMesh) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels (..., 2) of points (..., 3) and whether the camera sees each: in the
+        picture, in front of the eye and not behind the skin (within 2 % of its depth,
+        so the roots, on the skin, count as seen)."""
+        xy, depth = self.project(points)
+        w, h = self.size
+        col = np.floor(xy[..., 0]).astype(np.int64)
+        row = np.floor(xy[..., 1]).astype(np.int64)
+        inside = (col >= 0) & (col < w) & (row >= 0) & (row < h) & (depth > 0.0)
+        skin = self.skin(mesh)[np.clip(row, 0, h - 1), np.clip(col, 0, w - 1)]
+        return xy, inside & (depth <= skin * 1.02)
+
+    def skin(self, mesh: SkinMesh) -> np.ndarray:
+        """The skin's view depth per pixel (+inf where none), drawn once per view."""
+        if self._skin is None:
+            from ..render.cpu.engine import skin_depth
+
+            self._skin = skin_depth(mesh, self.camera, self.size)
+        return self._skin
+
+    def step(self, pixels: np.ndarray) -> np.ndarray:
+        """The world move (3,) of a screen step (2,) pixels, per metre of view depth."""
+        return self.pixel * (pixels[0] * self.right - pixels[1] * self.up)
+
+    def rays(self, pixels: np.ndarray) -> np.ndarray:
+        """Unit directions (K, 3) from the eye through pixel centres (K, 2)."""
+        w, h = self.size
+        t = math.tan(math.radians(self.camera.fov_y) / 2.0)
+        x = (2.0 * pixels[:, 0] / w - 1.0) * t * (w / h)
+        y = (1.0 - 2.0 * pixels[:, 1] / h) * t
+        d = self.forward[None] + x[:, None] * self.right[None] + y[:, None] * self.up[None]
+        return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _ray_hits(origin: np.ndarray, direction: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Distance along the ray to each triangle (F, 3, 3) it meets from the front or the
+    back, NaN where it misses (Möller & Trumbore 1997)."""
+    e1 = corners[:, 1] - corners[:, 0]
+    e2 = corners[:, 2] - corners[:, 0]
+    p = np.cross(direction, e2)
+    det = np.einsum("fk,fk->f", e1, p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        s = origin - corners[:, 0]
+        u = np.einsum("fk,fk->f", s, p) * inv
+        q = np.cross(s, e1)
+        v = (q @ direction) * inv
+        t = np.einsum("fk,fk->f", e2, q) * inv
+    ok = (np.abs(det) > 1e-18) & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > 0.0)
+    return np.where(ok, t, np.nan)
+
+
+def _axes(frame) -> np.ndarray:
+    """Root frames as (S, 3, 3) rows tangent, binormal, normal (Šik 2012 §2.2.4)."""
+    return np.stack([frame.tangent, frame.binormal, frame.normal], axis=1)
+
+
+def _path(path: object) -> np.ndarray:
+    """The stroke as a (K ≥ 1, 2) float64 array of finite pixels, or InputError."""
+    try:
+        line = np.asarray(path, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError("path: expected (K, 2) pixel positions") from None
+    if line.ndim != 2 or line.shape[1] != 2 or len(line) == 0:
+        raise InputError(f"path: expected (K ≥ 1, 2) pixel positions, got shape {line.shape}")
+    if not np.isfinite(line).all():
+        raise InputError("path: holds NaN or inf; every point must be a finite pixel position")
+    return line
+
+
+def _dabs(line: np.ndarray, spacing: float) -> np.ndarray:
+    """The stroke resampled to points at most ``spacing`` pixels apart, ends included:
+    the brush's work then does not depend on how often the mouse was sampled."""
+    seg = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    if arc[-1] == 0.0:
+        return line[:1].copy()
+    n = arc[-1] / spacing
+    if not n <= MAX_DABS:
+        raise InputError(
+            f"path: {arc[-1]:.6g} pixels long at a dab every {spacing:.3g} would take"
+            f" {n:.3g} dabs (at most {MAX_DABS:,}); use a larger radius or a shorter stroke"
+        )
+    n = max(int(math.ceil(n)), 1)
+    at = np.linspace(0.0, arc[-1], n + 1)
+    return np.stack([np.interp(at, arc, line[:, 0]), np.interp(at, arc, line[:, 1])], axis=1)

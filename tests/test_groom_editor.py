@@ -1,0 +1,293 @@
+"""Grooming by hand (follicle.GuideEditor): each brush's defining property, undo and
+redo to the byte, the skin never entered, determinism, save, and bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import follicle
+from follicle.errors import InputError
+from follicle.groom.brushes import dab, segment_lengths
+from follicle.groom.builtin_guides import builtin_guides
+from follicle.render.cpu.engine import skin_depth
+
+SIZE = (640, 480)
+
+
+@pytest.fixture(scope="module")
+def head():
+    return follicle.load_mesh("builtin:head")
+
+
+@pytest.fixture(scope="module")
+def guides(head):
+    return follicle.Guides(builtin_guides("long", head, count=300), head)
+
+
+@pytest.fixture(scope="module")
+def camera(head):
+    lo, hi = head.bounds("rest")
+    centre = (lo + hi) / 2
+    return follicle.Camera(eye=centre + np.array([0.0, 0.1, 0.8]), target=centre)
+
+
+def editor(guides) -> follicle.GuideEditor:
+    return follicle.GuideEditor(guides)
+
+
+def screen(camera, points):
+    xy, _ = camera.project(points.reshape(-1, 3), SIZE)
+    return xy.reshape(*points.shape[:-1], 2)
+
+
+def seen(mesh, camera, points) -> np.ndarray:
+    """Which points (..., 3) the camera sees: in front of the skin's depth (2 %)."""
+    xy, depth = camera.project(points.reshape(-1, 3), SIZE)
+    pix = np.floor(xy).astype(int)
+    skin = skin_depth(mesh, camera, SIZE)
+    inside = (pix[:, 0] >= 0) & (pix[:, 0] < SIZE[0]) & (pix[:, 1] >= 0) & (pix[:, 1] < SIZE[1])
+    near = skin[pix[:, 1].clip(0, SIZE[1] - 1), pix[:, 0].clip(0, SIZE[0] - 1)]
+    return (inside & (depth <= 1.02 * near)).reshape(points.shape[:-1])
+
+
+def across_the_tips(ed, camera) -> np.ndarray:
+    """A horizontal stroke through the middle of the tips the camera sees."""
+    tips = screen(camera, ed.points[seen(ed.mesh, camera, ed.points[:, -1]), -1])
+    y = float(np.median(tips[:, 1]))
+    x = float(np.median(tips[:, 0]))
+    return np.array([[x - 60.0, y], [x + 60.0, y]])
+
+
+def inside(ed, points) -> np.ndarray:
+    """Signed distances of every vertex but the roots to the editor's skin."""
+    return ed._skin.distance(points[:, 1:].reshape(-1, 3))
+
+
+def test_a_dab_falls_off_smoothly_to_zero_at_the_radius(camera):
+    from follicle.groom.editor import _View
+
+    view = _View(camera, SIZE)
+    centre = np.array([320.0, 240.0])
+    offsets = np.array([0.0, 5.0, 9.999, 10.0, 12.0])
+    pixels = centre + np.stack([offsets, np.zeros(5)], axis=1)
+    points = (camera.eye + 0.8 * view.rays(pixels))[None]  # one guide, 5 vertices
+    reach, depth = np.empty((1, 5)), np.empty((1, 5))
+    seen = np.ones((1, 5), bool)
+    hit = dab(points, view.matrix, *SIZE, *centre, 10.0, seen, reach, depth)
+    np.testing.assert_allclose(reach[0], [1.0, 0.5625, 0.0, 0.0, 0.0], atol=1e-3)
+    assert hit[0] and 0.0 < reach[0, 2] < 1e-6
+    # only the root under the brush: nothing to move
+    seen[0, 1:] = False
+    assert not dab(points, view.matrix, *SIZE, *centre, 10.0, seen, reach, depth)[0]
+
+
+def test_comb_keeps_every_length_and_drags_the_tips_along_the_stroke(guides, camera):
+    ed = editor(guides)
+    before = ed.points.copy()
+    # from the densest cluster of tips the camera sees, 120 pixels to the right
+    tips = screen(camera, before[:, -1])
+    tips[~seen(ed.mesh, camera, before[:, -1])] = np.nan
+    crowd = (np.linalg.norm(tips[:, None] - tips[None], axis=2) < 25).sum(axis=1)
+    start = tips[np.argmax(crowd)]
+    path = np.array([start, start + [120.0, 0.0]])
+    changed = ed.stroke("comb", path, camera, radius=60, strength=1.0, size=SIZE)
+    assert len(changed) >= 10
+    np.testing.assert_allclose(segment_lengths(ed.points), segment_lengths(before), atol=1e-6)
+    assert np.array_equal(ed.points[:, 0], before[:, 0])  # roots stay
+    # the stroke goes right: the tips it started on went right (and, swinging about the
+    # vertices above them, somewhat up)
+    under = np.flatnonzero(np.linalg.norm(tips - path[0], axis=1) < 25)
+    assert len(under) >= 3 and set(under) <= set(changed)
+    moved = screen(camera, ed.points[under, -1]) - tips[under]
+    assert np.all(moved[:, 0] > 10.0) and np.all(moved[:, 0] > np.abs(moved[:, 1]))
+    untouched = np.setdiff1d(np.arange(len(before)), changed)
+    assert np.array_equal(ed.points[untouched], before[untouched])
+
+
+def crosses(polyline: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether a screen polyline (V, 2) meets the segment a-b (orientation tests)."""
+
+    def side(p, q, r):
+        return (q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1]) - (q[..., 1] - p[..., 1]) * (
+            r[..., 0] - p[..., 0]
+        )
+
+    p, q = polyline[:-1], polyline[1:]
+    return bool(np.any((side(p, q, a) * side(p, q, b) <= 0) & (side(a, b, p) * side(a, b, q) <= 0)))
+
+
+def test_cut_shortens_exactly_the_guides_the_stroke_crosses_where_it_crosses(guides, camera):
+    ed = editor(guides)
+    before = ed.points.copy()
+    tips, roots = screen(camera, before[:, -1]), screen(camera, before[:, 0])
+    y = float(np.median(0.5 * (tips[:, 1] + roots[:, 1])))
+    x = float(np.median(tips[:, 0]))
+    a, b = np.array([x - 80.0, y]), np.array([x + 80.0, y])
+    changed = ed.stroke("cut", [a, b], camera, radius=5, size=SIZE)
+    # the guides with a segment the camera sees (both ends) that crosses the stroke
+    visible = seen(guides.mesh, camera, before)
+    proj = screen(camera, before)
+    expected = [
+        g
+        for g in range(len(before))
+        if any(
+            visible[g, i] and visible[g, i + 1] and crosses(proj[g, i : i + 2], a, b)
+            for i in range(before.shape[1] - 1)
+        )
+    ]
+    assert len(changed) >= 10 and changed.tolist() == expected
+    lengths = segment_lengths(before).sum(axis=1)
+    after = segment_lengths(ed.points).sum(axis=1)
+    for g in changed:
+        assert after[g] < lengths[g] - 1e-6
+        tip = screen(camera, ed.points[g, -1])  # on the stroke
+        assert abs(tip[1] - y) < 1e-6 and a[0] <= tip[0] <= b[0]
+    untouched = np.setdiff1d(np.arange(len(before)), changed)
+    assert np.array_equal(ed.points[untouched], before[untouched])
+
+
+def test_undo_and_redo_restore_the_bytes(guides, camera):
+    ed = editor(guides)
+    start = ed.points.copy()
+    path = across_the_tips(ed, camera)
+    assert len(ed.stroke("comb", path, camera, radius=60, strength=1.0, size=SIZE))
+    combed = ed.points.copy()
+    assert len(ed.stroke("smooth", path, camera, radius=60, size=SIZE))
+    roots = np.median(screen(camera, ed.points[:, 0]), axis=0)
+    assert len(ed.stroke("delete", [roots], camera, radius=60, size=SIZE))
+    assert ed.undo() and ed.undo()
+    assert np.array_equal(ed.points, combed)
+    assert ed.undo() and not ed.undo()
+    assert np.array_equal(ed.points, start)
+    assert ed.redo() and np.array_equal(ed.points, combed)
+    ed.stroke("puff", path, camera, radius=60, size=SIZE)
+    assert not ed.can_redo  # a new stroke drops what was taken back
+
+
+@pytest.mark.parametrize("brush", ["comb", "smooth", "puff", "length", "add"])
+def test_no_vertex_is_left_inside_the_skin(guides, camera, brush):
+    ed = editor(guides)
+    before = ed.points.copy()
+    path = across_the_tips(ed, camera)
+    # push towards the head: a stroke from the tips up over the face
+    path = np.array([path[0], [path[1, 0], path[1, 1] - 200.0]])
+    strength = -0.5 if brush == "length" else 1.0
+    changed = ed.stroke(brush, path, camera, radius=80, strength=strength, size=SIZE)
+    assert len(changed) > 0
+    d = inside(ed, ed.points[changed])
+    assert d.min() >= ed._clearance * (1.0 - 1e-6)
+    if brush != "add":
+        assert not np.array_equal(ed.points, before)
+
+
+def test_length_grows_and_shrinks_the_guides_under_it(guides, camera):
+    ed = editor(guides)
+    before = segment_lengths(ed.points).sum(axis=1)
+    path = across_the_tips(ed, camera)
+    grown = ed.stroke("length", path, camera, radius=60, strength=0.5, size=SIZE)
+    after = segment_lengths(ed.points).sum(axis=1)
+    assert len(grown) and np.all(after[grown] > before[grown])
+    assert np.max(after[grown] / before[grown]) > 1.2
+    ed.undo()
+    shrunk = ed.stroke("length", path, camera, radius=60, strength=-0.5, size=SIZE)
+    after = segment_lengths(ed.points).sum(axis=1)
+    assert np.array_equal(np.sort(shrunk), np.sort(grown))
+    assert np.all(after[shrunk] < before[shrunk]) and np.min(after[shrunk] / before[shrunk]) < 0.8
+
+
+def turning(points: np.ndarray) -> np.ndarray:
+    """The angle each guide turns by at each inner vertex (S, V − 2)."""
+    seg = np.diff(points, axis=1)
+    seg /= np.linalg.norm(seg, axis=2, keepdims=True)
+    return np.arccos(np.clip(np.einsum("svk,svk->sv", seg[:, 1:], seg[:, :-1]), -1, 1))
+
+
+def test_smooth_straightens_and_puff_lifts_from_the_root(head, guides, camera):
+    ed = editor(follicle.Guides(builtin_guides("curly", head, count=300), head))
+    path = across_the_tips(ed, camera)
+    before = ed.points.copy()
+    smoothed = ed.stroke("smooth", path, camera, radius=60, strength=1.0, size=SIZE)
+    assert len(smoothed) >= 10
+    # at the inner vertices that were well under the brush, the curls turn much less
+    xy = screen(camera, before[smoothed, 1:-1])
+    under = (np.abs(xy[..., 1] - path[0, 1]) < 20) & (xy[..., 0] > path[0, 0] + 20)
+    under &= xy[..., 0] < path[1, 0] - 20
+    assert under.sum() >= 20
+    ahead, after = turning(before[smoothed]), turning(ed.points[smoothed])
+    assert after[under].sum() < 0.85 * ahead[under].sum()
+    np.testing.assert_allclose(segment_lengths(ed.points), segment_lengths(before), atol=1e-6)
+    ed = editor(guides)
+    before = ed.points.copy()
+    roots = screen(camera, before[:, 0])
+    lifted = ed.stroke("puff", [np.median(roots, axis=0)], camera, radius=120, size=SIZE)
+    normal = ed._root_frames.normal[lifted]
+    first = lambda p: p[lifted, 1] - p[lifted, 0]  # noqa: E731
+    up = lambda p: np.einsum("sk,sk->s", first(p), normal) / np.linalg.norm(first(p), axis=1)  # noqa: E731
+    assert len(lifted) and np.all(up(ed.points) >= up(before) - 1e-9)
+    assert np.mean(up(ed.points) - up(before)) > 0.05
+
+
+def test_add_and_delete_change_the_count(guides, camera):
+    ed = editor(guides)
+    n = ed.guides.count
+    lo, hi = np.array([240.0, 140.0]), np.array([400.0, 140.0])  # over the forehead
+    added = ed.stroke("add", [lo, hi], camera, radius=40, size=SIZE)
+    assert len(added) == 5 and ed.guides.count == n + 5  # 160 px at one radius apart
+    assert np.array_equal(added, np.arange(n, n + 5))
+    new = ed.points[added]
+    # on the skin under the stroke, as long as their neighbours
+    np.testing.assert_allclose(screen(camera, new[:, 0])[:, 1], 140.0, atol=0.5)
+    assert np.all(segment_lengths(new).sum(1) > 0.05)
+    planted = ed.guides.curves[added[:3]]
+    gone = ed.stroke("delete", [lo, hi], camera, radius=10, size=SIZE)
+    assert len(gone) >= 5 and ed.guides.count == n + 5 - len(gone)
+    assert set(added) <= set(gone)
+    # the guides the camera sees, alone: one stroke over them all would leave none
+    few = follicle.GuideEditor(follicle.Guides(planted, ed.mesh))
+    with pytest.raises(InputError, match="every guide"):
+        few.stroke("delete", [lo, hi], camera, radius=20, size=SIZE)
+    assert few.guides.count == 3
+
+
+def test_the_same_strokes_give_the_same_bytes_and_save_round_trips(guides, camera, tmp_path):
+    runs = []
+    for _ in range(2):
+        ed = editor(guides)
+        path = across_the_tips(ed, camera)
+        for brush in ("comb", "smooth", "length", "cut", "add"):
+            ed.stroke(brush, path, camera, radius=50, strength=0.4, size=SIZE)
+        runs.append(ed)
+    assert runs[0].points.tobytes() == runs[1].points.tobytes()
+    out = runs[0].save(tmp_path / "edited.npz")
+    back = follicle.load_guides(out, guides.mesh)
+    assert back.count == runs[0].guides.count
+    np.testing.assert_allclose(
+        back.rest_shapes(back.vertex_count),
+        runs[0].guides.rest_shapes(back.vertex_count),
+        atol=1e-6,
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"brush": "teleport"}, "brush"),
+        ({"path": [[1.0, 2.0, 3.0]]}, "path"),
+        ({"path": []}, "path"),
+        ({"path": [[np.nan, 1.0]]}, "path"),
+        ({"radius": 0}, "radius"),
+        ({"strength": 2.0}, "strength"),
+        ({"brush": "comb", "strength": -0.5}, "strength"),
+        ({"size": (640,)}, "size"),
+        ({"camera": "front"}, "camera"),
+        ({"spacing": 3}, "unknown option"),
+    ],
+)
+def test_bad_strokes_name_the_argument(guides, camera, kwargs, match):
+    ed = editor(guides)
+    args = {"brush": "smooth", "path": [[10.0, 10.0]], "camera": camera, "radius": 10.0}
+    args.update({"size": SIZE, **kwargs})
+    with pytest.raises(InputError, match=match):
+        ed.stroke(**args)
+    assert ed.points.tobytes() == editor(guides).points.tobytes()
