@@ -291,3 +291,55 @@ def test_bad_strokes_name_the_argument(guides, camera, kwargs, match):
     with pytest.raises(InputError, match=match):
         ed.stroke(**args)
     assert ed.points.tobytes() == editor(guides).points.tobytes()
+
+
+@pytest.fixture(scope="module")
+def above(head):
+    lo, hi = head.bounds("rest")
+    centre = (lo + hi) / 2
+    return follicle.Camera(eye=centre + np.array([0.0, 0.6, 0.4]), target=centre)
+
+
+def test_part_combs_each_side_away_and_paints_the_groups(head, above, tmp_path):
+    g = follicle.load_guides("builtin:short", head)
+    ed = follicle.GuideEditor(g)
+    before = ed.points.copy()
+    line = np.array([[300.0, 40.0], [300.0, 220.0]])  # front to crown, right of the middle
+    parted = ed.stroke("part", line, above, radius=40, strength=0.6, size=SIZE)
+    assert len(parted) >= 10
+    np.testing.assert_allclose(segment_lengths(ed.points), segment_lengths(before), atol=1e-6)
+    roots = screen(above, before[parted, 0])
+    moved = screen(above, ed.points[parted, -1]) - screen(above, before[parted, -1])
+    left = roots[:, 0] < 300.0
+    assert left.any() and (~left).any()
+    assert np.all(moved[left, 0] < 0.0) and np.all(moved[~left, 0] > 0.0)  # away from it
+    # two new groups, one a side, for the roots near the line; the far ones keep theirs
+    labels = [ed.groups.label(int(k)) for k in ed.guides.group]
+    old = [g.groups.label(int(k)) for k in g.group]
+    new = {ed.groups.label(k) for k in range(ed.groups.count)} - set(old)
+    assert len(new) == 2
+    got = np.array(labels)[parted]
+    assert len(set(got[left])) == 1 and len(set(got[~left])) == 1
+    assert set(got[left]) | set(got[~left]) == new
+    every = screen(above, before[:, 0])
+    far = np.flatnonzero(np.abs(every[:, 0] - 300.0) > 50.0)  # a texel's width past the band
+    assert len(far) > 50 and [labels[k] for k in far] == [old[k] for k in far]
+    # hairs grow from the parted groups: each rooted in a new group takes its own side
+    hair = follicle.Groom(head, ed.guides).generate(count=3000)
+    assert hair.curve_count == 3000
+    # the painted groups round-trip through a PNG, as [groom].groups reads them
+    png = ed.save_groups(tmp_path / "parting.png")
+    back = follicle.groom.groups.InterpolationGroups(follicle.Texture.load(png))
+    uv = ed._root_frames.uv
+    assert [back.label(int(k)) for k in back.group_of(uv)] == labels
+    assert ed.undo() and [ed.groups.label(int(k)) for k in ed.guides.group] == old
+
+
+def test_a_parting_with_no_guide_on_one_side_is_refused(head, above):
+    ed = follicle.GuideEditor(follicle.load_guides("builtin:short", head))
+    roots = screen(above, ed.points[:, 0])
+    x = roots[:, 0].max() + 2.0  # just past the last root on screen: nothing on its right
+    y0, y1 = roots[:, 1].min(), roots[:, 1].max()
+    with pytest.raises(InputError, match="no guide"):
+        ed.stroke("part", [[x, y0], [x, y1]], above, radius=40, size=SIZE)
+    assert not ed.can_undo

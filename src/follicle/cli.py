@@ -291,7 +291,16 @@ def grow(
 @click.option(
     "-o", "--out", required=True, type=click.Path(), help="Guides file to write (.usda, .npz, …)."
 )
-def groom(strokes_path: str, guides: str | None, mesh: str | None, out: str) -> None:
+@click.option(
+    "--groups",
+    "groups_out",
+    default=None,
+    type=click.Path(),
+    help="Also write the interpolation groups (a part brush paints them) as a PNG.",
+)
+def groom(
+    strokes_path: str, guides: str | None, mesh: str | None, out: str, groups_out: str | None
+) -> None:
     """Replay a stroke log (brushes on the guides, README: Grooming by hand) headless
     and save the guides it makes."""
     from .groom.editor import GuideEditor
@@ -310,6 +319,9 @@ def groom(strokes_path: str, guides: str | None, mesh: str | None, out: str) -> 
         replay(editor, doc, strokes_path)
     editor.save(out)
     entries = len(doc["strokes"])  # type: ignore[arg-type]
+    if groups_out is not None:
+        editor.save_groups(groups_out)
+        click.echo(f"{editor.groups.count} interpolation groups → {groups_out}")
     click.echo(f"{entries:,} strokes, {editor.guides.count:,} guides → {out}")
 
 

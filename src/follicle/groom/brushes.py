@@ -32,9 +32,11 @@ __all__ = [
     "puff",
     "resized",
     "cut_lengths",
+    "uv_points",
+    "line_side",
 ]
 
-BRUSHES = ("comb", "cut", "length", "puff", "smooth", "add", "delete")
+BRUSHES = ("comb", "cut", "length", "puff", "smooth", "add", "delete", "part")
 MIN_LENGTH = 1e-4  # metres: no brush shortens a guide below this
 _PUSH_TRIES = 4  # push-outs of a vertex found inside the skin before giving up
 
@@ -284,3 +286,65 @@ def cut_lengths(
         along = (t / depth[g, i + 1]) / ((1.0 - t) / depth[g, i] + t / depth[g, i + 1])
         out[g] = arc[g, i] + along * seg[g, i]
     return out
+
+
+@njit(cache=True)
+def uv_points(uvs, faces, vertices, width, height):
+    """The surface point under each texel centre of a width × height texture over the
+    mesh's UV square (rows from the top, as interpolation groups read it), (H, W, 3),
+    and whether a triangle covers that texel (H, W): the mesh rasterized in UV space."""
+    pos = np.zeros((height, width, 3))
+    covered = np.zeros((height, width), np.bool_)
+    for f in range(faces.shape[0]):
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        ax, ay = uvs[a, 0] * width, (1.0 - uvs[a, 1]) * height
+        bx, by = uvs[b, 0] * width, (1.0 - uvs[b, 1]) * height
+        cx, cy = uvs[c, 0] * width, (1.0 - uvs[c, 1]) * height
+        den = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
+        if den == 0.0:
+            continue
+        c0 = max(int(math.floor(min(ax, bx, cx))), 0)
+        c1 = min(int(math.ceil(max(ax, bx, cx))), width - 1)
+        r0 = max(int(math.floor(min(ay, by, cy))), 0)
+        r1 = min(int(math.ceil(max(ay, by, cy))), height - 1)
+        for row in range(r0, r1 + 1):
+            py = row + 0.5
+            for col in range(c0, c1 + 1):
+                px = col + 0.5
+                wa = ((by - cy) * (px - cx) + (cx - bx) * (py - cy)) / den
+                wb = ((cy - ay) * (px - cx) + (ax - cx) * (py - cy)) / den
+                wc = 1.0 - wa - wb
+                if wa < -1e-9 or wb < -1e-9 or wc < -1e-9:
+                    continue
+                for k in range(3):
+                    pos[row, col, k] = (
+                        wa * vertices[a, k] + wb * vertices[b, k] + wc * vertices[c, k]
+                    )
+                covered[row, col] = True
+    return pos, covered
+
+
+def line_side(points: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For screen points (N, 2) and a polyline (K ≥ 2, 2): the distance to the nearest
+    point of the line, the side of the line the point lies on (+1 left, −1 right, seen
+    along the line on screen, y down) and the unit screen direction away from the line
+    at the nearest segment, on that side (N, 2)."""
+    best = np.full(len(points), np.inf)
+    side = np.ones(len(points))
+    away = np.zeros((len(points), 2))
+    for k in range(len(line) - 1):
+        a, b = line[k], line[k + 1]
+        d = b - a
+        length2 = float(d @ d)
+        if length2 == 0.0:
+            continue
+        t = np.clip((points - a) @ d / length2, 0.0, 1.0)
+        rel = points - (a + t[:, None] * d)
+        dist = np.linalg.norm(rel, axis=1)
+        closer = dist < best
+        normal = np.array([d[1], -d[0]]) / math.sqrt(length2)  # left of the line (y down)
+        sign = np.where(rel @ normal >= 0.0, 1.0, -1.0)
+        best = np.where(closer, dist, best)
+        side = np.where(closer, sign, side)
+        away = np.where(closer[:, None], sign[:, None] * normal[None], away)
+    return best, side, away

@@ -24,10 +24,12 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..mesh.skin import SkinMesh
+from ..mesh.texture import Texture
 from ..render.camera import Camera
 from ..render.options import parse_size
 from ..validate import number, positive
 from . import brushes
+from .groups import InterpolationGroups, color_label
 from .guides import Guides
 from .strokes import load_strokes, replay, save_strokes, stroke_entry
 
@@ -37,17 +39,20 @@ HISTORY = 256  # strokes kept for undo
 SPACING = 0.25  # a stroke's dabs this share of the radius apart
 NEIGHBOURS = 4  # existing guides an added guide takes its shape from
 MAX_DABS = 100_000  # dabs in one stroke (a stroke log cannot ask for a hang)
+GROUP_TEXELS = 256  # texels a side of a parting painted where there was no group texture
 _RANGES = {"length": (-1.0, 1.0)}  # strength; others 0..1
 
 
 @dataclass(frozen=True)
 class _State:
-    """One version of the guides: world positions at rest (S, V, 3) float64, and each
-    root's triangle (S,) and barycentric coordinates (S, 2)."""
+    """One version of the guides: world positions at rest (S, V, 3) float64, each
+    root's triangle (S,) and barycentric coordinates (S, 2), and the interpolation
+    groups (a part brush paints them)."""
 
     points: np.ndarray
     triangles: np.ndarray
     bary: np.ndarray
+    groups: InterpolationGroups
 
 
 class GuideEditor:
@@ -64,10 +69,10 @@ class GuideEditor:
         if mesh is not None and not guides.mesh.same_skin(mesh):
             raise InputError(f"mesh: the guides are bound to '{guides.mesh.name}', not to it")
         self.mesh = guides.mesh
-        self.groups = guides.groups
         n = guides.vertex_count
         points = guides.rest_shapes(n).astype(np.float64) + guides.root_positions[:, None]
-        self._state = _State(points, guides.triangles.copy(), guides.bary.copy())
+        triangles, bary = guides.triangles.copy(), guides.bary.copy()
+        self._state = _State(points, triangles, bary, guides.groups)
         self._margin = None if margin is None else number(margin, "margin", lo=0.0, unit="m")
         self._undo: list[_State] = []
         self._redo: list[_State] = []
@@ -84,8 +89,13 @@ class GuideEditor:
             s = self._state
             data = {"root_triangle": s.triangles, "root_bary": s.bary}
             curves = HairCurves.from_array(s.points.astype(np.float32), curve_data=data)
-            self._guides = Guides(curves, self.mesh, s.points.shape[1], self.groups)
+            self._guides = Guides(curves, self.mesh, s.points.shape[1], s.groups)
         return self._guides
+
+    @property
+    def groups(self) -> InterpolationGroups:
+        """The interpolation groups now (those of the guides given, until a part)."""
+        return self._state.groups
 
     @property
     def points(self) -> np.ndarray:
@@ -158,8 +168,10 @@ class GuideEditor:
         them towards the skin normal near the root; ``smooth`` relaxes their curvature;
         ``add`` plants new guides on the skin under the stroke (one a ``spacing`` pixels,
         default the radius), shaped from their neighbours; ``delete`` removes the
-        guides whose roots are under it. Lengths stay exact under comb, puff and
-        smooth, and no vertex is left inside the skin.
+        guides whose roots are under it; ``part`` combs the guides rooted within
+        ``radius`` of the stroke away from it (``strength`` × radius pixels) and paints
+        the parting into the interpolation groups (:meth:`_part`). Lengths stay exact
+        under comb, puff and smooth, and no vertex is left inside the skin.
         """
         if brush not in brushes.BRUSHES:
             raise InputError(f"brush: {brush!r} is not one of {list(brushes.BRUSHES)}")
@@ -178,6 +190,8 @@ class GuideEditor:
             changed = self._cut(view, line)
         elif brush == "delete":
             changed = self._delete(view, _dabs(line, radius), radius)
+        elif brush == "part":
+            changed = self._part(view, line, radius, strength)
         elif brush == "add":
             step = radius if spacing is None else positive(spacing, "spacing", unit="px")
             changed = self._add(view, _dabs(line, step))
@@ -242,7 +256,7 @@ class GuideEditor:
         if len(changed):
             edited = s.points.copy()
             edited[which] = points
-            self._commit(_State(edited, s.triangles, s.bary))
+            self._commit(_State(edited, s.triangles, s.bary, s.groups))
         return changed
 
     def _cut(self, view: _View, line: np.ndarray) -> np.ndarray:
@@ -254,7 +268,7 @@ class GuideEditor:
         if len(changed):
             points = s.points.copy()
             points[changed] = brushes.resized(points[changed], at[changed])
-            self._commit(_State(points, s.triangles, s.bary))
+            self._commit(_State(points, s.triangles, s.bary, s.groups))
         return changed
 
     def _delete(self, view: _View, dabs: np.ndarray, radius: float) -> np.ndarray:
@@ -266,7 +280,7 @@ class GuideEditor:
             raise InputError("delete: the stroke would remove every guide; keep at least one")
         if len(gone):
             keep = np.setdiff1d(np.arange(len(s.points)), gone)
-            self._commit(_State(s.points[keep], s.triangles[keep], s.bary[keep]))
+            self._commit(_State(s.points[keep], s.triangles[keep], s.bary[keep], s.groups))
         return gone
 
     def _add(self, view: _View, dabs: np.ndarray) -> np.ndarray:
@@ -297,9 +311,106 @@ class GuideEditor:
                 np.concatenate([s.points, new]),
                 np.concatenate([s.triangles, triangles]),
                 np.concatenate([s.bary, bary]),
+                s.groups,
             )
         )
         return np.arange(len(s.points), len(s.points) + len(new))
+
+    def _part(self, view: _View, line: np.ndarray, radius: float, strength: float):
+        """A parting along ``line``: the guides whose roots the camera sees within
+        ``radius`` pixels of it combed away from it, each to its own side, by up to
+        ``strength`` × radius pixels (the falloff of its root's distance) in four steps
+        with follow-the-leader; and the interpolation groups painted, so that hairs
+        rooted within ``radius`` of the line take guides of their own side only (Šik
+        2012 §2.2.4: a parting is where groups meet): the texels of the skin the
+        camera sees there get two new groups, one a side; elsewhere they keep theirs.
+        Refused when a side would have hairs but no guide."""
+        s = self._state
+        if len(line) < 2:
+            raise InputError("part: the path needs two points or more (the parting line)")
+        xy, seen = view.seen(s.points[:, :1], self.mesh)
+        dist, _, away = brushes.line_side(xy[:, 0], line)
+        which = np.flatnonzero(seen[:, 0] & (dist <= radius))
+        groups, labels = self._parted_groups(view, line, radius)
+        if len(which) == 0 and groups is None:
+            return which
+        if groups is not None:
+            _check_groups(groups, groups.group_of(self._root_frames.uv), labels)
+        points = s.points.copy()
+        if len(which) and strength > 0.0:
+            sub = points[which]
+            lengths = brushes.segment_lengths(sub)
+            weight = strength * np.clip(1.0 - (dist[which] / radius) ** 2, 0.0, 1.0) ** 2
+            # each guide its own way, away from the line on its side, a quarter a step
+            toward = away[which] * (radius / 4.0)
+            step = view.pixel * (toward[:, :1] * view.right - toward[:, 1:] * view.up)
+            for _ in range(4):
+                depth = view.project(sub)[1]
+                scale = weight[:, None] * np.maximum(depth[:, 1:], 0.0)
+                sub[:, 1:] += scale[..., None] * step[:, None, :]
+                brushes.follow(sub, lengths, self._skin, self._clearance)
+            points[which] = sub
+        self._commit(_State(points, s.triangles, s.bary, groups or s.groups))
+        return which
+
+    def _parted_groups(self, view: _View, line: np.ndarray, radius: float):
+        """The groups with the parting painted and the labels of its two new groups
+        (None and no labels: no texel of it in view)."""
+        old = self._state.groups
+        ids = _group_ids(old, self._texel_uv())
+        pos, covered = self._uv_points
+        h, w = covered.shape
+        xy, seen = view.seen(pos.reshape(-1, 3), self.mesh)
+        dist, side, _ = brushes.line_side(xy, line)
+        band = (seen & covered.ravel() & (dist <= radius)).reshape(h, w)
+        if not band.any():
+            return None, []
+        colors = [tuple(int(c) for c in rgb) for rgb in old.colors]
+        new = _fresh_colours(colors, 2)
+        image = np.array(colors, np.uint8)[ids]
+        left = band & (side.reshape(h, w) > 0)
+        image[left] = new[0]
+        image[band & ~left] = new[1]
+        texture = Texture(image, wrap="clamp", name="parting")
+        kept = {old.label(g): n for g, n in old.vertices.items()}
+        return InterpolationGroups(texture, kept), [color_label(np.array(c)) for c in new]
+
+    def save_groups(self, path: str | os.PathLike[str]) -> Path:
+        """Write the interpolation groups' texture as an 8-bit PNG (one colour a group),
+        for ``[groom].groups``; the guides' own (:meth:`save`) go beside it."""
+        from PIL import Image
+
+        from ..atomic import atomic_path
+
+        s = self._state
+        ids = _group_ids(s.groups, self._texel_uv())
+        image = np.array([tuple(int(c) for c in rgb) for rgb in s.groups.colors], np.uint8)[ids]
+        target = Path(path)
+        with atomic_path(target) as tmp:
+            Image.fromarray(image).save(tmp, format="PNG")
+        return target
+
+    def _texel_uv(self) -> np.ndarray:
+        """The UV of every texel centre of the groups' raster (H·W, 2)."""
+        h, w = self._uv_points[1].shape
+        u = (np.arange(w) + 0.5) / w
+        v = 1.0 - (np.arange(h) + 0.5) / h
+        return np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
+
+    @cached_property
+    def _uv_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The skin under each texel of the groups' raster: the groups' own texture's
+        size, or :data:`GROUP_TEXELS` a side."""
+        if self.mesh.uvs is None:
+            raise InputError(
+                f"part: mesh '{self.mesh.name}' has no UVs, and interpolation groups are"
+                " painted in UV space; give the mesh UVs"
+            )
+        texture = self._state.groups.texture
+        h, w = texture.data.shape[:2] if texture is not None else (GROUP_TEXELS, GROUP_TEXELS)
+        faces = np.ascontiguousarray(self.mesh.faces, np.int64)
+        verts = np.asarray(self.mesh.rest_vertices, np.float64)
+        return brushes.uv_points(np.asarray(self.mesh.uvs, np.float64), faces, verts, w, h)
 
     def _skin_hits(self, view: _View, dabs: np.ndarray) -> np.ndarray:
         """The first points of the skin along the camera rays through ``dabs`` (those
@@ -392,6 +503,41 @@ class _View:
         y = (1.0 - 2.0 * pixels[:, 1] / h) * t
         d = self.forward[None] + x[:, None] * self.right[None] + y[:, None] * self.up[None]
         return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _group_ids(groups: InterpolationGroups, uv: np.ndarray) -> np.ndarray:
+    """The group of each texel of the groups' raster (H, W) (their own texture's, or
+    :data:`GROUP_TEXELS` a side of the one group there is without)."""
+    ids = groups.group_of(uv)
+    side = int(round(math.sqrt(len(uv))))
+    texture = groups.texture
+    h, w = texture.data.shape[:2] if texture is not None else (side, side)
+    return ids.reshape(h, w)
+
+
+def _fresh_colours(taken: list[tuple[int, int, int]], n: int) -> list[tuple[int, int, int]]:
+    """``n`` colours not among ``taken``, the same ones for the same ``taken``."""
+    out: list[tuple[int, int, int]] = []
+    k = 0
+    while len(out) < n:
+        rgb = ((97 * k + 40) % 256, (57 * k + 200) % 256, (151 * k + 20) % 256)
+        if rgb not in taken and rgb not in out:
+            out.append(rgb)
+        k += 1
+    return out
+
+
+def _check_groups(groups: InterpolationGroups, guide_group: np.ndarray, labels: list[str]) -> None:
+    """Refuse a parting whose new groups (``labels``) have skin but no guide: their
+    hairs would have none to follow."""
+    have = {groups.label(int(g)) for g in np.unique(guide_group)}
+    present = {groups.label(g) for g in range(groups.count)}
+    for label in labels:
+        if label in present and label not in have:
+            raise InputError(
+                f"part: the parting leaves group {label} with skin but no guide; draw it"
+                " where guides are rooted on both sides, or add guides first"
+            )
 
 
 def _ray_hits(origin: np.ndarray, direction: np.ndarray, corners: np.ndarray) -> np.ndarray:
