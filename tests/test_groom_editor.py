@@ -343,3 +343,18 @@ def test_a_parting_with_no_guide_on_one_side_is_refused(head, above):
     with pytest.raises(InputError, match="no guide"):
         ed.stroke("part", [[x, y0], [x, y1]], above, radius=40, size=SIZE)
     assert not ed.can_undo
+
+
+def test_joined_pieces_are_one_stroke_to_undo_and_replay(guides, camera, tmp_path):
+    ed = editor(guides)
+    start = ed.points.copy()
+    path = across_the_tips(ed, camera)
+    pieces = np.linspace(path[0], path[1], 5)
+    for k in range(4):
+        ed.stroke("comb", pieces[k : k + 2], camera, 60, 1.0, SIZE, join=k > 0)
+    assert [e.get("join", False) for e in ed.log] == [False, True, True, True]
+    log = ed.save_strokes(tmp_path / "drag.json")
+    again = editor(guides)
+    again.replay(log)
+    assert again.points.tobytes() == ed.points.tobytes()
+    assert ed.undo() and np.array_equal(ed.points, start) and not ed.undo()

@@ -449,23 +449,32 @@ win.close()
 """
 
 
-@pytest.mark.skipif(
-    not os.environ.get("CI") and (_display_command() is None or not find_spec("imgui_bundle")),
-    reason="no display and no Xvfb (apt-get install xvfb), or no view extra",
-)
-def test_window_is_resizable_and_the_render_follows(tmp_path):
-    (tmp_path / "scene.toml").write_text(SCENE)
+def windowed_script(script: str, folder: Path) -> str:
+    """Run ``script`` (given the path of a small scene) in a child with a window, under
+    Xvfb where there is no display; its last line of output."""
+    (folder / "scene.toml").write_text(SCENE)
     command = [
         *(_display_command() or []),
         sys.executable,
         "-c",
-        RESIZE,
-        str(tmp_path / "scene.toml"),
+        script,
+        str(folder / "scene.toml"),
     ]
     env = {**os.environ, "NUMBA_NUM_THREADS": os.environ.get("NUMBA_NUM_THREADS", "1")}
     done = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split("\n")[-2] == "1 (120, 200, 4)"
+    assert done.returncode == 0, done.stderr[-3000:]
+    return done.stdout.split("\n")[-2]
+
+
+windowed = pytest.mark.skipif(
+    not os.environ.get("CI") and (_display_command() is None or not find_spec("imgui_bundle")),
+    reason="no display and no Xvfb (apt-get install xvfb), or no view extra",
+)
+
+
+@windowed
+def test_window_is_resizable_and_the_render_follows(tmp_path):
+    assert windowed_script(RESIZE, tmp_path) == "1 (120, 200, 4)"
 
 
 def test_hold_fps_draws_fewer_wider_hairs_and_comes_back():
@@ -499,3 +508,86 @@ def test_hold_fps_draws_fewer_wider_hairs_and_comes_back():
     with pytest.raises(InputError, match="hold_fps"):
         Controller(small_scene(), size=(16, 9), hold_fps=-1)
     assert Controller(small_scene(), size=(16, 9), hold_fps=0).hold_fps is None
+
+
+def test_a_brush_drag_edits_the_guides_and_one_undo_takes_it_back(tmp_path):
+    c = Controller(small_scene(), size=(320, 180), fps=30.0)
+    try:
+        c.step_frame()
+        rest = c.editor.points.copy()
+        tips = c.camera.project(rest[:, -1], c.size)[0]
+        start = np.median(tips, axis=0)
+        c.set_brush("comb", radius=40, strength=1.0)
+        c.begin_stroke(*start)
+        assert not c.playing  # paused at the rest pose while the guides are edited
+        for dx in range(10, 90, 10):
+            c.drag_stroke(start[0] + dx, start[1])
+            c.step_frame()
+        c.end_stroke()
+        assert c.playing
+        edited = c.editor.points.copy()
+        assert np.abs(edited - rest).max() > 0.005  # some vertex moved over 5 mm
+        # the drag is one stroke: one undo step; the groom and the simulation rest on it
+        assert len(c.editor._undo) == 1
+        assert np.allclose(
+            c.groom.guides.rest_shapes(rest.shape[1]), c.editor.guides.rest_shapes(rest.shape[1])
+        )
+        c.step_frame()
+        assert c.undo_groom() and np.array_equal(c.editor.points, rest)
+        assert not c.undo_groom()
+        assert c.redo_groom() and np.array_equal(c.editor.points, edited)
+        saved = c.save_guides(tmp_path / "g.npz")
+        assert np.load(saved)["points"].shape[0] == rest.shape[0] * rest.shape[1]
+        with pytest.raises(InputError, match="brush"):
+            c.set_brush("scissors")
+    finally:
+        c.release()
+
+
+DRAG = """\
+import sys
+import numpy as np
+from imgui_bundle import imgui
+from follicle.render.context import use_context
+from follicle.view import Controller
+from follicle.view.panel import Panel
+from follicle.view.window import Window
+win = Window((800, 450), visible=True)
+glfw = win.glfw
+with use_context(win.ctx):
+    ctl = Controller(sys.argv[1], size=win.framebuffer_size())
+    panel = Panel(win, ctl)
+    ctl.set_brush("comb", radius=40, strength=1.0)
+    rest = ctl.editor.points.copy()
+    tips = ctl.camera.project(rest[:, -1], ctl.size)[0]
+    x, y = np.median(tips, axis=0)
+    assert x > 360, x  # right of the panel
+    io = imgui.get_io()
+    # the pointer moved by X (GLFW reads it back), the left button pressed, the pointer
+    # dragged right, the button released
+    events = [("move", x, y)] * 2 + [("down", x, y)]
+    events += [("move", x + 8 * k, y) for k in range(1, 11)]
+    events += [("up", x + 80, y)] * 2
+    for kind, ex, ey in events:
+        glfw.set_cursor_pos(win.handle, ex, ey)
+        glfw.poll_events()
+        if kind in ("down", "up"):
+            io.add_mouse_button_event(0, kind == "down")
+        image = ctl.step_frame()
+        panel.frame(ctl, 30.0)
+        win.show(image)
+        panel.render()
+        glfw.swap_buffers(win.handle)
+    moved = float(np.abs(ctl.editor.points - rest).max())
+    print("moved", moved, "undo", len(ctl.editor._undo), "playing", ctl.playing)
+    panel.close()
+    ctl.release()
+win.close()
+"""
+
+
+@windowed
+def test_dragging_the_mouse_with_a_brush_combs_the_guides_in_the_window(tmp_path):
+    words = windowed_script(DRAG, tmp_path).split()
+    assert words[0] == "moved" and float(words[1]) > 0.005, words
+    assert words[2:] == ["undo", "1", "playing", "True"], words

@@ -80,6 +80,7 @@ class GuideEditor:
         self._frames: tuple | None = None
         self._last_view: tuple | None = None
         self.log: list[dict[str, object]] = []  # strokes, undos and redos, in order
+        self._pushed = False  # whether the stroke going on has an undo step yet
 
     # ------------------------------------------------------------------ state
     @property
@@ -121,6 +122,7 @@ class GuideEditor:
         return self._swap(self._redo, self._undo, "redo")
 
     def _swap(self, source: list[_State], target: list[_State], action: str) -> bool:
+        self._pushed = False
         if not source:
             return False
         target.append(self._state)
@@ -129,8 +131,12 @@ class GuideEditor:
         return True
 
     def _commit(self, state: _State) -> None:
-        self._undo.append(self._state)
-        del self._undo[:-HISTORY]
+        """``state`` becomes the current one; the one before is an undo step unless
+        this stroke (its joined pieces) has pushed one already."""
+        if not self._pushed:
+            self._undo.append(self._state)
+            del self._undo[:-HISTORY]
+            self._pushed = True
         self._redo.clear()
         self._set(state)
 
@@ -154,6 +160,7 @@ class GuideEditor:
         radius: float,
         strength: float = 0.5,
         size: Sequence[int] = (960, 540),
+        join: bool = False,
         **options: object,
     ) -> np.ndarray:
         """Apply ``brush`` along ``path`` ((K, 2) pixels, x right and y down from the
@@ -161,6 +168,8 @@ class GuideEditor:
         ``radius`` pixels wide and ``strength`` (0..1; −1..1 for ``length``, negative
         shrinks). Returns the indices of the guides it changed (for ``delete``, of the
         guides removed, numbered as before the stroke; for ``add``, of the new ones).
+        ``join`` continues the last stroke: one undo takes back both (a mouse drag is
+        applied a piece at a time as the mouse moves, and undone at once).
 
         Brushes: ``comb`` drags the vertices along the stroke, keeping segment lengths;
         ``cut`` cuts the guides the stroke crosses where it crosses them; ``length``
@@ -186,6 +195,8 @@ class GuideEditor:
         if options:
             raise InputError(f"{brush}: unknown option(s) {sorted(options)}")
         view = self._view(camera, (w, h))
+        if not join:
+            self._pushed = False  # a new stroke: its first change gets an undo step
         if brush == "cut":
             changed = self._cut(view, line)
         elif brush == "delete":
@@ -198,7 +209,10 @@ class GuideEditor:
         else:
             changed = self._brush(brush, view, _dabs(line, radius * SPACING), radius, strength)
         extra = {} if spacing is None else {"spacing": float(spacing)}
-        self.log.append(stroke_entry(brush, line.tolist(), camera, radius, strength, (w, h), extra))
+        entry = stroke_entry(brush, line.tolist(), camera, radius, strength, (w, h), extra)
+        if join:
+            entry["join"] = True
+        self.log.append(entry)
         return changed
 
     def save_strokes(

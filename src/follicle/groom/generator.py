@@ -251,6 +251,22 @@ class Groom:
         self._lock = threading.RLock()
         self.params = params if params is not None else GroomParams()
 
+    def with_guides(self, guides: Guides) -> Groom:
+        """This groom grown from other guides on the same mesh (its parameters, density
+        and displacement kept): what a brush stroke's guides grow (README: Grooming by
+        hand). Roots, weights and clumps are worked out again for them."""
+        if not isinstance(guides, Guides) or not guides.mesh.same_skin(self.mesh):
+            raise InputError(f"guides: expected follicle.Guides on mesh '{self.mesh.name}'")
+        return Groom(
+            self.mesh,
+            guides,
+            self.params,
+            self._density,
+            self.displacement,
+            self.displacement_scale,
+            self._resolve,
+        )
+
     # ------------------------------------------------------------------ parameters
     @property
     def params(self) -> GroomParams:

@@ -39,7 +39,7 @@ __all__ = ["VERSION", "MAX_BYTES", "stroke_entry", "save_strokes", "load_strokes
 VERSION = 1
 MAX_BYTES = 64 * 2**20  # a stroke log bigger than this is refused before it is parsed
 _CAMERA_KEYS = ("eye", "target", "up", "fov_y", "near", "far")
-_STROKE_KEYS = {"brush", "path", "radius", "strength", "size", "camera", "options"}
+_STROKE_KEYS = {"brush", "path", "radius", "strength", "size", "camera", "options", "join"}
 
 
 def stroke_entry(
@@ -128,7 +128,7 @@ def load_strokes(path: str | os.PathLike[str]) -> dict[str, object]:
         if unknown or "brush" not in entry:
             raise InputError(
                 f"{where}: expected a stroke (brush, path, radius, strength, size, camera,"
-                f' options) or {{"undo": true}} / {{"redo": true}}; got keys {sorted(entry)}'
+                f' options, join) or {{"undo": true}} / {{"redo": true}}; got keys {sorted(entry)}'
             )
     return doc
 
@@ -149,6 +149,9 @@ def replay(editor: GuideEditor, doc: Mapping[str, object], name: str = "strokes"
             options = entry.get("options", {})
             if not isinstance(options, dict):
                 raise InputError("options: expected an object")
+            join = entry.get("join", False)
+            if not isinstance(join, bool):
+                raise InputError("join: expected true or false")
             editor.stroke(
                 entry["brush"],
                 entry.get("path"),
@@ -156,6 +159,7 @@ def replay(editor: GuideEditor, doc: Mapping[str, object], name: str = "strokes"
                 entry.get("radius"),
                 entry.get("strength", 0.5),
                 entry.get("size", (960, 540)),
+                join,
                 **options,
             )
         except (InputError, TypeError) as exc:

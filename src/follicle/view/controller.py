@@ -14,6 +14,8 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import FollicleError, InputError
+from ..groom.brushes import BRUSHES
+from ..groom.editor import GuideEditor
 from ..pipeline import framed_camera, groom_scene
 from ..render import Camera, CpuRenderer, Renderer, default_lights, make_renderer, save_png
 from ..render.options import parse_size
@@ -22,7 +24,7 @@ from ..render.video import Mp4Writer
 from ..scene import Scene, load_scene
 from ..sim.motion import head_motion, motion_pivot
 from ..sim.simulator import MODEL_KEYS
-from ..validate import positive, whole
+from ..validate import number, positive, whole
 from .controls import check_key
 from .gust import Gust, GustySimulator
 from .overlay import background, drawable, guide_curves, volume_overlay
@@ -114,6 +116,13 @@ class Controller:
         self.timings = {"step": 0.0, "groom": 0.0, "render": 0.0, "frame": 0.0}
         self.loop_fps = 0.0  # frames per second of the last :func:`follicle.view` loop
         self.camera = self._frame_camera()
+        self.brush: str | None = None  # None: dragging orbits the camera
+        self.brush_radius = 60.0  # pixels
+        self.brush_strength = 0.5
+        self._editor: GuideEditor | None = None
+        self._stroke: tuple[float, float] | None = None  # the drag's last point
+        self._resume = False  # play again when the stroke ends
+        self._preview = False  # hairs grown from the editor's guides at rest
 
     # ------------------------------------------------------------------ parameters
     def set_param(self, section: str, key: str, value: object) -> None:
@@ -276,12 +285,106 @@ class Controller:
             count = self.scene.groom.count
             count = count if self._hair_limit is None else min(count, self._hair_limit)
             drawn = self._drawn(count)
-            curves = self.groom.follow(self.sim, count=drawn, time=self.time)
+            if self._preview:  # a stroke going on: the edited guides at rest
+                curves = self.groom.follow(self.editor.points, count=drawn)
+            else:
+                curves = self.groom.follow(self.sim, count=drawn, time=self.time)
             if drawn < count and "width" in curves.point_data:
                 curves.point_data["width"] = curves.point_data["width"] * (count / drawn)
             self.curves = curves
             self.timings["groom"] = time.perf_counter() - start
         return self.curves
+
+    # ------------------------------------------------------------ grooming by hand
+    @property
+    def editor(self) -> GuideEditor:
+        """The :class:`~follicle.GuideEditor` the brushes work through (made from the
+        groom's guides on first use)."""
+        if self._editor is None:
+            self._editor = GuideEditor(self.groom.guides)
+        return self._editor
+
+    def set_brush(self, brush: str | None, radius: float | None = None, strength=None) -> None:
+        """Choose the brush a left drag applies (None: the drag orbits the camera), and
+        optionally its radius (pixels) and strength."""
+        if brush is not None and brush not in BRUSHES:
+            raise InputError(f"brush: {brush!r} is not one of {list(BRUSHES)} or None")
+        self.brush = brush
+        if radius is not None:
+            self.brush_radius = positive(radius, "brush radius", unit="px")
+        if strength is not None:
+            self.brush_strength = number(strength, "brush strength", lo=-1.0, hi=1.0)
+
+    def begin_stroke(self, x: float, y: float) -> None:
+        """A drag with the brush starts at pixel (x, y): the show pauses and goes back to
+        the rest pose, where guides are edited."""
+        if self.brush is None:
+            raise InputError("begin_stroke: choose a brush first (set_brush)")
+        if self._stroke is None:
+            self._resume, self.playing = self.playing, False
+            self.reset()
+        self._stroke = (float(x), float(y))
+        self._first = True
+
+    def drag_stroke(self, x: float, y: float) -> np.ndarray:
+        """The drag moves on to (x, y): the brush applied from the last point (one undo
+        step for the whole drag), the hairs regrown from the edited guides. Returns the
+        guides changed."""
+        if self._stroke is None:
+            raise InputError("drag_stroke: no stroke begun (begin_stroke)")
+        path = [self._stroke, (float(x), float(y))]
+        strength = self.brush_strength
+        if self.brush != "length":
+            strength = min(max(strength, 0.0), 1.0)
+        ed = self.editor
+        count, groups = len(ed.points), ed.groups
+        changed = ed.stroke(
+            self.brush, path, self.camera, self.brush_radius, strength, self.size,
+            join=not self._first,
+        )  # fmt: skip
+        self._stroke, self._first = path[1], False
+        if len(changed):
+            if len(ed.points) != count or ed.groups is not groups:
+                self.groom = self.groom.with_guides(ed.guides)  # new roots or groups
+            self._preview = True
+            self.curves = self.image = None
+        return changed
+
+    def end_stroke(self) -> None:
+        """The drag ends: the groom and the simulation take the edited guides as their
+        rest shape, and the show plays again if it was playing."""
+        if self._stroke is None:
+            return
+        self._stroke = None
+        if self._preview:
+            self._adopt()
+        self.playing = self._resume
+
+    def undo_groom(self) -> bool:
+        """Take back the last brush stroke; False when there is none."""
+        done = self.editor.undo()
+        if done:
+            self._adopt()
+        return done
+
+    def redo_groom(self) -> bool:
+        """Apply again the last brush stroke taken back; False when there is none."""
+        done = self.editor.redo()
+        if done:
+            self._adopt()
+        return done
+
+    def save_guides(self, path: str | os.PathLike[str]) -> Path:
+        """Write the edited guides (any curves format) and, beside a part's groups,
+        nothing else: :meth:`follicle.GuideEditor.save`."""
+        return self.editor.save(path)
+
+    def _adopt(self) -> None:
+        """The editor's guides become the groom's and the simulation's rest shape."""
+        self.groom = self.groom.with_guides(self.editor.guides)
+        self.sim = GustySimulator(self.groom.guides, self.scene.sim, self.gusts)
+        self._preview = False
+        self.reset()
 
     def _drawn(self, count: int) -> int:
         """How many of ``count`` hairs :attr:`lod` draws."""
@@ -297,7 +400,8 @@ class Controller:
         both, or None."""
         parts = [self.hair()] if self.show.hairs and self.hair().curve_count else []
         if self.show.guides:
-            parts.append(guide_curves(self.sim.positions))
+            guides = self.editor.points if self._preview else self.sim.positions
+            parts.append(guide_curves(guides))
         if len(parts) == 2:
             return HairCurves.concatenate([drawable(part) for part in parts])
         return parts[0] if parts else None

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from dataclasses import fields
 
 from ..errors import FollicleError
+from ..groom.brushes import BRUSHES
 from .controller import DEFAULT_SCENE_FILE, QUALITIES, Controller, Show
 from .controls import CONTROLS, SECTIONS, Control
 
@@ -20,14 +21,19 @@ KEYS = (
     ("G", "gust"),
     ("V", "record / stop"),
     ("arrows", "turn / nod the head"),
-    ("drag", "orbit the camera"),
-    ("wheel", "zoom"),
+    ("drag", "orbit the camera, or brush"),
+    ("wheel", "zoom; Ctrl: brush radius; Shift: strength"),
+    ("1-8 / 0", "a brush / orbit"),
+    ("Ctrl+Z / Ctrl+Y", "undo / redo a stroke"),
     ("Esc", "quit"),
 )
 TURN_SPEED = 90.0  # degrees per second while an arrow key is held
 ORBIT_SPEED = 0.3  # degrees per pixel dragged
 ZOOM_STEP = 0.9  # distance factor per wheel notch
 DEFAULT_VIDEO_FILE = "follicle_view.mp4"
+DEFAULT_GUIDES_FILE = "follicle_guides.npz"
+RADIUS_STEP = 1.1  # brush radius factor per Ctrl + wheel notch
+STRENGTH_STEP = 0.05  # brush strength per Shift + wheel notch
 
 
 def _choices(section: str, key: str) -> list[str]:
@@ -49,6 +55,8 @@ class Panel:
         self.note = ""  # the last file written
         self.scene_path = str(ctl.source if ctl.source is not None else DEFAULT_SCENE_FILE)
         self.video_path = DEFAULT_VIDEO_FILE
+        self.guides_path = DEFAULT_GUIDES_FILE
+        self._last_mouse: tuple[float, float] | None = None
 
     def frame(self, ctl: Controller, fps: float) -> bool:
         """Build this frame's panel and act on keys; True when the user asked to quit."""
@@ -79,6 +87,8 @@ class Panel:
         self._files(ctl)
         if imgui.collapsing_header("view"):
             self._view(ctl)
+        if imgui.collapsing_header("groom by hand"):
+            self._brushes(ctl)
         for section, controls in CONTROLS.items():
             if imgui.collapsing_header(f"[{section}]"):
                 for control in controls:
@@ -115,14 +125,20 @@ class Panel:
         imgui = self.imgui
         io = imgui.get_io()
         if not io.want_capture_mouse:  # the mouse is over the picture, not the panel
-            if imgui.is_mouse_dragging(imgui.MouseButton_.left):
-                dx, dy = io.mouse_delta.x, io.mouse_delta.y
-                ctl.orbit(-ORBIT_SPEED * dx, ORBIT_SPEED * dy)
-            if io.mouse_wheel:
-                ctl.zoom(ZOOM_STEP**io.mouse_wheel)
+            self._mouse(ctl)
+        elif ctl.brush is not None and not imgui.is_mouse_down(imgui.MouseButton_.left):
+            self._act(ctl.end_stroke)
         if io.want_capture_keyboard:
             return False
         key = imgui.Key
+        ctrl = io.key_ctrl
+        if ctrl and imgui.is_key_pressed(key.z, False):
+            self._act(ctl.redo_groom if io.key_shift else ctl.undo_groom)
+        if ctrl and imgui.is_key_pressed(key.y, False):
+            self._act(ctl.redo_groom)
+        for n, name in enumerate((None, *BRUSHES)):
+            if not ctrl and imgui.is_key_pressed(getattr(key, f"_{n}"), False):
+                ctl.set_brush(name)
         if imgui.is_key_pressed(key.space, False):
             ctl.toggle_play()
         if imgui.is_key_pressed(key.s) or imgui.is_key_pressed(key.period):
@@ -139,6 +155,69 @@ class Panel:
         if yaw or pitch:
             ctl.turn_head(yaw * turn, pitch * turn)
         return imgui.is_key_pressed(key.escape, False)
+
+    def _mouse(self, ctl: Controller) -> None:
+        """Over the picture: a left drag brushes (a brush chosen) or orbits, the wheel
+        zooms, or with Ctrl sizes the brush and with Shift sets its strength; a brush
+        shows as a circle of its radius."""
+        imgui = self.imgui
+        io = imgui.get_io()
+        left = imgui.MouseButton_.left
+        scale = io.display_framebuffer_scale.x or 1.0  # window points → render pixels
+        x, y = io.mouse_pos.x * scale, io.mouse_pos.y * scale
+        if ctl.brush is None:
+            if imgui.is_mouse_dragging(left):
+                ctl.orbit(-ORBIT_SPEED * io.mouse_delta.x, ORBIT_SPEED * io.mouse_delta.y)
+        else:
+            if imgui.is_mouse_clicked(left):
+                self._act(ctl.begin_stroke, x, y)
+                self._last_mouse = (x, y)
+            elif imgui.is_mouse_down(left) and self._last_mouse not in (None, (x, y)):
+                self._act(ctl.drag_stroke, x, y)
+                self._last_mouse = (x, y)
+            elif imgui.is_mouse_released(left):
+                self._act(ctl.end_stroke)
+                self._last_mouse = None
+            colour = imgui.get_color_u32((1.0, 0.75, 0.3, 0.9))
+            centre = imgui.ImVec2(io.mouse_pos.x, io.mouse_pos.y)
+            imgui.get_foreground_draw_list().add_circle(centre, ctl.brush_radius / scale, colour)
+        if io.mouse_wheel:
+            if io.key_ctrl:
+                ctl.set_brush(ctl.brush, radius=ctl.brush_radius * RADIUS_STEP**io.mouse_wheel)
+            elif io.key_shift:
+                step = STRENGTH_STEP * io.mouse_wheel
+                ctl.set_brush(ctl.brush, strength=min(max(ctl.brush_strength + step, -1.0), 1.0))
+            else:
+                ctl.zoom(ZOOM_STEP**io.mouse_wheel)
+
+    def _brushes(self, ctl: Controller) -> None:
+        """The brush palette, its radius and strength, undo / redo, saving the guides."""
+        imgui = self.imgui
+        names = ["orbit", *BRUSHES]
+        current = 0 if ctl.brush is None else names.index(ctl.brush)
+        for i, name in enumerate(names):
+            if i % 5:
+                imgui.same_line()
+            if imgui.radio_button(f"{i} {name}", current == i):
+                ctl.set_brush(None if i == 0 else name)
+        changed, radius = imgui.slider_float("radius (px)", ctl.brush_radius, 2.0, 400.0)
+        if changed:
+            self._act(ctl.set_brush, ctl.brush, radius)
+        changed, strength = imgui.slider_float("strength", ctl.brush_strength, -1.0, 1.0)
+        if changed:
+            self._act(ctl.set_brush, ctl.brush, None, strength)
+        if imgui.button("undo"):
+            self._act(ctl.undo_groom)
+        imgui.same_line()
+        if imgui.button("redo"):
+            self._act(ctl.redo_groom)
+        _, self.guides_path = imgui.input_text("##guides path", self.guides_path)
+        imgui.same_line()
+        if imgui.button("save guides"):
+            self._act(self._save_guides, ctl)
+
+    def _save_guides(self, ctl: Controller) -> None:
+        self.note = f"saved {ctl.save_guides(self.guides_path)}"
 
     def _widget(self, ctl: Controller, section: str, c: Control) -> None:
         imgui = self.imgui
