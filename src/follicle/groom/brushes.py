@@ -328,7 +328,7 @@ def line_side(points: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndar
     """For screen points (N, 2) and a polyline (K ≥ 2, 2): the distance to the nearest
     point of the line, the side of the line the point lies on (+1 left, −1 right, seen
     along the line on screen, y down) and the unit screen direction away from the line
-    at the nearest segment, on that side (N, 2)."""
+    at the nearest segment, on that side (N, 2; zero at a segment of no length)."""
     best = np.full(len(points), np.inf)
     side = np.ones(len(points))
     away = np.zeros((len(points), 2))
@@ -336,13 +336,12 @@ def line_side(points: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndar
         a, b = line[k], line[k + 1]
         d = b - a
         length2 = float(d @ d)
-        if length2 == 0.0:
-            continue
-        t = np.clip((points - a) @ d / length2, 0.0, 1.0)
-        rel = points - (a + t[:, None] * d)
+        t = np.clip((points - a) @ d / length2, 0.0, 1.0) if length2 > 0.0 else 0.0
+        rel = points - (a + np.multiply.outer(t, d))
         dist = np.linalg.norm(rel, axis=1)
         closer = dist < best
-        normal = np.array([d[1], -d[0]]) / math.sqrt(length2)  # left of the line (y down)
+        # left of the line (y down); a segment of no length has no sides
+        normal = np.array([d[1], -d[0]]) / math.sqrt(length2) if length2 > 0.0 else d
         sign = np.where(rel @ normal >= 0.0, 1.0, -1.0)
         best = np.where(closer, dist, best)
         side = np.where(closer, sign, side)

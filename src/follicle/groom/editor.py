@@ -200,7 +200,7 @@ class GuideEditor:
         if brush == "cut":
             changed = self._cut(view, line)
         elif brush == "delete":
-            changed = self._delete(view, _dabs(line, radius), radius)
+            changed = self._delete(view, line, radius)
         elif brush == "part":
             changed = self._part(view, line, radius, strength)
         elif brush == "add":
@@ -285,10 +285,14 @@ class GuideEditor:
             self._commit(_State(points, s.triangles, s.bary, s.groups))
         return changed
 
-    def _delete(self, view: _View, dabs: np.ndarray, radius: float) -> np.ndarray:
+    def _delete(self, view: _View, line: np.ndarray, radius: float) -> np.ndarray:
+        """The guides whose roots the camera sees within ``radius`` of the stroke."""
         s = self._state
         xy, seen = view.seen(s.points[:, :1], self.mesh)
-        near = np.linalg.norm(xy[:, 0, None] - dabs[None], axis=2).min(axis=1) <= radius
+        if len(line) >= 2:
+            near = brushes.line_side(xy[:, 0], line)[0] <= radius
+        else:
+            near = np.linalg.norm(xy[:, 0] - line[0], axis=1) <= radius
         gone = np.flatnonzero(near & seen[:, 0])
         if len(gone) == len(s.points):
             raise InputError("delete: the stroke would remove every guide; keep at least one")
