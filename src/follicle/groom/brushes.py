@@ -153,11 +153,11 @@ def _unit(points, s, i):
 
 
 @njit(cache=True)
-def _turned(points, weight, which, towards, normals, puffing):
+def _turned(points, weight, which, normals, puffing):
     """Each guide of ``which`` rebuilt from its root with its segments' lengths, each
     segment's direction moved by its far vertex's weight (× 1 − its place, puffing)
-    towards ``towards``: the root normal (puffing) or the mean of the neighbouring
-    segments' directions (smoothing)."""
+    towards the root's ``normals`` (puffing) or the mean of the neighbouring segments'
+    directions (smoothing)."""
     v = points.shape[1]
     unit = np.empty((v - 1, 3))
     length = np.empty(v - 1)
@@ -174,7 +174,7 @@ def _turned(points, weight, which, towards, normals, puffing):
                 if i == 0 or v < 3:  # the root's direction is the skin's (puff's) business
                     w = 0.0
                 a = i - 1
-                b = min(i + 1, v - 2) if i + 1 < v - 1 else i - 1
+                b = i + 1 if i + 1 < v - 1 else i - 1  # the tip's: the one before
                 tx = 0.5 * (unit[a, 0] + unit[b, 0])
                 ty = 0.5 * (unit[a, 1] + unit[b, 1])
                 tz = 0.5 * (unit[a, 2] + unit[b, 2])
@@ -195,7 +195,7 @@ def smooth(points: np.ndarray, weight: np.ndarray, which: np.ndarray) -> None:
     rebuilt from the root at its segments' lengths (the root segment and lengths kept).
     Directions, not positions, are averaged: averaging the positions of a curl shrinks
     its radius, and with the lengths kept it then curls more."""
-    _turned(points, weight, which, 0, np.zeros((1, 3)), False)
+    _turned(points, weight, which, np.zeros((1, 3)), False)
 
 
 def puff(points: np.ndarray, weight: np.ndarray, normals: np.ndarray, which: np.ndarray) -> None:
@@ -203,7 +203,7 @@ def puff(points: np.ndarray, weight: np.ndarray, normals: np.ndarray, which: np.
     not at all at the tip: each segment's direction turned towards the normal by its
     weight × (1 − its place along the guide), the guide rebuilt at its lengths (the
     caller's follow-the-leader then keeps it off the skin)."""
-    _turned(points, weight, which, 0, normals, True)
+    _turned(points, weight, which, normals, True)
 
 
 @njit(cache=True)

@@ -121,6 +121,7 @@ class Controller:
         self.brush_strength = 0.5
         self._editor: GuideEditor | None = None
         self._stroke: tuple[float, float] | None = None  # the drag's last point
+        self._first = True  # the drag's first piece is a new stroke, the rest join it
         self._resume = False  # play again when the stroke ends
         self._preview = False  # hairs grown from the editor's guides at rest
 
@@ -304,7 +305,9 @@ class Controller:
             self._editor = GuideEditor(self.groom.guides)
         return self._editor
 
-    def set_brush(self, brush: str | None, radius: float | None = None, strength=None) -> None:
+    def set_brush(
+        self, brush: str | None, radius: float | None = None, strength: float | None = None
+    ) -> None:
         """Choose the brush a left drag applies (None: the drag orbits the camera), and
         optionally its radius (pixels) and strength."""
         if brush is not None and brush not in BRUSHES:
