@@ -30,9 +30,9 @@ import numpy as np
 import trimesh
 
 from follicle.curves import HairCurves
+from follicle.mesh.sdf import SDF
 from follicle.scene import SimParams
 from follicle.sim.model import Model
-from follicle.sim.sdf import SDF
 from follicle.sim.volume import grid_for
 
 _TINY = 1e-12  # shorter segments and distances are skipped; emptier grid vertices hold V = 0
@@ -339,7 +339,7 @@ class BaselinePBD:
 
 # ------------------------------------------------------------------ skin SDF
 class _SDFSampler:
-    """``follicle.sim.sdf.sdf_sample`` for many points at once: the trilinear distance
+    """``follicle.mesh.sdf.sdf_sample`` for many points at once: the trilinear distance
     (outside the grid box: the box distance plus |value| at the nearest grid point) for
     all points, the normal (the normalised gradient of that) only for the few asked for."""
 

@@ -127,10 +127,10 @@ def test_builtin_guides_on_the_builtin_head_part_by_default():
     """Unset groups on the built-in head with built-in guides mean builtin:parting: the
     hairs rooted on the mid-line then keep out of the skull; "none" turns groups off and
     those hairs blend a left- and a right-combed guide into the head again."""
+    from follicle.mesh.sdf import SDF
     from follicle.pipeline import groom_scene
     from follicle.scene import Scene
     from follicle.sim.collision import clearance, colliders
-    from follicle.sim.sdf import SDF
 
     def deepest(groups: str | None) -> tuple[int, float]:
         groom = groom_scene(Scene(groom={"groups": groups}))

@@ -8,10 +8,10 @@ import trimesh
 from benchmarks.sim_baseline import BaselinePBD, _SDFSampler, _VolumeGrid
 
 from follicle.curves import HairCurves
+from follicle.mesh.sdf import SDF
 from follicle.scene import SimParams
 from follicle.sim import Simulator
 from follicle.sim.model import Model
-from follicle.sim.sdf import SDF
 from follicle.sim.volume import apply_volume
 
 DT = 1 / 120

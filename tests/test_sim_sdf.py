@@ -12,8 +12,8 @@ from numba import njit
 
 from follicle.errors import InputError, ResourceError
 from follicle.mesh.head import builtin_head
+from follicle.mesh.sdf import SDF, _grid, sdf_sample
 from follicle.mesh.skin import SkinMesh
-from follicle.sim.sdf import SDF, _grid, sdf_sample
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..sim.sdf import SDF, sdf_sample
+from ..mesh.sdf import SDF, sdf_sample
 
 __all__ = [
     "BRUSHES",

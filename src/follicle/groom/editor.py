@@ -463,7 +463,7 @@ class GuideEditor:
 
     @cached_property
     def _skin(self):
-        from ..sim.sdf import SDF
+        from ..mesh.sdf import SDF
 
         return SDF.from_mesh(self.mesh.rest_vertices, self.mesh.faces)
 

@@ -456,7 +456,7 @@ def closest_weights(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     (Ericson, RTCD §5.1.5). A vertex region gives two exact zeros, an edge region one.
 
     Scalar arguments: about 4× faster per call than array views of the corners, which
-    matters for the millions of calls of an SDF build (sim.sdf).
+    matters for the millions of calls of an SDF build (mesh.sdf).
     """
     abx, aby, abz = bx - ax, by - ay, bz - az
     acx, acy, acz = cx - ax, cy - ay, cz - az

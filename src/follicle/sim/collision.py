@@ -3,7 +3,7 @@
 A collision is a hard constraint: a vertex found inside a collider grown by the
 margin is moved to its surface along the collider's normal there (Le Muzic 2012: the head sphere
 first, other shapes for the body; the skin mesh through its signed distance field,
-:mod:`follicle.sim.sdf`). Colliders arrive in world space as one bundle,
+:mod:`follicle.mesh.sdf`). Colliders arrive in world space as one bundle,
 :class:`Colliders`: a table of shapes, one row each (``kind`` in column 0, the shape's
 numbers after it, see :data:`SHAPES`), and the skin's SDF as the arguments of
 :func:`sdf_sample` (an empty grid for none).
@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from .sdf import sdf_lookup
+from ..mesh.sdf import sdf_lookup
 from .settings import SHAPES
 
 __all__ = [

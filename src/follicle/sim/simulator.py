@@ -27,12 +27,12 @@ from ..arrays import rigid
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError, SimulationError
 from ..groom.guides import Guides
+from ..mesh.sdf import SDF
 from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..noise import perlin
 from ..validate import number
 from .collision import NO_SDF, Colliders, clearance, colliders, penetration
 from .model import Model
-from .sdf import SDF
 from .settings import SimParams
 from .solver import Solver
 from .state import State

@@ -48,8 +48,8 @@ from numba import njit, prange
 from ..arrays import as_points, frozen, rigid
 from ..errors import InputError, ResourceError
 from ..frames import normalize
-from ..mesh.skin import closest_weights
 from ..validate import positive, whole
+from .skin import closest_weights
 
 __all__ = ["SDF", "sdf_sample", "sdf_lookup"]
 
