@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arrays import frozen
 from ..curves import HairCurves
 from ..errors import InputError
 from ..mesh.skin import SkinMesh
@@ -101,9 +102,7 @@ class GuideEditor:
     @property
     def points(self) -> np.ndarray:
         """The guides' world positions at rest (S, V, 3), read-only."""
-        view = self._state.points.view()
-        view.flags.writeable = False
-        return view
+        return frozen(self._state.points.view())
 
     @property
     def can_undo(self) -> bool:
@@ -231,7 +230,7 @@ class GuideEditor:
         vertices the camera sees at the stroke's start (only guides that come within
         ``radius`` of the stroke on screen are looked at: no others can move)."""
         s = self._state
-        xy, seen = view.seen(s.points, self.mesh)
+        xy, _, seen = view.seen(s.points, self.mesh)
         lo, hi = dabs.min(axis=0) - radius, dabs.max(axis=0) + radius
         near = ((xy.max(axis=1) >= lo) & (xy.min(axis=1) <= hi)).all(axis=1)
         which = np.flatnonzero(near & seen[:, 1:].any(axis=1))
@@ -275,8 +274,7 @@ class GuideEditor:
 
     def _cut(self, view: _View, line: np.ndarray) -> np.ndarray:
         s = self._state
-        xy, seen = view.seen(s.points, self.mesh)
-        depth = view.project(s.points)[1]
+        xy, depth, seen = view.seen(s.points, self.mesh)
         at = brushes.cut_lengths(s.points, xy, depth, line, seen[:, 1:] & seen[:, :-1])
         changed = np.flatnonzero(np.isfinite(at))
         if len(changed):
@@ -288,7 +286,7 @@ class GuideEditor:
     def _delete(self, view: _View, line: np.ndarray, radius: float) -> np.ndarray:
         """The guides whose roots the camera sees within ``radius`` of the stroke."""
         s = self._state
-        xy, seen = view.seen(s.points[:, :1], self.mesh)
+        xy, _, seen = view.seen(s.points[:, :1], self.mesh)
         if len(line) >= 2:
             near = brushes.line_side(xy[:, 0], line)[0] <= radius
         else:
@@ -346,7 +344,7 @@ class GuideEditor:
         s = self._state
         if len(line) < 2:
             raise InputError("part: the path needs two points or more (the parting line)")
-        xy, seen = view.seen(s.points[:, :1], self.mesh)
+        xy, _, seen = view.seen(s.points[:, :1], self.mesh)
         dist, _, away = brushes.line_side(xy[:, 0], line)
         which = np.flatnonzero(seen[:, 0] & (dist <= radius))
         groups, labels = self._parted_groups(view, line, radius)
@@ -378,7 +376,7 @@ class GuideEditor:
         ids = _group_ids(old, self._texel_uv())
         pos, covered = self._uv_points
         h, w = covered.shape
-        xy, seen = view.seen(pos.reshape(-1, 3), self.mesh)
+        xy, _, seen = view.seen(pos.reshape(-1, 3), self.mesh)
         dist, side, _ = brushes.line_side(xy, line)
         band = (seen & covered.ravel() & (dist <= radius)).reshape(h, w)
         if not band.any():
@@ -489,17 +487,17 @@ class _View:
         xy, depth = self.camera.project(points.reshape(-1, 3), self.size)
         return xy.reshape(*points.shape[:-1], 2), depth.reshape(points.shape[:-1])
 
-    def seen(self, points: np.ndarray, mesh: SkinMesh) -> tuple[np.ndarray, np.ndarray]:
-        """Pixels (..., 2) of points (..., 3) and whether the camera sees each: in the
-        picture, in front of the eye and not behind the skin (within 2 % of its depth,
-        so the roots, on the skin, count as seen)."""
+    def seen(self, points: np.ndarray, mesh: SkinMesh) -> tuple[np.ndarray, ...]:
+        """Pixels (..., 2) of points (..., 3), their view depths, and whether the camera
+        sees each: in the picture, in front of the eye and not behind the skin (within
+        2 % of its depth, so the roots, on the skin, count as seen)."""
         xy, depth = self.project(points)
         w, h = self.size
         col = np.floor(xy[..., 0]).astype(np.int64)
         row = np.floor(xy[..., 1]).astype(np.int64)
         inside = (col >= 0) & (col < w) & (row >= 0) & (row < h) & (depth > 0.0)
         skin = self.skin(mesh)[np.clip(row, 0, h - 1), np.clip(col, 0, w - 1)]
-        return xy, inside & (depth <= skin * 1.02)
+        return xy, depth, inside & (depth <= skin * 1.02)
 
     def skin(self, mesh: SkinMesh) -> np.ndarray:
         """The skin's view depth per pixel (+inf where none), drawn once per view."""
