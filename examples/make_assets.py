@@ -1,8 +1,9 @@
-"""Make the small assets of examples/short_fur.toml: a torus with UVs and two textures.
+"""Make the small assets of the examples: short_fur's torus with UVs and two textures,
+and hand_groomed's guides replayed from its stroke log.
 
     .venv/bin/python examples/make_assets.py [OUT_DIR]
 
-writes into ``OUT_DIR`` (default ``examples/assets``; about 180 KB in all, the same
+writes into ``OUT_DIR`` (default ``examples/assets``; about 250 KB in all, the same
 bytes on every run):
 
 * ``assets/torus.obj`` — a torus lying in the x-z plane (major radius 0.12 m, tube
@@ -15,6 +16,10 @@ bytes on every run):
   across the ring and a cream belly, multiplied into root_color / tip_color. follicle
   reads texels as value / 255 (no sRGB decoding), so the PNG holds LINEAR RGB.
 
+* ``assets/hand_groomed.npz`` and ``assets/hand_groomed_groups.png`` — the guides and
+  interpolation groups of ``examples/hand_groomed.strokes.json`` replayed, as
+  ``follicle groom examples/hand_groomed.strokes.json -o … --groups …`` writes them.
+
 Texture rows run from v = 1 (top row) to v = 0 (bottom row), as follicle samples them.
 """
 
@@ -26,10 +31,13 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from follicle.groom.strokes import replay_file
+
 HERE = Path(__file__).resolve().parent / "assets"
 MAJOR, MINOR = 0.12, 0.05  # m
 RING, TUBE = 64, 32  # quads around the ring and around the tube
 TEX_W, TEX_H = 256, 128
+HAND_GROOMED = ("hand_groomed.npz", "hand_groomed_groups.png")
 
 
 def torus() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -111,7 +119,10 @@ def main(out: Path = HERE) -> None:
     write_obj(out / "torus.obj", pos, uv, quads)
     Image.fromarray(density(), "L").save(out / "fur_density.png", optimize=True)
     Image.fromarray(color(), "RGB").save(out / "fur_color.png", optimize=True)
-    for name in ("torus.obj", "fur_density.png", "fur_color.png"):
+    editor = replay_file(Path(__file__).resolve().parent / "hand_groomed.strokes.json")
+    editor.save(out / "hand_groomed.npz")
+    editor.save_groups(out / "hand_groomed_groups.png")
+    for name in ("torus.obj", "fur_density.png", "fur_color.png", *HAND_GROOMED):
         print(f"{out / name}: {(out / name).stat().st_size / 1024:.1f} KiB")
 
 

@@ -9,12 +9,12 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 follicle="${FOLLICLE:-$root/.venv/bin/follicle}"
 [ -x "$follicle" ] || follicle=follicle
 mkdir -p "$root/docs/examples"
-if [ ! -f "$root/examples/assets/torus.obj" ]; then
+if [ ! -f "$root/examples/assets/torus.obj" ] || [ ! -f "$root/examples/assets/hand_groomed.npz" ]; then
     "$root/.venv/bin/python" "$root/examples/make_assets.py"
 fi
 names=("$@")
 if [ ${#names[@]} -eq 0 ]; then
-    names=(long_straight wavy curly short_fur parting blond_multistrand)
+    names=(long_straight wavy curly short_fur parting blond_multistrand hand_groomed)
 fi
 for name in "${names[@]}"; do
     TIMEFORMAT="$(printf '%-18s' "$name") %1R s"

@@ -107,3 +107,29 @@ def test_with_points_and_copy_are_independent():
     moved = c.with_points(c.points + 1)
     assert moved.points[0].tolist() == [1, 1, 1]
     assert moved.point_data["width"] is c.point_data["width"]
+
+
+def test_replaced_swaps_curves_in_place_or_rebuilt():
+    def curves(counts, base):
+        pts = [base + np.arange(n * 3, dtype=np.float32).reshape(n, 3) for n in counts]
+        c = HairCurves.from_polylines(pts)
+        c.point_data["width"] = np.full(c.point_count, base, np.float32)
+        c.curve_data["hair_id"] = np.arange(len(counts)) + int(base)
+        return c
+
+    a = curves([2, 3, 4, 2], 0.0)
+    same = a.replaced([1, 3], curves([3, 2], 100.0))  # the same vertex counts
+    assert np.array_equal(same.offsets, a.offsets)
+    assert np.array_equal(same.curve(1), curves([3], 100.0).curve(0))
+    assert np.array_equal(same.curve(0), a.curve(0)) and np.array_equal(same.curve(2), a.curve(2))
+    assert same.point_data["width"][a.offsets[3] :].tolist() == [100.0, 100.0]
+    assert same.curve_data["hair_id"].tolist() == [0, 100, 2, 101]
+    assert np.array_equal(a.curve(1), curves([2, 3], 0.0).curve(1))  # a is untouched
+    other = a.replaced([0, 2], curves([5, 2], 50.0))  # other counts: joined again
+    assert other.counts.tolist() == [5, 3, 2, 2]
+    assert other.curve_data["hair_id"].tolist() == [50, 1, 51, 3]
+    assert np.array_equal(other.curve(1), a.curve(1)) and np.array_equal(other.curve(3), a.curve(3))
+    with pytest.raises(InputError, match="ascending"):
+        a.replaced([3, 1], curves([2, 3], 0.0))
+    with pytest.raises(InputError, match="expected 2"):
+        a.replaced([1], curves([2, 3], 0.0))

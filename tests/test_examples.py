@@ -24,7 +24,15 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 SCENES = sorted(EXAMPLES.glob("*.toml"))
 NAMES = [p.stem for p in SCENES]
-EXPECTED = {"long_straight", "wavy", "curly", "short_fur", "parting", "blond_multistrand"}
+EXPECTED = {
+    "long_straight",
+    "wavy",
+    "curly",
+    "short_fur",
+    "parting",
+    "blond_multistrand",
+    "hand_groomed",
+}
 COUNT = 1000
 
 _cache: dict[str, tuple[Scene, object, HairCurves]] = {}
@@ -68,7 +76,7 @@ def turning_angle(hair: HairCurves) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ every scene
-def test_the_six_examples_are_there():
+def test_the_seven_examples_are_there():
     assert EXPECTED <= set(NAMES), f"missing: {EXPECTED - set(NAMES)}"
 
 
@@ -166,18 +174,23 @@ def test_short_fur_grows_only_where_the_density_map_is_not_zero():
         assert np.corrcoef(root_rgb[:, k], coat[:, k])[0, 1] > 0.7
 
 
-def test_short_fur_assets_are_small_and_reproducible(tmp_path):
+def load_example_module(name: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_example_assets_are_small_and_reproducible(tmp_path):
     assets = EXAMPLES / "assets"
     files = sorted(p for p in assets.iterdir() if p.is_file())
     assert sum(p.stat().st_size for p in files) < 300_000
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("make_assets", EXAMPLES / "make_assets.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    module.main(tmp_path)
-    assert (tmp_path / "torus.obj").read_bytes() == (assets / "torus.obj").read_bytes()
-    for name in ("fur_density.png", "fur_color.png"):
+    load_example_module("make_assets").main(tmp_path)
+    for name in ("torus.obj", "hand_groomed.npz"):  # the guides replayed from the log
+        assert (tmp_path / name).read_bytes() == (assets / name).read_bytes(), name
+    for name in ("fur_density.png", "fur_color.png", "hand_groomed_groups.png"):
         with Image.open(tmp_path / name) as made, Image.open(assets / name) as kept:
             assert np.array_equal(np.asarray(made), np.asarray(kept)), name
 
@@ -214,3 +227,53 @@ def test_blond_multistrand_has_fibres_and_light_colour():
     luminance = tips @ np.array([0.2126, 0.7152, 0.0722])
     assert np.median(luminance) > 0.3  # blond, in linear RGB
     assert np.std(luminance) > 0.01  # per-hair variation
+
+
+def test_hand_groomed_log_is_what_its_script_writes(tmp_path):
+    log = load_example_module("hand_groomed").main(tmp_path / "strokes.json")
+    assert log.read_bytes() == (EXAMPLES / "hand_groomed.strokes.json").read_bytes()
+
+
+def test_hand_groomed_is_combed_back_parted_and_has_a_fringe():
+    """What the strokes were for, in the grown hair: the sides combed back, a parting
+    over the left eye the hairs do not cross, a fringe ending on a line at the brow —
+    each against the built-in short guides the log started from."""
+    scene, groom, hair = grown("hand_groomed", 2000)
+    start = scene.replace(
+        guides=scene.guides.replace(path="builtin:short"), groom=scene.groom.replace(groups=None)
+    )
+    before = groom_scene(start).generate(2000)
+
+    def ends(h: HairCurves) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p = h.points.astype(np.float64)
+        return p, p[h.offsets[:-1]], p[h.offsets[1:] - 1]
+
+    points, roots, tips = ends(hair)
+    points0, roots0, tips0 = ends(before)
+    # combed back: the hairs rooted on the sides end behind their roots
+    side, side0 = np.abs(roots[:, 0]) > 0.06, np.abs(roots0[:, 0]) > 0.06
+    back = np.mean(tips[side, 2] < roots[side, 2] - 0.01)
+    assert back > 0.93 and back > np.mean(tips0[side0, 2] < roots0[side0, 2] - 0.01) + 0.05
+
+    # the fringe: the hairs rooted at the front hairline right of the parting hang over
+    # the forehead, and end on the cut at the brow (y = 3.5 cm), none past it
+    def front(r: np.ndarray) -> np.ndarray:
+        return (r[:, 2] > 0.03) & (r[:, 0] > -0.05) & (r[:, 0] < 0.02) & (r[:, 1] < 0.11)
+
+    fringe = front(roots)
+    assert fringe.sum() > 50
+    forward = tips[fringe, 2] - roots[fringe, 2]  # over the forehead
+    assert np.all(forward > 0.0) and np.mean(forward > 0.02) > 0.9
+    assert tips[fringe, 1].min() > 0.028
+    assert np.mean((tips[fringe, 1] > 0.03) & (tips[fringe, 1] < 0.045)) > 0.5
+    assert np.median(tips0[front(roots0), 1]) > 0.06  # they ended up the head before
+
+    # the parting at x = 3.5 cm from the hairline to the crown: a line of scalp, with
+    # under half the hair over it that lies over its mirror image on the other side
+    def over(p: np.ndarray, x: float) -> float:
+        top = (p[:, 2] > -0.02) & (p[:, 2] < 0.04) & (p[:, 1] > 0.09)
+        return float(np.mean(top & (np.abs(p[:, 0] - x) < 0.003)))
+
+    assert over(points, 0.035) < 0.5 * over(points, -0.035)
+    assert over(points, 0.035) < 0.5 * over(points0, 0.035)
+    assert groom.guides.groups.count == 4  # the head's halves and the parting's two sides

@@ -10,6 +10,7 @@ import follicle
 from follicle.errors import InputError
 from follicle.groom.brushes import dab, segment_lengths
 from follicle.groom.builtin_guides import builtin_guides
+from follicle.groom.settings import GroomParams
 from follicle.render.cpu.engine import skin_depth
 
 SIZE = (640, 480)
@@ -103,6 +104,32 @@ def test_comb_keeps_every_length_and_drags_the_tips_along_the_stroke(guides, cam
     assert np.all(moved[:, 0] > 10.0) and np.all(moved[:, 0] > np.abs(moved[:, 1]))
     untouched = np.setdiff1d(np.arange(len(before)), changed)
     assert np.array_equal(ed.points[untouched], before[untouched])
+
+
+def test_comb_carries_the_guide_past_the_brush_without_folding_it(guides, camera):
+    """A stroke across the middle of guides drags their tips along too (as a comb
+    carries the lengths behind it), and no guide folds where the brush lets go."""
+    ed = editor(guides)
+    before = ed.points.copy()
+    middle = screen(camera, before[:, 10])
+    middle[~seen(ed.mesh, camera, before[:, 10])] = np.nan
+    crowd = (np.linalg.norm(middle[:, None] - middle[None], axis=2) < 15).sum(axis=1)
+    start = middle[np.argmax(crowd)]
+    path = np.array([start, start + [80.0, 0.0]])
+    changed = ed.stroke("comb", path, camera, radius=30, strength=1.0, size=SIZE)
+    under = np.flatnonzero(np.linalg.norm(middle - start, axis=1) < 10)
+    tips = screen(camera, before[under, -1])
+    assert len(under) >= 3 and set(under) <= set(changed)
+    assert np.all(np.linalg.norm(tips - start, axis=1) > 60)  # the tips are off the brush
+    mid_moved = screen(camera, ed.points[under, 10])[:, 0] - middle[under, 0]
+    tip_moved = screen(camera, ed.points[under, -1])[:, 0] - tips[:, 0]
+    # swinging about the root, the carried tip goes further than the middle it hangs from
+    assert np.all(mid_moved > 5.0) and np.all(tip_moved > mid_moved)
+    d = np.diff(ed.points[changed], axis=1)
+    d /= np.linalg.norm(d, axis=2, keepdims=True)
+    turn = np.degrees(np.arccos(np.clip(np.sum(d[:, 1:] * d[:, :-1], axis=2), -1, 1)))
+    assert turn.max() < 60.0, turn.max()
+    np.testing.assert_allclose(segment_lengths(ed.points), segment_lengths(before), atol=1e-6)
 
 
 def crosses(polyline: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
@@ -313,6 +340,10 @@ def test_part_combs_each_side_away_and_paints_the_groups(head, above, tmp_path):
     left = roots[:, 0] < 300.0
     assert left.any() and (~left).any()
     assert np.all(moved[left, 0] < 0.0) and np.all(moved[~left, 0] > 0.0)  # away from it
+    # and none crosses it: every vertex on its root's side, as far from it as the root
+    xs = screen(above, ed.points[parted])[..., 0] - 300.0
+    gap = np.abs(roots[:, 0] - 300.0)
+    assert np.all(np.where(left[:, None], -xs, xs) >= gap[:, None] - 1.0)
     # two new groups, one a side, for the roots near the line; the far ones keep theirs
     labels = [ed.groups.label(int(k)) for k in ed.guides.group]
     old = [g.groups.label(int(k)) for k in g.group]
@@ -358,3 +389,37 @@ def test_joined_pieces_are_one_stroke_to_undo_and_replay(guides, camera, tmp_pat
     again.replay(log)
     assert again.points.tobytes() == ed.points.tobytes()
     assert ed.undo() and np.array_equal(ed.points, start) and not ed.undo()
+
+
+def test_regrowing_only_the_hairs_on_changed_guides_equals_growing_all(head, guides, camera):
+    """Groom.regrow after comb, cut and length strokes: the same bytes as Groom.follow of
+    every hair (clumps on: a hair also hangs on its clump centre's guides), and the
+    hairs on no changed guide kept as they were, not grown again."""
+    groom = follicle.Groom(head, guides, GroomParams(count=3000, clump_count=60))
+    ed = editor(guides)
+    shown = groom.follow(ed.points)
+    mid = across_the_tips(ed, camera).mean(axis=0)
+    strokes = [  # short strokes: a few guides of many
+        ("comb", mid + [[-20.0, 0.0], [20.0, 0.0]], 30, 0.8),
+        ("cut", mid + [[-20.0, -40.0], [20.0, -40.0]], 5, 0.5),
+        ("length", mid + [[-20.0, -80.0], [0.0, -80.0]], 30, 0.5),
+    ]
+    for brush, path, radius, strength in strokes:
+        changed = ed.stroke(brush, path, camera, radius, strength, SIZE)
+        assert 0 < len(changed) < guides.count // 2
+        full = groom.follow(ed.points)
+        kept = shown.copy()
+        kept.point_data["width"][:] += 1.0  # a mark on every hair of the last regrowth
+        regrown = groom.regrow(kept, ed.points, changed)
+        assert regrown.points.tobytes() == full.points.tobytes()
+        assert np.array_equal(regrown.offsets, full.offsets)
+        for key, value in full.curve_data.items():
+            assert np.array_equal(regrown.curve_data[key], value), key
+        marked = regrown.point_data["width"] > full.point_data["width"] + 0.5
+        again = ~marked[regrown.offsets[:-1]]  # per curve: grown again
+        assert 0 < again.sum() < 0.9 * regrown.curve_count  # some, not all
+        shown = groom.regrow(shown, ed.points, changed)
+        assert shown == full
+    assert groom.regrow(shown, ed.points, []) is shown
+    with pytest.raises(InputError, match="changed"):
+        groom.regrow(shown, ed.points, [guides.count])

@@ -522,6 +522,11 @@ def test_a_brush_drag_edits_the_guides_and_one_undo_takes_it_back(tmp_path):
         for dx in range(10, 90, 10):
             c.drag_stroke(start[0] + dx, start[1])
             c.step_frame()
+            # regrown only where the guides changed, as if all were grown again
+            shown = c.hair()
+            full = c.groom.follow(c.editor.points, count=int(shown.curve_data["hair_id"][-1]) + 1)
+            assert np.array_equal(shown.points, full.points)
+            assert np.array_equal(shown.offsets, full.offsets)
         c.end_stroke()
         assert c.playing
         edited = c.editor.points.copy()

@@ -303,22 +303,13 @@ def groom(
 ) -> None:
     """Replay a stroke log (brushes on the guides, README: Grooming by hand) headless
     and save the guides it makes."""
-    from .groom.editor import GuideEditor
-    from .groom.guides import load_guides
-    from .groom.strokes import load_strokes, replay
-    from .io.mesh_load import load_mesh
+    from .groom.strokes import replay_file
 
     _check_writable_suffix(out, _curve_suffixes())
-    doc = load_strokes(strokes_path)
-    source = guides or doc.get("guides")
-    if source is None:
-        raise click.UsageError(f"{strokes_path} names no guides; give --guides")
-    skin = load_mesh(mesh or doc.get("mesh") or "builtin:head")
     with _step("groom"):
-        editor = GuideEditor(load_guides(source, skin))
-        replay(editor, doc, strokes_path)
+        editor = replay_file(strokes_path, guides, mesh)
     editor.save(out)
-    entries = len(doc["strokes"])  # type: ignore[arg-type]
+    entries = len(editor.log)
     if groups_out is not None:
         editor.save_groups(groups_out)
         click.echo(f"{editor.groups.count} interpolation groups → {groups_out}")

@@ -223,6 +223,34 @@ class HairCurves:
             {k: v.copy() for k, v in self.curve_data.items()},
         )
 
+    def replaced(self, index: object, other: HairCurves) -> HairCurves:
+        """A copy with the curves at ``index`` (distinct, ascending) replaced by the
+        curves of ``other``, in order (the same attribute names): written over a copy
+        of the arrays where the vertex counts are the same, joined again where not."""
+        idx = np.asarray(index, dtype=np.int64)
+        if idx.shape != (other.curve_count,):
+            raise InputError(f"index: expected {other.curve_count} curve indices, got {idx.shape}")
+        if len(idx) and (idx[0] < 0 or idx[-1] >= self.curve_count or np.any(np.diff(idx) <= 0)):
+            raise InputError(
+                f"index: expected ascending distinct indices in [0, {self.curve_count})"
+            )
+        if set(other.point_data) != set(self.point_data) or set(other.curve_data) != set(
+            self.curve_data
+        ):
+            raise InputError("other: the curves must carry the same attribute names")
+        if not np.array_equal(self.counts[idx], other.counts):
+            keep = np.setdiff1d(np.arange(self.curve_count), idx)
+            order = np.argsort(np.concatenate([keep, idx]), kind="stable")
+            return HairCurves.concatenate([self[keep], other])[order]
+        vert = _gather_vertices(self.offsets, idx, other.counts, other.point_count)
+        out = self.copy()
+        out.points[vert] = other.points
+        for k, v in out.point_data.items():
+            v[vert] = other.point_data[k]
+        for k, v in out.curve_data.items():
+            v[idx] = other.curve_data[k]
+        return out
+
     def with_points(self, points: object) -> HairCurves:
         """The same curves and attributes with new vertex positions (same P)."""
         return HairCurves(points, self.offsets, self.point_data, self.curve_data)

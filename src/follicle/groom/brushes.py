@@ -132,13 +132,23 @@ def follow(
 def comb(points, weight, depth, step, which):
     """Drag the vertices of the guides ``which`` by their weight times ``step`` (3,:
     the stroke's step in world units per metre of view depth) times their ``depth``,
-    in place; the caller then restores the lengths."""
+    in place; the caller then restores the lengths. A vertex takes its own move where
+    the brush holds it fully and its predecessor's where the brush does not reach it
+    (blended by its weight), so the part of a guide past the brush is carried along
+    as a comb carries the lengths behind it — moving only the vertices under the brush
+    would fold a guide where the brush lets go."""
     for g in range(len(which)):
         s = which[g]
+        cx, cy, cz = 0.0, 0.0, 0.0  # the move of the vertex before
         for i in range(1, points.shape[1]):
-            k = weight[s, i] * max(depth[s, i], 0.0)
-            for c in range(3):
-                points[s, i, c] += k * step[c]
+            w = min(weight[s, i], 1.0)
+            k = w * max(depth[s, i], 0.0)
+            cx = k * step[0] + (1.0 - w) * cx
+            cy = k * step[1] + (1.0 - w) * cy
+            cz = k * step[2] + (1.0 - w) * cz
+            points[s, i, 0] += cx
+            points[s, i, 1] += cy
+            points[s, i, 2] += cz
 
 
 @njit(cache=True)

@@ -40,6 +40,7 @@ HISTORY = 256  # strokes kept for undo
 SPACING = 0.25  # a stroke's dabs this share of the radius apart
 NEIGHBOURS = 4  # existing guides an added guide takes its shape from
 MAX_DABS = 100_000  # dabs in one stroke (a stroke log cannot ask for a hang)
+PART_STEPS = 8  # a part brush's pushes, each followed by follow-the-leader
 GROUP_TEXELS = 256  # texels a side of a parting painted where there was no group texture
 _RANGES = {"length": (-1.0, 1.0)}  # strength; others 0..1
 
@@ -335,8 +336,11 @@ class GuideEditor:
     def _part(self, view: _View, line: np.ndarray, radius: float, strength: float):
         """A parting along ``line``: the guides whose roots the camera sees within
         ``radius`` pixels of it combed away from it, each to its own side, by up to
-        ``strength`` × radius pixels (the falloff of its root's distance) in four steps
-        with follow-the-leader; and the interpolation groups painted, so that hairs
+        ``strength`` × radius pixels (the falloff of its root's distance), and every
+        vertex of them that the screen shows nearer the line than its root, or across
+        it, pushed back out to its root's distance on its root's side — so no guide
+        crosses the parting — in :data:`PART_STEPS` pushes, each followed by
+        follow-the-leader; and the interpolation groups painted, so that hairs
         rooted within ``radius`` of the line take guides of their own side only (Šik
         2012 §2.2.4: a parting is where groups meet): the texels of the skin the
         camera sees there get two new groups, one a side; elsewhere they keep theirs.
@@ -345,7 +349,7 @@ class GuideEditor:
         if len(line) < 2:
             raise InputError("part: the path needs two points or more (the parting line)")
         xy, _, seen = view.seen(s.points[:, :1], self.mesh)
-        dist, _, away = brushes.line_side(xy[:, 0], line)
+        dist, side, away = brushes.line_side(xy[:, 0], line)
         which = np.flatnonzero(seen[:, 0] & (dist <= radius))
         groups, labels = self._parted_groups(view, line, radius)
         if len(which) == 0 and groups is None:
@@ -353,17 +357,25 @@ class GuideEditor:
         if groups is not None:
             _check_groups(groups, groups.group_of(self._root_frames.uv), labels)
         points = s.points.copy()
-        if len(which) and strength > 0.0:
+        if len(which):
             sub = points[which]
             lengths = brushes.segment_lengths(sub)
             weight = strength * np.clip(1.0 - (dist[which] / radius) ** 2, 0.0, 1.0) ** 2
-            # each guide its own way, away from the line on its side, a quarter a step
-            toward = away[which] * (radius / 4.0)
-            step = view.pixel * (toward[:, :1] * view.right - toward[:, 1:] * view.up)
-            for _ in range(4):
-                depth = view.project(sub)[1]
-                scale = weight[:, None] * np.maximum(depth[:, 1:], 0.0)
-                sub[:, 1:] += scale[..., None] * step[:, None, :]
+            own, keep = side[which], dist[which]
+            # each guide its own way, away from the line on its side (screen, y down)
+            way = away[which]
+            way = view.pixel * (way[:, :1] * view.right - way[:, 1:] * view.up)
+            for _ in range(PART_STEPS):
+                xy, depth = view.project(sub[:, 1:])
+                gap, at, _ = brushes.line_side(xy.reshape(-1, 2), line)
+                signed = (gap * at).reshape(xy.shape[:2]) * own[:, None]
+                # pixels: a share of the push, and what brings a vertex back to its
+                # root's side at least as far from the line as the root
+                push = weight[:, None] * radius / PART_STEPS + np.maximum(
+                    keep[:, None] - signed, 0.0
+                )
+                scale = push * np.maximum(depth, 0.0)
+                sub[:, 1:] += scale[..., None] * way[:, None, :]
                 brushes.follow(sub, lengths, self._skin, self._clearance)
             points[which] = sub
         self._commit(_State(points, s.triangles, s.bary, groups or s.groups))

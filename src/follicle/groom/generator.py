@@ -382,6 +382,68 @@ class Groom:
         moved = self.guides.posed(positions, pose=skin)
         return self._grow(count, start, time, None, moved, skin)
 
+    def regrow(
+        self,
+        previous: HairCurves,
+        guides: object,
+        changed: object,
+        time: float = 0.0,
+        pose: SkinMesh | None = None,
+    ) -> HairCurves:
+        """:meth:`follow` of ``guides`` for the hairs of ``previous`` (the result of a
+        :meth:`follow` or :meth:`generate` of this groom for a range of ids, on the same
+        ``pose`` and ``time``), growing again only the hairs that hang on the guides
+        ``changed`` (indices: the ones that moved since ``previous``) — through their
+        interpolation weights or their clump's centre — and keeping the others' curves.
+        Equal, byte for byte, to growing them all; what the viewer runs as a brush moves
+        over a few guides of many.
+        """
+        if not isinstance(previous, HairCurves) or "hair_id" not in previous.curve_data:
+            raise InputError("previous: expected the HairCurves of a follow or generate")
+        moved = np.unique(np.asarray(changed, dtype=np.int64).reshape(-1))
+        if len(moved) and (moved[0] < 0 or moved[-1] >= self.guides.count):
+            raise InputError(f"changed: guide indices must lie in [0, {self.guides.count})")
+        ids = previous.curve_data["hair_id"]
+        start = int(ids[0]) if len(ids) else 0
+        count = int(ids[-1]) - start + 1 if len(ids) else 0
+        if len(moved) == 0 or count == 0:
+            return previous
+        positions = getattr(guides, "positions", guides)
+        skin = self._skin(pose)
+        posed = self.guides.posed(positions, pose=skin)
+        hit = np.zeros(self.guides.count, bool)
+        hit[moved] = True
+        centres = None
+        if self.params.clump_count > 0:
+            index, weight = self._centre_placing()[2:]
+            centres = (hit[index] & (weight > 0)).any(axis=1)
+        parts = []
+        for span in _spans(start, count):
+            lay = self._layout(*span)
+            again = (hit[lay.guide_index] & (lay.guide_weight > 0)).any(axis=1)
+            if centres is not None and lay.clump is not None:
+                again |= (lay.clump >= 0) & centres[np.maximum(lay.clump, 0)]
+            if again.any():
+                parts.append(_subset(lay, np.flatnonzero(again)))
+        if not parts:
+            return previous
+        lay = _Layout(
+            *(_joined([getattr(p, f) for p in parts]) for f in _Layout.__dataclass_fields__)
+        )
+        out = _allocate(self._vertex_bound(lay), len(lay.ids) * self.params.strand_count)
+        shaped = self._shape(lay, time, posed, skin)
+        self._assemble(lay, shaped, out, 0, 0)
+        grown = _curves(out, *shaped.after((0, 0)))
+        strands = self.params.strand_count
+        old = ids * strands + previous.curve_data["strand_id"]
+        new = grown.curve_data["hair_id"] * strands + grown.curve_data["strand_id"]
+        again = np.isin(ids, lay.ids)
+        if np.array_equal(old[again], new):  # the same curves, maybe other vertex counts
+            return previous.replaced(np.flatnonzero(again), grown)
+        keep = np.flatnonzero(~again)  # a curve cut to nothing, or grown back
+        order = np.argsort(np.concatenate([old[keep], new]), kind="stable")
+        return HairCurves.concatenate([previous[keep], grown])[order]
+
     def chunks(
         self,
         chunk_size: int = CHUNK,
@@ -569,14 +631,20 @@ class Groom:
         Their roots and weights stay with the layout; their shapes follow the properties
         and the guides (the rest guides' are kept, moved guides' made for the call).
         """
+        roots = self._centre_placing()
         with self._lock:  # chunks of one generate run on several threads
+            if guides is not self.guides:
+                return *roots[:2], self._centre_grown(guides, *roots)
+            if self._centre_shapes is None:
+                self._centre_shapes = self._centre_grown(guides, *roots)
+            return *roots[:2], self._centre_shapes
+
+    def _centre_placing(self) -> tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`_centre_layout`, made once."""
+        with self._lock:
             if self._centre_roots is None:
                 self._centre_roots = self._centre_layout()
-            if guides is not self.guides:
-                return *self._centre_roots[:2], self._centre_grown(guides, *self._centre_roots)
-            if self._centre_shapes is None:
-                self._centre_shapes = self._centre_grown(guides, *self._centre_roots)
-            return *self._centre_roots[:2], self._centre_shapes
+            return self._centre_roots
 
     def _centre_layout(self) -> tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray]:
         """Clump centres' rest frames (turned to their guides), groups, guide weights."""
@@ -847,6 +915,22 @@ class Groom:
         out["strand_uv"][c:end] = np.concatenate([b.strand_uv for b in buckets])[kept]
         out["root_triangle"][c:end] = lay.triangles[rows]
         out["root_bary"][c:end] = lay.bary[rows]
+
+
+def _subset(lay: _Layout, rows: np.ndarray) -> _Layout:
+    """The roots ``rows`` of a layout."""
+    fields = {f: getattr(lay, f) for f in _Layout.__dataclass_fields__}
+    out = {f: None if v is None else v[rows] for f, v in fields.items() if f != "rest"}
+    return _Layout(rest=SurfacePoints(*(a[rows] for a in lay.rest)), **out)
+
+
+def _joined(parts: list) -> object:
+    """Layout fields of several id ranges joined: arrays, surface points or None."""
+    if parts[0] is None:
+        return None
+    if isinstance(parts[0], SurfacePoints):
+        return SurfacePoints(*(np.concatenate(a) for a in zip(*parts, strict=True)))
+    return np.concatenate(parts)
 
 
 def _spans(start: int, count: int) -> list[tuple[int, int]]:

@@ -34,7 +34,15 @@ from ..render.camera import Camera
 if TYPE_CHECKING:
     from .editor import GuideEditor
 
-__all__ = ["VERSION", "MAX_BYTES", "stroke_entry", "save_strokes", "load_strokes", "replay"]
+__all__ = [
+    "VERSION",
+    "MAX_BYTES",
+    "stroke_entry",
+    "save_strokes",
+    "load_strokes",
+    "replay",
+    "replay_file",
+]
 
 VERSION = 1
 MAX_BYTES = 64 * 2**20  # a stroke log bigger than this is refused before it is parsed
@@ -164,6 +172,27 @@ def replay(editor: GuideEditor, doc: Mapping[str, object], name: str = "strokes"
             )
         except (InputError, TypeError) as exc:
             raise InputError(f"{where}: {exc}") from None
+
+
+def replay_file(
+    path: str | os.PathLike[str], guides: str | None = None, mesh: str | None = None
+) -> GuideEditor:
+    """A :class:`~follicle.GuideEditor` on the guides and mesh the log at ``path`` names
+    (or ``guides`` / ``mesh``, paths or ``builtin:`` names, when given; the mesh
+    defaults to ``builtin:head``) with the log replayed — what ``follicle groom`` runs."""
+    from ..io.mesh_load import load_mesh
+    from .editor import GuideEditor
+    from .guides import load_guides
+
+    name = os.fspath(path)
+    doc = load_strokes(name)
+    source = guides or doc.get("guides")
+    if source is None:
+        raise InputError(f"{name} names no guides; give them (follicle groom --guides)")
+    skin = load_mesh(mesh or doc.get("mesh") or "builtin:head")
+    editor = GuideEditor(load_guides(source, skin))
+    replay(editor, doc, name)
+    return editor
 
 
 def _camera(view: object) -> Camera:

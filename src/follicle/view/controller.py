@@ -124,6 +124,10 @@ class Controller:
         self._first = True  # the drag's first piece is a new stroke, the rest join it
         self._resume = False  # play again when the stroke ends
         self._preview = False  # hairs grown from the editor's guides at rest
+        # the preview's hairs as grown (not widened) and the guides changed since: the
+        # next regrowth grows only the hairs on those (Groom.regrow)
+        self._grown: tuple[object, HairCurves] | None = None  # (the groom, its hairs)
+        self._changed: list[np.ndarray] = []
 
     # ------------------------------------------------------------------ parameters
     def set_param(self, section: str, key: str, value: object) -> None:
@@ -287,14 +291,27 @@ class Controller:
             count = count if self._hair_limit is None else min(count, self._hair_limit)
             drawn = self._drawn(count)
             if self._preview:  # a stroke going on: the edited guides at rest
-                curves = self.groom.follow(self.editor.points, count=drawn)
+                curves = self._regrown(drawn)
             else:
                 curves = self.groom.follow(self.sim, count=drawn, time=self.time)
             if drawn < count and "width" in curves.point_data:
-                curves.point_data["width"] = curves.point_data["width"] * (count / drawn)
+                data = dict(curves.point_data, width=curves.point_data["width"] * (count / drawn))
+                curves = HairCurves(curves.points, curves.offsets, data, curves.curve_data)
             self.curves = curves
             self.timings["groom"] = time.perf_counter() - start
         return self.curves
+
+    def _regrown(self, drawn: int) -> HairCurves:
+        """The first ``drawn`` hairs from the edited guides at rest: only those on the
+        guides changed since the last time regrown, when the same hairs were grown."""
+        groom, points = self.groom, self.editor.points
+        grown = self._grown[1] if self._grown and self._grown[0] is groom else None
+        if grown is not None and int(grown.curve_data["hair_id"][-1]) == drawn - 1:
+            curves = groom.regrow(grown, points, np.concatenate(self._changed))
+        else:  # the first piece of a drag, or another groom or share of the hairs
+            curves = groom.follow(points, count=drawn)
+        self._grown, self._changed = (groom, curves), []
+        return curves
 
     # ------------------------------------------------------------ grooming by hand
     @property
@@ -349,6 +366,8 @@ class Controller:
         if len(changed):
             if len(ed.points) != count or ed.groups is not groups:
                 self.groom = self.groom.with_guides(ed.guides)  # new roots or groups
+                self._grown = None  # other guides: every hair grows again
+            self._changed.append(changed)
             self._preview = True
             self.curves = self.image = None
         return changed
@@ -386,7 +405,7 @@ class Controller:
         """The editor's guides become the groom's and the simulation's rest shape."""
         self.groom = self.groom.with_guides(self.editor.guides)
         self.sim = GustySimulator(self.groom.guides, self.scene.sim, self.gusts)
-        self._preview = False
+        self._preview, self._grown, self._changed = False, None, []
         self.reset()
 
     def _drawn(self, count: int) -> int:
