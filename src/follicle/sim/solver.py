@@ -132,7 +132,7 @@ def _collide_pass(
                 contact[i, 0, b], contact[i, 1, b], contact[i, 2, b] = nx, ny, nz
 
 
-SETTLE_FROM = 0.005  # relative stretch from which the settle pass moves a vertex
+SETTLE_FROM = 1e-4  # relative stretch from which the settle pass moves a vertex (README: Dynamics)
 
 
 @njit(cache=True, inline="always")
