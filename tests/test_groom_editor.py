@@ -391,11 +391,16 @@ def test_joined_pieces_are_one_stroke_to_undo_and_replay(guides, camera, tmp_pat
     assert ed.undo() and np.array_equal(ed.points, start) and not ed.undo()
 
 
-def test_regrowing_only_the_hairs_on_changed_guides_equals_growing_all(head, guides, camera):
+@pytest.mark.parametrize("skip", [None, 0.9999])
+def test_regrowing_only_the_hairs_on_changed_guides_equals_growing_all(head, guides, camera, skip):
     """Groom.regrow after comb, cut and length strokes: the same bytes as Groom.follow of
     every hair (clumps on: a hair also hangs on its clump centre's guides), and the
-    hairs on no changed guide kept as they were, not grown again."""
-    groom = follicle.Groom(head, guides, GroomParams(count=3000, clump_count=60))
+    hairs on no changed guide kept as they were, not grown again. With vertex skipping
+    (Šik 2012 §2.2.9) a hair's vertex count follows its shape, so regrown hairs change
+    their counts and the curves are joined anew."""
+    params = GroomParams(count=3000, clump_count=60, skip_threshold=skip)
+    groom = follicle.Groom(head, guides, params)
+    counts_changed = False
     ed = editor(guides)
     shown = groom.follow(ed.points)
     mid = across_the_tips(ed, camera).mean(axis=0)
@@ -418,8 +423,10 @@ def test_regrowing_only_the_hairs_on_changed_guides_equals_growing_all(head, gui
         marked = regrown.point_data["width"] > full.point_data["width"] + 0.5
         again = ~marked[regrown.offsets[:-1]]  # per curve: grown again
         assert 0 < again.sum() < 0.9 * regrown.curve_count  # some, not all
+        counts_changed |= not np.array_equal(shown.counts, full.counts)
         shown = groom.regrow(shown, ed.points, changed)
         assert shown == full
+    assert counts_changed == (skip is not None)  # both ways of splicing were run
     assert groom.regrow(shown, ed.points, []) is shown
     with pytest.raises(InputError, match="changed"):
         groom.regrow(shown, ed.points, [guides.count])

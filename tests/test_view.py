@@ -527,6 +527,8 @@ def test_a_brush_drag_edits_the_guides_and_one_undo_takes_it_back(tmp_path):
             full = c.groom.follow(c.editor.points, count=int(shown.curve_data["hair_id"][-1]) + 1)
             assert np.array_equal(shown.points, full.points)
             assert np.array_equal(shown.offsets, full.offsets)
+        c.step()  # drawn again with no guide changed since: the same hairs
+        assert np.array_equal(c.hair().points, shown.points)
         c.end_stroke()
         assert c.playing
         edited = c.editor.points.copy()

@@ -224,9 +224,9 @@ class HairCurves:
         )
 
     def replaced(self, index: object, other: HairCurves) -> HairCurves:
-        """A copy with the curves at ``index`` (distinct, ascending) replaced by the
-        curves of ``other``, in order (the same attribute names): written over a copy
-        of the arrays where the vertex counts are the same, joined again where not."""
+        """A copy with the curves at ``index`` (distinct, ascending) written over by the
+        curves of ``other``, in order, which have the same vertex counts and attribute
+        names (a few curves grown again, without joining every array anew)."""
         idx = np.asarray(index, dtype=np.int64)
         if idx.shape != (other.curve_count,):
             raise InputError(f"index: expected {other.curve_count} curve indices, got {idx.shape}")
@@ -234,14 +234,12 @@ class HairCurves:
             raise InputError(
                 f"index: expected ascending distinct indices in [0, {self.curve_count})"
             )
+        if not np.array_equal(self.counts[idx], other.counts):
+            raise InputError("other: its curves' vertex counts differ from those they replace")
         if set(other.point_data) != set(self.point_data) or set(other.curve_data) != set(
             self.curve_data
         ):
             raise InputError("other: the curves must carry the same attribute names")
-        if not np.array_equal(self.counts[idx], other.counts):
-            keep = np.setdiff1d(np.arange(self.curve_count), idx)
-            order = np.argsort(np.concatenate([keep, idx]), kind="stable")
-            return HairCurves.concatenate([self[keep], other])[order]
         vert = _gather_vertices(self.offsets, idx, other.counts, other.point_count)
         out = self.copy()
         out.points[vert] = other.points

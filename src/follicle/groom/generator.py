@@ -435,12 +435,14 @@ class Groom:
         self._assemble(lay, shaped, out, 0, 0)
         grown = _curves(out, *shaped.after((0, 0)))
         strands = self.params.strand_count
-        old = ids * strands + previous.curve_data["strand_id"]
+        old = ids * strands + previous.curve_data["strand_id"]  # (hair id, strand) order
         new = grown.curve_data["hair_id"] * strands + grown.curve_data["strand_id"]
-        again = np.isin(ids, lay.ids)
-        if np.array_equal(old[again], new):  # the same curves, maybe other vertex counts
-            return previous.replaced(np.flatnonzero(again), grown)
-        keep = np.flatnonzero(~again)  # a curve cut to nothing, or grown back
+        regrown = np.isin(ids, lay.ids)  # per curve of previous
+        at = np.flatnonzero(regrown)
+        if np.array_equal(old[at], new) and np.array_equal(previous.counts[at], grown.counts):
+            return previous.replaced(at, grown)  # the usual case: written over a copy
+        # vertex counts changed, or a curve was cut to nothing or grew back: join anew
+        keep = np.flatnonzero(~regrown)
         order = np.argsort(np.concatenate([old[keep], new]), kind="stable")
         return HairCurves.concatenate([previous[keep], grown])[order]
 

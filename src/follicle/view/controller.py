@@ -307,7 +307,8 @@ class Controller:
         groom, points = self.groom, self.editor.points
         grown = self._grown[1] if self._grown and self._grown[0] is groom else None
         if grown is not None and int(grown.curve_data["hair_id"][-1]) == drawn - 1:
-            curves = groom.regrow(grown, points, np.concatenate(self._changed))
+            changed = np.concatenate(self._changed) if self._changed else []
+            curves = groom.regrow(grown, points, changed)  # nothing changed: grown itself
         else:  # the first piece of a drag, or another groom or share of the hairs
             curves = groom.follow(points, count=drawn)
         self._grown, self._changed = (groom, curves), []
