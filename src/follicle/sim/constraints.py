@@ -124,8 +124,10 @@ def follow_the_leader(X, L, corr, row, nb):
 
 @_jit
 def strain_limit(X, W, L, limit, corr, row, nb):
-    """Root to tip, shorten any segment longer than (1 + ``limit``) × rest by moving its
-    child (Provot's strain limiting): PBD's iterations leave the rest of the stretch.
+    """Root to tip, bring any segment outside (1 ± ``limit``) × rest back to that bound
+    by moving its child along it (Provot's strain limiting, both ways): PBD's iterations
+    leave the rest of the stretch, and bending and shape matching, which keep no
+    lengths, crush short segments (a 2 mm strand of 48 segments: 3.6 % in free fall).
     ``corr`` (N, 3, B) gets each vertex's move, for Almeida 2014 eq. 3.1's velocity fix."""
     for b in range(nb):
         corr[0, 0, b] = corr[0, 1, b] = corr[0, 2, b] = 0.0
@@ -133,9 +135,12 @@ def strain_limit(X, W, L, limit, corr, row, nb):
         for b in range(nb):
             dx, dy, dz, length = _segment(X, i, b)
             most = (1.0 + limit) * L[i - 1, b]
+            least = (1.0 - limit) * L[i - 1, b]
             f = 0.0
             if W[i, b] > 0.0 and length > most:
                 f = most / length - 1.0
+            elif W[i, b] > 0.0 and _TINY < length < least:
+                f = least / length - 1.0
             row[0, b] = X[i, 0, b] + f * dx
             row[1, b] = X[i, 1, b] + f * dy
             row[2, b] = X[i, 2, b] + f * dz

@@ -38,13 +38,16 @@ from .solver import Solver
 from .state import State
 from .volume import volume_step
 
-__all__ = ["MAX_SUBSTEPS_PER_CALL", "MODEL_KEYS", "Simulator", "substeps_per_step"]
+__all__ = ["MAX_SUBSTEPS_PER_CALL", "MIN_SEGMENT", "MODEL_KEYS", "Simulator", "substeps_per_step"]
 
 # [sim] keys that shape the model (vertices), the skin's field (skin_collision,
 # skin_voxel) or the rest clearances (colliders): a change rebuilds them, hair at rest
 MODEL_KEYS = ("vertices", "skin_collision", "skin_voxel", "colliders")
 MAX_SUBSTEPS_PER_CALL = 10_000  # substeps one step() may run (83 s at the default 1/120 s)
 EXPLODED = 10.0  # a vertex this many strand lengths from its root: the state blew up
+# the shortest rest segment stretch is measured against (m): guide points are float32,
+# so a segment shorter than this at coordinates of metres is rounding, not shape
+MIN_SEGMENT = 1e-6
 
 
 def substeps_per_step(dt: float, substep: float) -> int:
@@ -429,13 +432,16 @@ class Simulator:
 
     @property
     def stats(self) -> dict[str, float]:
-        """max/mean relative stretch, deepest penetration (m) into a collider or the skin,
+        """max/mean relative stretch (|length − rest| / rest, with rests under
+        MIN_SEGMENT taken as it, so a segment of no length at rest cannot dominate),
+        deepest penetration (m) into a collider or the skin,
         kinetic energy (½ Σ |v|² over free vertices of unit mass, v = the last substep's
         move / its length: DFTL's stored velocities carry eq. 3.1's correction, which
         does not move a hanging strand)."""
         x = self.state.x
         seg = np.linalg.norm(np.diff(x, axis=1), axis=2)
-        stretch = np.abs(seg / self.model.rest_length - 1.0)
+        rest = self.model.rest_length
+        stretch = np.abs(seg - rest) / np.maximum(rest, MIN_SEGMENT)
         return {
             "max_stretch": float(stretch.max()),
             "mean_stretch": float(stretch.mean()),

@@ -148,12 +148,15 @@ def _hang(
     margin,
 ):
     """A child hung ``length`` from its parent p along the unit u, out of the colliders
-    grown by ``margin``: ``collide``'s (x, y, z, nx, ny, nz, hit, clearance). Where the
-    push out would shorten or lengthen the segment (u points into the collider), u is
-    first turned within the plane of u and the contact normal n, just enough that the
-    child lies on the contact's tangent plane (u·n ≥ −height of p above it / length),
-    so the child ends both at its length and outside (a plane is exact; a convex
-    surface only falls away from it)."""
+    grown by ``margin`` as far as that length allows: ``collide``'s (x, y, z, nx, ny, nz,
+    hit, clearance). Where the push out would shorten or lengthen the segment (u points
+    into the collider), u is first turned within the plane of u and the contact normal
+    n, just enough that the child lies on the contact's tangent plane (u·n ≥ −height of
+    p above it / length); what the surface's curvature (or the SDF's interpolation)
+    still pushes, and a parent too deep below the grown surface for any turn, leaves
+    the child pushed, then put back at ``length`` on the line from p: the segment is
+    exact and the child at most a second-order sliver inside the margin (the skin's own
+    surface lies a margin further), which the next substep's collision pass takes."""
     cx, cy, cz = px + length * ux, py + length * uy, pz + length * uz
     qx, qy, qz, nx, ny, nz, hit, gap = collide(cx, cy, cz, colliders, margin)
     if not hit:
@@ -162,15 +165,18 @@ def _hang(
     un = ux * nx + uy * ny + uz * nz
     tx, ty, tz = ux - un * nx, uy - un * ny, uz - un * nz
     t = math.sqrt(tx * tx + ty * ty + tz * tz)
-    if un >= need or need >= 1.0 or t < 1e-9:  # clear already, or no way round: as pushed
-        return qx, qy, qz, nx, ny, nz, hit, gap
-    s = math.sqrt(1.0 - need * need) / t
-    ux, uy, uz = need * nx + s * tx, need * ny + s * ty, need * nz + s * tz
-    cx, cy, cz = px + length * ux, py + length * uy, pz + length * uz
-    qx, qy, qz, mx, my, mz, again, gap = collide(cx, cy, cz, colliders, margin)
-    if again:
-        nx, ny, nz = mx, my, mz
-    return qx, qy, qz, nx, ny, nz, True, gap
+    if un < need < 1.0 and t >= 1e-9:  # a turn onto the tangent plane reaches out
+        s = math.sqrt(1.0 - need * need) / t
+        ux, uy, uz = need * nx + s * tx, need * ny + s * ty, need * nz + s * tz
+        cx, cy, cz = px + length * ux, py + length * uy, pz + length * uz
+        qx, qy, qz, mx, my, mz, again, gap = collide(cx, cy, cz, colliders, margin)
+        if again:
+            nx, ny, nz = mx, my, mz
+    dx, dy, dz = qx - px, qy - py, qz - pz
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if d > 1e-12:  # back at length along p → q
+        qx, qy, qz = px + length * dx / d, py + length * dy / d, pz + length * dz / d
+    return qx, qy, qz, nx, ny, nz, True, 0.0
 
 
 @njit(cache=True, error_model="numpy", fastmath=FMA)
