@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import imath
 import numpy as np
-from alembic3d import Abc, AbcGeom
+from alembic3d import Abc, AbcCoreAbstract, AbcGeom
 
 KIND = {
     "linear": AbcGeom.CurveType.kLinear,
@@ -171,4 +171,23 @@ def add_mesh(parent, name, points, indices_, counts, uv=None, subd=False) -> obj
     if uv is not None:
         sample.setUVs(param_sample(held, "v2f", *uv))
     obj.getSchema().set(sample)
+    return obj
+
+
+def add_animated_mesh(parent, name, frames, indices_, counts, fps) -> object:
+    """One OPolyMesh whose P is sampled at ``fps`` (one sample per entry of ``frames``,
+    (K, P, 3), from time 0), its topology written once, as a baked deformation is."""
+    archive = parent.getArchive()
+    sampling = archive.addTimeSampling(AbcCoreAbstract.TimeSampling(1.0 / fps, 0.0))
+    obj, held = AbcGeom.OPolyMesh(parent, name, sampling), []
+    schema = obj.getSchema()
+    schema.set(
+        AbcGeom.OPolyMeshSchemaSample(
+            values("v3f", frames[0], held),
+            values("int", indices_, held),
+            values("int", counts, held),
+        )
+    )
+    for points in frames[1:]:
+        schema.set(AbcGeom.OPolyMeshSchemaSample(values("v3f", points, held)))
     return obj

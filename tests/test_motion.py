@@ -188,6 +188,12 @@ def _inf_frame():
     return tr
 
 
+def _nan_skin():
+    skin = np.zeros((3, 5, 3), np.float32)
+    skin[1, 2, 0] = np.nan
+    return skin
+
+
 def _scaled():
     tr = frames()[1]
     tr[1, :3, :3] *= 1.1
@@ -199,7 +205,7 @@ def _scaled():
     [
         ({"format": None}, "not a simulation cache"),
         ({"format": np.array("follicle-curves")}, "not a simulation cache"),
-        ({"version": np.array(2)}, "cache version 2; this follicle reads version 1: upgrade"),
+        ({"version": np.array(3)}, "cache version 3; this follicle reads versions 1 to 2: up"),
         ({"version": np.array(0)}, "cache version 0"),
         ({"version": np.array(1.0)}, "version: expected an integer"),
         ({"positions": None}, "missing array\\(s\\) positions"),
@@ -213,6 +219,9 @@ def _scaled():
         ({"transforms": frames()[1][:, :3]}, "transforms: expected a float64 \\(F, 4, 4\\)"),
         ({"transforms": _scaled()}, "transforms: frame 1: not rigid"),
         ({"transforms": _inf_frame()}, "transforms: frame 2: expected a finite"),
+        ({"skin_vertices": np.zeros((3, 5, 3))}, "skin_vertices: expected a float32"),
+        ({"skin_vertices": np.zeros((2, 5, 3), np.float32)}, "expected \\(3, V ≥ 3, 3\\)"),
+        ({"skin_vertices": _nan_skin()}, "skin_vertices: frame 1 contains NaN"),
         ({"fps": np.array(0.0)}, "fps: must be > 0 \\(got 0.0\\)"),
         ({"fps": np.array(np.nan)}, "fps: must be finite and > 0 \\(got nan\\)"),
         ({"fps": np.array([24.0])}, "fps: expected a float, got float64 array of shape \\(1,\\)"),

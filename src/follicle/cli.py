@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -135,7 +136,6 @@ def _interrupted(signum: int, frame: object) -> None:
     """Ctrl-C or SIGTERM: remove the outputs being written and end at once, exit 128 + the
     signal's number. Exiting here, rather than raising KeyboardInterrupt, works also when
     the signal lands inside numba's compiled code, where an exception cannot unwind."""
-    import os
     import signal
 
     from .atomic import remove_pending
@@ -448,10 +448,12 @@ def _export_cache(source: str, out: str, skin: bool = True, target: str = "gener
     mesh = None
     if skin:
         from .io.mesh_load import load_mesh
-        from .pipeline import cache_scene
+        from .pipeline import cache_scene, check_cache_skin
 
         scene = cache_scene(cache)
         mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
+        check_cache_skin(cache, mesh)
+    deforms = skin and cache.skin_vertices is not None
     write = save_abc_cache if suffix == ".abc" else save_usd_cache
     with _step("export"), _progress("writing frames") as progress:
 
@@ -469,12 +471,13 @@ def _export_cache(source: str, out: str, skin: bool = True, target: str = "gener
             mesh=mesh,
             role="guides",
             target=target,
-            transforms=cache.transforms if skin else None,
+            transforms=cache.transforms if skin and not deforms else None,
+            skin_vertices=cache.skin_vertices if deforms else None,
         )
+    moving = " with the deforming skin" if deforms else " with the moving skin" if skin else ""
     click.echo(
         f"{cache.frame_count} frames of {cache.strand_count:,} guides ×"
-        f" {cache.vertex_count} vertices at {cache.fps:g} fps"
-        f"{' with the moving skin' if skin else ''} → {out}"
+        f" {cache.vertex_count} vertices at {cache.fps:g} fps{moving} → {out}"
     )
 
 
@@ -554,26 +557,43 @@ MOTIONS = _choices(SimParams, "motion")
     ' shake (a fading "no"); each takes [sim].motion_period, then holds still.',
 )
 @click.option(
+    "--skin-animation",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="USD or Alembic file animating the skin mesh (time-sampled points), overrides"
+    " [sim].skin_animation and the scene's motion: the roots follow the deforming skin.",
+)
+@click.option(
     "--count",
     type=int,
     default=None,
     help="Override [groom].count: the hairs `follicle render` grows from the cache.",
 )
 def simulate(
-    scene_path: str, out: str | None, frames: int, fps: float, motion: str | None, count: int | None
+    scene_path: str,
+    out: str | None,
+    frames: int,
+    fps: float,
+    motion: str | None,
+    skin_animation: str | None,
+    count: int | None,
 ) -> None:
-    """Simulate the guide hairs of a scene under a head animation; save a cache.
+    """Simulate the guide hairs of a scene under a head or skin animation; save a cache.
 
-    Writes the guides of every frame, the head transforms and the scene itself (.npz);
-    `follicle render CACHE.npz -o FOLDER` grows and renders the hair of each frame.
+    Writes the guides of every frame, the head transforms (or the animated skin's
+    vertices) and the scene itself (.npz); `follicle render CACHE.npz -o FOLDER` grows
+    and renders the hair of each frame.
     """
     from .io.sim_cache import save_cache
     from .pipeline import simulate_scene
     from .scene import load_scene
 
     scene = _with_overrides(load_scene(scene_path), count=count)
-    if motion is not None:
-        scene = scene.replace(sim=scene.sim.replace("command line", motion=motion))
+    changes: dict[str, object] = {} if motion is None else {"motion": motion}
+    if skin_animation is not None:  # it replaces the scene's motion, not one given here
+        changes = {"motion": "none", **changes, "skin_animation": os.path.abspath(skin_animation)}
+    if changes:
+        scene = scene.replace(sim=scene.sim.replace("command line", **changes))
     target = out or scene.resolve("sim.npz")
     _check_writable_suffix(target, (".npz",))
     start = time.perf_counter()
@@ -592,10 +612,17 @@ def simulate(
     rate = f"{steps / (end - stepping[0]):.1f} frames/s" if steps else "no steps"
     with _step("save"):
         save_cache(
-            target, cache.positions, cache.transforms, cache.fps, cache.scene_toml, cache.base_dir
+            target,
+            cache.positions,
+            cache.transforms,
+            cache.fps,
+            cache.scene_toml,
+            cache.base_dir,
+            skin_vertices=cache.skin_vertices,
         )
+    moved = scene.sim.motion if scene.sim.skin_animation is None else "skin animation"
     click.echo(
-        f"{cache.frame_count} frames at {cache.fps:g} fps ({scene.sim.motion}),"
+        f"{cache.frame_count} frames at {cache.fps:g} fps ({moved}),"
         f" {cache.strand_count} guides × {cache.vertex_count} vertices,"
         f" {end - start:.2f} s ({rate} after {stepping[0] - start:.2f} s of set-up);"
         f" max stretch {stats['max_stretch']:.2%},"

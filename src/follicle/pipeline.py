@@ -107,11 +107,13 @@ def render_scene_mitsuba(
 def simulate_scene(
     scene: Scene, frames: int = 48, fps: float = 24.0, progress: Progress | None = None
 ) -> tuple[SimCache, dict[str, float]]:
-    """Simulate the guides of ``scene`` under its [sim].motion head animation.
+    """Simulate the guides of ``scene`` under its [sim].motion head animation, or its
+    [sim].skin_animation (:func:`follicle.io.skin_animation.load_skin_animation`).
 
-    Frame 0 is the rest state; frame f poses the head at time f / fps and steps 1 / fps.
-    Returns the cache (not yet written: :func:`follicle.io.sim_cache.save_cache`) and the
-    last frame's ``Simulator.stats``.
+    Frame 0 is the rest state (with a skin animation: the groom carried rigidly, root
+    frame by root frame, onto the skin's first sample); frame f poses the head (or the
+    skin) at time f / fps and steps 1 / fps. Returns the cache (not yet written:
+    :func:`follicle.io.sim_cache.save_cache`) and the last frame's ``Simulator.stats``.
     """
     from .io.sim_cache import SimCache
     from .sim.motion import head_motion, motion_pivot
@@ -130,20 +132,40 @@ def simulate_scene(
     text = scene_to_toml(scene, comments=False)  # fails now, not after the simulation
     groom = groom_scene(scene)
     pivot = motion_pivot(groom.mesh, p.motion_pivot)
+    skin = None
+    if p.skin_animation is not None:
+        from .io.skin_animation import load_skin_animation
+
+        skin = load_skin_animation(
+            scene.resolve(p.skin_animation), groom.mesh, units=scene.mesh.units
+        )
     sim = Simulator(groom.guides, params=p)
     positions = np.empty((int(frames), *sim.positions.shape), dtype=np.float32)
-    transforms = np.empty((int(frames), 4, 4))
-    positions[0], transforms[0] = sim.positions, np.eye(4)
+    transforms = np.repeat(np.eye(4)[None], int(frames), axis=0)
+    skin_vertices = None
+    if skin is not None:
+        sim.teleport(vertices=skin.at(0.0))
+        skin_vertices = np.empty((int(frames), *skin.vertices.shape[1:]), dtype=np.float32)
+        skin_vertices[0] = sim.pose.vertices
+    positions[0] = sim.positions
     if progress is not None:
         progress(1, int(frames))  # frame 0, the rest state: set-up is done
     for f in range(1, int(frames)):
-        transforms[f] = head_motion(p.motion, f / fps, p.motion_amplitude, p.motion_period, pivot)
-        sim.set_pose(transform=transforms[f])
+        if skin is None:
+            transforms[f] = head_motion(
+                p.motion, f / fps, p.motion_amplitude, p.motion_period, pivot
+            )
+            sim.set_pose(transform=transforms[f])
+        else:
+            sim.set_pose(vertices=skin.at(f / fps))
+            skin_vertices[f] = sim.pose.vertices
         sim.step(1.0 / fps)
         positions[f] = sim.positions
         if progress is not None:
             progress(f + 1, int(frames))
-    cache = SimCache(positions, transforms, float(fps), text, str(scene.base_dir))
+    cache = SimCache(
+        positions, transforms, float(fps), text, str(scene.base_dir), skin_vertices=skin_vertices
+    )
     return cache, sim.stats
 
 
@@ -167,19 +189,39 @@ def describe_cache(path: str | os.PathLike[str]) -> str:
     cache = load_cache(path)
     scene = cache_scene(cache)
     sim, f = scene.sim, cache.frame_count
-    motion = (
-        "a still head"
-        if sim.motion == "none"
-        else (
+    if cache.skin_vertices is not None:
+        motion = f"the skin animated ({cache.skin_vertices.shape[1]:,} vertices a frame)"
+    elif sim.motion == "none":
+        motion = "a still head"
+    else:
+        motion = (
             f"head motion {sim.motion!r} ({sim.motion_amplitude:g}° over {sim.motion_period:g} s)"
         )
-    )
     return (
         f"{cache.source}: simulation cache, {f:,} frame{'s' * (f != 1)} at {cache.fps:g} fps"
         f" ({(f - 1) / cache.fps:.3g} s after the rest frame), {cache.strand_count:,} guides ×"
         f" {cache.vertex_count} vertices, {motion}; `follicle render` grows"
         f" {scene.groom.count:,} hairs on every frame"
     )
+
+
+def check_cache_skin(cache: SimCache, mesh: SkinMesh) -> None:
+    """FormatError unless the cache's animated skin (if any) fits ``mesh`` (the scene's
+    skin): one vertex per vertex of it."""
+    if cache.skin_vertices is not None and cache.skin_vertices.shape[1] != len(mesh.rest_vertices):
+        raise FormatError(
+            f"{cache.source}: its skin has {cache.skin_vertices.shape[1]:,} vertices a frame,"
+            f" the scene's mesh '{mesh.name}' {len(mesh.rest_vertices):,}: the mesh file"
+            " changed since the simulation; run `follicle simulate` again"
+        )
+
+
+def cache_pose(cache: SimCache, mesh: SkinMesh, f: int) -> SkinMesh:
+    """The skin ``mesh`` in the pose of the cache's frame ``f``: its animated vertices, or
+    the rest moved by the head transform (:func:`check_cache_skin` first)."""
+    if cache.skin_vertices is not None:
+        return mesh.posed(vertices=cache.skin_vertices[f])
+    return mesh.posed(transform=cache.transforms[f])
 
 
 def _sequence_camera(
@@ -195,9 +237,13 @@ def _sequence_camera(
         return fixed
     parts = [first.points] if first.point_count else []
     parts.append(cache.positions.reshape(-1, 3))
-    hull = _hull(groom.mesh.used_vertices("rest"))  # a rigid motion moves the hull along
-    for transform in cache.transforms:
-        parts.append((hull @ transform[:3, :3].T + transform[:3, 3]).astype(np.float32))
+    if cache.skin_vertices is not None:  # the used vertices of every frame
+        used = np.unique(groom.mesh.faces)
+        parts.append(cache.skin_vertices[:, used].reshape(-1, 3))
+    else:
+        hull = _hull(groom.mesh.used_vertices("rest"))  # a rigid motion moves the hull along
+        for transform in cache.transforms:
+            parts.append((hull @ transform[:3, :3].T + transform[:3, 3]).astype(np.float32))
     w, h = params.size
     return framed_camera(np.concatenate(parts), params.fov, w / h)
 
@@ -243,10 +289,11 @@ def render_frames(
     scene = cache_scene(cache) if scene is None else scene
     params = scene.render
     groom = groom_scene(scene)
+    check_cache_skin(cache, groom.mesh)
 
     def frame(f: int) -> tuple[HairCurves, SkinMesh]:
         """Frame f's hair and the skin in its pose."""
-        skin = groom.mesh.posed(transform=cache.transforms[f])
+        skin = cache_pose(cache, groom.mesh, f)
         return groom.follow(cache.positions[f], time=f / cache.fps, pose=skin), skin
 
     camera = _sequence_camera(cache, groom, frame(0)[0], params)

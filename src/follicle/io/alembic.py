@@ -432,7 +432,12 @@ def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None
         sink.send({"op": "xform", "path": HEAD, **timing})
         for m in anim.head:  # a SimCache's matrices act on columns, Alembic's on rows
             sink.send({"op": "matrix", "path": HEAD}, {"matrix": m.T})
-    if skin is not None:
+    if skin is not None and anim.skin is not None:  # a deforming skin: P sampled per frame
+        where = _shape(sink, SKIN)
+        sink.send({"op": "mesh", "path": where, **timing}, {**skin, "points": anim.skin[0]})
+        for points in anim.skin[1:]:
+            sink.send({"op": "mesh_points", "path": where}, {"points": points})
+    elif skin is not None:
         where = SKIN if anim.head is None else f"{HEAD}/Skin"
         sink.send({"op": "mesh", "path": _shape(sink, where)}, skin)
     path = _shape(sink, f"{GROOM}/Hair_0000")
@@ -458,6 +463,7 @@ def save_abc_cache(
     transforms: object | None = None,
     target: Target | str = "generic",
     role: str | None = None,
+    skin_vertices: object | None = None,
 ) -> Path:
     """Write an animation: frame ``f`` of ``frames`` is sample ``f`` of one OCurves
     ``/Groom/Hair_0000/Hair_0000Shape``, at ``(start + f) / fps`` seconds (a uniform time sampling),
@@ -474,11 +480,15 @@ def save_abc_cache(
     (a SkinMesh) is written at rest as ``/Groom/Skin``; with ``transforms`` (F, 4, 4),
     one head transform per frame acting on column vectors as a SimCache keeps them (a
     SimCache's own by default), it is ``/Groom/Head/Skin`` under the Xform
-    ``/Groom/Head`` sampled per frame, so the skin moves with the (world-space) hair.
+    ``/Groom/Head`` sampled per frame, so the skin moves with the (world-space) hair. A
+    SimCache of an animated skin (``skin_vertices``) writes ``/Groom/Skin`` with its
+    ``P`` sampled per frame instead.
     """
     out = _check_suffix(path)
     tool = get_target(target)
-    anim = animation(frames, fps, start, mesh, transforms, tool, role=role)
+    anim = animation(
+        frames, fps, start, mesh, transforms, tool, role=role, skin_vertices=skin_vertices
+    )
     skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
     _write(out, lambda sink: _send_cache(sink, anim, skin), tool.groom_schema)
     return out

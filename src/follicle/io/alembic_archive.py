@@ -493,9 +493,78 @@ def _shape_name(obj: Abc.IObject) -> str:
     return obj.getName()
 
 
-def read_mesh(path: str, source: str) -> list[dict]:
+def _world_at(obj: Abc.IObject, sel: Abc.ISampleSelector, source: str) -> np.ndarray:
+    """The object's world matrix (row vectors) at ``sel``, as :func:`_objects` makes it:
+    the Xforms above it, nearest first, until one that does not inherit."""
+    world = np.eye(4)
+    for parent in _parents(obj):
+        schema = AbcGeom.IXform(parent, _EXISTING).getSchema()
+        local = np.array(schema.getValue(sel).getMatrix(), dtype=np.float64)
+        if local.shape != (4, 4) or not np.isfinite(local).all():
+            raise Refused(
+                f"{source}: {parent.getFullName()}: its transform is not finite"
+                " (NaN or inf); fix the Xform"
+            )
+        world = world @ local
+        if not schema.getInheritsXforms(sel):
+            break
+    return world
+
+
+def _sampled_times(obj: Abc.IObject, schema: object) -> list[float]:
+    """The times (s) of the object's samples and of the samples of the Xforms above it."""
+    times = set()
+    schemas = [schema] + [AbcGeom.IXform(p, _EXISTING).getSchema() for p in _parents(obj)]
+    for kind in schemas:
+        sampling = kind.getTimeSampling()
+        times.update(sampling.getSampleTime(i) for i in range(kind.getNumSamples()))
+    return sorted(times)
+
+
+def _parents(obj: Abc.IObject) -> list[Abc.IObject]:
+    """The Xforms above ``obj``."""
+    out, parent = [], obj.getParent()
+    while parent.valid() and parent.getParent().valid():
+        if AbcGeom.IXform.matches(parent.getHeader()):
+            out.append(parent)
+        parent = parent.getParent()
+    return out
+
+
+def _animation(obj: Abc.IObject, schema: object, count: int, where: str, source: str) -> dict:
+    """The mesh's world points at each of its samples and its Xforms': ``times`` (K,)
+    in seconds and ``frames`` (K, P, 3)."""
+    times = _sampled_times(obj, schema)
+    if len(times) < 2:
+        raise Refused(
+            f"{where}: it and its Xforms have {len(times)} sample(s); a skin animation"
+            " needs the mesh sampled at two times or more"
+        )
+    if len(times) * count > guard_server.MAX_ANIMATION_POINTS:
+        raise Refused(
+            f"{where}: {len(times):,} samples of {count:,} points is more than"
+            f" {guard_server.MAX_ANIMATION_POINTS:,} points in all; export fewer frames"
+        )
+    frames = np.empty((len(times), count, 3))
+    for k, t in enumerate(times):
+        sel = Abc.ISampleSelector(float(t))
+        points = _numpy(schema.getValue(sel).getPositions()).astype(np.float64)
+        if points.shape != (count, 3):
+            raise Refused(
+                f"{where}: at {t:g} s its P has shape {points.shape}, at the first"
+                f" ({count}, 3); a skin animation keeps its points"
+            )
+        try:
+            frames[k] = to_world(points, {}, _world_at(obj, sel, source), where, "fix its Xforms")
+        except SpaceError as exc:
+            raise Refused(str(exc)) from None
+    return {"times": np.asarray(times, dtype=np.float64), "frames": frames}
+
+
+def read_mesh(path: str, source: str, animated: bool = False) -> list[dict]:
     """The first PolyMesh (or SubD cage) of the archive at ``path`` at its first sample,
-    as polygons with their UVs, and the names of the meshes after it."""
+    as polygons with their UVs, and the names of the meshes after it. With ``animated``,
+    also its points at every sample (:func:`_animation`)."""
     sel = _selector(None)
     archive = Abc.IArchive(path)
     meshes = [
@@ -508,7 +577,8 @@ def read_mesh(path: str, source: str) -> list[dict]:
     obj, world = meshes[0]
     where = f"{source}: {obj.getFullName()}"
     kind = AbcGeom.IPolyMesh if AbcGeom.IPolyMesh.matches(obj.getHeader()) else AbcGeom.ISubD
-    sample = kind(obj, _EXISTING).getSchema().getValue(sel)
+    schema = kind(obj, _EXISTING).getSchema()
+    sample = schema.getValue(sel)
     points = _numpy(sample.getPositions()).astype(np.float64)
     if points.ndim != 2 or points.shape[1] != 3:
         raise Refused(f"{where}: P must be point3f[] (x, y, z each), got shape {points.shape}")
@@ -529,6 +599,8 @@ def read_mesh(path: str, source: str) -> list[dict]:
     uv = _param(Abc.ICompoundProperty(obj.getProperties(), ".geom"), "uv", sel, where)
     if uv is not None:
         part["uv"], part["uv_scope"] = uv[0], {"varying": "vertex"}.get(uv[1], uv[1])
+    if animated:
+        part.update(_animation(obj, schema, len(points), where, source))
     return [part]
 
 
@@ -538,7 +610,7 @@ def read_request(request: dict) -> list[dict]:
     source = request["shown"]
     try:
         if request["kind"] == "abc-mesh":
-            return read_mesh(request["source"], source)
+            return read_mesh(request["source"], source, request.get("animated", False))
         return read_curves(
             request["source"],
             source,

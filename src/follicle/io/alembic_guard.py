@@ -147,9 +147,10 @@ def read_curves(
     )
 
 
-def read_mesh(path: Path) -> dict:
-    """The first mesh of ``path`` as polygons (see :mod:`follicle.io.alembic_archive`),
-    read as :func:`read_curves` reads curves."""
+def read_mesh(path: Path, animated: bool = False) -> dict:
+    """The first mesh of ``path`` as polygons (see :mod:`follicle.io.alembic_archive`;
+    ``animated``: with its points at every sample), read as :func:`read_curves` reads
+    curves."""
     memory, seconds = limits(path.stat().st_size)
-    (part,) = read_guarded("abc-mesh", path, memory, seconds, "Alembic", HINT)
+    (part,) = read_guarded("abc-mesh", path, memory, seconds, "Alembic", HINT, animated=animated)
     return part

@@ -19,9 +19,10 @@ The protocol, on stdin: one JSON line per operation naming its arrays
 ``[[name, kind, scope], …]`` with arrays ``param0``, …, kind one of
 :data:`_PARAM_TYPES`, scope ``Vertex``, ``Uniform`` or ``Constant``), ``sample``
 (``path``; ``points``, ``velocities``, ``bounds``, optional ``normal``), ``mesh``
-(``path``; ``points``, ``indices``, ``counts``, optional ``uv`` and ``uv_index``) and
-``close``. The child answers ``close`` (or a failure) with one JSON line on stdout:
-``{"ok": true}`` or ``{"error": message}``.
+(``path``, ``fps``/``start`` for a sampled one; ``points``, ``indices``, ``counts``,
+optional ``uv`` and ``uv_index``), ``mesh_points`` (``path`` of a sampled mesh;
+``points``: its next sample) and ``close``. The child answers ``close`` (or a failure)
+with one JSON line on stdout: ``{"ok": true}`` or ``{"error": message}``.
 """
 
 from __future__ import annotations
@@ -182,7 +183,16 @@ class _Writer:
         ]
         if "uv" in arrays:
             args.append(self._param("v2f", arrays["uv"], "Facevarying", arrays["uv_index"]))
-        AbcGeom.OPolyMesh(parent, name).getSchema().set(AbcGeom.OPolyMeshSchemaSample(*args))
+        obj = AbcGeom.OPolyMesh(parent, name, *self._args(op))
+        obj.getSchema().set(AbcGeom.OPolyMeshSchemaSample(*args))
+        if op.get("fps") is not None:  # sampled: mesh_points adds its later samples
+            self.objects[op["path"]] = obj
+
+    def mesh_points(self, op: dict, arrays: dict[str, np.ndarray]) -> None:
+        """The next sample of a sampled mesh: new points, the topology kept."""
+        sample = AbcGeom.OPolyMeshSchemaSample()
+        sample.setPositions(self._values("v3f", arrays["points"]))
+        self.objects[op["path"]].getSchema().set(sample)
 
     def close(self, op: dict, arrays: dict[str, np.ndarray]) -> None:
         """Release every object, children first, then the archive: Ogawa writes the

@@ -28,14 +28,16 @@ __all__ = ["Animation", "animation", "as_guides", "head_matrices"]
 class Animation:
     """An animation checked for writing: ``frames`` yields each frame as the target
     reads it (checked as it comes: HairCurves, frame 0's topology, one head transform
-    each; the stream's end checks it was not empty and used every transform), at
+    or skin each; the stream's end checks it was not empty and used every one), at
     ``fps`` from frame ``start``; ``head`` (F, 4, 4) moves the skin (translations in the
-    target's units), or None."""
+    target's units), or None; ``skin`` (F, V, 3) float32, the deforming skin's vertices
+    per frame (in the target's units), or None."""
 
     frames: Iterator[HairCurves]
     fps: float
     start: int
     head: np.ndarray | None
+    skin: np.ndarray | None = None
 
 
 def as_guides(guides: object) -> HairCurves:
@@ -70,17 +72,23 @@ def head_matrices(transforms: object) -> np.ndarray:
 
 
 def _checked(
-    frames: Iterable[object], head: np.ndarray | None, target: Target, role: str, in_units: bool
+    frames: Iterable[object],
+    poses: tuple[str, str, np.ndarray] | None,
+    target: Target,
+    role: str,
+    in_units: bool,
 ) -> Iterator[HairCurves]:
-    """Each frame checked and as ``target`` reads it (see :class:`Animation`)."""
+    """Each frame checked and as ``target`` reads it (see :class:`Animation`); ``poses``:
+    (argument, what one is, the poses), one a frame."""
     first = None
     f = -1
     for f, frame in enumerate(frames):
         if not isinstance(frame, HairCurves):
             raise InputError(f"frames: frame {f} is a {type(frame).__name__}, not HairCurves")
-        if head is not None and f >= len(head):
+        if poses is not None and f >= len(poses[2]):
+            name, what, given = poses
             raise InputError(
-                f"transforms: {len(head)} matrices for {f + 1} or more frames; give one per frame"
+                f"{name}: {len(given)} {what} for {f + 1} or more frames; give one per frame"
             )
         if first is not None and not np.array_equal(frame.offsets, first.offsets):
             raise InputError(
@@ -93,8 +101,9 @@ def _checked(
         yield for_target(conventional(frame), target, role, in_units)
     if first is None:
         raise InputError("frames: the frame stream is empty; nothing to write")
-    if head is not None and len(head) != f + 1:
-        raise InputError(f"transforms: {len(head)} matrices for {f + 1} frames; give one per frame")
+    if poses is not None and len(poses[2]) != f + 1:
+        name, what, given = poses
+        raise InputError(f"{name}: {len(given)} {what} for {f + 1} frames; give one per frame")
 
 
 def animation(
@@ -106,36 +115,73 @@ def animation(
     target: Target | str = "generic",
     in_units: bool = True,
     role: str | None = None,
+    skin_vertices: object | None = None,
 ) -> Animation:
     """The animation to write, checked: a SimCache gives its guide strands per frame
     (written as guides unless ``role`` says "hair"; other frames as hair unless it says
     "guides"), its fps (unless ``fps``; else 24) and, when ``mesh`` is given,
-    its head transforms (unless ``transforms``); transforms without a mesh are refused.
-    ``target`` and ``in_units`` as :func:`follicle.io.targets.for_target` takes them."""
+    its head transforms or its animated skin's vertices (unless ``transforms`` or
+    ``skin_vertices``, (F, V, 3) for the V vertices of ``mesh``); either without a mesh
+    is refused, and so are both. ``target`` and ``in_units`` as
+    :func:`follicle.io.targets.for_target` takes them."""
     tool = get_target(target)
     if role not in (None, "hair", "guides"):
         raise InputError(f"role: expected 'hair', 'guides' or None, got {role!r}")
     positions = getattr(frames, "positions", None)
-    cache_fps = cache_transforms = None
+    cache_fps = cache_transforms = cache_skin = None
     is_cache = isinstance(positions, np.ndarray) and positions.ndim == 4
     role = role if role is not None else "guides" if is_cache else "hair"
     if is_cache:
         cache_fps, cache_transforms = float(frames.fps), frames.transforms
+        cache_skin = frames.skin_vertices
         frames = (HairCurves.from_array(p) for p in positions)
     elif isinstance(frames, HairCurves) or not isinstance(frames, Iterable):
         raise InputError(
             f"frames: expected an iterable of HairCurves or a SimCache, got {type(frames).__name__}"
         )
-    if transforms is not None and mesh is None:
-        raise InputError(
-            "transforms: given without mesh=; they move the skin mesh, so pass the SkinMesh too"
+    for name, given in (("transforms", transforms), ("skin_vertices", skin_vertices)):
+        if given is not None and mesh is None:
+            raise InputError(
+                f"{name}: given without mesh=; they move the skin mesh, so pass the SkinMesh too"
+            )
+    if transforms is not None and skin_vertices is not None:
+        raise InputError("transforms and skin_vertices both pose the skin: give one")
+    if mesh is not None and transforms is None and skin_vertices is None:
+        transforms, skin_vertices = (
+            (cache_transforms, None) if cache_skin is None else (None, cache_skin)
         )
-    if mesh is not None and transforms is None:
-        transforms = cache_transforms
-    head = None if transforms is None else head_matrices(transforms)
-    if head is not None and in_units and tool.scale != 1.0:
-        head = head.copy()
-        head[:, :3, 3] *= tool.scale
+    scale = tool.scale if in_units else 1.0
+    head = skin = poses = None
+    if transforms is not None:
+        head = head_matrices(transforms)
+        if scale != 1.0:
+            head = head.copy()
+            head[:, :3, 3] *= scale
+        poses = ("transforms", "matrices", head)
+    if skin_vertices is not None:
+        skin = _skin_frames(skin_vertices, mesh) * np.float32(scale)
+        poses = ("skin_vertices", "skins", skin)
     rate = positive(fps if fps is not None else cache_fps if cache_fps is not None else 24.0, "fps")
     start = whole(start, "start", what="a whole number (the first frame)")
-    return Animation(_checked(frames, head, tool, role, in_units), rate, start, head)
+    return Animation(_checked(frames, poses, tool, role, in_units), rate, start, head, skin)
+
+
+def _skin_frames(vertices: object, mesh: SkinMesh) -> np.ndarray:
+    """``vertices`` as (F, V, 3) float32 finite poses of ``mesh``; InputError else."""
+    try:
+        v = np.asarray(vertices, dtype=np.float32)
+    except (TypeError, ValueError):
+        v = np.zeros(0, np.float32)
+    rest = getattr(mesh, "rest_vertices", None)
+    if rest is None:
+        raise InputError(f"mesh: expected a SkinMesh, got {type(mesh).__name__}")
+    count = len(rest)
+    if v.ndim != 3 or v.shape[1:] != (count, 3):
+        raise InputError(
+            f"skin_vertices: expected one pose of the mesh's {count:,} vertices per frame,"
+            f" shape (F, {count}, 3), got {v.shape}"
+        )
+    if not np.isfinite(v).all():
+        f = int(np.argmin(np.isfinite(v).reshape(len(v), -1).all(axis=1)))
+        raise InputError(f"skin_vertices: frame {f} contains NaN or inf")
+    return v

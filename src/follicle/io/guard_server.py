@@ -40,7 +40,11 @@ from types import ModuleType
 
 import numpy as np
 
-__all__ = ["READERS", "Refused", "serve"]
+__all__ = ["READERS", "Refused", "serve", "MAX_ANIMATION_POINTS"]
+
+# the most points (samples × points a sample) a skin animation read may hold: 480 MB as
+# float64 (follicle.io.skin_animation)
+MAX_ANIMATION_POINTS = 20_000_000
 
 # request kind -> module serving it with read_request(request) -> list[dict]
 READERS = {

@@ -22,7 +22,7 @@ from ..inputs import input_file
 from ..mesh.skin import SkinMesh
 from .usd_guard import check_container, read_meshes
 
-__all__ = ["skin_from_part", "load_usd_mesh", "fan_triangles", "split_seams"]
+__all__ = ["skin_from_part", "polygon_layout", "load_usd_mesh", "fan_triangles", "split_seams"]
 
 log = logging.getLogger("follicle")
 
@@ -98,22 +98,14 @@ def _uvs(
     return split_seams(corner_vertex, uv[corner].astype(np.float64), count)
 
 
-def skin_from_part(part: dict, source: Path) -> SkinMesh:
-    """The SkinMesh of a mesh part from a guarded reader (``where``, ``name``,
-    ``points``, ``face_counts``, ``face_indices``, optional ``uv`` with ``uv_scope``,
-    ``flip`` for clockwise polygons, ``others``: meshes not read). FormatError naming
-    the mesh for counts and indices that do not fit, and naming the file for geometry a
-    SkinMesh refuses (NaN, coordinates beyond its limit, only zero-area faces): the
-    file holds it, so it is the file that is unreadable as a skin."""
+def polygon_layout(
+    part: dict, vertex_count: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """A mesh part's polygons (``face_counts``, ``face_indices``, ``flip``, optional
+    ``uv`` with ``uv_scope``) over ``vertex_count`` points as a SkinMesh lays them out:
+    (triangles (T, 3), the file's point of each SkinMesh vertex, UVs or None).
+    FormatError naming the mesh for counts and indices that do not fit."""
     where = part["where"]
-    if part["others"]:
-        log.warning(
-            "%s is the skin (the file's first mesh); %d more meshes were not read: %s",
-            where,
-            len(part["others"]),
-            ", ".join(part["others"][:3]) + (", …" if len(part["others"]) > 3 else ""),
-        )
-    points = np.asarray(part["points"], dtype=np.float64)
     counts, index = part["face_counts"], part["face_indices"]
     if counts.dtype.kind not in "iu" or index.dtype.kind not in "iu":
         raise FormatError(
@@ -131,19 +123,37 @@ def skin_from_part(part: dict, source: Path) -> SkinMesh:
             f"{where}: face counts sum to {int(counts.sum())} but there are"
             f" {len(index)} face indices"
         )
-    bad = (index < 0) | (index >= len(points))
+    bad = (index < 0) | (index >= vertex_count)
     if np.any(bad):
         i = int(np.argmax(bad))
         raise FormatError(
-            f"{where}: face index {i} is {int(index[i])}, outside the {len(points)} points"
+            f"{where}: face index {i} is {int(index[i])}, outside the {vertex_count} points"
         )
     corner = np.arange(len(index))
     if part["flip"]:  # reverse each polygon's corners: counter-clockwise, as follicle's
         starts = np.repeat(np.cumsum(counts) - counts, counts)
         corner = 2 * starts + np.repeat(counts, counts) - 1 - corner
         index = index[corner]
-    corner_vertex, vertex_source, uvs = _uvs(part, index, corner, len(points))
-    faces = corner_vertex[fan_triangles(counts)]
+    corner_vertex, vertex_source, uvs = _uvs(part, index, corner, vertex_count)
+    return corner_vertex[fan_triangles(counts)], vertex_source, uvs
+
+
+def skin_from_part(part: dict, source: Path) -> SkinMesh:
+    """The SkinMesh of a mesh part from a guarded reader (``where``, ``name``,
+    ``points``, ``face_counts``, ``face_indices``, optional ``uv`` with ``uv_scope``,
+    ``flip`` for clockwise polygons, ``others``: meshes not read). FormatError naming
+    the mesh for counts and indices that do not fit (:func:`polygon_layout`), and naming
+    the file for geometry a SkinMesh refuses (NaN, coordinates beyond its limit, only
+    zero-area faces): the file holds it, so it is the file that is unreadable as a skin."""
+    if part["others"]:
+        log.warning(
+            "%s is the skin (the file's first mesh); %d more meshes were not read: %s",
+            part["where"],
+            len(part["others"]),
+            ", ".join(part["others"][:3]) + (", …" if len(part["others"]) > 3 else ""),
+        )
+    points = np.asarray(part["points"], dtype=np.float64)
+    faces, vertex_source, uvs = polygon_layout(part, len(points))
     try:
         return SkinMesh(points[vertex_source], faces, uvs, name=part["name"])
     except InputError as exc:

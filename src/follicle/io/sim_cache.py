@@ -2,9 +2,13 @@
 
 A cache is an uncompressed ``.npz`` (``np.load`` reads it) with the keys
 
-- ``format``: the string ``"follicle-sim-cache"``; ``version``: 1 (int64);
+- ``format``: the string ``"follicle-sim-cache"``; ``version``: 1 (int64), or 2 when
+  ``skin_vertices`` is there (older follicles read the version-1 caches still);
 - ``positions`` (F, S, N, 3) float32: guide vertices per frame, world space, metres;
 - ``transforms`` (F, 4, 4) float64: the head's world-from-rest rigid transform per frame;
+- ``skin_vertices`` (F, V, 3) float32, only when a skin animation drove the roots
+  (``[sim].skin_animation``): the skin mesh's vertices per frame, world space, metres
+  (the transforms are then the identity);
 - ``fps`` float64: frames per second (frame f is at time f / fps; frame 0 is the rest state);
 - ``scene_toml``: the scene simulated, as TOML with every value filled in, and
   ``base_dir``: the folder its relative paths start in,
@@ -40,7 +44,7 @@ __all__ = [
 ]
 
 CACHE_FORMAT = "follicle-sim-cache"
-CACHE_VERSION = 1
+CACHE_VERSION = 2  # 2 added skin_vertices; caches without them are still written as 1
 _KEYS = ("format", "version", "positions", "transforms", "fps", "scene_toml", "base_dir")
 
 
@@ -74,7 +78,8 @@ def _suspect_frames(tr: np.ndarray) -> np.ndarray:
 class SimCache:
     """A simulation's frames: guide ``positions`` (F, S, N, 3) float32, head ``transforms``
     (F, 4, 4) float64, ``fps``, and the scene as TOML text (``scene_toml``; its relative
-    paths start in ``base_dir``), read by :func:`follicle.pipeline.cache_scene`.
+    paths start in ``base_dir``), read by :func:`follicle.pipeline.cache_scene`; with a
+    skin animation, the skin's ``skin_vertices`` (F, V, 3) float32 per frame.
 
     Every array is checked (dtype, shape, finite, rigid transforms) and kept read-only;
     ``source`` names the cache in error messages.
@@ -86,6 +91,7 @@ class SimCache:
     scene_toml: str
     base_dir: str
     source: str = field(default="simulation cache", compare=False)
+    skin_vertices: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         pos, tr = self.positions, self.transforms
@@ -114,6 +120,21 @@ class SimCache:
         if isinstance(fps, np.ndarray) and fps.ndim == 0:
             fps = fps.item()  # as a loaded cache stores it
         fps = positive(fps, "fps")
+        skin = self.skin_vertices
+        if skin is not None:
+            if not isinstance(skin, np.ndarray) or skin.dtype != np.float32 or skin.ndim != 3:
+                raise InputError(
+                    f"skin_vertices: expected a float32 (F, V, 3) array, got {_describe(skin)}"
+                )
+            if skin.shape[0] != f or skin.shape[1] < 3 or skin.shape[2] != 3:
+                raise InputError(
+                    f"skin_vertices: expected ({f}, V ≥ 3, 3), one skin a frame, got shape"
+                    f" {skin.shape}"
+                )
+            if not all_finite(skin):
+                frame = int(np.flatnonzero(~np.isfinite(skin).reshape(f, -1).all(axis=1))[0])
+                raise InputError(f"skin_vertices: frame {frame} contains NaN or inf")
+            object.__setattr__(self, "skin_vertices", frozen(skin))
         object.__setattr__(self, "positions", frozen(pos))
         object.__setattr__(self, "transforms", frozen(tr))
         object.__setattr__(self, "fps", fps)
@@ -141,29 +162,34 @@ def save_cache(
     fps: float,
     scene_toml: str,
     base_dir: str,
+    skin_vertices: object | None = None,
 ) -> Path:
-    """Write a simulation cache to ``path`` (.npz) atomically; positions are stored as
-    float32, transforms as float64. Bad arrays raise InputError and write nothing."""
+    """Write a simulation cache to ``path`` (.npz) atomically; positions and skin vertices
+    are stored as float32, transforms as float64. Bad arrays raise InputError and write
+    nothing."""
     if Path(path).suffix.lower() != ".npz":
         raise FormatError(f"{path}: a simulation cache must end in .npz")
     try:
         pos = np.asarray(positions, dtype=np.float32)
         tr = np.asarray(transforms, dtype=np.float64)
+        skin = None if skin_vertices is None else np.asarray(skin_vertices, dtype=np.float32)
     except (TypeError, ValueError) as exc:
-        raise InputError(f"save_cache: positions and transforms must be numeric ({exc})") from None
-    cache = SimCache(pos, tr, fps, scene_toml, str(base_dir), source=str(path))
-    return save_arrays(
-        path,
-        {
-            "format": np.array(CACHE_FORMAT),
-            "version": np.array(CACHE_VERSION, dtype=np.int64),
-            "positions": cache.positions,
-            "transforms": cache.transforms,
-            "fps": np.array(cache.fps, dtype=np.float64),
-            "scene_toml": np.array(cache.scene_toml),
-            "base_dir": np.array(cache.base_dir),
-        },
-    )
+        raise InputError(
+            f"save_cache: positions, transforms and skin vertices must be numeric ({exc})"
+        ) from None
+    cache = SimCache(pos, tr, fps, scene_toml, str(base_dir), str(path), skin)
+    arrays = {
+        "format": np.array(CACHE_FORMAT),
+        "version": np.array(1 if skin is None else CACHE_VERSION, dtype=np.int64),
+        "positions": cache.positions,
+        "transforms": cache.transforms,
+        "fps": np.array(cache.fps, dtype=np.float64),
+        "scene_toml": np.array(cache.scene_toml),
+        "base_dir": np.array(cache.base_dir),
+    }
+    if cache.skin_vertices is not None:
+        arrays["skin_vertices"] = cache.skin_vertices
+    return save_arrays(path, arrays)
 
 
 def is_cache(path: str | os.PathLike[str]) -> bool:
@@ -197,10 +223,11 @@ def load_cache(path: str | os.PathLike[str]) -> SimCache:
     version = data["version"]
     if version.ndim != 0 or version.dtype.kind not in "iu":
         raise FormatError(f"{p}: version: expected an integer, got {_describe(version)}")
-    if int(version) != CACHE_VERSION:
+    if not 1 <= int(version) <= CACHE_VERSION:
         fix = "upgrade follicle" if int(version) > CACHE_VERSION else "simulate again"
         raise FormatError(
-            f"{p}: cache version {int(version)}; this follicle reads version {CACHE_VERSION}: {fix}"
+            f"{p}: cache version {int(version)}; this follicle reads versions 1 to"
+            f" {CACHE_VERSION}: {fix}"
         )
     fps = data["fps"]
     if fps.ndim != 0 or fps.dtype.kind != "f":
@@ -213,6 +240,7 @@ def load_cache(path: str | os.PathLike[str]) -> SimCache:
             data["scene_toml"],
             data["base_dir"],
             source=str(p),
+            skin_vertices=data.get("skin_vertices"),
         )
     except InputError as exc:
         fix = "the cache is damaged: run `follicle simulate` again"

@@ -65,7 +65,7 @@ from .guard import curves_from_parts
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 from .usd_guard import check_container, read_stage
-from .usd_skin import define_head, define_skin, set_head
+from .usd_skin import define_head, define_skin, set_head, set_points
 from .usd_stage import usd_error
 
 if TYPE_CHECKING:
@@ -370,6 +370,7 @@ def _write_cache(anim: Animation, crate: Path, mesh: SkinMesh | None, groom_sche
     head = None if anim.head is None else define_head(stage, HEAD_PATH)
     if mesh is not None:
         define_skin(stage, SKIN_PATH if head is None else f"{HEAD_PATH}/Skin", mesh)
+    skin = None if anim.skin is None else UsdGeom.Mesh.Get(stage, SKIN_PATH)
     path = f"{HAIR_PATH}/chunk_0000"
     first = None
     for f, frame in enumerate(anim.frames):
@@ -384,6 +385,8 @@ def _write_cache(anim: Animation, crate: Path, mesh: SkinMesh | None, groom_sche
         time = Usd.TimeCode(anim.start + f)
         if head is not None:
             set_head(head, anim.head[f], time)
+        if skin is not None:
+            set_points(skin, anim.skin[f], time)
         sampled[0].Set(Vt.Vec3fArray.FromNumpy(frame.points), time)
         if frame.point_count:
             width = first.point_data.get("width")
@@ -406,6 +409,7 @@ def save_usd_cache(
     transforms: object | None = None,
     target: Target | str = "generic",
     role: str | None = None,
+    skin_vertices: object | None = None,
 ) -> Path:
     """Write an animation: frame ``f`` of ``frames`` is time code ``start + f`` of one
     BasisCurves prim ``/Groom/Hair/chunk_0000``, whose topology and primvars come from
@@ -422,11 +426,22 @@ def save_usd_cache(
     (F, 4, 4), one head transform per frame acting on column vectors as a SimCache
     keeps them (a SimCache's own by default), it is ``/Groom/Head/Skin`` under the Xform
     ``/Groom/Head`` whose ``xformOp:transform`` is sampled per frame, so the skin moves
-    with the (world-space) hair.
+    with the (world-space) hair. A SimCache of an animated skin (``skin_vertices``)
+    writes ``/Groom/Skin`` with its ``points`` and ``extent`` sampled per frame instead.
     """
     out = _check_suffix(path)
     tool = get_target(target)
-    anim = animation(frames, fps, start, mesh, transforms, tool, in_units=False, role=role)
+    anim = animation(
+        frames,
+        fps,
+        start,
+        mesh,
+        transforms,
+        tool,
+        in_units=False,
+        role=role,
+        skin_vertices=skin_vertices,
+    )
     with _writing(out), atomic_path(out) as tmp:
         _finish(out, tmp, lambda crate: _write_cache(anim, crate, mesh, tool.groom_schema))
     return out

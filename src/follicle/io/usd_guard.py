@@ -190,8 +190,9 @@ def read_stage(
     )
 
 
-def read_meshes(path: Path) -> list[dict]:
-    """The Mesh prims of ``path`` (see :mod:`follicle.io.usd_mesh`), read as
-    :func:`read_stage` reads curves."""
+def read_meshes(path: Path, animated: bool = False) -> list[dict]:
+    """The Mesh prims of ``path`` (see :mod:`follicle.io.usd_mesh`; ``animated``: with
+    the first one's points at every time sample), read as :func:`read_stage` reads
+    curves."""
     memory, seconds = limits(path.stat().st_size)
-    return read_guarded("usd-mesh", path, memory, seconds, "usd-core", _HINT)
+    return read_guarded("usd-mesh", path, memory, seconds, "usd-core", _HINT, animated=animated)

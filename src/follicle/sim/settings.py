@@ -180,6 +180,21 @@ class SimParams(StrictSection):
         None, description="head animation pivot; unset = the neck (bottom centre of the mesh)"
     )
 
+    skin_animation: str | None = Field(
+        None,
+        description="`follicle simulate`: a USD or Alembic file animating the skin mesh"
+        " (time-sampled points); the roots follow it. Instead of motion",
+    )
+
+    @model_validator(mode="after")
+    def _one_animation(self) -> SimParams:
+        if self.skin_animation is not None and self.motion != "none":
+            raise ValueError(
+                'motion and skin_animation both move the skin: give one (motion = "none"'
+                " with a skin animation)"
+            )
+        return self
+
     @model_validator(mode="after")
     def _range_ordered(self) -> SimParams:
         if self.shape_global_range[0] > self.shape_global_range[1]:
