@@ -5,12 +5,12 @@ damping; even/odd distance constraints, bending to the static point, local and g
 shape matching, skin SDF collision, every ``iterations`` times; the two-sided strain
 limit; a last collision pass; velocities with the limit's correction and friction at
 contacts; then hair-hair friction and repulsion through a voxel grid), written as a
-competent NumPy user
-would: vectorised over all strands at once, with Python loops only over the iterations,
-the two segment parities and the vertex index where the algorithm is sequential root to
-tip (local shape, strain limit). follicle's settle pass, which hangs back at length
-the few segments the last collision pass put off it, is left out: on the benchmark's
-scene it costs the baseline nothing, so the ratio only flatters it. Positions and velocities are kept component-major,
+competent NumPy user would: vectorised over all strands at once, with Python loops only
+over the iterations, the two segment parities and the vertex index where the algorithm
+is sequential root to tip (local shape, strain limit). follicle's settle pass, which
+hangs back at length the few segments the last collision pass put off it, is left out:
+on the benchmark's scene it costs the baseline nothing, so the ratio only flatters it.
+Positions and velocities are kept component-major,
 (3, N, S), so every vertex slice is contiguous along the strands; buffers are allocated
 once, updates are in-place ufuncs, SDF normals are computed only for the vertices within
 the margin, the grid is splatted with ``np.bincount``. follicle supplies only the inputs
