@@ -7,7 +7,9 @@ collision, the strain limit, then hair-hair volume friction and repulsion. A *st
 one substep of the solver (1/120 s) with all of that. The baseline is
 ``sim_baseline.BaselinePBD`` (NumPy, vectorised over strands) on the same model, state
 and SDF. The per-stage split adds one stage at a time to the same simulation. Every
-figure is printed next to its same-run baseline. Run: ``.venv/bin/python benchmarks/sim.py``.
+figure is printed next to its same-run baseline. Then the small scene (the default: 300
+guides × 24 vertices, default [sim]) on numba's threads against one thread, and
+production-shaped guides against the baseline. Run: ``.venv/bin/python benchmarks/sim.py``.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import argparse
 import statistics
 import time
 
+import numba
 import numpy as np
 
 from follicle import Simulator
@@ -126,6 +129,42 @@ def _baseline(sim: Simulator, repeat: int) -> tuple[float, dict[str, float]]:
     return best, split
 
 
+def _small(repeat: int) -> None:
+    """The small scene (the default: 300 guides × 24 vertices, default [sim]) in
+    substeps/s as the grains share it out on numba's threads, next to the same scene
+    pinned to one thread; and production-shaped guides (benchmarks/production_guides.py)
+    at the default [sim] next to the NumPy baseline on the same model."""
+    from production_guides import production_guides
+
+    most = numba.get_num_threads()
+    groom = groom_scene(Scene())
+    sim = Simulator(groom.guides, groom.mesh)
+    h = sim.params.substep
+    for _ in range(12):
+        sim.step(h)
+    numba.set_num_threads(1)
+    one = min(_times(lambda: sim.step(h), 50, repeat))
+    numba.set_num_threads(most)
+    ours = min(_times(lambda: sim.step(h), 50, repeat))
+    print(
+        f"\nsmall scene, {sim.model.strands} guides × {sim.model.vertices}:"
+        f" {1 / ours:6.0f} substeps/s on {most} threads ({1 / (5 * ours):.0f} frames/s at"
+        f" 24), {1 / one:6.0f} on 1 thread: ×{one / ours:.2f} (target ≥ 100 substeps/s,"
+        " and no slower than one thread)"
+    )
+    sim = Simulator(production_guides(0, groom.mesh), groom.mesh)
+    for _ in range(12):
+        sim.step(h)
+    best, _ = _ours(sim, repeat)
+    base, _ = _baseline(sim, repeat)
+    print(
+        f"production-shaped guides, {sim.model.strands} strands × {sim.model.vertices}"
+        f" (4–48 vertices resampled, 2 mm–60 cm): {1 / best:6.0f} substeps/s, NumPy"
+        f" PBD {1 / base:6.0f}: follicle {base / best:.1f}× faster; max stretch"
+        f" {sim.stats['max_stretch']:.1e}"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="timed runs per figure")
@@ -165,6 +204,7 @@ def main() -> None:
             f" {1000 * stats['max_penetration']:.2f} mm"
         )
         summary.append((strands, vertices, 1 / best, base / best))
+    _small(args.repeat)
     print("\nsummary (targets: ≥ 30 steps/s at 1 M, ≥ 150 at 220 k, ≥ 20× the baseline)")
     for strands, vertices, rate, ratio in summary:
         target = TARGETS[strands]

@@ -1,4 +1,5 @@
-"""Chunks of work spread over threads, each running its numba kernels on one core.
+"""Chunks of work spread over threads, each running its numba kernels on one core; and
+kernels kept on one thread when their problem is too small to share.
 
 Many-chunk jobs (a million hairs in 32 k pieces) spend a good part of their time in
 the NumPy and Python glue between kernels, which a ``prange`` inside each kernel does
@@ -6,6 +7,14 @@ not spread over the cores. Running whole chunks side by side on as many threads 
 numba uses (every kernel they call releases the GIL: ``nogil=True``), each with
 ``numba.set_num_threads(1)``, keeps every core busy through the glue as well.
 Results come back in chunk order, so the output does not depend on the thread count.
+
+A parallel kernel on a small problem costs more than it saves: every ``prange`` forks
+and joins the thread pool (OpenMP here), and when another process holds a core the join
+waits for a descheduled thread (300 guides × 24 vertices simulated at 2.4–5.5 frames/s
+on two threads, 22–36 on one). :func:`threads_for` gives a stage as many threads as it
+has work for, ``grain`` items each (one below two grains: serial), a figure measured per
+stage (``benchmarks/sim_threads.py``). Every kernel gives the same bytes with any thread
+count, so the choice changes the time only.
 """
 
 from __future__ import annotations
@@ -17,7 +26,7 @@ from typing import TypeVar
 
 import numba
 
-__all__ = ["workers", "ordered_map", "chained"]
+__all__ = ["workers", "ordered_map", "chained", "threads_for"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -35,6 +44,24 @@ def _one_core(fn: Callable[..., R]) -> Callable[..., R]:
         return fn(*args)
 
     return run
+
+
+@contextmanager
+def threads_for(size: int, grain: int) -> Iterator[int]:
+    """Numba kernels launched inside run on at most ``size // grain`` threads (at least
+    one, at most numba's count): a problem of ``size`` items shares out in pieces of
+    ``grain`` or more. Yields the thread count; numba's is put back on leaving (it is
+    per calling thread, so other threads are unaffected)."""
+    before = numba.get_num_threads()
+    threads = max(1, min(before, int(size) // max(int(grain), 1)))
+    if threads == before:
+        yield threads
+        return
+    numba.set_num_threads(threads)
+    try:
+        yield threads
+    finally:
+        numba.set_num_threads(before)
 
 
 @contextmanager

@@ -30,6 +30,7 @@ from ..groom.guides import Guides
 from ..mesh.sdf import SDF
 from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..noise import perlin
+from ..threads import threads_for
 from ..validate import number
 from .collision import NO_SDF, Colliders, clearance, colliders, penetration
 from .model import Model
@@ -51,6 +52,9 @@ MIN_SEGMENT = 1e-6
 # a deformed skin moves the last SDF rigidly while no vertex is off the best rigid fit by
 # more than this many voxels (the field's own error is ~0.06 voxel): else it is rebuilt
 SDF_REUSE = 0.1
+# vertices per thread below which the solver's substep keeps to fewer threads
+# (benchmarks/sim_threads.py; see follicle.sim.volume.PARTICLE_GRAIN for the why)
+SUBSTEP_GRAIN = 20_000
 
 
 def substeps_per_step(dt: float, substep: float) -> int:
@@ -418,7 +422,10 @@ class Simulator:
             sdf = self._sdf_rest.with_transform(transform) if rigid_skin else self.sdf
             world = self._colliders(transform, sdf)
             moved = self._collider_move(transform, sdf, world)
-            self.solver.substep(self.state, start, end, f, self.wind(self.state.time), world, moved)
+            with threads_for(self.state.x.shape[0] * self.state.x.shape[1], SUBSTEP_GRAIN):
+                self.solver.substep(
+                    self.state, start, end, f, self.wind(self.state.time), world, moved
+                )
             if volume:  # the state is finite (the solver puts back a strand that is not)
                 volume_step(
                     self.state.x,
@@ -432,7 +439,8 @@ class Simulator:
                 )
         self.state.roots, self.state.frames = end
         self._state_transform = finish
-        self._check_state()
+        with threads_for(self.state.x.shape[0] * self.state.x.shape[1], SUBSTEP_GRAIN):
+            self._check_state()
 
     def _check_state(self) -> None:
         """SimulationError when the state left the meaningful range: a non-finite value

@@ -55,6 +55,7 @@ from numba import njit, prange
 
 from ..arrays import FMA, all_finite
 from ..errors import InputError
+from ..threads import threads_for
 from ..validate import is_whole, number, positive, whole
 
 __all__ = ["GridSpec", "VolumeGrid", "grid_for", "apply_volume", "volume_step"]
@@ -65,6 +66,12 @@ _TINY_DENSITY = 1e-12  # D at or below this counts as empty: V = 0 there
 _PARTS = 8  # particle parts splatted side by side, each into its own grid …
 _PART_BYTES = 64 * 2**20  # … as many as fit in this (at least one) …
 _PART_MIN = 4096  # … each of at least this many particles
+# items per thread below which a stage keeps to fewer threads (benchmarks/sim_threads.py:
+# on an idle machine two threads pay from ~2,000 particles, but with the cores shared a
+# parallel region waits for a descheduled thread: the small scene's substeps ran 3× slower
+# on two threads than on one; so a thread gets at least this much work)
+PARTICLE_GRAIN = 20_000  # the particle kernels: bounds, splat, update
+CELL_GRAIN = 50_000  # the grid passes: part sums, blur
 
 
 @dataclass(frozen=True, eq=False)
@@ -234,19 +241,21 @@ def volume_step(
     bounds in Python took a fifth of the volume's time): ``x``, ``v`` C-contiguous
     (S, N, 3) finite, ``free`` (S, N) bool, the numbers in range."""
     pts = x.reshape(-1, 3)
-    spec = _fitted(pts, resolution, voxel_size, 1 + blur_passes)
+    with threads_for(len(pts), PARTICLE_GRAIN):
+        spec = _fitted(pts, resolution, voxel_size, 1 + blur_passes)
     grid = _splat_grid(x, v, spec, blur_passes)
     h = spec.voxel
-    _update(
-        pts,
-        v.reshape(-1, 3),
-        free.reshape(-1),
-        grid.flow,
-        spec.origin,
-        1 / h,
-        friction,
-        repulsion * h / dt,
-    )
+    with threads_for(len(pts), PARTICLE_GRAIN):
+        _update(
+            pts,
+            v.reshape(-1, 3),
+            free.reshape(-1),
+            grid.flow,
+            spec.origin,
+            1 / h,
+            friction,
+            repulsion * h / dt,
+        )
     return grid
 
 
@@ -319,10 +328,12 @@ def _splat_grid(x: np.ndarray, v: np.ndarray, spec: GridSpec, blur_passes: int) 
     cells = int(np.prod(spec.shape))
     parts = max(1, min(_PARTS, _PART_BYTES // (32 * cells), x.size // (3 * _PART_MIN)))
     grids = np.zeros((parts, *spec.shape, 4))
-    _splat(x.reshape(-1, 3), v.reshape(-1, 3), grids, spec.origin, 1 / spec.voxel)
-    sums = _part_sums(grids)
-    for _ in range(blur_passes):
-        sums = _box_blur(sums)
+    with threads_for(x.size // 3, PARTICLE_GRAIN):
+        _splat(x.reshape(-1, 3), v.reshape(-1, 3), grids, spec.origin, 1 / spec.voxel)
+    with threads_for(cells, CELL_GRAIN):
+        sums = _part_sums(grids)
+        for _ in range(blur_passes):
+            sums = _box_blur(sums)
     density, flow = _resolve(sums, spec.voxel)
     return VolumeGrid(spec=spec, density=density, flow=flow)
 
