@@ -32,6 +32,7 @@ FULL = dict(
     bend_stiffness=0.3,
     shape_local=0.2,
     shape_global=0.1,
+    shape_hold=0.0,  # the NumPy baseline has no hold: the same work on both sides
     volume_friction=0.1,
     volume_repulsion=0.05,
 )

@@ -25,6 +25,10 @@ segment starting at each vertex.
 - shape matching: local (each segment towards its rest direction in the frame of the
   previous segment, so curls and partings keep their form) and global (each vertex
   towards the skinned rest pose, by a root-to-tip profile).
+- hold: global shape matching again, each vertex's stiffness the hold × how far its
+  rest segment rises against gravity (the sine of its elevation, 0 when level or
+  hanging): a rising strand's weight is carried by its stiffness, a hanging one's by
+  its length, so spikes stand and hanging hair still swings (issue: styles that hold).
 """
 
 from __future__ import annotations
@@ -44,6 +48,8 @@ __all__ = [
     "rest_pose",
     "local_shape_pass",
     "global_shape_pass",
+    "hold_profile",
+    "hold_pass",
 ]
 
 _TINY = 1e-12  # segments shorter than this have no direction
@@ -282,6 +288,30 @@ def global_shape_pass(X, W, target, k_profile, nb):
             continue
         for b in range(nb):
             kb = k if W[i, b] > 0.0 else 0.0
+            X[i, 0, b] += kb * (target[i, 0, b] - X[i, 0, b])
+            X[i, 1, b] += kb * (target[i, 1, b] - X[i, 1, b])
+            X[i, 2, b] += kb * (target[i, 2, b] - X[i, 2, b])
+
+
+@_jit
+def hold_profile(rest_dir, up, k, iterations, out, nb):
+    """``out`` (N, B): each vertex's per-iteration hold stiffness, ``k`` × the rise of
+    its rest segment against gravity, max(0, ``rest_dir``[i] · ``up``) (``up`` (3,) the
+    unit vector against gravity), linearised over ``iterations`` (Le Muzic 2012 eq. 5.5)."""
+    for b in range(nb):
+        out[0, b] = 0.0
+    for i in range(1, rest_dir.shape[0]):
+        for b in range(nb):
+            rise = rest_dir[i, 0, b] * up[0] + rest_dir[i, 1, b] * up[1] + rest_dir[i, 2, b] * up[2]
+            out[i, b] = 1.0 - (1.0 - k * max(rise, 0.0)) ** (1.0 / iterations)
+
+
+@_jit
+def hold_pass(X, W, target, k, nb):
+    """Move vertex i of strand b towards the skinned rest pose ``target`` by ``k[i, b]``."""
+    for i in range(1, X.shape[0]):
+        for b in range(nb):
+            kb = k[i, b] if W[i, b] > 0.0 else 0.0
             X[i, 0, b] += kb * (target[i, 0, b] - X[i, 0, b])
             X[i, 1, b] += kb * (target[i, 1, b] - X[i, 1, b])
             X[i, 2, b] += kb * (target[i, 2, b] - X[i, 2, b])

@@ -138,6 +138,12 @@ class SimParams(StrictSection):
         description="global shape: full up to the first, zero from the second"
         " (root-to-tip fractions)",
     )
+    shape_hold: Unit = Field(
+        0.1,
+        description="global shape stiffness where the rest pose rises against gravity,"
+        " × the sine of each segment's rise (0 level or hanging): holds spikes up and"
+        " leaves hanging hair free to swing; 0 = off",
+    )
     dftl_damping: Unit = Field(0.9, description="DFTL velocity correction s (Almeida 2014 eq. 3.1)")
     collision_margin: float = Field(
         0.002, ge=0, le=1, description="distance kept from colliders, m"
@@ -179,7 +185,6 @@ class SimParams(StrictSection):
     motion_pivot: Vec3 | None = Field(
         None, description="head animation pivot; unset = the neck (bottom centre of the mesh)"
     )
-
     skin_animation: str | None = Field(
         None,
         description="`follicle simulate`: a USD or Alembic file animating the skin mesh"

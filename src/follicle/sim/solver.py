@@ -9,8 +9,11 @@ follow-the-leader pass (PBD: the strain limit), the cone limit, a last collision
 a settle pass that hangs segments the collisions stretched or crushed back at length,
 root to tip, and the velocity update (with Almeida 2014 eq. 3.1's correction for DFTL and the
 strain limit, and friction at contacts). Soft constraint stiffnesses are linearised over
-the iterations, k' = 1 − (1 − k)^(1/n) (Le Muzic 2012 eq. 5.5). A strand whose step would leave a
-non-finite value is put back as it was and reported.
+the iterations, k' = 1 − (1 − k)^(1/n) (Le Muzic 2012 eq. 5.5); the shape stiffnesses
+(local, global and the hold, which holds what rises against gravity; TressFX's local and
+global shape constraints) are given for a substep of SHAPE_SUBSTEP and keep their
+compliance at any other (:func:`per_substep`), so a style sags alike at any substep.
+A strand whose step would leave a non-finite value is put back as it was and reported.
 """
 
 from __future__ import annotations
@@ -30,6 +33,8 @@ from .constraints import (
     distance_pass,
     follow_the_leader,
     global_shape_pass,
+    hold_pass,
+    hold_profile,
     local_shape_pass,
     rest_pose,
     strain_limit,
@@ -38,12 +43,32 @@ from .forces import acceleration
 from .model import Model
 from .state import State
 
-__all__ = ["Solver", "linearised"]
+__all__ = ["SHAPE_SUBSTEP", "Solver", "linearised", "per_substep"]
+
+# the substep the shape stiffnesses (shape_local, shape_global, shape_hold) are given
+# for: [sim].substep's default. At another substep they keep their compliance (below)
+SHAPE_SUBSTEP = 1 / 120
 
 
 def linearised(k: float | np.ndarray, iterations: int) -> float | np.ndarray:
     """Le Muzic 2012 eq. 5.5: the per-iteration stiffness that gives ``k`` after ``iterations``."""
     return 1.0 - (1.0 - k) ** (1.0 / iterations)
+
+
+def per_substep(k: float | np.ndarray, substep: float) -> float | np.ndarray:
+    """A shape stiffness ``k`` given for a substep of SHAPE_SUBSTEP, for a substep of
+    ``substep`` s with the same compliance α (XPBD, Macklin et al. 2016: a soft
+    constraint moves h² / (h² + α) of the way per substep), α = H² (1 − k) / k. A
+    style then sags the same under gravity (by g α) and springs back at the same rate
+    at any substep; per substep, k itself would sag (1 − k) g h² / k: 16× more at
+    1/30 s than at 1/120 s. k at SHAPE_SUBSTEP, 0 and 1 stay as they are."""
+    k = np.asarray(k, np.float64)
+    if substep == SHAPE_SUBSTEP:
+        return k if k.ndim else float(k)
+    ratio = (substep / SHAPE_SUBSTEP) ** 2  # h² / H²
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(k > 0.0, k * ratio / (k * ratio + 1.0 - k), 0.0)
+    return out if out.ndim else float(out)
 
 
 BLOCK = 32  # strands per block: the inner loops run across them
@@ -286,6 +311,8 @@ class Constants(NamedTuple):
     stretch_limit: float  # −1 for none
     limit_damping: float
     friction: float
+    k_hold: float  # the hold's stiffness per substep (not linearised: per vertex)
+    up: np.ndarray  # (3,) unit vector against gravity; zero without gravity
 
 
 @njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
@@ -323,9 +350,12 @@ def _substep_kernel(
         stretch_limit,
         limit_damping,
         friction,
+        k_hold,
+        up,
     ) = c
     strands, n = x.shape[0], x.shape[1]
-    shape = k_local > 0.0 or k_global[1] > 0.0
+    hold = k_hold > 0.0 and (up[0] != 0.0 or up[1] != 0.0 or up[2] != 0.0)
+    shape = k_local > 0.0 or k_global[1] > 0.0 or hold
     correct = dftl or stretch_limit >= 0.0  # Almeida 2014 eq. 3.1 applies
     correction = dftl_damping if dftl else limit_damping
     windy = wind[0] != 0.0 or wind[1] != 0.0 or wind[2] != 0.0
@@ -340,6 +370,7 @@ def _substep_kernel(
         contact = np.zeros((n, 3, BLOCK))
         target = np.empty((n, 3, BLOCK))
         rest_dir = np.empty((n, 3, BLOCK))
+        k_rise = np.empty((n, BLOCK))  # the hold's stiffness per vertex
         ref = np.empty((n, 3, BLOCK))  # where each vertex was last found clear …
         gap2 = np.empty((n, BLOCK))  # … and how far (squared) it may move from there
         W, L, R, M = w[block], rest_length[block], bend_rest[block], margin[block]
@@ -407,6 +438,8 @@ def _substep_kernel(
                     X[i, 2, b] += m * (vz * damp + az * dt) * h
         if shape:
             rest_pose(root, frame, rest_local[block], target, rest_dir, nb)
+        if hold:
+            hold_profile(rest_dir, up, k_hold, iterations, k_rise, nb)
         for _ in range(iterations):
             if not dftl:
                 distance_pass(X, W, L, k_stretch, row, nb)
@@ -416,6 +449,8 @@ def _substep_kernel(
                 local_shape_pass(X, W, target, rest_dir, k_local, row, nb)
             if k_global[1] > 0.0:  # the profile never rises towards the tip
                 global_shape_pass(X, W, target, k_global, nb)
+            if hold:
+                hold_pass(X, W, target, k_rise, nb)
             _collide_pass(
                 X,
                 W,
@@ -502,6 +537,13 @@ def _substep_kernel(
             bad[s] = 0 if ok[b] else 1
 
 
+def _against(gravity: tuple[float, float, float]) -> np.ndarray:
+    """The unit vector against ``gravity`` (zero without gravity): what the hold lifts."""
+    g = np.asarray(gravity, np.float64)
+    norm = float(np.linalg.norm(g))
+    return -g / norm if norm > 0.0 else np.zeros(3)
+
+
 def _blocked(a: np.ndarray, vertices: int) -> np.ndarray:
     """Per-vertex strand data (S, M, …), M ≤ ``vertices``, in the kernel's block layout
     (blocks, N, …, BLOCK): strands innermost, padded with zeros (missing vertices and the
@@ -542,7 +584,8 @@ class Solver:
         t = np.linspace(0.0, 1.0, self.model.vertices)
         start, end = p.shape_global_range
         fade = np.clip((end - t) / max(end - start, 1e-9), 0.0, 1.0)
-        return linearised(p.shape_global * np.where(t <= start, 1.0, fade), p.iterations)
+        k = per_substep(p.shape_global * np.where(t <= start, 1.0, fade), p.substep)
+        return linearised(k, p.iterations)
 
     def constants(self) -> tuple[Strands, Constants]:
         """The kernel's strands and constants for ``params`` (made again only when the
@@ -565,7 +608,7 @@ class Solver:
                 k_bend=linearised(p.bend_stiffness, n),
                 bend_scale=p.bend_scale,
                 attenuation=p.bend_attenuation,
-                k_local=linearised(p.shape_local, n),
+                k_local=linearised(per_substep(p.shape_local, p.substep), n),
                 k_global=self.global_profile(),
                 cos_limit=math.cos(cone) if p.cone_angle < 180 else -2.0,
                 sin_limit=math.sin(cone),
@@ -573,6 +616,8 @@ class Solver:
                 stretch_limit=-1.0 if p.stretch_limit is None else p.stretch_limit,
                 limit_damping=p.stretch_limit_damping,
                 friction=p.friction,
+                k_hold=per_substep(p.shape_hold, p.substep),
+                up=_against(p.gravity),
             )
             m = self.model
             margin = np.full(m.rest_length.shape[:1] + (m.vertices,), p.collision_margin)
