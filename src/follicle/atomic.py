@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "remove_pending"]
+__all__ = ["atomic_path", "temporary_folder", "remove_pending"]
 
 _PENDING: set[Path] = set()  # temporary outputs not yet renamed onto their targets
 
@@ -55,9 +56,28 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
             tmp_path.unlink()
 
 
+@contextlib.contextmanager
+def temporary_folder(path: str | os.PathLike[str], what: str) -> Iterator[Path]:
+    """Yield a new hidden folder beside ``path`` (``.NAME.WHAT-…``) for the pieces of
+    its output (a distributed grow's parts); it is removed on leaving, and by
+    :func:`remove_pending` when a signal ends the process first."""
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    folder = Path(tempfile.mkdtemp(prefix=f".{target.name}.{what}-", dir=target.parent))
+    _PENDING.add(folder)
+    try:
+        yield folder
+    finally:
+        _PENDING.discard(folder)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def remove_pending() -> None:
-    """Remove every temporary output still being written (for a signal handler that is
-    about to end the process)."""
+    """Remove every temporary output still being written, file or folder (for a signal
+    handler that is about to end the process)."""
     for tmp in list(_PENDING):
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+            continue
         with contextlib.suppress(OSError):
             tmp.unlink()

@@ -31,7 +31,7 @@ from rich.progress import (
 from rich.text import Text
 
 from .errors import FollicleError
-from .io.targets import TARGET_NAMES
+from .io.targets import NAMED_FORMATS, TARGET_NAMES
 from .scene import RenderParams, SimParams
 
 if TYPE_CHECKING:
@@ -136,10 +136,16 @@ def _interrupted(signum: int, frame: object) -> None:
     """Ctrl-C or SIGTERM: remove the outputs being written and end at once, exit 128 + the
     signal's number. Exiting here, rather than raising KeyboardInterrupt, works also when
     the signal lands inside numba's compiled code, where an exception cannot unwind."""
+    import multiprocessing
     import signal
 
     from .atomic import remove_pending
 
+    children = multiprocessing.active_children()  # a local Dask cluster's workers …
+    for child in children:
+        child.kill()
+    for child in children:  # … gone before their parts' folder goes
+        child.join(timeout=5)
     remove_pending()
     name = signal.Signals(signum).name
     sys.stderr.write(f"\nerror: stopped by {name}; no output was written\n")
@@ -158,7 +164,6 @@ def _handle_signals() -> None:
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
 
-_NAMED_FORMATS = (".usd", ".usda", ".usdc", ".usdz", ".abc")  # formats with attribute names
 _MESH_ONLY = (".ply", ".glb", ".gltf", ".stl", ".off")  # written only as meshes
 _TARGET_OPTION = click.option(
     "--target",
@@ -243,6 +248,19 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
 @click.option("--seed", type=int, default=None, help="Override [groom].seed.")
 @_TARGET_OPTION
 @_SKIN_OPTION
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS|local:N",
+    help="Grow on a Dask cluster: a scheduler's address, or local:N for N worker"
+    " processes here; the file is the same, byte for byte (needs follicle[dist]).",
+)
+@click.option(
+    "--chunk",
+    type=int,
+    default=None,
+    help="Hairs per Dask task with --scheduler (default 32768).",
+)
 def grow(
     scene_path: str,
     out: str | None,
@@ -250,6 +268,8 @@ def grow(
     seed: int | None,
     target_name: str | None,
     skin: bool,
+    scheduler: str | None,
+    chunk: int | None,
 ) -> None:
     """Grow the hair of a scene file and save the curves.
 
@@ -267,7 +287,17 @@ def grow(
     _check_writable_suffix(path, _curve_suffixes())
     tool = target_name or scene.output.target
     _check_target(path, tool)
-    if Path(path).suffix.lower() == ".npz":
+    if chunk is not None and scheduler is None:
+        raise FollicleError("--chunk: sizes the Dask tasks of --scheduler; give --scheduler")
+    if scheduler is not None:
+        from .distributed import grow as grow_distributed
+        from .groom.generator import CHUNK
+
+        with _step("grow on Dask"), _progress("growing hair on Dask") as progress:
+            hairs, points = grow_distributed(
+                scene, path, scheduler, chunk or CHUNK, tool, skin, progress
+            )
+    elif Path(path).suffix.lower() == ".npz":
         with _step("grow"), _progress("growing hair") as progress:
             _, curves = grow_scene(scene, progress)
         save(curves, path)
@@ -321,16 +351,16 @@ def _check_target(path: str, target: str) -> None:
     than generic is refused (it would be silently ignored)."""
     from .errors import FormatError
 
-    if target != "generic" and Path(path).suffix.lower() not in _NAMED_FORMATS:
+    if target != "generic" and Path(path).suffix.lower() not in NAMED_FORMATS:
         raise FormatError(
             f"{path}: --target {target} is for USD and Alembic files"
-            f" ({', '.join(_NAMED_FORMATS)}); drop it or write one of those"
+            f" ({', '.join(NAMED_FORMATS)}); drop it or write one of those"
         )
 
 
 def _extras(path: str, target: str, guides: HairCurves | None, mesh: object) -> dict:
     """The writer options for ``path``: for USD and Alembic the target, guides and skin."""
-    if Path(path).suffix.lower() not in _NAMED_FORMATS:
+    if Path(path).suffix.lower() not in NAMED_FORMATS:
         return {}
     return {"target": target, "guides": guides, "mesh": mesh}
 
@@ -341,20 +371,12 @@ def _grown_chunks(
     """The groom's hairs chunk by chunk, reporting progress and adding up (hairs, points)
     in ``tally``; one empty chunk for a count of 0, so the file is still written. For
     Unreal each hair also carries the three guides it blends most and their weights."""
-    from .curves import HairCurves
+    from .distributed import target_chunk
     from .groom.generator import CHUNK
-    from .io.targets import TARGETS
 
     total = groom.params.count
     for i, chunk in enumerate(groom.chunks(CHUNK) if total else [groom.generate(count=0)]):
-        if "closest_guides" in TARGETS[target].curve_names:  # the target reads the binding
-            index, weight = groom.guide_binding(chunk.curve_data["hair_id"])
-            chunk = HairCurves(
-                chunk.points,
-                chunk.offsets,
-                chunk.point_data,
-                {**chunk.curve_data, "closest_guides": index, "guide_weights": weight},
-            )
+        chunk = target_chunk(groom, chunk, target)
         tally[0] += chunk.curve_count
         tally[1] += chunk.point_count
         yield chunk
@@ -399,7 +421,7 @@ def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
         _export_cache(source, out, skin, tool)
         return
     curves = load_curves(source)
-    save(curves, out, **({"target": tool} if Path(out).suffix.lower() in _NAMED_FORMATS else {}))
+    save(curves, out, **({"target": tool} if Path(out).suffix.lower() in NAMED_FORMATS else {}))
     click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {out}")
 
 
@@ -412,7 +434,7 @@ def _export_mesh(source: str, out: str, target: str) -> None:
 
     mesh = load_mesh(source)
     suffix = Path(out).suffix.lower()
-    if suffix in _NAMED_FORMATS:
+    if suffix in NAMED_FORMATS:
         import numpy as np
 
         from .curves import HairCurves

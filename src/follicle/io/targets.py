@@ -26,6 +26,7 @@ from ..errors import InputError
 from .attributes import DEFAULT_WIDTH
 
 __all__ = [
+    "NAMED_FORMATS",
     "Target",
     "TARGETS",
     "TARGET_NAMES",
@@ -34,6 +35,9 @@ __all__ = [
     "problems",
     "MAX_UNREAL_POINTS",
 ]
+
+# the formats written with attribute names, and with the guides and skin beside the hair
+NAMED_FORMATS = (".usd", ".usda", ".usdc", ".usdz", ".abc")
 
 log = logging.getLogger("follicle")
 

@@ -1,0 +1,134 @@
+"""Growing on a Dask cluster (issue: beyond one machine, first increment): the file a
+LocalCluster of 1, 2 or 3 worker processes writes equals the single-process grow byte
+for byte, for any task size and format; bad schedulers are one clean refusal and leave
+no file behind."""
+
+from __future__ import annotations
+
+import pytest
+
+import follicle.distributed as distributed
+from follicle.errors import ConfigError
+from follicle.io.dispatch import save
+from follicle.pipeline import groom_scene
+from follicle.scene import scene_from_toml
+from hostile import assert_cli_refused, run_cli, warm
+
+pytest.importorskip("distributed")
+
+SCENE = "[groom]\ncount = 3000\n"
+
+
+def _scene(tmp_path):
+    (tmp_path / "s.toml").write_text(SCENE)
+    return scene_from_toml(SCENE, "s.toml", tmp_path)
+
+
+def _one_process(scene, path, target="generic"):
+    """What `follicle grow` writes in one process."""
+    from follicle.cli import _extras, _grown_chunks
+
+    groom = groom_scene(scene)
+    if path.suffix == ".npz":
+        save(groom.generate(), path)
+        return path
+    extras = _extras(str(path), target, groom.guides.curves, groom.mesh)
+    save(_grown_chunks(groom, lambda *_: None, [0, 0], target), path, **extras)
+    return path
+
+
+@pytest.mark.parametrize(
+    "workers, chunk, ext, target",
+    [
+        (1, 1000, ".usdc", "generic"),
+        (2, 1234, ".abc", "generic"),
+        (3, 700, ".hair", "generic"),
+        (2, 5000, ".npz", "generic"),  # one task bigger than the groom
+        (3, 999, ".usda", "unreal"),  # the binding Unreal reads, per hair
+    ],
+)
+def test_a_cluster_grow_is_the_single_process_file(tmp_path, workers, chunk, ext, target):
+    scene = _scene(tmp_path)
+    want = _one_process(scene, tmp_path / f"one{ext}", target)
+    seen = []
+    hairs, points = distributed.grow(
+        scene,
+        tmp_path / f"two{ext}",
+        f"local:{workers}",
+        chunk=chunk,
+        target=target,
+        progress=lambda done, total: seen.append((done, total)),
+    )
+    assert (tmp_path / f"two{ext}").read_bytes() == want.read_bytes()
+    assert hairs == 3000 and points > 3000 * 2
+    assert seen[-1] == (3000, 3000) and len(seen) == -(-3000 // chunk)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [f"one{ext}", f"two{ext}", "s.toml"]
+    )
+
+
+def test_bad_schedulers_are_refused_and_write_nothing(tmp_path, monkeypatch):
+    scene = _scene(tmp_path)
+    monkeypatch.setattr(distributed, "CONNECT_SECONDS", 1)
+    with pytest.raises(ConfigError, match="tcp://127.0.0.1:9.*no Dask scheduler answered"):
+        distributed.grow(scene, tmp_path / "h.usdc", "tcp://127.0.0.1:9")
+    for bad in ("local:0", "local:two", "local:"):
+        with pytest.raises(ConfigError, match="whole number of workers"):
+            distributed.grow(scene, tmp_path / "h.usdc", bad)
+    assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
+
+
+def test_the_cli_grows_on_a_local_cluster_in_a_terminal(tmp_path):
+    (tmp_path / "s.toml").write_text(SCENE)
+    warm()
+    out = run_cli(
+        "grow",
+        "s.toml",
+        "-o",
+        "h.abc",
+        "--scheduler",
+        "local:2",
+        "--chunk",
+        1000,
+        cwd=tmp_path,
+        tty=True,
+        timeout=300,
+    )
+    assert out.rc == 0, out.stdout + out.stderr
+    assert "3,000 hairs" in out.stdout and "Traceback" not in out.stdout
+    single = run_cli("grow", "s.toml", "-o", "one.abc", cwd=tmp_path, timeout=300)
+    assert single.rc == 0
+    assert (tmp_path / "h.abc").read_bytes() == (tmp_path / "one.abc").read_bytes()
+    refused = run_cli("grow", "s.toml", "-o", "x.abc", "--chunk", 10, cwd=tmp_path)
+    assert_cli_refused(refused, "--chunk", "--scheduler")
+    refused = run_cli("grow", "s.toml", "-o", "x.abc", "--scheduler", "local:0", cwd=tmp_path)
+    assert_cli_refused(refused, "--scheduler", "local:0")
+    assert not (tmp_path / "x.abc").exists()
+
+
+def test_ctrl_c_stops_the_workers_and_leaves_no_parts(tmp_path):
+    """SIGINT while the workers write parts: they are stopped first, then the parts
+    folder and any temporary output go; exit 130."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "s.toml").write_text("[groom]\ncount = 2000000\n")
+    warm()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "follicle.cli", "grow", "s.toml", "-o", "h.usdc"]
+        + ["--scheduler", "local:2", "--chunk", "20000"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    deadline = time.monotonic() + 120
+    while not list(tmp_path.glob(".h.usdc.parts-*/part_*.npz")):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    time.sleep(2)  # a worker still running would write again by now
+    assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
