@@ -132,3 +132,41 @@ def test_ctrl_c_stops_the_workers_and_leaves_no_parts(tmp_path):
     assert proc.returncode == 130, err
     time.sleep(2)  # a worker still running would write again by now
     assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
+
+
+def test_a_worker_killed_mid_run_is_replaced_and_the_file_still_equals(tmp_path):
+    """SIGKILL to a worker process while it grows its range: Dask's nanny starts another
+    and the scheduler runs the lost task again; the file is the single-process one."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import psutil
+
+    (tmp_path / "s.toml").write_text("[groom]\ncount = 400000\n")
+    warm()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "follicle.cli", "grow", "s.toml", "-o", "h.hair"]
+        + ["--scheduler", "local:2", "--chunk", "20000"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    deadline = time.monotonic() + 120
+    while not list(tmp_path.glob(".h.hair.parts-*/part_*.npz")):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.05)
+    workers = [
+        p
+        for p in psutil.Process(proc.pid).children(recursive=True)
+        if "spawn_main" in " ".join(p.cmdline()) or "forkserver" in " ".join(p.cmdline())
+    ]
+    assert workers, [p.cmdline() for p in psutil.Process(proc.pid).children(recursive=True)]
+    workers[-1].send_signal(signal.SIGKILL)
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    single = run_cli("grow", "s.toml", "-o", "one.hair", cwd=tmp_path, timeout=300)
+    assert single.rc == 0
+    assert (tmp_path / "h.hair").read_bytes() == (tmp_path / "one.hair").read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["h.hair", "one.hair", "s.toml"]
