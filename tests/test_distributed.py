@@ -5,6 +5,11 @@ no file behind."""
 
 from __future__ import annotations
 
+import signal
+import subprocess
+import sys
+import time
+
 import pytest
 
 import follicle.distributed as distributed
@@ -13,8 +18,6 @@ from follicle.io.dispatch import save
 from follicle.pipeline import groom_scene
 from follicle.scene import scene_from_toml
 from hostile import assert_cli_refused, run_cli, warm
-
-pytest.importorskip("distributed")
 
 SCENE = "[groom]\ncount = 3000\n"
 
@@ -106,27 +109,29 @@ def test_the_cli_grows_on_a_local_cluster_in_a_terminal(tmp_path):
     assert not (tmp_path / "x.abc").exists()
 
 
-def test_ctrl_c_stops_the_workers_and_leaves_no_parts(tmp_path):
-    """SIGINT while the workers write parts: they are stopped first, then the parts
-    folder and any temporary output go; exit 130."""
-    import signal
-    import subprocess
-    import sys
-    import time
-
-    (tmp_path / "s.toml").write_text("[groom]\ncount = 2000000\n")
+def _grow_until_parts(tmp_path, count: int, out: str) -> subprocess.Popen:
+    """`follicle grow` of ``count`` hairs to ``out`` on local:2 in tasks of 20,000, in a
+    child process, returned once its first part is written."""
+    (tmp_path / "s.toml").write_text(f"[groom]\ncount = {count}\n")
     warm()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "follicle.cli", "grow", "s.toml", "-o", "h.usdc"]
+        [sys.executable, "-m", "follicle.cli", "grow", "s.toml", "-o", out]
         + ["--scheduler", "local:2", "--chunk", "20000"],
         cwd=tmp_path,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
     deadline = time.monotonic() + 120
-    while not list(tmp_path.glob(".h.usdc.parts-*/part_*.npz")):
+    while not list(tmp_path.glob(f".{out}.parts-*/part_*.npz")):
         assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
         time.sleep(0.05)
+    return proc
+
+
+def test_ctrl_c_stops_the_workers_and_leaves_no_parts(tmp_path):
+    """SIGINT while the workers write parts: they are stopped first, then the parts
+    folder and any temporary output go; exit 130."""
+    proc = _grow_until_parts(tmp_path, 2_000_000, "h.usdc")
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
@@ -137,34 +142,14 @@ def test_ctrl_c_stops_the_workers_and_leaves_no_parts(tmp_path):
 def test_a_worker_killed_mid_run_is_replaced_and_the_file_still_equals(tmp_path):
     """SIGKILL to a worker process while it grows its range: Dask's nanny starts another
     and the scheduler runs the lost task again; the file is the single-process one."""
-    import signal
-    import subprocess
-    import sys
-    import time
-
     import psutil
 
-    (tmp_path / "s.toml").write_text("[groom]\ncount = 400000\n")
-    warm()
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "follicle.cli", "grow", "s.toml", "-o", "h.hair"]
-        + ["--scheduler", "local:2", "--chunk", "20000"],
-        cwd=tmp_path,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-    )
-    deadline = time.monotonic() + 120
-    while not list(tmp_path.glob(".h.hair.parts-*/part_*.npz")):
-        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
-        time.sleep(0.05)
-    workers = [
-        p
-        for p in psutil.Process(proc.pid).children(recursive=True)
-        if "spawn_main" in " ".join(p.cmdline()) or "forkserver" in " ".join(p.cmdline())
-    ]
-    assert workers, [p.cmdline() for p in psutil.Process(proc.pid).children(recursive=True)]
+    proc = _grow_until_parts(tmp_path, 400_000, "h.hair")
+    children = psutil.Process(proc.pid).children(recursive=True)
+    workers = [p for p in children if "spawn_main" in " ".join(p.cmdline())]
+    assert workers, [p.cmdline() for p in children]
     workers[-1].send_signal(signal.SIGKILL)
-    out, err = proc.communicate(timeout=300)
+    _, err = proc.communicate(timeout=300)
     assert proc.returncode == 0, err
     single = run_cli("grow", "s.toml", "-o", "one.hair", cwd=tmp_path, timeout=300)
     assert single.rc == 0

@@ -195,19 +195,11 @@ def test_the_roots_ride_the_deforming_skin(simulated, files):
 
 
 def test_the_cache_keeps_the_skin_and_says_so(simulated, tmp_path):
-    from follicle.io.sim_cache import save_cache
+    from follicle.io.sim_cache import write_cache
     from follicle.pipeline import describe_cache
 
     _, _, cache, _ = simulated
-    path = save_cache(
-        tmp_path / "sim.npz",
-        cache.positions,
-        cache.transforms,
-        cache.fps,
-        cache.scene_toml,
-        cache.base_dir,
-        skin_vertices=cache.skin_vertices,
-    )
+    path = write_cache(cache, tmp_path / "sim.npz")
     back = load_cache(path)
     np.testing.assert_array_equal(back.skin_vertices, cache.skin_vertices)
     with np.load(path) as npz:

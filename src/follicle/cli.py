@@ -606,7 +606,7 @@ def simulate(
     vertices) and the scene itself (.npz); `follicle render CACHE.npz -o FOLDER` grows
     and renders the hair of each frame.
     """
-    from .io.sim_cache import save_cache
+    from .io.sim_cache import write_cache
     from .pipeline import simulate_scene
     from .scene import load_scene
 
@@ -633,15 +633,7 @@ def simulate(
     steps = cache.frame_count - 1
     rate = f"{steps / (end - stepping[0]):.1f} frames/s" if steps else "no steps"
     with _step("save"):
-        save_cache(
-            target,
-            cache.positions,
-            cache.transforms,
-            cache.fps,
-            cache.scene_toml,
-            cache.base_dir,
-            skin_vertices=cache.skin_vertices,
-        )
+        write_cache(cache, target)
     moved = scene.sim.motion if scene.sim.skin_animation is None else "skin animation"
     click.echo(
         f"{cache.frame_count} frames at {cache.fps:g} fps ({moved}),"

@@ -372,14 +372,8 @@ def _objects(
     while stack:
         obj, world = stack.pop()
         if AbcGeom.IXform.matches(obj.getHeader()):
-            schema = AbcGeom.IXform(obj, _EXISTING).getSchema()
-            local = np.array(schema.getValue(sel).getMatrix(), dtype=np.float64)
-            if local.shape != (4, 4) or not np.isfinite(local).all():
-                raise Refused(
-                    f"{source}: {obj.getFullName()}: its transform is not finite"
-                    " (NaN or inf); fix the Xform"
-                )
-            world = local @ world if schema.getInheritsXforms(sel) else local
+            local, inherits = _xform(obj, sel, source)
+            world = local @ world if inherits else local
         yield obj, world
         stack.extend((child, world) for child in reversed(list(obj.children)))
 
@@ -498,17 +492,24 @@ def _world_at(obj: Abc.IObject, sel: Abc.ISampleSelector, source: str) -> np.nda
     the Xforms above it, nearest first, until one that does not inherit."""
     world = np.eye(4)
     for parent in _parents(obj):
-        schema = AbcGeom.IXform(parent, _EXISTING).getSchema()
-        local = np.array(schema.getValue(sel).getMatrix(), dtype=np.float64)
-        if local.shape != (4, 4) or not np.isfinite(local).all():
-            raise Refused(
-                f"{source}: {parent.getFullName()}: its transform is not finite"
-                " (NaN or inf); fix the Xform"
-            )
+        local, inherits = _xform(parent, sel, source)
         world = world @ local
-        if not schema.getInheritsXforms(sel):
+        if not inherits:
             break
     return world
+
+
+def _xform(obj: Abc.IObject, sel: Abc.ISampleSelector, source: str) -> tuple[np.ndarray, bool]:
+    """An Xform's local matrix (row vectors) at ``sel`` and whether it inherits its
+    parent's; Refused when the matrix is not finite."""
+    schema = AbcGeom.IXform(obj, _EXISTING).getSchema()
+    local = np.array(schema.getValue(sel).getMatrix(), dtype=np.float64)
+    if local.shape != (4, 4) or not np.isfinite(local).all():
+        raise Refused(
+            f"{source}: {obj.getFullName()}: its transform is not finite (NaN or inf); fix"
+            " the Xform"
+        )
+    return local, bool(schema.getInheritsXforms(sel))
 
 
 def _sampled_times(obj: Abc.IObject, schema: object) -> list[float]:

@@ -35,6 +35,7 @@ from ..validate import positive
 from .npz import load_arrays, save_arrays
 
 __all__ = [
+    "write_cache",
     "CACHE_FORMAT",
     "CACHE_VERSION",
     "SimCache",
@@ -190,6 +191,20 @@ def save_cache(
     if cache.skin_vertices is not None:
         arrays["skin_vertices"] = cache.skin_vertices
     return save_arrays(path, arrays)
+
+
+def write_cache(cache: SimCache, path: str | os.PathLike[str]) -> Path:
+    """:func:`save_cache` of everything ``cache`` holds (a simulation's, before it is
+    written)."""
+    return save_cache(
+        path,
+        cache.positions,
+        cache.transforms,
+        cache.fps,
+        cache.scene_toml,
+        cache.base_dir,
+        skin_vertices=cache.skin_vertices,
+    )
 
 
 def is_cache(path: str | os.PathLike[str]) -> bool:
