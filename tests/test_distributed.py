@@ -122,7 +122,7 @@ def _grow_until_parts(tmp_path, count: int, out: str) -> subprocess.Popen:
         stderr=subprocess.PIPE,
     )
     deadline = time.monotonic() + 120
-    while not list(tmp_path.glob(f".{out}.parts-*/part_*.npz")):
+    while not list(tmp_path.glob(f".{out}.parts-*/part_*")):
         assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
         time.sleep(0.05)
     return proc
