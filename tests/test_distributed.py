@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -109,11 +110,20 @@ def test_the_cli_grows_on_a_local_cluster_in_a_terminal(tmp_path):
     assert not (tmp_path / "x.abc").exists()
 
 
+SHM = Path("/dev/shm")
+
+
+def _parts_folders(out: str) -> set[Path]:
+    """The parts folders of a local grow to a file named ``out``, in memory."""
+    return set(SHM.glob(f".{out}.parts-*"))
+
+
 def _grow_until_parts(tmp_path, count: int, out: str) -> subprocess.Popen:
     """`follicle grow` of ``count`` hairs to ``out`` on local:2 in tasks of 20,000, in a
-    child process, returned once its first part is written."""
+    child process, returned once a worker has written its first part (in /dev/shm)."""
     (tmp_path / "s.toml").write_text(f"[groom]\ncount = {count}\n")
     warm()
+    before = _parts_folders(out)
     proc = subprocess.Popen(
         [sys.executable, "-m", "follicle.cli", "grow", "s.toml", "-o", out]
         + ["--scheduler", "local:2", "--chunk", "20000"],
@@ -122,7 +132,7 @@ def _grow_until_parts(tmp_path, count: int, out: str) -> subprocess.Popen:
         stderr=subprocess.PIPE,
     )
     deadline = time.monotonic() + 120
-    while not list(tmp_path.glob(f".{out}.parts-*/part_*")):
+    while not any(list(folder.iterdir()) for folder in _parts_folders(out) - before):
         assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
         time.sleep(0.05)
     return proc
@@ -131,12 +141,14 @@ def _grow_until_parts(tmp_path, count: int, out: str) -> subprocess.Popen:
 def test_ctrl_c_stops_the_workers_and_leaves_no_parts(tmp_path):
     """SIGINT while the workers write parts: they are stopped first, then the parts
     folder and any temporary output go; exit 130."""
+    before = _parts_folders("h.usdc")
     proc = _grow_until_parts(tmp_path, 2_000_000, "h.usdc")
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     time.sleep(2)  # a worker still running would write again by now
     assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
+    assert _parts_folders("h.usdc") == before
 
 
 def test_a_worker_killed_mid_run_is_replaced_and_the_file_still_equals(tmp_path):
@@ -155,3 +167,60 @@ def test_a_worker_killed_mid_run_is_replaced_and_the_file_still_equals(tmp_path)
     assert single.rc == 0
     assert (tmp_path / "h.hair").read_bytes() == (tmp_path / "one.hair").read_bytes()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["h.hair", "one.hair", "s.toml"]
+
+
+def test_a_part_reads_back_equal_and_a_second_writer_keeps_the_first(tmp_path):
+    """Parts carry every array; a task run twice over one part leaves that part whole."""
+    scene = _scene(tmp_path)
+    curves = distributed.target_chunk(groom_scene(scene), groom_scene(scene).generate(50), "unreal")
+    distributed.write_part(curves, tmp_path / "p")
+    distributed.write_part(curves[:10], tmp_path / "p")  # a late duplicate of the task
+    back = distributed.read_part(tmp_path / "p")
+    assert back.curve_count == 50 and (back.points == curves.points).all()
+    assert sorted(back.point_data) == sorted(curves.point_data)
+    assert sorted(back.curve_data) == sorted(curves.curve_data)
+    for name, arr in curves.curve_data.items():
+        assert (back.curve_data[name] == arr).all(), name
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p", "s.toml"]
+
+
+def test_streamed_results_come_in_order_with_a_bounded_window(tmp_path):
+    """Tasks of uneven length come back in call order, and no more than ``ahead`` are
+    ever submitted and not handed over: when result k is handed over, at most tasks
+    0 … k + ahead have started."""
+    calls = [(str(tmp_path), i, 0.05 * (i % 3)) for i in range(12)]
+    with distributed.cluster("local:2") as client:
+        got, most = [], 0
+        for k, result in enumerate(distributed.streamed(client, _sleepy, calls, "t", ahead=3)):
+            started = {int(p.name) for p in tmp_path.iterdir()}
+            assert max(started) <= k + 3, (k, sorted(started))
+            most = max(most, len(started) - k)
+            got.append(result)
+    assert got == [i * i for i in range(12)]
+    assert most >= 2  # and the workers did run ahead
+
+
+def _sleepy(folder: str, i: int, seconds: float) -> int:
+    """A task that marks its start in ``folder``, sleeps, and returns i²."""
+    Path(folder, str(i)).touch()
+    time.sleep(seconds)
+    return i * i
+
+
+def test_a_script_without_a_main_guard_is_told_so(tmp_path):
+    """Local workers import the calling script again: without `if __name__ ==
+    "__main__":` they cannot start, and the ConfigError says what to write."""
+    script = tmp_path / "job.py"
+    script.write_text(
+        "import follicle.distributed as d\n"
+        "from follicle.errors import ConfigError\n"
+        "try:\n"
+        "    d.connect('local:1')\n"
+        "except ConfigError as exc:\n"
+        "    print('REFUSED', exc)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path
+    )
+    assert "REFUSED --scheduler 'local:1'" in done.stdout, done.stdout + done.stderr
+    assert 'if __name__ == "__main__":' in done.stdout

@@ -1,19 +1,29 @@
-"""Growing on a Dask cluster, byte for byte as one process grows.
+"""Work on a Dask cluster, byte for byte as one process does it; first of all, growing.
 
 Every hair is a pure function of the scene, its seed and its id, so a groom of any size
 splits into ranges of hair ids that any worker can grow alone. :func:`grow` sends one
 Dask task per range of ``chunk`` ids to the cluster (``"local:N"``: a LocalCluster of N
 worker processes on this machine; or a scheduler's address); each worker builds the
-groom once from the scene's TOML text (kept per process), grows its range and writes
-it as a part file in a folder beside the output, which every worker must reach (a
-local disk for ``local:N``, a shared one for a cluster). A part is written to a
-temporary name and renamed, and a task names its part by its range, so a retried or
-speculative task writes the same bytes over the same name: it can neither corrupt nor
-duplicate a part. The client then reads the parts in id order, cuts them into the
-writer's own chunks (:data:`follicle.groom.generator.CHUNK`) and streams them into the
-one output file through the writer a single-process grow uses, so the file is the same,
-byte for byte, for any number of workers and any ``chunk``. The parts folder is removed
-when the file is written or the grow fails; the output is written atomically.
+groom once from the scene's TOML text (kept per process), grows its range and writes it
+as a part (:func:`write_part`: a folder of .npy files, renamed into place whole) in a
+folder every worker must reach: in memory (``/dev/shm``) for a local cluster, beside the
+output for a remote one, which needs a shared disk. Tasks are keyed by their range, so
+a retried or speculative task writes the same part under the same name and can neither
+corrupt nor duplicate one.
+
+The client writes the one output file while the workers grow (:func:`streamed`): it
+takes the parts in id order as they come, maps them (:func:`read_part`), cuts them into
+the writer's own chunks (:data:`follicle.groom.generator.CHUNK`) and streams them
+through the writer a single-process grow uses, so the file is the same, byte for byte,
+for any number of workers and any ``chunk``. Only ``AHEAD`` tasks per worker thread run
+ahead of the writing, so the parts held at once stay bounded whatever the groom's size,
+and each part is removed once written. That writing is the job's critical path; local
+workers run at a lower priority (``WORKER_NICE``) and with their share of the cores for
+numba, so that they use what the writer leaves. The parts folder is removed when the
+file is written or the grow fails (and on SIGINT/SIGTERM); the output is atomic.
+
+The pieces (:func:`cluster`, :func:`submit_all`, :func:`in_order`, :func:`streamed`,
+:func:`task_setup`) serve the other commands that run on a cluster.
 """
 
 from __future__ import annotations
@@ -21,7 +31,9 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import shutil
 import uuid
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -53,6 +65,7 @@ log = logging.getLogger("follicle")
 
 CONNECT_SECONDS = 10  # how long a scheduler's address may take to answer
 WORKER_NICE = 10  # local workers yield the cores to the client's writing (task_setup)
+AHEAD = 3  # grow tasks in flight per worker thread, ahead of the client's writing
 _GROOMS: dict[tuple[str, str], Groom] = {}  # per worker process: the scenes it has built
 
 
@@ -149,6 +162,37 @@ def in_order(futures: list) -> Iterator[object]:
         yield result
 
 
+def streamed(
+    client: object, fn: Callable[..., R], calls: Sequence[tuple], name: str, ahead: int
+) -> Iterator[R]:
+    """The results of ``fn(*call)`` for each call, in order, computed as Dask tasks (keyed
+    as :func:`submit_all` keys them) with at most ``ahead`` of them submitted and not yet
+    handed over: the workers run ahead of the caller by that much and no more, so their
+    results, held in their memory until fetched, stay bounded whatever the job's size.
+    The first ``ahead`` tasks are submitted at once, before the first result is asked
+    for, so the caller can do its own work while they run."""
+    run = uuid.uuid4().hex
+
+    def submit(i: int) -> object:
+        return client.submit(fn, *calls[i], key=f"follicle-{name}-{run}-{i}")
+
+    pending = deque(submit(i) for i in range(min(ahead, len(calls))))
+
+    def results() -> Iterator[R]:
+        for i in range(len(pending), len(calls) + len(pending)):
+            result = pending.popleft().result()
+            if i < len(calls):
+                pending.append(submit(i))
+            yield result
+
+    return results()
+
+
+def workers_of(client: object) -> int:
+    """How many tasks ``client``'s cluster runs at once (its workers' threads), at least 1."""
+    return max(1, sum(client.nthreads().values()))
+
+
 def task_setup() -> int:
     """Make the calling thread a Dask task's: numba threads set to the worker process's
     share (``NUMBA_NUM_THREADS``, which :func:`connect` sets per local worker) split
@@ -168,39 +212,51 @@ def task_setup() -> int:
 
 
 def write_part(curves: object, path: str | os.PathLike[str]) -> None:
-    """``curves`` (HairCurves) as a part file: its arrays as .npy records one after the
-    other, the first naming the rest. A part lives for one job in its own folder, so it
-    skips .npz's zip directory and its checks against hostile files; it is written to a
-    temporary name and renamed, so a reader never sees half of one."""
-    import json
-
+    """``curves`` (HairCurves) as a part: a folder of one .npy file per array
+    (``points``, ``offsets``, ``p.NAME``, ``c.NAME`` for point and curve data), written
+    under a temporary name and renamed, so a reader never sees half of one and a task
+    run twice leaves one. A part lives for one job in a folder of its own, so it skips
+    .npz's zip directory and its checks against hostile files, and it can be mapped."""
     import numpy as np
 
     arrays = {"points": curves.points, "offsets": curves.offsets}
-    arrays.update({f"p.{k}": v for k, v in sorted(curves.point_data.items())})
-    arrays.update({f"c.{k}": v for k, v in sorted(curves.curve_data.items())})
-    tmp = f"{path}.{os.getpid()}.tmp"
-    with open(tmp, "wb") as fh:
-        np.lib.format.write_array(fh, np.array(json.dumps(list(arrays))), allow_pickle=False)
-        for arr in arrays.values():
-            np.lib.format.write_array(fh, np.ascontiguousarray(arr), allow_pickle=False)
-    os.replace(tmp, path)
+    arrays.update({f"p.{k}": v for k, v in curves.point_data.items()})
+    arrays.update({f"c.{k}": v for k, v in curves.curve_data.items()})
+    target = Path(path)
+    tmp = target.with_name(f"{target.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    tmp.mkdir()
+    for name, arr in arrays.items():
+        np.save(tmp / f"{name}.npy", np.ascontiguousarray(arr), allow_pickle=False)
+    try:
+        os.rename(tmp, target)
+    except OSError:  # the same part, written by a retried task first: keep that one
+        shutil.rmtree(tmp, ignore_errors=True)
+        if not target.is_dir():
+            raise
 
 
 def read_part(path: str | os.PathLike[str]) -> object:
-    """The HairCurves of a part :func:`write_part` wrote."""
-    import json
-
+    """The HairCurves of a part :func:`write_part` wrote, its arrays mapped (read-only)
+    from the files, not copied."""
     import numpy as np
 
     from .curves import HairCurves
 
-    with open(path, "rb") as fh:
-        names = json.loads(str(np.lib.format.read_array(fh, allow_pickle=False)))
-        arrays = {name: np.lib.format.read_array(fh, allow_pickle=False) for name in names}
+    arrays = {f.name[:-4]: np.load(f, mmap_mode="r") for f in sorted(Path(path).glob("*.npy"))}
     pd = {k[2:]: v for k, v in arrays.items() if k.startswith("p.")}
     cd = {k[2:]: v for k, v in arrays.items() if k.startswith("c.")}
     return HairCurves(arrays["points"], arrays["offsets"], pd, cd)
+
+
+def parts_folder(out: Path, local: bool) -> contextlib.AbstractContextManager[Path]:
+    """A temporary folder for a job's parts (removed on leaving, and on a signal): for a
+    local cluster in memory (``/dev/shm``, where there is one: a part costs a copy, not
+    a disk write and read), else beside ``out``, where every worker of a cluster must
+    reach it."""
+    shm = Path("/dev/shm")
+    if local and shm.is_dir() and os.access(shm, os.W_OK):
+        return temporary_folder(shm / out.name, "parts")
+    return temporary_folder(out, "parts")
 
 
 def target_chunk(groom: Groom, chunk: object, target: str) -> object:
@@ -233,8 +289,8 @@ def _groom(text: str, base_dir: str) -> Groom:
 
 
 def _grow_part(text: str, base_dir: str, start: int, count: int, target: str, path: str) -> int:
-    """A worker's task: hairs ``start`` … ``start + count − 1`` written to the part file
-    ``path``; returns their point count."""
+    """A worker's task: hairs ``start`` … ``start + count − 1`` written as the part
+    ``path`` (:func:`write_part`); returns their point count."""
     task_setup()
     groom = _groom(text, base_dir)
     part = target_chunk(groom, groom.generate(count, start), target)
@@ -278,59 +334,40 @@ def grow(
     writes; USD and Alembic with the guides and, with ``skin``, the skin for
     ``target``), the same bytes as a grow in one process (see the module). Returns
     (hairs, points); ``progress(done, total)`` is called as parts are written."""
+    from .curves import HairCurves
+    from .io.dispatch import save
     from .pipeline import groom_scene
 
     chunk = whole(chunk, "chunk", 1)
     out = Path(out)
-    groom = groom_scene(scene)  # here too: the guides and skin of the file, and errors now
-    with cluster(scheduler) as client, temporary_folder(out, "parts") as parts_dir:
-        return _grow_on(client, groom, scene, out, parts_dir, chunk, target, skin, progress)
-
-
-def _grow_on(
-    client: object,
-    groom: Groom,
-    scene: Scene,
-    out: Path,
-    parts_dir: Path,
-    chunk: int,
-    target: str,
-    skin: bool,
-    progress: Callable[[int, int], None] | None,
-) -> tuple[int, int]:
-    """:func:`grow`'s work on a connected ``client``, parts in ``parts_dir``: the parts
-    are written into the file in id order as they arrive, while the later ones grow,
-    and each part is removed once written."""
-    from .curves import HairCurves
-    from .io.dispatch import save
-
-    total = groom.params.count
+    total = scene.groom.count
     text = scene_to_toml(scene, comments=False)
-    ranges = [(a, min(chunk, total - a)) for a in range(0, total, chunk)]
-    paths = [parts_dir / f"part_{a:012d}" for a, _ in ranges]
-    calls = [
-        (text, str(scene.base_dir), a, n, target, str(p))
-        for (a, n), p in zip(ranges, paths, strict=True)
-    ]
-    futures = submit_all(client, _grow_part, calls, "grow")
-    tally = [0]
+    local = scheduler.startswith("local:")
+    with cluster(scheduler) as client, parts_folder(out, local) as folder:
+        calls = [
+            (text, str(scene.base_dir), a, min(chunk, total - a), target, str(folder / f"{a:012d}"))
+            for a in range(0, total, chunk)
+        ]
+        done = streamed(client, _grow_part, calls, "grow", AHEAD * workers_of(client))
+        groom = groom_scene(scene)  # the guides and skin of the file, as the tasks run
+        tally = [0]
 
-    def parts() -> Iterator[HairCurves]:
-        for (a, n), path, _ in zip(ranges, paths, in_order(futures), strict=True):
-            part = read_part(path)
-            path.unlink()
-            tally[0] += part.point_count
-            if progress is not None:
-                progress(a + n, total)
-            yield part
+        def written() -> Iterator[HairCurves]:
+            for (*_, a, n, _, path), points in zip(calls, done, strict=True):
+                part = read_part(path)
+                tally[0] += points
+                yield part
+                shutil.rmtree(path, ignore_errors=True)
+                if progress is not None:
+                    progress(a + n, total)
 
-    extras = {}
-    if out.suffix.lower() in NAMED_FORMATS:  # as `follicle grow` writes them
-        extras = {"target": target, "guides": groom.guides.curves}
-        extras["mesh"] = groom.mesh if skin else None
-    chunks = _rechunked(parts(), CHUNK) if total else iter([groom.generate(count=0)])
-    if out.suffix.lower() == ".npz":
-        save(HairCurves.concatenate(list(chunks)), out)
-    else:
-        save(chunks, out, **extras)
+        extras = {}
+        if out.suffix.lower() in NAMED_FORMATS:  # as `follicle grow` writes them
+            extras = {"target": target, "guides": groom.guides.curves}
+            extras["mesh"] = groom.mesh if skin else None
+        chunks = _rechunked(written(), CHUNK) if total else iter([groom.generate(count=0)])
+        if out.suffix.lower() == ".npz":
+            save(HairCurves.concatenate(list(chunks)), out)
+        else:
+            save(chunks, out, **extras)
     return total, tally[0]

@@ -87,6 +87,7 @@ from .alembic_guard import check_archive, read_curves, read_mesh
 from .alembic_sink import send
 from .animation import Animation, animation, as_guides
 from .attributes import column, conventional
+from .curve_bounds import vertex_bounds
 from .guard import curves_from_parts
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
@@ -148,7 +149,8 @@ def _bounds(points: np.ndarray, width: np.ndarray | None) -> np.ndarray:
     if not len(points):
         return np.zeros((2, 3))
     pad = 0.5 * float(width.max()) if width is not None and width.size else 0.0
-    return np.stack([points.min(axis=0) - pad, points.max(axis=0) + pad]).astype(np.float64)
+    lo, hi = vertex_bounds(points) if points.dtype == np.float32 else (points.min(0), points.max(0))
+    return np.stack([lo - pad, hi + pad]).astype(np.float64)
 
 
 def _curves_arrays(curves: HairCurves, normals: bool) -> tuple[list, dict[str, np.ndarray]]:

@@ -61,6 +61,7 @@ from ..errors import FormatError
 from ..inputs import input_file
 from .animation import Animation, animation, as_guides
 from .attributes import column, conventional
+from .curve_bounds import catmull_rom_bounds
 from .guard import curves_from_parts
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
@@ -142,20 +143,11 @@ def _primvar_value(arr: np.ndarray) -> tuple[Sdf.ValueTypeName, object] | None:
 
 # ------------------------------------------------------------------ writing
 def _extent(points: np.ndarray, offsets: np.ndarray, widths: np.ndarray | None) -> Vt.Vec3fArray:
-    """Bounds of pinned Catmull-Rom curves: each segment lies in the hull of its Bézier
-    points P_i ± m_i / 3 (m_i the vertex tangent, phantom ends as USD defines them)."""
-    m = np.empty_like(points)
-    np.subtract(points[2:], points[:-2], out=m[1:-1])
-    m[1:-1] *= 0.5
-    starts, ends = offsets[:-1], offsets[1:] - 1
-    m[starts] = points[starts + 1] - points[starts]
-    m[ends] = points[ends] - points[ends - 1]
-    np.abs(m, out=m)
-    m /= 3.0
+    """Bounds of pinned Catmull-Rom curves (:func:`catmull_rom_bounds`) padded by half
+    the widest width."""
     pad = 0.5 * float(widths.max()) if widths is not None and widths.size else 0.0
-    lo = np.subtract(points, m).min(axis=0) - pad
-    hi = np.add(points, m, out=m).max(axis=0) + pad
-    return Vt.Vec3fArray([Gf.Vec3f(*lo.tolist()), Gf.Vec3f(*hi.tolist())])
+    lo, hi = catmull_rom_bounds(points, offsets)
+    return Vt.Vec3fArray([Gf.Vec3f(*(lo - pad).tolist()), Gf.Vec3f(*(hi + pad).tolist())])
 
 
 def _define_curves(stage: Usd.Stage, path: str, curves: HairCurves, normals: bool) -> None:
