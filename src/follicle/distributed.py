@@ -12,14 +12,13 @@ a retried or speculative task writes the same part under the same name and can n
 corrupt nor duplicate one.
 
 The client writes the one output file while the workers grow (:func:`streamed`): it
-takes the parts in id order as they come, maps them (:func:`read_part`), cuts them into
+takes the parts in id order as they come (:func:`read_part`), cuts them into
 the writer's own chunks (:data:`follicle.groom.generator.CHUNK`) and streams them
 through the writer a single-process grow uses, so the file is the same, byte for byte,
 for any number of workers and any ``chunk``. Only ``AHEAD`` tasks per worker thread run
 ahead of the writing, so the parts held at once stay bounded whatever the groom's size,
-and each part is removed once written. That writing is the job's critical path; local
-workers run at a lower priority (``WORKER_NICE``) and with their share of the cores for
-numba, so that they use what the writer leaves. The parts folder is removed when the
+and each part is removed once written. Local workers get their share of the cores for
+numba (:func:`task_setup`). The parts folder is removed when the
 file is written or the grow fails (and on SIGINT/SIGTERM); the output is atomic.
 
 The pieces (:func:`cluster`, :func:`submit_all`, :func:`in_order`, :func:`streamed`,
@@ -44,6 +43,7 @@ from .errors import ConfigError
 from .groom.generator import CHUNK, Groom
 from .io.targets import NAMED_FORMATS
 from .scene import Scene, scene_from_toml, scene_to_toml
+from .threads import threads_for
 from .validate import whole
 
 __all__ = [
@@ -64,7 +64,6 @@ R = TypeVar("R")
 log = logging.getLogger("follicle")
 
 CONNECT_SECONDS = 10  # how long a scheduler's address may take to answer
-WORKER_NICE = 10  # local workers yield the cores to the client's writing (task_setup)
 AHEAD = 3  # grow tasks in flight per worker thread, ahead of the client's writing
 _GROOMS: dict[tuple[str, str], Groom] = {}  # per worker process: the scenes it has built
 
@@ -97,10 +96,7 @@ def connect(scheduler: str) -> object:
                 processes=True,
                 dashboard_address=":0",
                 silence_logs=logging.ERROR,
-                env={
-                    "NUMBA_NUM_THREADS": str(max(1, (cores or 1) // int(n))),
-                    "FOLLICLE_WORKER_NICE": str(WORKER_NICE),
-                },
+                env={"NUMBA_NUM_THREADS": str(max(1, (cores or 1) // int(n)))},
             )
         except RuntimeError:
             raise ConfigError(
@@ -196,18 +192,14 @@ def workers_of(client: object) -> int:
 def task_setup() -> int:
     """Make the calling thread a Dask task's: numba threads set to the worker process's
     share (``NUMBA_NUM_THREADS``, which :func:`connect` sets per local worker) split
-    between the worker's task threads, and on a local cluster the thread's priority
-    lowered (``FOLLICLE_WORKER_NICE``): the client, which writes the one output file, is
-    the job's critical path and shares these cores. Returns the numba thread count."""
+    between the worker's task threads, so that the workers of one machine do not ask
+    for more threads than it has cores. Returns the numba thread count."""
     import numba
+
     from distributed import get_worker
 
     threads = max(1, numba.config.NUMBA_NUM_THREADS // get_worker().state.nthreads)
     numba.set_num_threads(threads)
-    nice = int(os.environ.get("FOLLICLE_WORKER_NICE", "0"))
-    if nice and hasattr(os, "setpriority"):
-        with contextlib.suppress(OSError):  # Linux: this thread; elsewhere: the process
-            os.setpriority(os.PRIO_PROCESS, 0, nice)
     return threads
 
 
@@ -216,7 +208,7 @@ def write_part(curves: object, path: str | os.PathLike[str]) -> None:
     (``points``, ``offsets``, ``p.NAME``, ``c.NAME`` for point and curve data), written
     under a temporary name and renamed, so a reader never sees half of one and a task
     run twice leaves one. A part lives for one job in a folder of its own, so it skips
-    .npz's zip directory and its checks against hostile files, and it can be mapped."""
+    .npz's zip directory and its checks against hostile files."""
     import numpy as np
 
     arrays = {"points": curves.points, "offsets": curves.offsets}
@@ -236,13 +228,13 @@ def write_part(curves: object, path: str | os.PathLike[str]) -> None:
 
 
 def read_part(path: str | os.PathLike[str]) -> object:
-    """The HairCurves of a part :func:`write_part` wrote, its arrays mapped (read-only)
-    from the files, not copied."""
+    """The HairCurves of a part :func:`write_part` wrote, read into memory (mapping it
+    saves the copy but pays as much in page faults, measured)."""
     import numpy as np
 
     from .curves import HairCurves
 
-    arrays = {f.name[:-4]: np.load(f, mmap_mode="r") for f in sorted(Path(path).glob("*.npy"))}
+    arrays = {f.name[:-4]: np.load(f) for f in sorted(Path(path).glob("*.npy"))}
     pd = {k[2:]: v for k, v in arrays.items() if k.startswith("p.")}
     cd = {k[2:]: v for k, v in arrays.items() if k.startswith("c.")}
     return HairCurves(arrays["points"], arrays["offsets"], pd, cd)
@@ -366,8 +358,12 @@ def grow(
             extras = {"target": target, "guides": groom.guides.curves}
             extras["mesh"] = groom.mesh if skin else None
         chunks = _rechunked(written(), CHUNK) if total else iter([groom.generate(count=0)])
-        if out.suffix.lower() == ".npz":
-            save(HairCurves.concatenate(list(chunks)), out)
-        else:
-            save(chunks, out, **extras)
+        # a local cluster's workers hold the other cores: the client's own kernels (the
+        # parts' checks, the bounds) on its one, where a parallel kernel's join would
+        # wait for threads the workers hold (3× the time of the checks here)
+        with threads_for(1, 1) if local else contextlib.nullcontext():
+            if out.suffix.lower() == ".npz":
+                save(HairCurves.concatenate(list(chunks)), out)
+            else:
+                save(chunks, out, **extras)
     return total, tally[0]
