@@ -224,3 +224,28 @@ def test_a_script_without_a_main_guard_is_told_so(tmp_path):
     )
     assert "REFUSED --scheduler 'local:1'" in done.stdout, done.stdout + done.stderr
     assert 'if __name__ == "__main__":' in done.stdout
+
+
+def test_a_worker_that_lacks_a_file_says_so(tmp_path):
+    """A scene whose texture the worker cannot find (here: its folder given wrong, as a
+    worker without the client's shared disk sees it): the FormatError comes back naming
+    the file, the worker and what every worker needs."""
+    from follicle.errors import FormatError
+
+    text = "[groom]\ncount = 100\ndensity = 'density.png'\n"
+    with distributed.cluster("local:1") as client:
+        future = client.submit(
+            distributed._grow_part,
+            text,
+            str(tmp_path / "elsewhere"),
+            0,
+            100,
+            "generic",
+            str(tmp_path / "part"),
+        )
+        with pytest.raises(FormatError) as err:
+            future.result()
+    message = str(err.value)
+    assert "density.png" in message and "on Dask worker tcp://" in message
+    assert "every worker must reach the scene's files" in message
+    assert not (tmp_path / "part").exists()

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from .atomic import temporary_folder
-from .errors import ConfigError
+from .errors import ConfigError, FollicleError
 from .groom.generator import CHUNK, Groom
 from .io.targets import NAMED_FORMATS
 from .scene import Scene, scene_from_toml, scene_to_toml
@@ -53,6 +53,7 @@ __all__ = [
     "submit_all",
     "in_order",
     "task_setup",
+    "on_worker",
     "write_part",
     "read_part",
     "grow",
@@ -203,6 +204,22 @@ def task_setup() -> int:
     return threads
 
 
+@contextmanager
+def on_worker() -> Iterator[None]:
+    """Run a task's body: a FollicleError raised in it comes back to the client naming
+    the Dask worker and saying what every worker needs (the scene's files and the
+    output's folder at the client's paths), the usual cause on a cluster."""
+    try:
+        yield
+    except FollicleError as exc:
+        from distributed import get_worker
+
+        raise type(exc)(
+            f"on Dask worker {get_worker().address}: {exc} (every worker must reach the"
+            " scene's files and the output's folder at the paths the client gives)"
+        ) from None
+
+
 def write_part(curves: object, path: str | os.PathLike[str]) -> None:
     """``curves`` (HairCurves) as a part: a folder of one .npy file per array
     (``points``, ``offsets``, ``p.NAME``, ``c.NAME`` for point and curve data), written
@@ -284,9 +301,10 @@ def _grow_part(text: str, base_dir: str, start: int, count: int, target: str, pa
     """A worker's task: hairs ``start`` … ``start + count − 1`` written as the part
     ``path`` (:func:`write_part`); returns their point count."""
     task_setup()
-    groom = _groom(text, base_dir)
-    part = target_chunk(groom, groom.generate(count, start), target)
-    write_part(part, path)
+    with on_worker():
+        groom = _groom(text, base_dir)
+        part = target_chunk(groom, groom.generate(count, start), target)
+        write_part(part, path)
     return part.point_count
 
 
