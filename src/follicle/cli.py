@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from .curves import HairCurves
     from .groom.generator import Groom
     from .io.sim_cache import SimCache
+    from .pipeline import SimRun
     from .scene import Scene
 
 log = logging.getLogger("follicle")
@@ -555,13 +556,14 @@ MOTIONS = _choices(SimParams, "motion")
 
 
 @main.command()
-@click.argument("scene_path", metavar="SCENE", type=click.Path())
+@click.argument("scene_paths", metavar="SCENE...", nargs=-1, required=True, type=click.Path())
 @click.option(
     "-o",
     "--out",
-    type=click.Path(dir_okay=False),
+    type=click.Path(),
     default=None,
-    help="Output cache (.npz); default sim.npz in the scene's folder.",
+    help="Output cache (.npz); default sim.npz in the scene's folder. For several scenes,"
+    " a folder: NAME.npz in it for each scene NAME.toml.",
 )
 @click.option(
     "--frames",
@@ -591,56 +593,113 @@ MOTIONS = _choices(SimParams, "motion")
     default=None,
     help="Override [groom].count: the hairs `follicle render` grows from the cache.",
 )
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS|local:N",
+    help="Simulate on a Dask cluster, one task per scene: a scheduler's address, or"
+    " local:N for N worker processes here; each cache is the same, byte for byte"
+    " (needs follicle[dist]).",
+)
 def simulate(
-    scene_path: str,
+    scene_paths: tuple[str, ...],
     out: str | None,
     frames: int,
     fps: float,
     motion: str | None,
     skin_animation: str | None,
     count: int | None,
+    scheduler: str | None,
 ) -> None:
-    """Simulate the guide hairs of a scene under a head or skin animation; save a cache.
+    """Simulate the guide hairs of scenes under a head or skin animation; save a cache each.
 
     Writes the guides of every frame, the head transforms (or the animated skin's
     vertices) and the scene itself (.npz); `follicle render CACHE.npz -o FOLDER` grows
-    and renders the hair of each frame.
+    and renders the hair of each frame. Several scenes are simulated one after another,
+    or side by side on a Dask cluster with --scheduler.
     """
     from .io.sim_cache import write_cache
-    from .pipeline import simulate_scene
+    from .pipeline import timed_simulation
+
+    scenes = [_sim_scene(path, count, motion, skin_animation) for path in scene_paths]
+    targets = _cache_targets(scene_paths, scenes, out)
+    if scheduler is not None:
+        from .distributed_sim import simulate_scenes
+
+        with _step("simulate on Dask"), _progress("simulating scenes on Dask") as progress:
+            runs = simulate_scenes(scenes, targets, scheduler, frames, fps, progress)
+        for scene, run, target in zip(scenes, runs, targets, strict=True):
+            click.echo(_simulated(scene, run, target))
+        return
+    for scene, target in zip(scenes, targets, strict=True):
+        with _step("simulate"), _progress("simulating") as progress:
+            cache, run = timed_simulation(scene, frames, fps, progress)
+        with _step("save"):
+            write_cache(cache, target)
+        click.echo(_simulated(scene, run, target))
+
+
+def _sim_scene(
+    path: str, count: int | None, motion: str | None, skin_animation: str | None
+) -> Scene:
+    """The scene file ``path`` with `follicle simulate`'s overrides."""
     from .scene import load_scene
 
-    scene = _with_overrides(load_scene(scene_path), count=count)
+    scene = _with_overrides(load_scene(path), count=count)
     changes: dict[str, object] = {} if motion is None else {"motion": motion}
     if skin_animation is not None:  # it replaces the scene's motion, not one given here
         changes = {"motion": "none", **changes, "skin_animation": os.path.abspath(skin_animation)}
     if changes:
         scene = scene.replace(sim=scene.sim.replace("command line", **changes))
-    target = out or scene.resolve("sim.npz")
-    _check_writable_suffix(target, (".npz",))
-    start = time.perf_counter()
-    stepping = [start]  # when frame 0 was ready: the set-up (groom, SDF, simulator) is done
+    return scene
 
-    with _step("simulate"), _progress("simulating") as progress:
 
-        def report(done: int, total: int) -> None:
-            if done == 1:
-                stepping[0] = time.perf_counter()
-            progress(done, total)
+def _cache_targets(paths: tuple[str, ...], scenes: list[Scene], out: str | None) -> list[str]:
+    """Where `follicle simulate` writes each scene's cache: ``out`` (default sim.npz in the
+    scene's folder) for one scene; for several, ``out`` must be a folder, and scene
+    NAME.toml goes to OUT/NAME.npz. InputError for what would be ambiguous: several
+    scenes without -o, or with -o a file, or two scenes of one name."""
+    from .errors import InputError
 
-        cache, stats = simulate_scene(scene, frames, fps, report)
-    end = time.perf_counter()
-    steps = cache.frame_count - 1
-    rate = f"{steps / (end - stepping[0]):.1f} frames/s" if steps else "no steps"
-    with _step("save"):
-        write_cache(cache, target)
+    if len(paths) == 1:
+        target = out or scenes[0].resolve("sim.npz")
+        _check_writable_suffix(target, (".npz",))
+        return [target]
+    if out is None:
+        raise InputError(
+            f"{len(paths)} scenes: give -o FOLDER for their caches (FOLDER/NAME.npz for each"
+            " scene NAME.toml)"
+        )
+    folder = Path(out)
+    if folder.suffix.lower() == ".npz" or (folder.exists() and not folder.is_dir()):
+        raise InputError(
+            f"-o {out}: {len(paths)} scenes write a cache each; give -o a folder"
+            " (FOLDER/NAME.npz for each scene NAME.toml)"
+        )
+    targets: dict[str, str] = {}
+    for path in paths:
+        target = str(folder / f"{Path(path).stem}.npz")
+        if target in targets:
+            raise InputError(
+                f"-o {out}: scenes {targets[target]} and {path} would both write {target};"
+                " give the scene files different names"
+            )
+        targets[target] = path
+    return list(targets)
+
+
+def _simulated(scene: Scene, run: SimRun, target: str) -> str:
+    """The line `follicle simulate` prints for a scene simulated into ``target``."""
+    steps = run.frames - 1
+    stepping = run.seconds - run.setup
+    rate = f"{steps / stepping:.1f} frames/s" if steps else "no steps"
     moved = scene.sim.motion if scene.sim.skin_animation is None else "skin animation"
-    click.echo(
-        f"{cache.frame_count} frames at {cache.fps:g} fps ({moved}),"
-        f" {cache.strand_count} guides × {cache.vertex_count} vertices,"
-        f" {end - start:.2f} s ({rate} after {stepping[0] - start:.2f} s of set-up);"
-        f" max stretch {stats['max_stretch']:.2%},"
-        f" max penetration {stats['max_penetration'] * 1000:.2f} mm → {target}"
+    return (
+        f"{run.frames} frames at {run.fps:g} fps ({moved}),"
+        f" {run.strands} guides × {run.vertices} vertices,"
+        f" {run.seconds:.2f} s ({rate} after {run.setup:.2f} s of set-up);"
+        f" max stretch {run.stats['max_stretch']:.2%},"
+        f" max penetration {run.stats['max_penetration'] * 1000:.2f} mm → {target}"
     )
 
 
@@ -692,6 +751,21 @@ def simulate(
     metavar="START:STOP",
     help="A cache's frames to render, STOP excluded (0:24, 10:, or one frame: 5); default all.",
 )
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS|local:N",
+    help="Render a cache's frames on a Dask cluster: a scheduler's address, or local:N for"
+    " N worker processes here; the PNGs (or the MP4) are the same, byte for byte (needs"
+    " follicle[dist]). Every worker must reach CACHE and the output's folder.",
+)
+@click.option(
+    "--frames-per-task",
+    type=int,
+    default=None,
+    help="Consecutive frames per Dask task with --scheduler (default: the frames shared"
+    " into 4 tasks per worker).",
+)
 def render(
     source: str,
     out: str | None,
@@ -703,6 +777,8 @@ def render(
     spp: int | None,
     count: int | None,
     frame_range: str | None,
+    scheduler: str | None,
+    frames_per_task: int | None,
 ) -> None:
     """Render a scene (grown on the fly) or a saved curves file to PNG, or each frame of a
     simulation cache (`follicle simulate`) to a PNG sequence or an MP4, seen through one
@@ -725,6 +801,14 @@ def render(
         }.items()
         if v is not None
     }
+    if frames_per_task is not None:
+        from .validate import whole
+
+        if scheduler is None:
+            raise FollicleError(
+                "--frames-per-task: sizes the Dask tasks of --scheduler; give --scheduler"
+            )
+        whole(frames_per_task, "--frames-per-task", 1)
     if engine == "mitsuba":
         _not_for(source, "--engine mitsuba", shading=shading, msaa=msaa)
     else:
@@ -733,7 +817,7 @@ def render(
         scene = _with_overrides(load_scene(source), count=count)
         target = out or scene.resolve(scene.output.image)
         _check_writable_suffix(target, (".png",))
-        _not_for(source, "a scene", frames=frame_range)
+        _not_for(source, "a scene", frames=frame_range, scheduler=scheduler)
         with _step("grow"), _progress("growing hair") as progress:
             mesh, curves = grow_scene(scene, progress)
         if mesh_path is not None:
@@ -745,13 +829,13 @@ def render(
                 f"{source}: --engine mitsuba renders stills; render a simulation cache with"
                 " --engine opengl or cpu"
             )
-        _render_cache(source, out, overrides, count, frame_range)
+        _render_cache(source, out, overrides, count, frame_range, scheduler, frames_per_task)
         return
     else:
         scene = Scene()
         target = out or str(Path(source).with_suffix(".png"))
         _check_writable_suffix(target, (".png",))
-        _not_for(source, "a curves file", count=count, frames=frame_range)
+        _not_for(source, "a curves file", count=count, frames=frame_range, scheduler=scheduler)
         curves = load_curves(source)
         mesh = load_mesh(mesh_path) if mesh_path else None
     params = scene.render.replace("command line", **overrides)
@@ -778,9 +862,12 @@ def _render_cache(
     overrides: dict[str, object],
     count: int | None,
     frame_range: str | None,
+    scheduler: str | None,
+    frames_per_task: int | None,
 ) -> None:
     """`follicle render CACHE`: every (or --frames) frame to OUT/frame_0000.png, …, or to
-    the video OUT.mp4 (frames encoded as they are rendered)."""
+    the video OUT.mp4 (frames encoded as they are rendered), here or on the Dask cluster
+    ``scheduler`` in tasks of ``frames_per_task`` frames."""
     from .errors import InputError
     from .io.sim_cache import load_cache
     from .pipeline import cache_scene, render_cache
@@ -797,11 +884,18 @@ def _render_cache(
             " .mp4 video; give -o a folder or a .mp4 file"
         )
     start = time.perf_counter()
-    with _step("render"), _progress("rendering frames") as progress:
-        if video:
-            _cache_video(cache, target, scene, frames, progress)
-        else:
-            paths = render_cache(cache, target, scene, frames, progress)
+    if scheduler is not None:
+        from . import distributed_sim
+
+        on_dask = distributed_sim.render_video if video else distributed_sim.render_cache
+        with _step("render on Dask"), _progress("rendering frames on Dask") as progress:
+            paths = on_dask(cache, target, scheduler, scene, frames, frames_per_task, progress)
+    else:
+        with _step("render"), _progress("rendering frames") as progress:
+            if video:
+                _cache_video(cache, target, scene, frames, progress)
+            else:
+                paths = render_cache(cache, target, scene, frames, progress)
     wall = time.perf_counter() - start
     w, h = scene.render.size
     written = target if video else f"{paths[0]}{f' … {paths[-1].name}' if len(paths) > 1 else ''}"

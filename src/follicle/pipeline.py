@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -29,10 +31,17 @@ __all__ = [
     "render_scene",
     "render_scene_mitsuba",
     "simulate_scene",
+    "SimRun",
+    "timed_simulation",
     "cache_scene",
     "describe_cache",
     "render_frames",
     "render_cache",
+    "check_frames",
+    "cache_frame",
+    "sequence_camera",
+    "draw_frames",
+    "frame_name",
 ]
 
 Progress = Callable[[int, int], None]
@@ -169,6 +178,48 @@ def simulate_scene(
     return cache, sim.stats
 
 
+@dataclass(frozen=True)
+class SimRun:
+    """What one simulation made and took, for the line `follicle simulate` prints: the
+    cache's ``frames``, ``fps``, ``strands`` × ``vertices``; ``seconds`` in all, of which
+    ``setup`` before the first step (groom, skin field, simulator); the last frame's
+    ``Simulator.stats``. Small, so a Dask task returns it instead of the cache."""
+
+    frames: int
+    fps: float
+    strands: int
+    vertices: int
+    seconds: float
+    setup: float
+    stats: dict[str, float]
+
+
+def timed_simulation(
+    scene: Scene, frames: int = 48, fps: float = 24.0, progress: Progress | None = None
+) -> tuple[SimCache, SimRun]:
+    """:func:`simulate_scene`, timed: the cache and its :class:`SimRun`."""
+    start = time.perf_counter()
+    stepping = [start]  # when frame 0 was ready: the set-up is done
+
+    def report(done: int, total: int) -> None:
+        if done == 1:
+            stepping[0] = time.perf_counter()
+        if progress is not None:
+            progress(done, total)
+
+    cache, stats = simulate_scene(scene, frames, fps, report)
+    run = SimRun(
+        cache.frame_count,
+        cache.fps,
+        cache.strand_count,
+        cache.vertex_count,
+        time.perf_counter() - start,
+        stepping[0] - start,
+        stats,
+    )
+    return cache, run
+
+
 def cache_scene(cache: SimCache) -> Scene:
     """The scene a simulation cache stores, validated, with relative paths resolved
     against its ``base_dir``; FormatError (the cache is damaged) if it does not parse."""
@@ -224,17 +275,22 @@ def cache_pose(cache: SimCache, mesh: SkinMesh, f: int) -> SkinMesh:
     return mesh.posed(transform=cache.transforms[f])
 
 
-def _sequence_camera(
-    cache: SimCache,
-    groom: Groom,
-    first: HairCurves,
-    params: RenderParams,
-) -> Camera:
+def cache_frame(cache: SimCache, groom: Groom, f: int) -> tuple[HairCurves, SkinMesh]:
+    """Frame ``f`` of ``cache``: the hair ``groom`` grows on its guides, and the skin in
+    its pose (:func:`check_cache_skin` first)."""
+    skin = cache_pose(cache, groom.mesh, f)
+    return groom.follow(cache.positions[f], time=f / cache.fps, pose=skin), skin
+
+
+def sequence_camera(cache: SimCache, groom: Groom, params: RenderParams) -> Camera:
     """One camera for every frame of ``cache``: the scene's eye/target, else framed on
-    frame 0's hair and the head and guides of all frames (no jumps, nothing leaves view)."""
+    frame 0's hair and the head and guides of all frames (no jumps, nothing leaves view).
+    It depends on the whole cache, never on the frames rendered, so any range of frames,
+    rendered anywhere, is seen as the whole sequence is."""
     fixed = params.camera()
     if fixed is not None:
         return fixed
+    first = cache_frame(cache, groom, 0)[0]
     parts = [first.points] if first.point_count else []
     parts.append(cache.positions.reshape(-1, 3))
     if cache.skin_vertices is not None:  # the used vertices of every frame
@@ -258,7 +314,8 @@ def _hull(points: np.ndarray) -> np.ndarray:
         return points
 
 
-def _check_frames(cache: SimCache, frames: range | None) -> range:
+def check_frames(cache: SimCache, frames: range | None) -> range:
+    """``frames`` (None: all) checked to be a non-empty run of the cache's frames."""
     count = cache.frame_count
     frames = range(count) if frames is None else frames
     if (
@@ -285,24 +342,39 @@ def render_frames(
     uint8 sRGB image), all seen through one camera. ``scene`` (default: the cache's own)
     sets the hair and [render]; ``frames`` (default all) picks cache frames. Nothing is
     set up before the first frame is asked for."""
-    frames = _check_frames(cache, frames)
+    frames = check_frames(cache, frames)
     scene = cache_scene(cache) if scene is None else scene
-    params = scene.render
     groom = groom_scene(scene)
     check_cache_skin(cache, groom.mesh)
+    camera = sequence_camera(cache, groom, scene.render)
+    yield from draw_frames(cache, groom, scene.render, frames, camera, progress)
 
-    def frame(f: int) -> tuple[HairCurves, SkinMesh]:
-        """Frame f's hair and the skin in its pose."""
-        skin = cache_pose(cache, groom.mesh, f)
-        return groom.follow(cache.positions[f], time=f / cache.fps, pose=skin), skin
 
-    camera = _sequence_camera(cache, groom, frame(0)[0], params)
+def draw_frames(
+    cache: SimCache,
+    groom: Groom,
+    params: RenderParams,
+    frames: range,
+    camera: Camera,
+    progress: Progress | None = None,
+) -> Iterator[tuple[int, np.ndarray]]:
+    """:func:`render_frames`' drawing: yields (cache frame, image) for ``frames`` of
+    ``cache``, the hair grown by ``groom`` (:func:`check_cache_skin` first), drawn
+    with ``params`` through ``camera`` (:func:`sequence_camera`). A frame's image
+    depends on nothing but the frame, so a run of frames drawn alone (a Dask task's)
+    is the same bytes as in the whole sequence."""
     with make_renderer(params) as renderer:
         for done, f in enumerate(frames, 1):
-            image = renderer.draw(*frame(f), camera=camera, settings=params)
-            yield f, image
+            yield f, renderer.draw(*cache_frame(cache, groom, f), camera=camera, settings=params)
             if progress is not None:
                 progress(done, len(frames))
+
+
+def frame_name(cache: SimCache, f: int) -> str:
+    """The file of cache frame ``f`` in a rendered sequence: ``frame_0000.png``, … with as
+    many digits as the cache's last frame needs (at least four)."""
+    digits = max(4, len(str(cache.frame_count - 1)))
+    return f"frame_{f:0{digits}d}.png"
 
 
 def render_cache(
@@ -318,13 +390,12 @@ def render_cache(
     all) picks cache frames; files are named by cache frame, so ranges add up to one
     sequence seen through one camera (:func:`render_frames`).
     """
-    frames = _check_frames(cache, frames)
-    digits = max(4, len(str(cache.frame_count - 1)))
+    frames = check_frames(cache, frames)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for f, image in render_frames(cache, scene, frames, progress):
-        path = out / f"frame_{f:0{digits}d}.png"
+        path = out / frame_name(cache, f)
         save_png(image, path)
         written.append(path)
     return written

@@ -3,8 +3,8 @@
 yuv420p, the pixel format every player decodes, halves the chroma resolution and so
 needs even width and height: an odd-sized frame gets its last column and/or row
 repeated once (padding by one pixel, nothing cropped). Frames stream to ffmpeg one by
-one, so memory stays at one frame; the file is written to a temporary name beside the
-target and renamed when complete.
+one, so memory stays at one frame; the file is written in a temporary folder beside the
+target and renamed onto it when complete.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import atomic_path
+from ..atomic import temporary_folder
 from ..errors import FormatError, InputError
 from ..validate import positive
 
@@ -66,7 +66,7 @@ class Mp4Writer:
     """An H.264 MP4 at ``path`` written frame by frame (:meth:`write`), for frames that
     come one at a time (a live viewer). :meth:`close` finishes the file; :meth:`abort`
     (or leaving a ``with`` block by an exception) drops it. Until :meth:`close` the
-    video is a temporary file beside ``path``; nothing is left at or beside ``path``
+    video is in a temporary folder beside ``path``; nothing is left at or beside ``path``
     when there are no frames, a frame is bad, or the file cannot be written.
     """
 
@@ -134,9 +134,14 @@ class Mp4Writer:
 
     def _encode(self, first: np.ndarray) -> Generator[None, np.ndarray | None, None]:
         """Encode ``first``, then each frame sent, into a temporary file renamed onto
-        the path when None is sent; closed early (:meth:`abort`), it is removed."""
+        the path when None is sent; closed early (:meth:`abort`), it is removed. The
+        file is in a temporary folder of its own, which a signal's handler removes
+        (:func:`follicle.atomic.remove_pending`): ffmpeg, a process of its own that
+        opens the file by name once started, then finds no folder to write in, where
+        a temporary file removed before it opened it would be made again."""
         h, w = first.shape[:2]
-        with atomic_path(self.path) as tmp:
+        with temporary_folder(self.path, "video") as folder:
+            tmp = folder / self.path.name
             writer = self._ffmpeg.write_frames(
                 str(tmp),
                 (w, h),
@@ -155,6 +160,7 @@ class Mp4Writer:
                     frame = yield
             finally:
                 writer.close()
+            os.replace(tmp, self.path)
 
 
 def write_mp4(frames: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float) -> Path:
