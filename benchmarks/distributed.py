@@ -12,24 +12,15 @@ writes the file (the issue's target: within 1.3× at 4 M hairs to USD). Run:
 from __future__ import annotations
 
 import argparse
-import filecmp
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
+
+from common import follicle, runs, same_output
 
 
 def _grow(folder: Path, out: str, *extra: str) -> float:
     """Seconds of one `follicle grow s.toml -o OUT EXTRA…` in a fresh process."""
-    start = time.perf_counter()
-    subprocess.run(
-        [sys.executable, "-m", "follicle.cli", "grow", "s.toml", "-o", out, *extra],
-        cwd=folder,
-        check=True,
-        stdout=subprocess.DEVNULL,
-    )
-    return time.perf_counter() - start
+    return follicle(folder, "grow", "s.toml", "-o", out, *extra)
 
 
 def main() -> None:
@@ -47,18 +38,14 @@ def main() -> None:
         for _ in range(args.repeat):
             one.append(_grow(folder, f"one{args.ext}"))
             many.append(_grow(folder, f"many{args.ext}", "--scheduler", f"local:{args.workers}"))
-            same = filecmp.cmp(folder / f"one{args.ext}", folder / f"many{args.ext}", False)
+            same = same_output(folder / f"one{args.ext}", folder / f"many{args.ext}")
             assert same, "the distributed file differs from the single-process one"
             (folder / f"many{args.ext}").unlink()
         size = (folder / f"one{args.ext}").stat().st_size
     print(f"{args.count:,} hairs → {args.ext} ({size / 1e6:,.0f} MB), best of {args.repeat}:")
-    print(f"  one process, threaded      {min(one):7.2f} s   (runs: {_runs(one)})")
-    print(f"  --scheduler local:{args.workers}        {min(many):7.2f} s   (runs: {_runs(many)})")
+    print(f"  one process, threaded      {min(one):7.2f} s   (runs: {runs(one)})")
+    print(f"  --scheduler local:{args.workers}        {min(many):7.2f} s   (runs: {runs(many)})")
     print(f"  distributed / one process  {min(many) / min(one):7.2f}×  (target ≤ 1.3×)")
-
-
-def _runs(times: list[float]) -> str:
-    return ", ".join(f"{t:.2f}" for t in times)
 
 
 if __name__ == "__main__":

@@ -13,35 +13,11 @@ guides) turning its head, simulated once. Run:
 from __future__ import annotations
 
 import argparse
-import filecmp
 import shutil
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
-
-def _follicle(folder: Path, *args: str) -> float:
-    """Seconds of one `follicle ARGS…` in a fresh process."""
-    start = time.perf_counter()
-    subprocess.run(
-        [sys.executable, "-m", "follicle.cli", *args],
-        cwd=folder,
-        check=True,
-        stdout=subprocess.DEVNULL,
-    )
-    return time.perf_counter() - start
-
-
-def _same(a: Path, b: Path) -> bool:
-    """Whether two outputs (files, or folders of frames) hold the same bytes."""
-    if a.is_file():
-        return filecmp.cmp(a, b, shallow=False)
-    names = sorted(p.name for p in a.iterdir())
-    if names != sorted(p.name for p in b.iterdir()):
-        return False
-    return all(filecmp.cmp(a / n, b / n, shallow=False) for n in names)
+from common import follicle, runs, same_output
 
 
 def main() -> None:
@@ -59,13 +35,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="follicle-bench-") as tmp:
         folder = Path(tmp)
         (folder / "s.toml").write_text('[sim]\nmotion = "turn"\n')
-        _follicle(folder, "simulate", "s.toml", "--frames", str(args.frames), "-o", "sim.npz")
-        _follicle(folder, "render", "sim.npz", "-o", "warm", "--frames", "0:2", *render)
+        follicle(folder, "simulate", "s.toml", "--frames", str(args.frames), "-o", "sim.npz")
+        follicle(folder, "render", "sim.npz", "-o", "warm", "--frames", "0:2", *render)
         one, many = [], []
         for _ in range(args.repeat):
-            one.append(_follicle(folder, "render", "sim.npz", "-o", out.format("one"), *render))
+            one.append(follicle(folder, "render", "sim.npz", "-o", out.format("one"), *render))
             many.append(
-                _follicle(
+                follicle(
                     folder,
                     "render",
                     "sim.npz",
@@ -77,23 +53,19 @@ def main() -> None:
                 )
             )
             a, b = folder / out.format("one"), folder / out.format("many")
-            assert _same(a, b), "the cluster's frames differ from the single process's"
+            assert same_output(a, b), "the cluster's frames differ from the single process's"
             shutil.rmtree(b) if b.is_dir() else b.unlink()
     n, (w, h) = args.frames, args.size
     what = "an .mp4" if args.video else "PNGs"
     print(
         f"{n} frames of 20,000 hairs at {w}×{h} ({args.engine}) to {what}, best of {args.repeat}:"
     )
-    print(f"  one process          {min(one):6.2f} s  {n / min(one):5.1f} frames/s  ({_runs(one)})")
+    print(f"  one process          {min(one):6.2f} s  {n / min(one):5.1f} frames/s  ({runs(one)})")
     print(
         f"  --scheduler local:{args.workers} {min(many):6.2f} s  {n / min(many):5.1f} frames/s"
-        f"  ({_runs(many)})"
+        f"  ({runs(many)})"
     )
     print(f"  speed-up             {min(one) / min(many):6.2f}×  (cluster start-up included)")
-
-
-def _runs(times: list[float]) -> str:
-    return ", ".join(f"{t:.2f}" for t in times)
 
 
 if __name__ == "__main__":

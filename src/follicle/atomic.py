@@ -10,11 +10,15 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
+import socket
 import tempfile
-from collections.abc import Iterator
+import uuid
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
-__all__ = ["atomic_path", "temporary_folder", "remove_pending"]
+from .errors import InputError
+
+__all__ = ["atomic_path", "temporary_folder", "pending_folders", "deliver", "remove_pending"]
 
 _PENDING: set[Path] = set()  # temporary outputs not yet renamed onto their targets
 
@@ -70,6 +74,50 @@ def temporary_folder(path: str | os.PathLike[str], what: str) -> Iterator[Path]:
     finally:
         _PENDING.discard(folder)
         shutil.rmtree(folder, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def pending_folders(folders: Sequence[Path]) -> Iterator[dict[Path, str]]:
+    """For each of ``folders`` (absolute; made if need be) a job's pending folder in it,
+    where the job's processes (Dask workers, or this one) write outputs before renaming
+    them into place (:func:`deliver`). They go on leaving, or on a signal, and so do the
+    ``folders`` this made if nothing was written into them (the job refused, say, by a
+    scheduler that does not answer)."""
+    made = [folder for folder in folders if not folder.exists()]
+    try:
+        with contextlib.ExitStack() as stack:
+            yield {
+                folder: str(stack.enter_context(temporary_folder(folder / "follicle", "pending")))
+                for folder in folders
+            }
+    finally:
+        for folder in made:
+            with contextlib.suppress(OSError):  # not empty: outputs were written
+                folder.rmdir()
+
+
+def deliver(pending: str, target: Path, write: Callable[[Path], object]) -> None:
+    """``write(path)`` an output (a file or a folder) into a job's ``pending`` folder,
+    then rename it onto ``target``, so the output is whole or absent. A folder that is
+    already there was delivered by a retried or speculative twin of this task, the same
+    bytes: it is kept and this copy dropped. InputError, writing nothing, when this
+    process does not see the pending folder: it is on a disk this (worker) machine does
+    not share, or the job was stopped and removed it."""
+    folder = Path(pending)
+    if not folder.is_dir():
+        raise InputError(
+            f"{target.parent}: a process on {socket.gethostname()} cannot reach this output"
+            " folder (or the job was stopped); every Dask worker must reach it at this path"
+            " (a shared disk)"
+        )
+    tmp = folder / f"{uuid.uuid4().hex}.{target.name}"
+    write(tmp)
+    try:
+        os.replace(tmp, target)
+    except OSError:
+        if not (tmp.is_dir() and target.is_dir()):
+            raise
+        shutil.rmtree(tmp, ignore_errors=True)  # the first delivery stays
 
 
 def remove_pending() -> None:

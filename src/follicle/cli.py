@@ -31,7 +31,7 @@ from rich.progress import (
 from rich.text import Text
 
 from .errors import FollicleError
-from .io.targets import NAMED_FORMATS, TARGET_NAMES
+from .io.targets import NAMED_FORMATS, TARGET_NAMES, writer_extras
 from .scene import RenderParams, SimParams
 
 if TYPE_CHECKING:
@@ -306,7 +306,7 @@ def grow(
     else:
         tally = [0, 0]
         groom = groom_scene(scene)
-        extras = _extras(path, tool, groom.guides.curves, groom.mesh if skin else None)
+        extras = writer_extras(path, tool, groom.guides.curves, groom.mesh if skin else None)
         with _step("grow and save"), _progress("growing hair") as progress:
             save(_grown_chunks(groom, progress, tally, tool), path, **extras)
         hairs, points = tally
@@ -357,13 +357,6 @@ def _check_target(path: str, target: str) -> None:
             f"{path}: --target {target} is for USD and Alembic files"
             f" ({', '.join(NAMED_FORMATS)}); drop it or write one of those"
         )
-
-
-def _extras(path: str, target: str, guides: HairCurves | None, mesh: object) -> dict:
-    """The writer options for ``path``: for USD and Alembic the target, guides and skin."""
-    if Path(path).suffix.lower() not in NAMED_FORMATS:
-        return {}
-    return {"target": target, "guides": guides, "mesh": mesh}
 
 
 def _grown_chunks(
@@ -553,6 +546,89 @@ def _choices(model: type, key: str) -> tuple[str, ...]:
 
 
 MOTIONS = _choices(SimParams, "motion")
+
+
+@main.command()
+@click.argument("scene_paths", metavar="[SCENE]...", nargs=-1, type=click.Path())
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="The batch's folder: a folder per variant (v00000, …) and manifest.csv.",
+)
+@click.option(
+    "--vary",
+    multiple=True,
+    metavar="KEY=START:STOP:N|a,b,c",
+    help="Sweep a scene key: N values from START to STOP (ends included), or a list;"
+    " repeat for a grid (--vary groom.curl_radius=0.002:0.01:5).",
+)
+@click.option("--seeds", default=None, metavar="A:B", help="Seeds A … B-1 for [groom].seed.")
+@click.option("--count", type=int, default=None, help="Override [groom].count.")
+@click.option(
+    "--curves",
+    default=None,
+    metavar="SUFFIX|none",
+    help="Hair file of each variant: .npz, .usdc, .abc, .hair, … (default each scene's"
+    " [output].curves), or none.",
+)
+@click.option("--image/--no-image", default=True, show_default=True, help="Render hair.png.")
+@click.option("--size", type=(int, int), default=None, help="Image width and height.")
+@click.option(
+    "--engine",
+    type=click.Choice(_choices(RenderParams, "engine")),
+    default=None,
+    help="Render engine (default [render].engine).",
+)
+@_TARGET_OPTION
+@_SKIN_OPTION
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS|local:N",
+    help="Make the variants on a Dask cluster, one task each; the files are the same,"
+    " byte for byte (needs follicle[dist]). Every worker must reach the scenes' files"
+    " and the batch's folder.",
+)
+def batch(
+    scene_paths: tuple[str, ...],
+    out: str,
+    vary: tuple[str, ...],
+    seeds: str | None,
+    count: int | None,
+    curves: str | None,
+    image: bool,
+    size: tuple[int, int] | None,
+    engine: str | None,
+    target_name: str | None,
+    skin: bool,
+    scheduler: str | None,
+) -> None:
+    """Grow, export and render many variants of scenes (the default scene if none): each
+    scene × every combination of --vary values × each of --seeds, each into a folder of
+    its own, with a manifest of parameters, files and SHA-256s. Run it again after a stop
+    and it keeps the variants already made."""
+    from .batch import SCENE_SUFFIX, Outputs, parse_seeds, parse_vary, run_batch, variants
+    from .scene import load_scene
+
+    render = {k: v for k, v in {"size": size, "engine": engine}.items() if v is not None}
+    scenes = []
+    for path in scene_paths or (None,):
+        scene = _with_overrides(load_scene(path), count=count)
+        if render:
+            scene = scene.replace(render=scene.render.replace("command line", **render))
+        scenes.append((path or "default", scene))
+    sweeps = [parse_vary(v) for v in vary]
+    batch_ = variants(scenes, sweeps, None if seeds is None else parse_seeds(seeds))
+    suffix = SCENE_SUFFIX if curves is None else curves.lower()
+    if suffix not in ("none", SCENE_SUFFIX) and not suffix.startswith("."):
+        suffix = f".{suffix}"  # --curves usdc as well as .usdc
+    outputs = Outputs(None if suffix == "none" else suffix, image, target_name, skin)
+    where = " on Dask" if scheduler else ""
+    with _step(f"batch{where}"), _progress(f"making {len(batch_):,} variants{where}") as progress:
+        manifest = run_batch(batch_, out, outputs, scheduler, progress)
+    click.echo(f"{len(batch_):,} variants → {manifest}")
 
 
 @main.command()

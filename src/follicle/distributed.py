@@ -41,7 +41,7 @@ from typing import TypeVar
 from .atomic import temporary_folder
 from .errors import ConfigError, FollicleError
 from .groom.generator import CHUNK, Groom
-from .io.targets import NAMED_FORMATS
+from .io.targets import writer_extras
 from .scene import Scene, scene_from_toml, scene_to_toml
 from .threads import threads_for
 from .validate import whole
@@ -371,10 +371,7 @@ def grow(
                 if progress is not None:
                     progress(a + n, total)
 
-        extras = {}
-        if out.suffix.lower() in NAMED_FORMATS:  # as `follicle grow` writes them
-            extras = {"target": target, "guides": groom.guides.curves}
-            extras["mesh"] = groom.mesh if skin else None
+        extras = writer_extras(out, target, groom.guides.curves, groom.mesh if skin else None)
         chunks = _rechunked(written(), CHUNK) if total else iter([groom.generate(count=0)])
         # a local cluster's workers hold the other cores: the client's own kernels (the
         # parts' checks, the bounds) on its one, where a parallel kernel's join would

@@ -29,17 +29,15 @@ finds the folder gone and writes nothing. Finished outputs stay, as in one proce
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import socket
-import uuid
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from .atomic import temporary_folder
+from .atomic import deliver, pending_folders
 from .distributed import (
     AHEAD,
     _groom,
@@ -110,7 +108,7 @@ def render_cache(
     job = _FramesJob(cache, scene, frames, frames_per_task)
     out = Path(out_dir)
     folder = out.resolve()
-    with _pending([folder]) as pending, cluster(scheduler) as client:  # workers stop first
+    with pending_folders([folder]) as pending, cluster(scheduler) as client:  # workers stop first
         calls = [(*call, str(folder), pending[folder]) for call in job.calls(client)]
         done = 0
         for future in as_completed(submit_all(client, _render_task, calls, "render")):
@@ -176,7 +174,7 @@ def simulate_scenes(
     texts = [scene_to_toml(scene, comments=False) for scene in scenes]  # fails now if at all
     runs = []
     folders = list(dict.fromkeys(target.parent for target in targets))
-    with _pending(folders) as pending, cluster(scheduler) as client:  # workers stop first
+    with pending_folders(folders) as pending, cluster(scheduler) as client:  # workers stop first
         calls = [
             (text, str(scene.base_dir), frames, fps, str(target), pending[target.parent])
             for text, scene, target in zip(texts, scenes, targets, strict=True)
@@ -186,25 +184,6 @@ def simulate_scenes(
             if progress is not None:
                 progress(len(runs), len(calls))
     return runs
-
-
-@contextlib.contextmanager
-def _pending(folders: Sequence[Path]) -> Iterator[dict[Path, str]]:
-    """For each of ``folders`` (absolute; made if need be) the job's pending folder in it,
-    where workers write outputs before renaming them into place (:func:`_deliver`). They
-    go on leaving, and so do the ``folders`` this made if nothing was written into them
-    (the job refused, say, by a scheduler that does not answer)."""
-    made = [folder for folder in folders if not folder.exists()]
-    try:
-        with contextlib.ExitStack() as stack:
-            yield {
-                folder: str(stack.enter_context(temporary_folder(folder / "follicle", "pending")))
-                for folder in folders
-            }
-    finally:
-        for folder in made:
-            with contextlib.suppress(OSError):  # not empty: outputs were written
-                folder.rmdir()
 
 
 class _FramesJob:
@@ -287,7 +266,7 @@ def _render_task(
     ``pending`` folder); returns how many."""
     cache, drawn = _drawn(source, text, base_dir, start, stop, camera)
     for f, image in drawn:
-        _deliver(pending, Path(folder) / frame_name(cache, f), lambda p, i=image: save_png(i, p))
+        deliver(pending, Path(folder) / frame_name(cache, f), lambda p, i=image: save_png(i, p))
     return stop - start
 
 
@@ -306,21 +285,5 @@ def _simulate_task(
     (through the job's ``pending`` folder)."""
     task_setup()
     cache, run = timed_simulation(scene_from_toml(text, "scene", Path(base_dir)), frames, fps)
-    _deliver(pending, Path(target), lambda p: write_cache(cache, p))
+    deliver(pending, Path(target), lambda p: write_cache(cache, p))
     return run
-
-
-def _deliver(pending: str, target: Path, write: Callable[[Path], object]) -> None:
-    """``write(path)`` an output into the job's ``pending`` folder, then rename it onto
-    ``target``. InputError, writing nothing, when this worker does not see the folder:
-    it is on a disk this worker does not share, or the job was stopped and removed it."""
-    folder = Path(pending)
-    if not folder.is_dir():
-        raise InputError(
-            f"{target.parent}: a Dask worker on {socket.gethostname()} cannot reach this"
-            " output folder (or the job was stopped); every worker must reach it at this"
-            " path (a shared disk)"
-        )
-    tmp = folder / f"{uuid.uuid4().hex}.{target.name}"
-    write(tmp)
-    os.replace(tmp, target)

@@ -15,7 +15,7 @@ from .curves import HairCurves
 from .errors import ConfigError, FormatError, InputError, ResourceError
 from .groom.generator import Groom, load_texture, resolve_density
 from .groom.groups import InterpolationGroups, mesh_groups
-from .groom.guides import load_guides
+from .groom.guides import Guides, load_guides
 from .io.mesh_load import load_mesh
 from .mesh.skin import SkinMesh
 from .render import Camera, fit_camera, make_renderer, render, save_png
@@ -26,6 +26,8 @@ if TYPE_CHECKING:
     from .io.sim_cache import SimCache
 
 __all__ = [
+    "GroomInputs",
+    "groom_inputs",
     "groom_scene",
     "grow",
     "render_scene",
@@ -47,8 +49,38 @@ __all__ = [
 Progress = Callable[[int, int], None]
 
 
-def groom_scene(scene: Scene) -> Groom:
-    """The mesh, guides and groom parameters of ``scene``, ready to grow."""
+@dataclass(frozen=True)
+class GroomInputs:
+    """What a scene's groom grows on, read from its files: the skin ``mesh``, the
+    ``guides``, the ``density`` and ``displacement`` textures. ``key`` names the scene
+    keys they come from (:func:`groom_inputs`), so scenes that differ elsewhere (a
+    batch's variants of curl or seed) share them instead of reading them again."""
+
+    key: tuple
+    mesh: SkinMesh
+    guides: Guides
+    density: object
+    displacement: object
+
+
+def _inputs_key(scene: Scene) -> tuple:
+    """The scene keys a groom's inputs come from: [mesh], [guides], the [groom] keys that
+    pick the density and interpolation groups, and the folder paths start in."""
+    groom = scene.groom.model_dump(include={"density", "groups", "group_vertices"})
+    return (
+        str(scene.base_dir),
+        scene.mesh.model_dump_json(),
+        scene.guides.model_dump_json(),
+        repr(sorted(groom.items())),
+    )
+
+
+def groom_inputs(scene: Scene, reuse: GroomInputs | None = None) -> GroomInputs:
+    """The mesh, guides and textures of ``scene``, read from its files; ``reuse`` itself
+    when it was read for the same keys (see :class:`GroomInputs`)."""
+    key = _inputs_key(scene)
+    if reuse is not None and reuse.key == key:
+        return reuse
     mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
     spec, vertices = scene.groom.groups, scene.groom.group_vertices
     if spec is None and scene.guides.path.startswith("builtin:"):
@@ -61,12 +93,21 @@ def groom_scene(scene: Scene) -> Groom:
     )
     density = resolve_density(mesh, scene.groom.density, scene.resolve)
     displacement = scene.mesh.displacement
+    texture = load_texture(displacement, scene.resolve) if displacement else None
+    return GroomInputs(key, mesh, guides, density, texture)
+
+
+def groom_scene(scene: Scene, inputs: GroomInputs | None = None) -> Groom:
+    """The mesh, guides and groom parameters of ``scene``, ready to grow; its files'
+    contents from ``inputs`` when they were read for the same keys
+    (:func:`groom_inputs`)."""
+    inputs = groom_inputs(scene, inputs)
     return Groom(
-        mesh,
-        guides,
+        inputs.mesh,
+        inputs.guides,
         scene.groom,
-        density=density,
-        displacement=load_texture(displacement, scene.resolve) if displacement else None,
+        density=inputs.density,
+        displacement=inputs.displacement,
         displacement_scale=scene.mesh.displacement_scale,
         resolve_path=scene.resolve,
     )

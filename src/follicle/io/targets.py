@@ -17,6 +17,7 @@ The table in the README (Formats → Targets) is :data:`TARGETS`, written out.
 from __future__ import annotations
 
 import logging
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,10 +35,20 @@ __all__ = [
     "for_target",
     "problems",
     "MAX_UNREAL_POINTS",
+    "writer_extras",
 ]
 
 # the formats written with attribute names, and with the guides and skin beside the hair
 NAMED_FORMATS = (".usd", ".usda", ".usdc", ".usdz", ".abc")
+
+
+def writer_extras(path: object, target: str, guides: object, mesh: object) -> dict:
+    """The writer options for a grown groom's file ``path``: for USD and Alembic
+    (:data:`NAMED_FORMATS`) the ``target`` tool, the ``guides`` and the skin ``mesh``
+    (None for none); for other formats, which hold the hair alone, none."""
+    if os.path.splitext(os.fspath(path))[1].lower() not in NAMED_FORMATS:
+        return {}
+    return {"target": target, "guides": guides, "mesh": mesh}
 
 log = logging.getLogger("follicle")
 

@@ -1,0 +1,463 @@
+"""Batches of grooms: many variants of scenes grown, exported and rendered, each into a
+folder of its own, and a manifest of their parameters and files — the shape of a
+synthetic hair dataset (`follicle batch`).
+
+**Variants.** Every scene given, times every combination of the swept values
+(:func:`parse_vary`: ``groom.curl_radius=0.002:0.01:5`` is five values, ends included;
+``render.shading=kajiya,marschner`` two), times every seed (:func:`parse_seeds`:
+``0:100``, the end excluded, sets ``[groom].seed``), in that order: the scene's loop
+outermost, the seed's innermost. Variant ``i`` is the folder ``vNNNNN`` (five digits,
+more for a larger batch). Each value goes through its section's ``replace``, so a bad
+key or value is a ConfigError naming it before anything is grown.
+
+**A variant's folder** holds ``scene.toml`` (the variant's whole scene; its relative
+paths start in the source scene's folder, which its first line names), the hair
+(``hair.npz``, ``.usdc``, … as the scene's [output].curves or ``--curves`` say; USD
+and Alembic with the guides and skin for the target tool), its render ``hair.png``
+(the scene's [render] settings, as `follicle render SCENE` draws it) and
+``outputs.json``: its hair and point counts and each file's SHA-256. The folder is
+written under a temporary name and renamed whole, so a variant is all there or absent;
+a retried or speculative twin of a variant's task finds it there and drops its copy.
+
+**The manifest** (``manifest.csv`` in the batch folder, written last and atomically)
+has a row per variant, in variant order: ``variant, source, seed``, one column per
+swept key, ``hairs, points``, then ``scene``, ``curves`` and ``image`` with each
+file's path from the manifest's folder and its ``…_sha256``. It is the same bytes
+whichever way the batch ran.
+
+**Again after a stop.** Variants already in the folder with the same scene and the
+outputs asked for are kept, not made again (their rows read from ``outputs.json``); a
+folder holding anything else is an error naming it, never overwritten.
+
+**On a cluster** (``scheduler``, see :func:`follicle.distributed.connect`) each variant
+is one Dask task: a worker grows, writes and renders it into the batch folder, which
+every worker must reach; the files are the same bytes as one process writes.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import itertools
+import json
+import math
+import os
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from .atomic import atomic_path, deliver, pending_folders
+from .errors import ConfigError, FollicleError
+from .scene import Scene, scene_from_toml, scene_to_toml
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python 3.10 only
+    import tomli as tomllib
+
+__all__ = [
+    "MANIFEST",
+    "Sweep",
+    "Variant",
+    "Outputs",
+    "parse_vary",
+    "parse_seeds",
+    "variants",
+    "run_batch",
+]
+
+MANIFEST = "manifest.csv"
+Progress = Callable[[int, int], None]
+_MAX_VARIANTS = 10_000_000  # a sweep's product beyond this is a typo, not a dataset
+# per process: the groom inputs (mesh, guides, textures) last read, by batch run (its
+# pending folder), so variants that differ in other keys share them, within one run only
+_INPUTS: dict[str, object] = {}
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """One swept scene key (``section.key``) and the values it takes, in order."""
+
+    key: str
+    values: tuple[object, ...]
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One groom of a batch: its folder's ``name``, the ``source`` scene it varies (the
+    path as given, or ``default``), its ``seed``, the swept keys' ``values`` and the
+    whole ``scene``."""
+
+    name: str
+    source: str
+    seed: int
+    values: tuple[tuple[str, object], ...]
+    scene: Scene
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What every variant makes beside its scene.toml: the hair file's ``curves``
+    suffix (None for none; :data:`SCENE_SUFFIX` for each scene's [output].curves), a
+    PNG ``image`` or not, and for USD / Alembic the ``target`` tool (None: each scene's
+    [output].target) and the ``skin`` mesh or not."""
+
+    curves: str | None = "scene"
+    image: bool = True
+    target: str | None = None
+    skin: bool = True
+
+
+SCENE_SUFFIX = "scene"  # Outputs.curves: each scene's own [output].curves suffix
+
+
+def parse_vary(text: str) -> Sweep:
+    """``KEY=SPEC`` as a :class:`Sweep`: ``KEY`` is ``section.key`` of a scene file;
+    ``SPEC`` is ``START:STOP:N`` (N evenly spaced numbers, both ends included; whole
+    numbers when START and STOP are and the steps fall on them), ``a,b,c`` (TOML
+    values, or bare words as strings) or one value. ConfigError naming ``--vary``."""
+    key, sep, spec = text.partition("=")
+    key, spec = key.strip(), spec.strip()
+    if not sep or not key or not spec:
+        raise ConfigError(
+            f"--vary {text}: expected KEY=START:STOP:N or KEY=a,b,c"
+            " (groom.curl_radius=0.002:0.01:5)"
+        )
+    _field(key)
+    parts = spec.split(":")
+    if len(parts) == 3:
+        return Sweep(key, _spaced(text, *parts))
+    return Sweep(key, tuple(_value(v.strip()) for v in spec.split(",")))
+
+
+def parse_seeds(text: str) -> range:
+    """``A:B`` (seeds A … B − 1) or one seed ``N``; ConfigError naming ``--seeds``."""
+    parts = text.split(":")
+    try:
+        ends = [int(p) for p in parts]
+    except ValueError:
+        ends = []
+    if len(ends) == 1:
+        ends.append(ends[0] + 1)
+    if len(ends) != 2 or ends[0] < 0 or ends[1] <= ends[0]:
+        raise ConfigError(f"--seeds {text}: expected A:B with 0 <= A < B (0:100), or one seed")
+    return range(*ends)
+
+
+def variants(
+    scenes: Sequence[tuple[str, Scene]],
+    sweeps: Sequence[Sweep] = (),
+    seeds: Sequence[int] | None = None,
+) -> list[Variant]:
+    """The variants of a batch (see the module): each ``(source, scene)`` of ``scenes``
+    × each combination of the ``sweeps``' values × each of ``seeds`` (None: each
+    scene's own seed), every value checked as its section checks it."""
+    keys = [s.key for s in sweeps]
+    if len(set(keys)) != len(keys):
+        raise ConfigError(f"--vary: a key is swept twice ({', '.join(keys)}); sweep each once")
+    if seeds is not None and "groom.seed" in keys:
+        raise ConfigError("--vary groom.seed and --seeds both set the seed; give one")
+    combos = list(itertools.product(*(s.values for s in sweeps)))
+    total = len(scenes) * len(combos) * (1 if seeds is None else len(seeds))
+    if total > _MAX_VARIANTS:
+        raise ConfigError(
+            f"--vary/--seeds: {total:,} variants, more than {_MAX_VARIANTS:,}; split the batch"
+        )
+    width = max(5, len(str(total - 1)))
+    out: list[Variant] = []
+    for source, scene in scenes:
+        for combo in combos:
+            varied = scene
+            for key, value in zip(keys, combo, strict=True):
+                varied = _with(varied, key, value, f"--vary {key}={value}")
+            for seed in [varied.groom.seed] if seeds is None else seeds:
+                if seeds is not None:
+                    varied = _with(varied, "groom.seed", seed, f"--seeds {seed}")
+                name = f"v{len(out):0{width}d}"
+                out.append(
+                    Variant(name, source, seed, tuple(zip(keys, combo, strict=True)), varied)
+                )
+    return out
+
+
+def run_batch(
+    batch: Sequence[Variant],
+    out_dir: str | os.PathLike[str],
+    outputs: Outputs = Outputs(),
+    scheduler: str | None = None,
+    progress: Progress | None = None,
+) -> Path:
+    """Make every variant of ``batch`` into ``out_dir`` (made if need be), here or on
+    the Dask cluster ``scheduler``, and write the manifest (see the module). Returns
+    the manifest's path; ``progress(done, total)`` counts variants as they finish."""
+    if not batch:
+        raise ConfigError("follicle batch: no variants (give a scene, or values to --vary)")
+    out = Path(out_dir).resolve()
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"{out}: not a folder; -o names the batch's folder")
+    jobs = [_job(v, out, outputs) for v in batch]
+    records: list[dict | None] = [
+        _kept(out / v.name, job) for v, job in zip(batch, jobs, strict=True)
+    ]
+    todo = [i for i, r in enumerate(records) if r is None]
+    done = len(batch) - len(todo)
+    if progress is not None:
+        progress(done, len(batch))
+    with pending_folders([out]) as pending:
+        calls = [(*jobs[i], str(out), pending[out]) for i in todo]
+        for i, record in zip(todo, _made(calls, scheduler), strict=False):
+            records[i] = record
+            done += 1
+            if progress is not None:
+                progress(done, len(batch))
+    path = out / MANIFEST
+    with atomic_path(path) as tmp:
+        tmp.write_text(_manifest(batch, records), encoding="utf-8", newline="")
+    return path
+
+
+def _made(calls: list[tuple], scheduler: str | None) -> Iterator[dict]:
+    """Each call's variant made, in call order: here one after another, or as Dask tasks
+    on the cluster ``scheduler``, all submitted at once (each writes its own folder
+    as it finishes, so a stopped batch keeps every variant made)."""
+    if scheduler is None:
+        for call in calls:
+            yield _make(*call)
+        return
+    from .distributed import cluster, in_order, submit_all
+
+    with cluster(scheduler) as client:
+        yield from in_order(submit_all(client, _variant_task, calls, "batch"))
+
+
+def _job(variant: Variant, out: Path, outputs: Outputs) -> tuple:
+    """A variant's task arguments before the folders: (name, scene TOML, base folder,
+    curves suffix or "", image, target, skin)."""
+    scene = variant.scene
+    suffix = outputs.curves
+    if suffix == SCENE_SUFFIX:
+        suffix = Path(scene.output.curves).suffix.lower()
+    target = outputs.target or scene.output.target
+    if suffix:
+        _check_curves(variant, suffix, target)
+    header = f"# follicle batch {variant.name} of {variant.source}; relative paths start in"
+    text = f"{header} {_shown_path(scene.base_dir)}\n{scene_to_toml(scene, comments=False)}"
+    return (
+        variant.name,
+        text,
+        str(scene.base_dir),
+        suffix or "",
+        outputs.image,
+        target,
+        outputs.skin,
+    )
+
+
+def _check_curves(variant: Variant, suffix: str, target: str) -> None:
+    """The hair file's suffix writable and ``target`` meant for it (as `follicle grow`
+    checks them), before anything is grown."""
+    from .io.dispatch import WRITERS
+    from .io.targets import NAMED_FORMATS
+
+    if suffix not in WRITERS:
+        raise ConfigError(
+            f"--curves {suffix}: not a curves format follicle writes; one of"
+            f" {', '.join(sorted(WRITERS))}, or none"
+        )
+    if target != "generic" and suffix not in NAMED_FORMATS:
+        raise ConfigError(
+            f"{variant.source}: target {target} is for USD and Alembic files"
+            f" ({', '.join(NAMED_FORMATS)}), not {suffix}; write one of those or target generic"
+        )
+
+
+def _shown_path(path: Path) -> str:
+    return json.dumps(str(path.resolve()), ensure_ascii=False)[1:-1]
+
+
+def _kept(folder: Path, job: tuple) -> dict | None:
+    """The record of a variant already made in ``folder`` by an earlier run of the same
+    batch; None when there is none; ConfigError when the folder holds anything else."""
+    if not os.path.lexists(folder):
+        return None
+    _, text, _, suffix, image, _, _ = job
+    try:
+        same = (folder / "scene.toml").read_text(encoding="utf-8") == text
+        record = json.loads((folder / "outputs.json").read_text(encoding="utf-8"))
+        files = record["files"]
+        wanted = {"scene": "scene.toml"}
+        if suffix:
+            wanted["curves"] = f"hair{suffix}"
+        if image:
+            wanted["image"] = "hair.png"
+        ok = same and all(files.get(r, [None])[0] == name for r, name in wanted.items())
+        ok = ok and all((folder / name).is_file() for name in wanted.values())
+    except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError):
+        ok = False
+    if not ok:
+        raise ConfigError(
+            f"{folder}: holds something other than this batch's variant (another scene or"
+            " other outputs); remove it, or give the batch another folder (-o)"
+        )
+    return {**record, "files": {r: files[r] for r in wanted}}
+
+
+def _variant_task(*call: object) -> dict:
+    """A Dask worker's task: one variant made (:func:`_make`)."""
+    from .distributed import on_worker, task_setup
+
+    task_setup()
+    with on_worker():
+        return _make(*call)
+
+
+def _make(
+    name: str,
+    text: str,
+    base_dir: str,
+    suffix: str,
+    image: bool,
+    target: str,
+    skin: bool,
+    out: str,
+    pending: str,
+) -> dict:
+    """Grow the variant ``text`` and write its folder ``out/name`` (through the batch's
+    ``pending`` folder); returns its record (outputs.json). A FollicleError names the
+    variant."""
+    try:
+        return _made_into(name, text, base_dir, suffix, image, target, skin, out, pending)
+    except FollicleError as exc:
+        raise type(exc)(f"batch variant {name}: {exc}") from None
+
+
+def _made_into(
+    name: str,
+    text: str,
+    base_dir: str,
+    suffix: str,
+    image: bool,
+    target: str,
+    skin: bool,
+    out: str,
+    pending: str,
+) -> dict:
+    """:func:`_make`'s work, its errors not yet naming the variant."""
+    from .distributed import target_chunk
+    from .io.dispatch import save
+    from .io.targets import writer_extras
+    from .pipeline import groom_inputs, groom_scene, render_scene
+
+    scene = scene_from_toml(text, f"{name}/scene.toml", Path(base_dir))
+    inputs = groom_inputs(scene, _INPUTS.get(pending))
+    _INPUTS.clear()  # one batch's, one set at a time
+    _INPUTS[pending] = inputs
+    groom = groom_scene(scene, inputs)
+    curves = groom.generate()
+    record: dict = {"hairs": curves.curve_count, "points": curves.point_count, "files": {}}
+
+    def write(folder: Path) -> None:
+        folder.mkdir()
+        files = {"scene": "scene.toml"}
+        (folder / "scene.toml").write_text(text, encoding="utf-8")
+        if suffix:
+            files["curves"] = f"hair{suffix}"
+            path = folder / files["curves"]
+            mesh = groom.mesh if skin else None
+            extras = writer_extras(path, target, groom.guides.curves, mesh)
+            save(target_chunk(groom, curves, target), path, **extras)
+        if image:
+            files["image"] = "hair.png"
+            render_scene(curves, groom.mesh, scene.render, out=str(folder / files["image"]))
+        record["files"] = {role: [f, _sha256(folder / f)] for role, f in files.items()}
+        (folder / "outputs.json").write_text(json.dumps(record, sort_keys=True) + "\n")
+
+    deliver(pending, Path(out) / name, write)
+    return record
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _manifest(batch: Sequence[Variant], records: Sequence[dict | None]) -> str:
+    """The manifest's CSV text: a row per variant (see the module)."""
+    keys = [k for k, _ in batch[0].values]
+    roles = [r for r in ("scene", "curves", "image") if r in (records[0] or {})["files"]]
+    buffer = io.StringIO()
+    table = csv.writer(buffer, lineterminator="\n")
+    table.writerow(
+        ["variant", "source", "seed", *keys, "hairs", "points"]
+        + [c for r in roles for c in (r, f"{r}_sha256")]
+    )
+    for variant, record in zip(batch, records, strict=True):
+        assert record is not None
+        files = record["files"]
+        table.writerow(
+            [variant.name, variant.source, variant.seed]
+            + [_cell(v) for _, v in variant.values]
+            + [record["hairs"], record["points"]]
+            + [c for r in roles for c in (f"{variant.name}/{files[r][0]}", files[r][1])]
+        )
+    return buffer.getvalue()
+
+
+def _cell(value: object) -> object:
+    return repr(value) if isinstance(value, float) else value
+
+
+def _field(key: str) -> tuple[str, str]:
+    """``section.key`` of a scene file, checked: (section, key)."""
+    section, _, name = key.partition(".")
+    field = Scene.model_fields.get(section)
+    if field is None or field.exclude or not name:
+        sections = ", ".join(k for k, f in Scene.model_fields.items() if not f.exclude)
+        raise ConfigError(f"--vary {key}: expected section.key, a section one of {sections}")
+    model = field.annotation
+    if name not in model.model_fields:
+        raise ConfigError(
+            f"--vary {key}: [{section}] has no key {name}; it has {', '.join(model.model_fields)}"
+        )
+    return section, name
+
+
+def _with(scene: Scene, key: str, value: object, source: str) -> Scene:
+    """``scene`` with ``section.key`` set to ``value``, validated by its section."""
+    section, name = _field(key)
+    params = getattr(scene, section).replace(source, **{name: value})
+    return scene.replace(source, **{section: params})
+
+
+def _value(text: str) -> object:
+    """A swept value: a TOML value (``0.5``, ``true``, ``"a b"``, ``[1, 2]``), else the
+    text itself as a string (a bare word: ``marschner``)."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except (tomllib.TOMLDecodeError, ValueError, RecursionError):
+        return text
+
+
+def _spaced(text: str, start: str, stop: str, count: str) -> tuple[object, ...]:
+    """``START:STOP:N``: N evenly spaced numbers from START to STOP, ends included."""
+    a, b = _value(start.strip()), _value(stop.strip())
+    n = _value(count.strip())
+    numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b))
+    if not numbers or not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= 1_000_000:
+        raise ConfigError(
+            f"--vary {text}: START:STOP:N takes two numbers and a count of 1 to 1,000,000"
+        )
+    if not (math.isfinite(a) and math.isfinite(b)):
+        raise ConfigError(f"--vary {text}: START and STOP must be finite")
+    if n == 1:
+        return (a,)
+    whole = isinstance(a, int) and isinstance(b, int) and (b - a) % (n - 1) == 0
+    if whole:
+        step = (b - a) // (n - 1)
+        return tuple(a + i * step for i in range(n))
+    return (*(a + (b - a) * i / (n - 1) for i in range(n - 1)), b)  # STOP itself, exactly

@@ -1,0 +1,91 @@
+"""`follicle batch`: variants of a sweep, their folders and manifest, the same bytes here
+and on a local Dask cluster, kept on a second run, and bad sweeps refused by name."""
+
+from __future__ import annotations
+
+import csv
+import filecmp
+
+import pytest
+from click.testing import CliRunner
+
+from follicle.batch import Outputs, parse_seeds, parse_vary, run_batch, variants
+from follicle.cli import main
+from follicle.errors import ConfigError
+from follicle.scene import Scene
+
+
+def _scene() -> Scene:
+    s = Scene()
+    return s.replace(groom=s.groom.replace(count=300), render=s.render.replace(size=(64, 48)))
+
+
+def test_a_sweep_gives_every_combination_in_order() -> None:
+    sweep = parse_vary("groom.curl_radius=0.002:0.01:5")
+    assert sweep.values == (0.002, 0.004, 0.006, 0.008, 0.01)
+    assert parse_vary("groom.count=10:30:3").values == (10, 20, 30)
+    assert parse_vary("render.shading=kajiya,marschner").values == ("kajiya", "marschner")
+    batch = variants([("a", _scene())], [sweep], parse_seeds("0:3"))
+    assert [v.name for v in batch][:2] == ["v00000", "v00001"] and len(batch) == 15
+    assert [(v.seed, v.scene.groom.curl_radius) for v in batch[:4]] == [
+        (0, 0.002),
+        (1, 0.002),
+        (2, 0.002),
+        (0, 0.004),
+    ]
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("groom.curl_radius", "KEY=START"),
+        ("groom.nope=1", "no key nope"),
+        ("nosuch.key=1", "section.key"),
+        ("groom.curl_radius=a:b:3", "two numbers"),
+    ],
+)
+def test_bad_sweeps_are_refused_by_name(text: str, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        parse_vary(text)
+
+
+def test_a_value_its_section_refuses_is_named_before_anything_grows(tmp_path) -> None:
+    with pytest.raises(ConfigError, match="count"):
+        variants([("a", _scene())], [parse_vary("groom.count=-5,10")])
+    with pytest.raises(ConfigError, match="--seeds"):
+        parse_seeds("5:2")
+
+
+def test_serial_and_cluster_batches_are_the_same_bytes_and_a_rerun_keeps_them(tmp_path) -> None:
+    batch = variants([("a", _scene())], [parse_vary("groom.curl_radius=0.002,0.008")], range(2))
+    one = run_batch(batch, tmp_path / "one", Outputs(".usdc"))
+    rows = list(csv.DictReader(one.open()))
+    assert [r["variant"] for r in rows] == ["v00000", "v00001", "v00002", "v00003"]
+    assert rows[2]["groom.curl_radius"] == "0.008" and rows[3]["seed"] == "1"
+    assert all(int(r["hairs"]) == 300 for r in rows)
+    assert len({r["curves_sha256"] for r in rows}) == 4  # every variant its own hair
+    many = run_batch(batch, tmp_path / "many", Outputs(".usdc"), scheduler="local:2")
+    cmp = filecmp.dircmp(tmp_path / "one", tmp_path / "many")
+    assert not cmp.diff_files and not cmp.left_only and not cmp.right_only
+    for name in ("v00000", "v00003"):
+        sub = filecmp.cmpfiles(
+            one.parent / name, many.parent / name, ["hair.usdc", "hair.png"], False
+        )
+        assert sub[0] == ["hair.usdc", "hair.png"]
+    before = (one.parent / "v00001" / "hair.usdc").stat().st_mtime_ns
+    assert run_batch(batch, tmp_path / "one", Outputs(".usdc")).read_bytes() == one.read_bytes()
+    assert (one.parent / "v00001" / "hair.usdc").stat().st_mtime_ns == before  # kept
+    with pytest.raises(ConfigError, match="v00000: holds something other"):
+        run_batch(batch, tmp_path / "one", Outputs(".abc"))
+    assert not [p for p in tmp_path.rglob(".*pending*")]
+
+
+def test_the_cli_writes_the_manifest_and_refuses_a_bad_sweep_in_one_line(tmp_path) -> None:
+    runner = CliRunner()
+    args = ["batch", "-o", str(tmp_path / "b"), "--count", "200", "--size", "48", "32"]
+    result = runner.invoke(main, [*args, "--seeds", "0:2", "--curves", "none"])
+    assert result.exit_code == 0, result.output
+    rows = list(csv.DictReader((tmp_path / "b" / "manifest.csv").open()))
+    assert [r["seed"] for r in rows] == ["0", "1"] and "curves" not in rows[0]
+    bad = runner.invoke(main, [*args, "--vary", "groom.nope=1"])
+    assert bad.exit_code == 2 and "no key nope" in bad.output
