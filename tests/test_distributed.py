@@ -30,13 +30,14 @@ def _scene(tmp_path):
 
 def _one_process(scene, path, target="generic"):
     """What `follicle grow` writes in one process."""
-    from follicle.cli import _extras, _grown_chunks
+    from follicle.cli import _grown_chunks
+    from follicle.io.targets import writer_extras
 
     groom = groom_scene(scene)
     if path.suffix == ".npz":
         save(groom.generate(), path)
         return path
-    extras = _extras(str(path), target, groom.guides.curves, groom.mesh)
+    extras = writer_extras(path, target, groom.guides.curves, groom.mesh)
     save(_grown_chunks(groom, lambda *_: None, [0, 0], target), path, **extras)
     return path
 

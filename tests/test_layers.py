@@ -33,7 +33,7 @@ LAYERS = [
     {"io"},
     {"groom", "sim", "render"},
     {"scene"},
-    {"pipeline", "distributed", "distributed_sim"},
+    {"pipeline", "distributed", "distributed_sim", "batch"},
     {"cli", "view", "apps", "__init__"},
 ]
 LAYER = {name: k for k, names in enumerate(LAYERS) for name in names}
