@@ -50,6 +50,7 @@ def writer_extras(path: object, target: str, guides: object, mesh: object) -> di
         return {}
     return {"target": target, "guides": guides, "mesh": mesh}
 
+
 log = logging.getLogger("follicle")
 
 MAX_UNREAL_POINTS = 255  # Unreal's groom builder stores a curve's point count in a byte
