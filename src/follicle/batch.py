@@ -50,6 +50,7 @@ from pathlib import Path
 
 from .atomic import atomic_path, deliver, pending_folders
 from .errors import ConfigError, FollicleError
+from .inputs import base_folder
 from .scene import Scene, scene_from_toml, scene_to_toml
 
 if sys.version_info >= (3, 11):
@@ -350,7 +351,7 @@ def _made_into(
     from .io.targets import writer_extras
     from .pipeline import groom_inputs, groom_scene, render_scene
 
-    scene = scene_from_toml(text, f"{name}/scene.toml", Path(base_dir))
+    scene = scene_from_toml(text, f"{name}/scene.toml", base_folder(base_dir))
     inputs = groom_inputs(scene, _INPUTS.get(pending))
     _INPUTS.clear()  # one batch's, one set at a time
     _INPUTS[pending] = inputs

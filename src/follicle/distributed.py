@@ -41,6 +41,7 @@ from typing import TypeVar
 from .atomic import temporary_folder
 from .errors import ConfigError, FollicleError
 from .groom.generator import CHUNK, Groom
+from .inputs import base_folder
 from .io.targets import writer_extras
 from .scene import Scene, scene_from_toml, scene_to_toml
 from .threads import threads_for
@@ -293,7 +294,7 @@ def _groom(text: str, base_dir: str) -> Groom:
     key = (text, base_dir)
     if key not in _GROOMS:
         _GROOMS.clear()  # one scene at a time: a worker keeps no more than one groom
-        _GROOMS[key] = groom_scene(scene_from_toml(text, "scene", Path(base_dir)))
+        _GROOMS[key] = groom_scene(scene_from_toml(text, "scene", base_folder(base_dir)))
     return _GROOMS[key]
 
 

@@ -49,6 +49,7 @@ from .distributed import (
     workers_of,
 )
 from .errors import InputError
+from .inputs import base_folder
 from .io.sim_cache import SimCache, load_cache, write_cache
 from .pipeline import (
     SimRun,
@@ -247,7 +248,7 @@ def _drawn(
     single-process render draws them: (the cache, (frame, image) as drawn)."""
     task_setup()
     cache = _worker_cache(source)
-    scene = scene_from_toml(text, "scene", Path(base_dir))
+    scene = scene_from_toml(text, "scene", base_folder(base_dir))
     groom = _groom(text, base_dir)  # per worker process, shared with distributed grow
     return cache, draw_frames(cache, groom, scene.render, range(start, stop), camera)
 
@@ -284,6 +285,8 @@ def _simulate_task(
     """A worker's task: the scene ``text`` simulated and its cache written to ``target``
     (through the job's ``pending`` folder)."""
     task_setup()
-    cache, run = timed_simulation(scene_from_toml(text, "scene", Path(base_dir)), frames, fps)
+    cache, run = timed_simulation(
+        scene_from_toml(text, "scene", base_folder(base_dir)), frames, fps
+    )
     deliver(pending, Path(target), lambda p: write_cache(cache, p))
     return run

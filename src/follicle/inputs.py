@@ -3,22 +3,60 @@
 A FIFO would block a reader forever, a device (``/dev/zero``) would feed it without end
 and a folder cannot be parsed, so every reader, the scene loader and the mesh and
 texture loaders take their path through :func:`input_file` first.
+
+An input may also be a URL (``https://…``, ``s3://…``, ``gs://…``, ``file://…``: any
+protocol fsspec knows), so that every worker of a cluster reads a scene's mesh, guides
+and textures from one place: :func:`input_file` fetches it once into a local cache
+(:func:`cache_folder`), keyed by the URL and the file's size and modification stamp,
+and hands the readers that copy.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+import re
+import shutil
 import stat
 from pathlib import Path
 
-from .errors import FormatError
+from .atomic import atomic_path
+from .errors import ConfigError, FormatError
 
-__all__ = ["input_file"]
+__all__ = ["base_folder", "cache_folder", "input_file", "is_url"]
+
+_URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]+://")
+# the package a protocol's fsspec backend needs, as the error says it
+_BACKENDS = {"http": "aiohttp", "https": "aiohttp", "s3": "s3fs", "gs": "gcsfs", "gcs": "gcsfs"}
+_BLOCK = 1 << 20
+
+
+def is_url(path: object) -> bool:
+    """Whether ``path`` is a URL (``protocol://…``), not a file name."""
+    return isinstance(path, str) and _URL.match(path) is not None
+
+
+def base_folder(text: str) -> Path | str:
+    """A scene's folder as stored in text (a task's argument, a frame file): a URL stays
+    text, so that paths join onto it with ``/``; anything else is a Path."""
+    return text if is_url(text) else Path(text)
+
+
+def cache_folder() -> Path:
+    """Where fetched URLs are kept: ``$FOLLICLE_CACHE``, else ``follicle/urls`` under
+    ``$XDG_CACHE_HOME`` (``~/.cache``)."""
+    if os.environ.get("FOLLICLE_CACHE"):
+        return Path(os.environ["FOLLICLE_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "follicle" / "urls"
 
 
 def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
     """``path`` if it names a regular file (symbolic links followed), else FormatError
-    naming it and saying what it is instead; ``what`` says what was expected."""
+    naming it and saying what it is instead; ``what`` says what was expected. A URL
+    gives the local copy :func:`fetched` keeps of it."""
+    if is_url(path):
+        return fetched(path, what)
     p = Path(path)
     try:
         mode = p.stat().st_mode
@@ -35,3 +73,70 @@ def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
         )
         raise FormatError(f"{p}: is {kind}, not a regular file; give a {what}")
     return p
+
+
+def fetched(url: str, what: str = "file") -> Path:
+    """A local copy of the file at ``url``, fetched through fsspec into
+    :func:`cache_folder` unless a copy of the same URL, size and modification stamp is
+    there (written whole, under a temporary name, so that workers fetching at once each
+    see a whole file); it keeps the URL's file name, so readers see its extension.
+    ``file://`` URLs are read in place. ConfigError when fsspec or the protocol's
+    package is missing; FormatError naming the URL when it is not there, is a folder or
+    cannot be read."""
+    try:
+        import fsspec
+    except ImportError:
+        raise ConfigError(f"{url}: reading URLs needs fsspec; pip install fsspec") from None
+    protocol = url.split("://", 1)[0].lower()
+    try:
+        fs, path = fsspec.core.url_to_fs(url)
+    except ImportError:
+        need = _BACKENDS.get(protocol, f"the fsspec backend for {protocol}://")
+        raise ConfigError(
+            f"{url}: reading {protocol}:// URLs needs {need}; pip install it"
+        ) from None
+    except ValueError as exc:  # an unknown protocol
+        raise FormatError(f"{url}: {exc}; give a path or a URL fsspec reads") from None
+    if protocol == "file":
+        return input_file(path, what)
+    try:
+        info = fs.info(path)
+    except FileNotFoundError as exc:
+        cause = exc.__cause__  # fsspec's HTTP says "not found" for a server that is down too
+        if cause is None or isinstance(cause, FileNotFoundError) or _status(cause) in (404, 410):
+            raise FormatError(f"{url}: no such file") from None
+        raise FormatError(f"{url}: cannot be read ({_reason(cause)}); give a {what}") from None
+    except Exception as exc:  # backends raise their own (aiohttp, botocore)
+        raise FormatError(f"{url}: cannot be read ({_reason(exc)}); give a {what}") from None
+    if info.get("type") == "directory":
+        raise FormatError(f"{url}: is a folder, not a file; give a {what}")
+    stamp = [info.get(k) for k in ("size", "mtime", "LastModified", "ETag", "etag", "md5Hash")]
+    key = hashlib.sha256(repr((url, stamp)).encode()).hexdigest()[:32]
+    name = os.path.basename(path.rstrip("/")) or "file"
+    copy = cache_folder() / key / name
+    if copy.is_file():
+        return copy
+    try:
+        with atomic_path(copy) as tmp, fs.open(path, "rb") as src, open(tmp, "wb") as dst:
+            shutil.copyfileobj(src, dst, _BLOCK)
+    except Exception as exc:  # as above, or the cache's disk is full
+        raise FormatError(
+            f"{url}: cannot be fetched into {copy.parent} ({_reason(exc)}); give a {what}"
+        ) from None
+    size = info.get("size")
+    if size is not None and copy.stat().st_size != size:
+        copy.unlink(missing_ok=True)
+        raise FormatError(f"{url}: the download stopped short of its {size:,} bytes; fetch again")
+    return copy
+
+
+def _status(exc: BaseException) -> int | None:
+    """The HTTP status an fsspec backend's exception carries, if any."""
+    status = getattr(exc, "status", None)
+    return status if isinstance(status, int) else None
+
+
+def _reason(exc: BaseException) -> str:
+    """An exception in a few words, for one error line."""
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return f"{type(exc).__name__}: {text[:160]}" if text else type(exc).__name__

@@ -16,6 +16,7 @@ from .errors import ConfigError, FormatError, InputError, ResourceError
 from .groom.generator import Groom, load_texture, resolve_density
 from .groom.groups import InterpolationGroups, mesh_groups
 from .groom.guides import Guides, load_guides
+from .inputs import base_folder
 from .io.mesh_load import load_mesh
 from .mesh.skin import SkinMesh
 from .render import Camera, fit_camera, make_renderer, render, save_png
@@ -266,7 +267,7 @@ def cache_scene(cache: SimCache) -> Scene:
     against its ``base_dir``; FormatError (the cache is damaged) if it does not parse."""
     try:
         return scene_from_toml(
-            cache.scene_toml, f"{cache.source}: stored scene", Path(cache.base_dir)
+            cache.scene_toml, f"{cache.source}: stored scene", base_folder(cache.base_dir)
         )
     except ConfigError as exc:
         raise FormatError(f"{exc}; the cache is damaged: run `follicle simulate` again") from None

@@ -31,7 +31,7 @@ from pydantic import (
 
 from .errors import ConfigError, FormatError
 from .groom.settings import GroomParams, PropertyTag
-from .inputs import input_file
+from .inputs import input_file, is_url
 from .io.targets import TARGET_NAMES
 from .render.settings import LightParams, RenderParams
 from .settings import StrictSection, format_errors, shown
@@ -140,7 +140,15 @@ class Scene(StrictSection):
     sim: SimParams = Field(default_factory=SimParams)
     render: RenderParams = Field(default_factory=RenderParams)
     output: OutputParams = Field(default_factory=OutputParams)
-    base_dir: Path = Field(Path("."), exclude=True, description="folder relative paths start in")
+    base_dir: Path | str = Field(
+        Path("."), exclude=True, description="folder relative paths start in (or a URL)"
+    )
+
+    @field_validator("base_dir", mode="before")
+    @classmethod
+    def _set_by_the_loader(cls, value: object) -> object:
+        """A scene file cannot name its own folder (the loader sets it, unvalidated)."""
+        raise ValueError("not a scene key")
 
     def replace(self, source: str = "settings", **changes: object) -> Scene:
         """A copy with whole sections (a SimParams for ``sim``, …) or ``base_dir``
@@ -152,17 +160,24 @@ class Scene(StrictSection):
                     f"{source}: {key}: unknown scene section; allowed:"
                     f" {', '.join(Scene.model_fields)}"
                 )
-            want = Path if key == "base_dir" else field.annotation
-            if not isinstance(value, want):
-                raise ConfigError(
-                    f"{source}: {key}: expected {want.__name__}, got {type(value).__name__}"
-                )
+            want = (Path, str) if key == "base_dir" else field.annotation
+            if (
+                not isinstance(value, want)
+                or key == "base_dir"
+                and isinstance(value, str)
+                and not is_url(value)
+            ):
+                wanted = "a Path or a URL" if key == "base_dir" else want.__name__
+                raise ConfigError(f"{source}: {key}: expected {wanted}, got {type(value).__name__}")
         return self.model_copy(update=changes)
 
     def resolve(self, path: str) -> str:
-        """A scene path made absolute against the scene's folder (builtins untouched)."""
-        if path.startswith("builtin:") or os.path.isabs(path):
+        """A scene path made absolute against the scene's folder, or joined onto it with
+        ``/`` when the scene came from a URL (builtins, absolute paths and URLs untouched)."""
+        if path.startswith("builtin:") or os.path.isabs(path) or is_url(path):
             return path
+        if isinstance(self.base_dir, str):
+            return f"{self.base_dir.rstrip('/')}/{path}"
         return str(self.base_dir / path)
 
     def _owner_hint(self, name: str) -> str:
@@ -173,7 +188,9 @@ class Scene(StrictSection):
 assert all(f.exclude or f.annotation._section == k for k, f in Scene.model_fields.items())
 
 
-def parse_scene(data: dict[str, Any], source: str = "scene", base_dir: Path | None = None) -> Scene:
+def parse_scene(
+    data: dict[str, Any], source: str = "scene", base_dir: Path | str | None = None
+) -> Scene:
     """Validate a scene dictionary (as read from TOML)."""
     try:
         scene = Scene.model_validate(data)
@@ -193,9 +210,9 @@ def load_scene(path: str | os.PathLike[str] | None) -> Scene:
     if path is None:
         return Scene()
     p = Path(path)
-    if not os.path.lexists(p):
+    if not is_url(path) and not os.path.lexists(p):
         raise FormatError(f"{p}: no such scene file")
-    input_file(p, "scene file (TOML)")
+    p = input_file(path, "scene file (TOML)")
     try:
         with open(p, "rb") as fh:
             raw = fh.read(MAX_SCENE_BYTES + 1)
@@ -209,10 +226,12 @@ def load_scene(path: str | os.PathLike[str] | None) -> Scene:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{p}: not a UTF-8 text file (bad byte at offset {exc.start})") from None
+    if is_url(path):  # its relative paths are URLs beside it
+        return scene_from_toml(text, str(path), str(path).rsplit("/", 1)[0])
     return scene_from_toml(text, str(p), p.resolve().parent)
 
 
-def scene_from_toml(text: str, source: str, base_dir: Path | None = None) -> Scene:
+def scene_from_toml(text: str, source: str, base_dir: Path | str | None = None) -> Scene:
     """A scene from TOML text (a file's, or one stored in a cache or frame file); anything
     the parser cannot take (bad syntax, nesting too deep for its recursion, an integer of
     thousands of digits) is a ConfigError naming ``source``."""

@@ -33,6 +33,7 @@ from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FollicleError, FormatError, InputError
 from ..groom.generator import CHUNK, Groom
+from ..inputs import base_folder
 from ..io.procedural_data import FrameData, VoxelGrid
 from ..io.rib import write_block
 from ..mesh.skin import SkinMesh
@@ -194,7 +195,7 @@ def export_rib(
     expected = [count * groom.sampler.region_probability(tri_voxels == v) for v in filled]
     frame = FrameData(
         toml,
-        str(Path(scene.base_dir).resolve()),
+        scene.base_dir if isinstance(scene.base_dir, str) else str(scene.base_dir.resolve()),
         time,
         grid,
         {int(v): int(roots[v]) for v in np.flatnonzero(roots)},
@@ -233,7 +234,7 @@ def export_rib(
 def frame_scene(frame: FrameData, source: str = "frame file") -> Scene:
     """The scene a frame file stores, its relative paths resolved against its
     ``base_dir``; ConfigError naming ``source: stored scene`` if it does not parse."""
-    return scene_from_toml(frame.scene_toml, f"{source}: stored scene", Path(frame.base_dir))
+    return scene_from_toml(frame.scene_toml, f"{source}: stored scene", base_folder(frame.base_dir))
 
 
 class _Frame:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FollicleError, FormatError, InputError
-from ..inputs import input_file
+from ..inputs import input_file, is_url
 from ..mesh.head import builtin_head
 from ..mesh.skin import SkinMesh
 from ..units import Units, units_for, warn_mesh_size
@@ -57,9 +57,9 @@ def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
             f"mesh file '{p}' has extension '{p.suffix}'; supported: {', '.join(MESH_EXTENSIONS)}"
             f" (or {', '.join(_BUILTIN_PREFIX + k for k in BUILTIN_MESHES)})"
         )
-    if not os.path.lexists(p):
+    if not is_url(text) and not os.path.lexists(p):
         raise FormatError(f"mesh file '{p}' does not exist; check the path")
-    input_file(p, f"mesh file ({', '.join(MESH_EXTENSIONS)})")
+    p = input_file(text, f"mesh file ({', '.join(MESH_EXTENSIONS)})")
     if ext in SCENE_EXTENSIONS:
         return _plausible(_scene_mesh(p, ext, mpu), units, p)
 

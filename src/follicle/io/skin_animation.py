@@ -26,7 +26,7 @@ import numpy as np
 
 from ..arrays import frozen
 from ..errors import FormatError, InputError
-from ..inputs import input_file
+from ..inputs import input_file, is_url
 from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..units import Units, units_for
 from ..validate import number
@@ -107,9 +107,9 @@ def load_skin_animation(
             f"skin animation '{p}' has extension '{p.suffix}'; give a USD"
             f" ({', '.join(ANIMATION_EXTENSIONS[:4])}) or Alembic (.abc) file with time samples"
         )
-    if not os.path.lexists(p):
+    if not is_url(path) and not os.path.lexists(p):
         raise FormatError(f"skin animation '{p}' does not exist; check the path")
-    input_file(p, "skin animation (USD or Alembic)")
+    p = input_file(path, "skin animation (USD or Alembic)")
     mpu = units_for(p, units) if p.suffix.lower() == ".abc" else 1.0
     part = _read(p)
     times, frames = part["times"], part["frames"]

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import FollicleError, FormatError, InputError
-from ..inputs import input_file
+from ..inputs import input_file, is_url
 
 __all__ = ["Texture", "WRAP_MODES", "MAX_TEXTURE_PIXELS"]
 
@@ -96,9 +96,9 @@ class Texture:
         from PIL import Image
 
         p = Path(path)
-        if not os.path.lexists(p):
+        if not is_url(path) and not os.path.lexists(p):
             raise FormatError(f"texture file '{p}' does not exist or is not a file; check the path")
-        input_file(p, "PNG, JPEG or TIFF image file")
+        p = input_file(path, "PNG, JPEG or TIFF image file")
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", Image.DecompressionBombWarning)
