@@ -19,11 +19,13 @@ and Alembic with the guides and skin for the target tool), its render ``hair.png
 written under a temporary name and renamed whole, so a variant is all there or absent;
 a retried or speculative twin of a variant's task finds it there and drops its copy.
 
-**The manifest** (``manifest.csv`` in the batch folder, written last and atomically)
-has a row per variant, in variant order: ``variant, source, seed``, one column per
-swept key, ``hairs, points``, then ``scene``, ``curves`` and ``image`` with each
-file's path from the manifest's folder and its ``…_sha256``. It is the same bytes
-whichever way the batch ran.
+**The manifest** (``manifest.csv``, or ``manifest.parquet`` for
+``manifest="parquet"``, in the batch folder, written last and atomically) has a row per
+variant, in variant order: ``variant, source, seed``, one column per swept key,
+``hairs, points``, then ``scene``, ``curves`` and ``image`` with each file's path from
+the manifest's folder and its ``…_sha256``. The Parquet file (through pyarrow) keeps
+each column's type: integers, floats (a swept number exactly as the scene holds it) and
+text. It is the same bytes whichever way the batch ran.
 
 **Again after a stop.** Variants already in the folder with the same scene and the
 outputs asked for are kept, not made again (their rows read from ``outputs.json``); a
@@ -59,7 +61,7 @@ else:  # pragma: no cover - exercised on Python 3.10 only
     import tomli as tomllib
 
 __all__ = [
-    "MANIFEST",
+    "MANIFESTS",
     "Sweep",
     "Variant",
     "Outputs",
@@ -69,7 +71,7 @@ __all__ = [
     "run_batch",
 ]
 
-MANIFEST = "manifest.csv"
+MANIFESTS = {"csv": "manifest.csv", "parquet": "manifest.parquet"}
 Progress = Callable[[int, int], None]
 _MAX_VARIANTS = 10_000_000  # a sweep's product beyond this is a typo, not a dataset
 # per process: the groom inputs (mesh, guides, textures) last read, by batch run (its
@@ -189,12 +191,18 @@ def run_batch(
     outputs: Outputs = Outputs(),
     scheduler: str | None = None,
     progress: Progress | None = None,
+    manifest: str = "csv",
 ) -> Path:
     """Make every variant of ``batch`` into ``out_dir`` (made if need be), here or on
-    the Dask cluster ``scheduler``, and write the manifest (see the module). Returns
-    the manifest's path; ``progress(done, total)`` counts variants as they finish."""
+    the Dask cluster ``scheduler``, and write the ``manifest`` (``"csv"`` or
+    ``"parquet"``; see the module). Returns the manifest's path; ``progress(done,
+    total)`` counts variants as they finish."""
     if not batch:
         raise ConfigError("follicle batch: no variants (give a scene, or values to --vary)")
+    if manifest not in MANIFESTS:
+        raise ConfigError(f"--manifest {manifest!r}: one of {', '.join(MANIFESTS)}")
+    if manifest == "parquet":
+        _pyarrow()  # missing: said now, not after the batch
     out = Path(out_dir).resolve()
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: not a folder; -o names the batch's folder")
@@ -213,9 +221,16 @@ def run_batch(
             done += 1
             if progress is not None:
                 progress(done, len(batch))
-    path = out / MANIFEST
+    path = out / MANIFESTS[manifest]
+    header, rows = _manifest(batch, records)
     with atomic_path(path) as tmp:
-        tmp.write_text(_manifest(batch, records), encoding="utf-8", newline="")
+        if manifest == "csv":
+            buffer = io.StringIO()
+            table = csv.writer(buffer, lineterminator="\n")
+            table.writerows([header, *([_cell(v) for v in row] for row in rows)])
+            tmp.write_text(buffer.getvalue(), encoding="utf-8", newline="")
+        else:
+            _write_parquet(tmp, header, rows)
     return path
 
 
@@ -387,30 +402,56 @@ def _sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _manifest(batch: Sequence[Variant], records: Sequence[dict | None]) -> str:
-    """The manifest's CSV text: a row per variant (see the module)."""
+def _manifest(
+    batch: Sequence[Variant], records: Sequence[dict | None]
+) -> tuple[list[str], list[list[object]]]:
+    """The manifest's header and a row of values per variant (see the module)."""
     keys = [k for k, _ in batch[0].values]
     roles = [r for r in ("scene", "curves", "image") if r in (records[0] or {})["files"]]
-    buffer = io.StringIO()
-    table = csv.writer(buffer, lineterminator="\n")
-    table.writerow(
-        ["variant", "source", "seed", *keys, "hairs", "points"]
-        + [c for r in roles for c in (r, f"{r}_sha256")]
-    )
+    header = ["variant", "source", "seed", *keys, "hairs", "points"]
+    header += [c for r in roles for c in (r, f"{r}_sha256")]
+    rows = []
     for variant, record in zip(batch, records, strict=True):
         assert record is not None
         files = record["files"]
-        table.writerow(
+        rows.append(
             [variant.name, variant.source, variant.seed]
-            + [_cell(v) for _, v in variant.values]
+            + [v for _, v in variant.values]
             + [record["hairs"], record["points"]]
             + [c for r in roles for c in (f"{variant.name}/{files[r][0]}", files[r][1])]
         )
-    return buffer.getvalue()
+    return header, rows
 
 
 def _cell(value: object) -> object:
+    """A CSV cell: a float as Python writes it back exactly (repr)."""
     return repr(value) if isinstance(value, float) else value
+
+
+def _pyarrow() -> object:
+    """pyarrow, or ConfigError saying how to get it."""
+    try:
+        import pyarrow
+        import pyarrow.parquet  # noqa: F401 - the writer, a submodule
+    except ImportError:
+        raise ConfigError(
+            "--manifest parquet: needs pyarrow; pip install pyarrow (or use --manifest csv)"
+        ) from None
+    return pyarrow
+
+
+def _write_parquet(path: Path, header: list[str], rows: list[list[object]]) -> None:
+    """The manifest as a Parquet table at ``path``, each column typed by its values (a
+    swept key whose values mix kinds, e.g. numbers and words, is text)."""
+    pa = _pyarrow()
+    columns = {}
+    for i, name in enumerate(header):
+        values = [row[i] for row in rows]
+        try:
+            columns[name] = pa.array(values)
+        except (pa.ArrowInvalid, pa.ArrowTypeError):
+            columns[name] = pa.array([str(_cell(v)) for v in values])
+    pa.parquet.write_table(pa.table(columns), path)
 
 
 def _field(key: str) -> tuple[str, str]:

@@ -591,6 +591,14 @@ MOTIONS = _choices(SimParams, "motion")
     " byte for byte (needs follicle[dist]). Every worker must reach the scenes' files"
     " and the batch's folder.",
 )
+@click.option(
+    "--manifest",
+    "manifest_format",
+    type=click.Choice(["csv", "parquet"]),
+    default="csv",
+    show_default=True,
+    help="manifest.csv, or manifest.parquet with typed columns (needs pyarrow).",
+)
 def batch(
     scene_paths: tuple[str, ...],
     out: str,
@@ -604,6 +612,7 @@ def batch(
     target_name: str | None,
     skin: bool,
     scheduler: str | None,
+    manifest_format: str,
 ) -> None:
     """Grow, export and render many variants of scenes (the default scene if none): each
     scene × every combination of --vary values × each of --seeds, each into a folder of
@@ -627,7 +636,7 @@ def batch(
     outputs = Outputs(None if suffix == "none" else suffix, image, target_name, skin)
     where = " on Dask" if scheduler else ""
     with _step(f"batch{where}"), _progress(f"making {len(batch_):,} variants{where}") as progress:
-        manifest = run_batch(batch_, out, outputs, scheduler, progress)
+        manifest = run_batch(batch_, out, outputs, scheduler, progress, manifest_format)
     click.echo(f"{len(batch_):,} variants → {manifest}")
 
 
