@@ -33,7 +33,7 @@ LAYERS = [
     {"io"},
     {"groom", "sim", "render"},
     {"scene"},
-    {"pipeline", "distributed", "distributed_sim", "batch"},
+    {"pipeline", "distributed", "distributed_sim", "distributed_export", "batch"},
     {"cli", "view", "apps", "__init__"},
 ]
 LAYER = {name: k for k, names in enumerate(LAYERS) for name in names}

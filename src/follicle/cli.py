@@ -378,30 +378,64 @@ def _grown_chunks(
 
 
 @main.command()
-@click.argument("source", metavar="IN", type=click.Path())
+@click.argument("sources", metavar="IN...", nargs=-1, required=True, type=click.Path())
 @click.option(
     "-o",
     "--out",
     required=True,
-    type=click.Path(dir_okay=False),
+    type=click.Path(),
     help="Output file; its extension picks the format (.npz, .hair, .tfx, .obj,"
-    " .pbrt, .txt, .usd*, .abc, …; for a mesh .obj, .ply, .glb, .stl, .off).",
+    " .pbrt, .txt, .usd*, .abc, …; for a mesh .obj, .ply, .glb, .stl, .off). For several"
+    " IN, or with --to, a folder (made if need be): NAME.SUFFIX in it for each IN NAME.ext.",
+)
+@click.option(
+    "--to",
+    "suffix",
+    default=None,
+    metavar="SUFFIX",
+    help="The format of the files written into the folder -o: .usdc, .abc, .hair, … (any"
+    " that `follicle grow -o` writes); needed for several IN.",
 )
 @_TARGET_OPTION
 @_SKIN_OPTION
-def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS|local:N",
+    help="Convert the curves files on a Dask cluster, one task per file: a scheduler's"
+    " address, or local:N for N worker processes here; the files are the same, byte for"
+    " byte (needs follicle[dist]). Every worker must reach the IN files and the folder.",
+)
+def export(
+    sources: tuple[str, ...],
+    out: str,
+    suffix: str | None,
+    target_name: str | None,
+    skin: bool,
+    scheduler: str | None,
+) -> None:
     """Convert a curves file to another format, e.g. hair.npz -o hair.hair, or a mesh,
-    e.g. builtin:head -o head.obj.
+    e.g. builtin:head -o head.obj; or many curves files into a folder, e.g.
+    a.abc b.abc -o usd/ --to .usdc.
 
     Any extension `follicle info` reads (.npz, .hair, .tfx, .obj, .usd, .abc, …) to any
     that `follicle grow -o` writes; README § Formats says what each format keeps. A
-    simulation cache exports to animated USD or Alembic.
+    simulation cache exports alone, to animated USD or Alembic.
+
+    Several IN are converted one after another, or one Dask task each with --scheduler,
+    and each output is renamed into place whole, in the order given, once it and those
+    before it are converted: when a file fails, the files before it stay, and it and
+    those after it are not written.
     """
-    from .io.dispatch import load_curves, save
+    from .distributed_export import convert
     from .io.mesh_load import BUILTIN_MESHES
     from .io.sim_cache import is_cache
 
     tool = target_name or "generic"
+    if len(sources) > 1 or suffix is not None or scheduler is not None or Path(out).is_dir():
+        _export_files(sources, out, suffix, tool, scheduler)
+        return
+    source = sources[0]
     if (
         source.startswith("builtin:")
         and source[len("builtin:") :] in BUILTIN_MESHES
@@ -414,9 +448,60 @@ def export(source: str, out: str, target_name: str | None, skin: bool) -> None:
     if is_cache(source):
         _export_cache(source, out, skin, tool)
         return
-    curves = load_curves(source)
-    save(curves, out, **({"target": tool} if Path(out).suffix.lower() in NAMED_FORMATS else {}))
-    click.echo(f"{curves.curve_count:,} hairs, {curves.point_count:,} points → {out}")
+    hairs, points = convert(source, out, tool)
+    click.echo(f"{hairs:,} hairs, {points:,} points → {out}")
+
+
+def _export_files(
+    sources: tuple[str, ...], out: str, suffix: str | None, target: str, scheduler: str | None
+) -> None:
+    """`follicle export IN... -o FOLDER --to SUFFIX`: the curves files converted, here or
+    on the Dask cluster ``scheduler``, with a line for each."""
+    from .distributed_export import export_files
+
+    targets = _export_targets(sources, out, suffix)
+    _check_target(targets[0], target)
+    where = " on Dask" if scheduler else ""
+    with _step(f"export{where}"), _progress(f"converting files{where}") as progress:
+        done = export_files(sources, targets, scheduler, target, progress)
+    for path, (hairs, points) in zip(targets, done, strict=True):
+        click.echo(f"{hairs:,} hairs, {points:,} points → {path}")
+
+
+def _export_targets(sources: tuple[str, ...], out: str, suffix: str | None) -> list[str]:
+    """Where `follicle export` writes each IN: ``out`` itself for one IN without --to;
+    otherwise ``out`` is a folder and IN NAME.ext goes to OUT/NAME.SUFFIX. InputError for
+    what would be ambiguous: several IN or -o a folder without --to, -o a file for a
+    folder, two IN of one name."""
+    from .errors import InputError
+
+    if suffix is None:
+        if len(sources) == 1 and not Path(out).is_dir():
+            _check_writable_suffix(out, _curve_suffixes())
+            return [out]
+        what = f"{len(sources)} files convert into a folder" if len(sources) > 1 else "a folder"
+        raise InputError(
+            f"-o {out}: {what}; give --to SUFFIX for the format of the files in it (e.g."
+            " --to .usdc: FOLDER/NAME.usdc for each IN NAME.ext)"
+        )
+    suffix = suffix.lower() if suffix.startswith(".") else f".{suffix.lower()}"
+    _check_writable_suffix(f"--to {suffix}", _curve_suffixes())
+    folder = Path(out)
+    if (folder.exists() and not folder.is_dir()) or folder.suffix.lower() in _curve_suffixes():
+        raise InputError(
+            f"-o {out}: --to writes a file for each IN into a folder; give -o a folder"
+            f" (FOLDER/NAME{suffix} for each IN NAME.ext)"
+        )
+    targets: dict[str, str] = {}
+    for source in sources:
+        target = str(folder / f"{Path(source).stem}{suffix}")
+        if target in targets:
+            raise InputError(
+                f"-o {out}: {targets[target]} and {source} would both be converted to"
+                f" {target}; give the files different names, or convert them apart"
+            )
+        targets[target] = source
+    return list(targets)
 
 
 def _export_mesh(source: str, out: str, target: str) -> None:

@@ -97,7 +97,7 @@ def connect(scheduler: str) -> object:
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=":0",
-                silence_logs=logging.ERROR,
+                silence_logs=logging.CRITICAL,  # a failed task comes back as its error, once
                 env={"NUMBA_NUM_THREADS": str(max(1, (cores or 1) // int(n)))},
             )
         except RuntimeError:
