@@ -150,3 +150,19 @@ def test_a_missing_served_file_is_one_line(served, tmp_path):
     line = assert_cli_refused(out, f"{url}/color.png")
     assert "no such file" in line
     assert not any(tmp_path.glob("*h.usdc*"))
+
+
+def test_a_served_groom_exports_the_bytes_of_the_file_on_disk(served, tmp_path):
+    """`follicle export URL -o …` and a folder of URLs (`export_files`): the bytes the
+    files on disk give."""
+    from follicle.distributed_export import convert, export_files
+
+    folder, url, _ = served
+    convert(folder / "guides.hair", tmp_path / "disk.abc")
+    convert(f"{url}/guides.hair", tmp_path / "one.abc")
+    guides = load_curves(folder / "guides.hair")
+    done = export_files([f"{url}/guides.hair"], [tmp_path / "out" / "guides.abc"])
+    assert done == [(guides.curve_count, guides.point_count)]
+    want = (tmp_path / "disk.abc").read_bytes()
+    assert (tmp_path / "one.abc").read_bytes() == want
+    assert (tmp_path / "out" / "guides.abc").read_bytes() == want

@@ -30,6 +30,7 @@ from pathlib import Path
 
 from .atomic import deliver, pending_folders
 from .errors import FollicleError, FormatError, InputError
+from .inputs import is_url
 from .io.dispatch import WRITERS, load_curves, save
 from .io.sim_cache import is_cache
 from .io.targets import NAMED_FORMATS, get_target
@@ -97,8 +98,9 @@ def _checked(
     sources: Sequence[str | os.PathLike[str]],
     outs: Sequence[str | os.PathLike[str]],
     target: str,
-) -> list[tuple[Path, Path]]:
-    """(source, output) pairs as absolute paths, checked as :func:`export_files` says."""
+) -> list[tuple[str, Path]]:
+    """(source, output) pairs as absolute paths (a URL source as given), checked as
+    :func:`export_files` says."""
     get_target(target)
     if len(outs) != len(sources):
         raise InputError(f"outs: expected one output per source ({len(sources)}, not {len(outs)})")
@@ -108,11 +110,12 @@ def _checked(
                 f"{source}: a built-in mesh exports alone, as a mesh file"
                 f" (`follicle export {source} -o head.obj`)"
             )
-    read = {Path(source).resolve(): Path(source) for source in sources}
-    pairs: list[tuple[Path, Path]] = []
+    read = {Path(source).resolve(): Path(source) for source in sources if not is_url(source)}
+    pairs: list[tuple[str, Path]] = []
     written: dict[Path, Path] = {}
     for source, out in zip(sources, outs, strict=True):
-        src, dst = Path(source).resolve(), Path(out).resolve()
+        src = source if is_url(source) else Path(source).resolve()  # a URL as given
+        dst = Path(out).resolve()
         suffix = dst.suffix.lower()
         if suffix not in WRITERS:
             raise FormatError(
@@ -136,7 +139,7 @@ def _checked(
                 " or format"
             )
         written[dst] = Path(source)
-        pairs.append((src, dst))
+        pairs.append((str(src), dst))
     return pairs
 
 
