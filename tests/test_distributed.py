@@ -250,16 +250,3 @@ def test_a_worker_that_lacks_a_file_says_so(tmp_path):
     assert "density.png" in message and "on Dask worker tcp://" in message
     assert "every worker must reach the scene's files" in message
     assert not (tmp_path / "part").exists()
-
-
-def test_local_workers_step_back_for_the_client():
-    """On one machine the client's single writer is the critical path: a local
-    cluster's workers, every thread of them, run WORKER_NICENESS levels below it."""
-    import os
-
-    mine = os.getpriority(os.PRIO_PROCESS, 0)
-    with distributed.cluster("local:1") as client:
-        (tasks,) = client.run(
-            lambda: {os.getpriority(os.PRIO_PROCESS, int(t)) for t in os.listdir("/proc/self/task")}
-        ).values()
-    assert tasks == {min(19, mine + distributed.WORKER_NICENESS)}

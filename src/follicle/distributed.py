@@ -73,8 +73,7 @@ _GROOMS: dict[tuple[str, str], Groom] = {}  # per worker process: the scenes it 
 def connect(scheduler: str) -> object:
     """A ``distributed.Client`` for ``scheduler``: ``"local:N"`` starts a LocalCluster
     of N single-threaded worker processes here (closed with the client), each with its
-    share of the cores for numba (``NUMBA_NUM_THREADS``) and behind the client in CPU
-    priority (:func:`_behind_the_client`); anything else is a scheduler's
+    share of the cores for numba (``NUMBA_NUM_THREADS``); anything else is a scheduler's
     address (``tcp://host:8786``). ConfigError naming ``--scheduler`` when Dask is not
     installed, N is not a whole number ≥ 1, the workers cannot start, or the address
     does not answer within CONNECT_SECONDS."""
@@ -109,7 +108,6 @@ def connect(scheduler: str) -> object:
             ) from None
         client = Client(cluster)
         client._follicle_cluster = cluster  # closed with the client (close())
-        _behind_the_client(client)
         log.info("Dask: %d local workers, dashboard %s", int(n), client.dashboard_link)
         return client
     try:
@@ -122,29 +120,6 @@ def connect(scheduler: str) -> object:
             f" {CONNECT_SECONDS} s ({type(exc).__name__}); start one (dask scheduler) or"
             " give local:N"
         ) from None
-
-
-WORKER_NICENESS = 10  # how far local workers step back for the client (nice(1) levels)
-
-
-def _behind_the_client(client: object) -> None:
-    """Lower the CPU priority of a local cluster's worker processes (every thread, and
-    so the threads they start) by :data:`WORKER_NICENESS`: the client is the critical
-    path where it writes one file from the workers' parts, and on one machine's cores
-    the workers would otherwise slow that single writer; they take what it leaves."""
-    if not hasattr(os, "setpriority"):
-        return
-    for pid in client.run(os.getpid).values():
-        try:
-            threads = os.listdir(f"/proc/{pid}/task")
-        except OSError:
-            threads = [str(pid)]
-        for tid in threads:
-            try:
-                now = os.getpriority(os.PRIO_PROCESS, int(tid))
-                os.setpriority(os.PRIO_PROCESS, int(tid), min(19, now + WORKER_NICENESS))
-            except OSError:  # a thread that ended meanwhile
-                pass
 
 
 def close(client: object) -> None:
