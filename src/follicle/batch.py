@@ -275,18 +275,14 @@ def _check_curves(variant: Variant, suffix: str, target: str) -> None:
     """The hair file's suffix writable and ``target`` meant for it (as `follicle grow`
     checks them), before anything is grown."""
     from .io.dispatch import WRITERS
-    from .io.targets import NAMED_FORMATS
+    from .io.targets import check_named
 
     if suffix not in WRITERS:
         raise ConfigError(
             f"--curves {suffix}: not a curves format follicle writes; one of"
             f" {', '.join(sorted(WRITERS))}, or none"
         )
-    if target != "generic" and suffix not in NAMED_FORMATS:
-        raise ConfigError(
-            f"{variant.source}: target {target} is for USD and Alembic files"
-            f" ({', '.join(NAMED_FORMATS)}), not {suffix}; write one of those or target generic"
-        )
+    check_named(f"{variant.source} (--curves {suffix})", suffix, target)
 
 
 def _shown_path(path: Path) -> str:

@@ -31,7 +31,7 @@ from rich.progress import (
 from rich.text import Text
 
 from .errors import FollicleError
-from .io.targets import NAMED_FORMATS, TARGET_NAMES, writer_extras
+from .io.targets import NAMED_FORMATS, TARGET_NAMES, check_named, writer_extras
 from .scene import RenderParams, SimParams
 
 if TYPE_CHECKING:
@@ -166,6 +166,22 @@ def _handle_signals() -> None:
 
 
 _MESH_ONLY = (".ply", ".glb", ".gltf", ".stl", ".off")  # written only as meshes
+
+
+def _scheduler_option(what: str, per: str, same: str, reach: str = "") -> Callable:
+    """A command's ``--scheduler`` option: ``what`` it does on a Dask cluster (``per``:
+    how the work splits into tasks), that ``same`` byte for byte, and what every worker
+    must ``reach``."""
+    must = f" Every worker must reach {reach}." if reach else ""
+    return click.option(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS|local:N",
+        help=f"{what} on a Dask cluster{per}: a scheduler's address, or local:N for N worker"
+        f" processes here; {same}, byte for byte (needs follicle[dist]).{must}",
+    )
+
+
 _TARGET_OPTION = click.option(
     "--target",
     "target_name",
@@ -249,13 +265,7 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
 @click.option("--seed", type=int, default=None, help="Override [groom].seed.")
 @_TARGET_OPTION
 @_SKIN_OPTION
-@click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS|local:N",
-    help="Grow on a Dask cluster: a scheduler's address, or local:N for N worker"
-    " processes here; the file is the same, byte for byte (needs follicle[dist]).",
-)
+@_scheduler_option("Grow", "", "the file is the same")
 @click.option(
     "--chunk",
     type=int,
@@ -348,15 +358,8 @@ def groom(
 
 
 def _check_target(path: str, target: str) -> None:
-    """Only USD and Alembic carry named attributes: another format with a target other
-    than generic is refused (it would be silently ignored)."""
-    from .errors import FormatError
-
-    if target != "generic" and Path(path).suffix.lower() not in NAMED_FORMATS:
-        raise FormatError(
-            f"{path}: --target {target} is for USD and Alembic files"
-            f" ({', '.join(NAMED_FORMATS)}); drop it or write one of those"
-        )
+    """``--target`` only for the formats that carry names (:func:`check_named`)."""
+    check_named(path, Path(path).suffix, target, "--target")
 
 
 def _grown_chunks(
@@ -398,13 +401,11 @@ def _grown_chunks(
 )
 @_TARGET_OPTION
 @_SKIN_OPTION
-@click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS|local:N",
-    help="Convert the curves files on a Dask cluster, one task per file: a scheduler's"
-    " address, or local:N for N worker processes here; the files are the same, byte for"
-    " byte (needs follicle[dist]). Every worker must reach the IN files and the folder.",
+@_scheduler_option(
+    "Convert the curves files",
+    ", one task per file",
+    "the files are the same",
+    "the IN files and the folder",
 )
 def export(
     sources: tuple[str, ...],
@@ -668,13 +669,11 @@ MOTIONS = _choices(SimParams, "motion")
 )
 @_TARGET_OPTION
 @_SKIN_OPTION
-@click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS|local:N",
-    help="Make the variants on a Dask cluster, one task each; the files are the same,"
-    " byte for byte (needs follicle[dist]). Every worker must reach the scenes' files"
-    " and the batch's folder.",
+@_scheduler_option(
+    "Make the variants",
+    ", one task each",
+    "the files are the same",
+    "the scenes' files and the batch's folder",
 )
 @click.option(
     "--manifest",
@@ -763,14 +762,7 @@ def batch(
     default=None,
     help="Override [groom].count: the hairs `follicle render` grows from the cache.",
 )
-@click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS|local:N",
-    help="Simulate on a Dask cluster, one task per scene: a scheduler's address, or"
-    " local:N for N worker processes here; each cache is the same, byte for byte"
-    " (needs follicle[dist]).",
-)
+@_scheduler_option("Simulate", ", one task per scene", "each cache is the same")
 def simulate(
     scene_paths: tuple[str, ...],
     out: str | None,
@@ -921,13 +913,11 @@ def _simulated(scene: Scene, run: SimRun, target: str) -> str:
     metavar="START:STOP",
     help="A cache's frames to render, STOP excluded (0:24, 10:, or one frame: 5); default all.",
 )
-@click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS|local:N",
-    help="Render a cache's frames on a Dask cluster: a scheduler's address, or local:N for"
-    " N worker processes here; the PNGs (or the MP4) are the same, byte for byte (needs"
-    " follicle[dist]). Every worker must reach CACHE and the output's folder.",
+@_scheduler_option(
+    "Render a cache's frames",
+    "",
+    "the PNGs (or the MP4) are the same",
+    "CACHE and the output's folder",
 )
 @click.option(
     "--frames-per-task",

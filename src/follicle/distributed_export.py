@@ -33,7 +33,7 @@ from .errors import FollicleError, FormatError, InputError
 from .inputs import is_url
 from .io.dispatch import WRITERS, load_curves, save
 from .io.sim_cache import is_cache
-from .io.targets import NAMED_FORMATS, get_target
+from .io.targets import NAMED_FORMATS, check_named, get_target
 
 __all__ = ["convert", "export_files"]
 
@@ -122,11 +122,7 @@ def _checked(
                 f"{out}: cannot write '{suffix or 'no extension'}' curves files; use one of"
                 f" {', '.join(sorted(WRITERS))}"
             )
-        if target != "generic" and suffix not in NAMED_FORMATS:
-            raise FormatError(
-                f"{out}: target {target} is for USD and Alembic files"
-                f" ({', '.join(NAMED_FORMATS)}); write one of those or target generic"
-            )
+        check_named(str(out), suffix, target)
         if dst in written:
             raise InputError(
                 f"{dst}: both {written[dst]} and {source} would be converted to it; give each"

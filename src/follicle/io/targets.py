@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import FormatError, InputError
 from .attributes import DEFAULT_WIDTH
 
 __all__ = [
@@ -35,11 +35,24 @@ __all__ = [
     "for_target",
     "problems",
     "MAX_UNREAL_POINTS",
+    "check_named",
     "writer_extras",
 ]
 
 # the formats written with attribute names, and with the guides and skin beside the hair
 NAMED_FORMATS = (".usd", ".usda", ".usdc", ".usdz", ".abc")
+
+
+def check_named(name: str, suffix: str, target: str, option: str = "target") -> None:
+    """Refuse a ``target`` other than generic for a ``suffix`` outside
+    :data:`NAMED_FORMATS`: only USD and Alembic carry the tools' attribute names, so
+    elsewhere it would be silently ignored. FormatError naming ``name`` (the file),
+    the ``option`` that set the target, and the fix."""
+    if target != "generic" and suffix.lower() not in NAMED_FORMATS:
+        raise FormatError(
+            f"{name}: {option} {target} is for USD and Alembic files"
+            f" ({', '.join(NAMED_FORMATS)}); write one of those or target generic"
+        )
 
 
 def writer_extras(path: object, target: str, guides: object, mesh: object) -> dict:
