@@ -38,6 +38,7 @@ from follicle.io.dispatch import load_curves
 from follicle.io.mesh_load import load_mesh
 from follicle.io.targets import for_target
 from follicle.io.usd import save_usd
+from follicle.io.usd_payloads import save_usd_payloads
 from follicle.pipeline import groom_scene
 from follicle.scene import Scene
 
@@ -429,6 +430,43 @@ def test_what_blender_keeps(ours, groom, hair, name, capsys):
             if found[role].get(k, "absent") != want.get(k, "absent")
         }
         assert not diff, f"{name} {role}: Blender made (measured, expected) {diff}"
+
+
+# ------------------------------------------------------------------ the payloads layout
+@pytest.fixture(scope="module")
+def payloads(tmp_path_factory, blender, groom, hair):
+    """Our groom as a root layer over three part files (follicle grow --layout
+    payloads), imported by Blender: (findings, arrays, the parts)."""
+    folder = tmp_path_factory.mktemp("payloads")
+    parts = [hair[a : a + 100] for a in range(0, HAIRS, 100)]
+    root = save_usd_payloads(
+        parts, folder / "blender.usdc", guides=groom.guides, mesh=groom.mesh, target="blender"
+    )
+    report = run_blender(blender, "import_ours.py", root, folder / "findings.json")
+    return report, dict(np.load(report["arrays"])), parts
+
+
+def test_blender_opens_the_payloads_layout_as_the_groom(payloads):
+    """File → Import of the root layer: Blender loads every payload, one hair object per
+    part, with its curves and points where the one-file layout puts them, and the
+    guides and the skin beside them."""
+    report, arrays, parts = payloads
+    made = report["files"]["blender.usdc"]
+    assert made["result"] == ["FINISHED"], made["result"]
+    objects = {o["name"]: o for o in made["objects"]}
+    assert {"Guides", "Skin"} <= set(objects), sorted(objects)
+    assert objects["Skin"]["type"] == "MESH"
+    for i, part in enumerate(parts):
+        obj = objects.get(f"part_{i:04d}")
+        assert obj is not None, f"part {i}: no object; Blender made {sorted(objects)}"
+        assert obj["type"] == "CURVES"
+        assert (obj["curves"], obj["points"]) == (part.curve_count, part.point_count)
+        _assert_points(
+            arrays[f"{obj['key']}/position"],
+            _to_blender(part.points),
+            f"part {i}: hair points in Blender's world",
+            "A Y-up (x, y, z) should land at (x, -z, y).",
+        )
 
 
 # ------------------------------------------------------------------ Blender's hair into ours

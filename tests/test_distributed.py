@@ -42,19 +42,48 @@ def _one_process(scene, path, target="generic"):
     return path
 
 
+def _one_process_payloads(scene, path, target, chunk):
+    """What `follicle grow --layout payloads --chunk CHUNK` writes in one process."""
+    from follicle.cli import _grown_chunks
+    from follicle.io.usd_payloads import save_usd_payloads
+
+    groom = groom_scene(scene)
+    chunks = _grown_chunks(groom, lambda *_: None, [0, 0], target, chunk)
+    return save_usd_payloads(
+        chunks, path, guides=groom.guides.curves, mesh=groom.mesh, target=target
+    )
+
+
+def _layout_bytes(root: Path) -> dict[str, bytes]:
+    """The root layer's bytes and each part file's, by name."""
+    folder = root.with_name(f"{root.name}.payloads")
+    found = {"root": root.read_bytes().replace(root.name.encode(), b"ROOT")}
+    found.update({p.name: p.read_bytes() for p in sorted(folder.iterdir())})
+    return found
+
+
 @pytest.mark.parametrize(
-    "workers, chunk, ext, target",
+    "workers, chunk, ext, target, layout",
     [
-        (1, 1000, ".usdc", "generic"),
-        (2, 1234, ".abc", "generic"),
-        (3, 700, ".hair", "generic"),
-        (2, 5000, ".npz", "generic"),  # one task bigger than the groom
-        (3, 999, ".usda", "unreal"),  # the binding Unreal reads, per hair
+        (1, 1000, ".usdc", "generic", "file"),
+        (2, 1234, ".abc", "generic", "file"),
+        (3, 700, ".hair", "generic", "file"),
+        (2, 5000, ".npz", "generic", "file"),  # one task bigger than the groom
+        (3, 999, ".usda", "unreal", "file"),  # the binding Unreal reads, per hair
+        # each worker writes the part files it grows, the client only the root layer
+        (1, 3000, ".usdc", "generic", "payloads"),
+        (2, 700, ".usda", "generic", "payloads"),
+        (3, 999, ".usd", "unreal", "payloads"),
     ],
 )
-def test_a_cluster_grow_is_the_single_process_file(tmp_path, workers, chunk, ext, target):
+def test_a_cluster_grow_is_the_single_process_output(tmp_path, workers, chunk, ext, target, layout):
+    """The file, or the root layer and every part file, are the bytes one process writes
+    (for payloads: with the same --chunk)."""
     scene = _scene(tmp_path)
-    want = _one_process(scene, tmp_path / f"one{ext}", target)
+    if layout == "file":
+        want = {"file": _one_process(scene, tmp_path / f"one{ext}", target).read_bytes()}
+    else:
+        want = _layout_bytes(_one_process_payloads(scene, tmp_path / f"one{ext}", target, chunk))
     seen = []
     hairs, points = distributed.grow(
         scene,
@@ -63,13 +92,32 @@ def test_a_cluster_grow_is_the_single_process_file(tmp_path, workers, chunk, ext
         chunk=chunk,
         target=target,
         progress=lambda done, total: seen.append((done, total)),
+        layout=layout,
     )
-    assert (tmp_path / f"two{ext}").read_bytes() == want.read_bytes()
+    if layout == "file":
+        assert {"file": (tmp_path / f"two{ext}").read_bytes()} == want
+    else:
+        assert _layout_bytes(tmp_path / f"two{ext}") == want
+        assert len(want) == 1 + -(-3000 // chunk)
     assert hairs == 3000 and points > 3000 * 2
     assert seen[-1] == (3000, 3000) and len(seen) == -(-3000 // chunk)
+    folders = [f"one{ext}.payloads", f"two{ext}.payloads"] if layout == "payloads" else []
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        [f"one{ext}", f"two{ext}", "s.toml"]
+        [f"one{ext}", f"two{ext}", "s.toml", *folders]
     )
+
+
+def test_a_part_file_written_twice_is_one_whole_file(tmp_path):
+    """A retried or speculative task over one part file: the same bytes under the same
+    name, and no temporary file of either left."""
+    path = tmp_path / "part_0000.usdc"
+    call = (SCENE, str(tmp_path), 0, 200, "generic", str(path), True)
+    with distributed.cluster("local:1") as client:
+        assert client.submit(distributed._grow_part, *call, pure=False).result() > 200
+        first = path.read_bytes()
+        assert client.submit(distributed._grow_part, *call, pure=False).result() > 200
+    assert path.read_bytes() == first
+    assert [p.name for p in tmp_path.iterdir()] == ["part_0000.usdc"]
 
 
 def test_bad_schedulers_are_refused_and_write_nothing(tmp_path, monkeypatch):
@@ -250,3 +298,19 @@ def test_a_worker_that_lacks_a_file_says_so(tmp_path):
     assert "density.png" in message and "on Dask worker tcp://" in message
     assert "every worker must reach the scene's files" in message
     assert not (tmp_path / "part").exists()
+
+
+def test_a_worker_that_finds_a_bad_file_names_it_without_the_paths_hint(tmp_path):
+    """A texture every worker reaches but that is not an image: the error names it and
+    the worker, and does not send the user looking for shared disks."""
+    from follicle.errors import FollicleError
+
+    (tmp_path / "density.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(40))  # cut short
+    text = "[groom]\ncount = 100\ndensity = 'density.png'\n"
+    with distributed.cluster("local:1") as client:
+        call = (text, str(tmp_path), 0, 100, "generic", str(tmp_path / "part"))
+        with pytest.raises(FollicleError) as err:
+            client.submit(distributed._grow_part, *call).result()
+    message = str(err.value)
+    assert "density.png" in message and "on Dask worker tcp://" in message
+    assert "every worker must reach" not in message

@@ -270,7 +270,16 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
     "--chunk",
     type=int,
     default=None,
-    help="Hairs per Dask task with --scheduler (default 32768).",
+    help="Hairs per Dask task with --scheduler (default 32768); with --layout payloads,"
+    " hairs per part file (default 131072), one task each.",
+)
+@click.option(
+    "--layout",
+    type=click.Choice(["file", "payloads"]),
+    default="file",
+    show_default=True,
+    help="USD as one file, or as a root layer with one payload per part file in"
+    " OUT.payloads/ beside it (written side by side by the workers of --scheduler).",
 )
 def grow(
     scene_path: str,
@@ -281,6 +290,7 @@ def grow(
     skin: bool,
     scheduler: str | None,
     chunk: int | None,
+    layout: str,
 ) -> None:
     """Grow the hair of a scene file and save the curves.
 
@@ -298,15 +308,23 @@ def grow(
     _check_writable_suffix(path, _curve_suffixes())
     tool = target_name or scene.output.target
     _check_target(path, tool)
-    if chunk is not None and scheduler is None:
-        raise FollicleError("--chunk: sizes the Dask tasks of --scheduler; give --scheduler")
+    if chunk is not None and chunk < 1:
+        raise FollicleError(f"--chunk {chunk}: give a whole number of hairs ≥ 1")
+    if chunk is not None and scheduler is None and layout == "file":
+        raise FollicleError(
+            "--chunk: sizes the Dask tasks of --scheduler, or the part files of --layout"
+            " payloads; give one of them"
+        )
+    if layout == "payloads":
+        from .io.usd_payloads import check_payloads_target
+
+        check_payloads_target(path)  # before any hair is grown
     if scheduler is not None:
         from .distributed import grow as grow_distributed
-        from .groom.generator import CHUNK
 
         with _step("grow on Dask"), _progress("growing hair on Dask") as progress:
             hairs, points = grow_distributed(
-                scene, path, scheduler, chunk or CHUNK, tool, skin, progress
+                scene, path, scheduler, chunk, tool, skin, progress, layout
             )
     elif Path(path).suffix.lower() == ".npz":
         with _step("grow"), _progress("growing hair") as progress:
@@ -318,7 +336,13 @@ def grow(
         groom = groom_scene(scene)
         extras = writer_extras(path, tool, groom.guides.curves, groom.mesh if skin else None)
         with _step("grow and save"), _progress("growing hair") as progress:
-            save(_grown_chunks(groom, progress, tally, tool), path, **extras)
+            if layout == "payloads":
+                from .io.usd_payloads import PART_HAIRS, save_usd_payloads
+
+                chunks = _grown_chunks(groom, progress, tally, tool, chunk or PART_HAIRS)
+                save_usd_payloads(chunks, path, **extras)
+            else:
+                save(_grown_chunks(groom, progress, tally, tool), path, **extras)
         hairs, points = tally
     click.echo(f"{hairs:,} hairs, {points:,} points → {path}")
 
@@ -363,21 +387,26 @@ def _check_target(path: str, target: str) -> None:
 
 
 def _grown_chunks(
-    groom: Groom, progress: Callable[[int, int], None], tally: list[int], target: str = "generic"
+    groom: Groom,
+    progress: Callable[[int, int], None],
+    tally: list[int],
+    target: str = "generic",
+    size: int | None = None,
 ) -> Iterator[HairCurves]:
-    """The groom's hairs chunk by chunk, reporting progress and adding up (hairs, points)
-    in ``tally``; one empty chunk for a count of 0, so the file is still written. For
-    Unreal each hair also carries the three guides it blends most and their weights."""
-    from .distributed import target_chunk
+    """The groom's hairs in chunks of ``size`` (default the writers' CHUNK), reporting
+    progress and adding up (hairs, points) in ``tally``; one empty chunk for a count
+    of 0, so the file is still written. For Unreal each hair also carries the three
+    guides it blends most and their weights."""
+    from .distributed import part_ranges, target_chunk
     from .groom.generator import CHUNK
 
     total = groom.params.count
-    for i, chunk in enumerate(groom.chunks(CHUNK) if total else [groom.generate(count=0)]):
-        chunk = target_chunk(groom, chunk, target)
+    for start, count in part_ranges(total, size or CHUNK):
+        chunk = target_chunk(groom, groom.generate(count, start), target)
         tally[0] += chunk.curve_count
         tally[1] += chunk.point_count
         yield chunk
-        progress(min((i + 1) * CHUNK, total), total)
+        progress(start + count, total)
 
 
 @main.command()

@@ -58,7 +58,9 @@ __all__ = [
     "write_part",
     "read_part",
     "grow",
+    "part_ranges",
     "target_chunk",
+    "LAYOUTS",
 ]
 
 R = TypeVar("R")
@@ -66,6 +68,7 @@ R = TypeVar("R")
 log = logging.getLogger("follicle")
 
 CONNECT_SECONDS = 10  # how long a scheduler's address may take to answer
+LAYOUTS = ("file", "payloads")  # how a grow's USD is laid out: one file, or a root and parts
 AHEAD = 3  # grow tasks in flight per worker thread, ahead of the client's writing
 _GROOMS: dict[tuple[str, str], Groom] = {}  # per worker process: the scenes it has built
 
@@ -205,20 +208,36 @@ def task_setup() -> int:
     return threads
 
 
+# what a FollicleError says when a file was not there to read or write: on a cluster,
+# usually a worker that does not see the client's paths
+_UNREACHED = (
+    "no such file",
+    "does not exist",
+    "not found",
+    "cannot be read (",  # an OSError or a URL fetch, not "cannot be read as an image"
+    "could not write",
+    "permission denied",
+)
+
+
 @contextmanager
 def on_worker() -> Iterator[None]:
     """Run a task's body: a FollicleError raised in it comes back to the client naming
-    the Dask worker and saying what every worker needs (the scene's files and the
-    output's folder at the client's paths), the usual cause on a cluster."""
+    the Dask worker; one about a file it could not find, read or write also says what
+    every worker needs (the scene's files and the output's folder at the client's
+    paths), the usual cause on a cluster. A bad file is named as it is, no hint."""
     try:
         yield
     except FollicleError as exc:
         from distributed import get_worker
 
-        raise type(exc)(
-            f"on Dask worker {get_worker().address}: {exc} (every worker must reach the"
-            " scene's files and the output's folder at the paths the client gives)"
-        ) from None
+        hint = ""
+        if any(words in str(exc).lower() for words in _UNREACHED):
+            hint = (
+                " (every worker must reach the scene's files and the output's folder at"
+                " the paths the client gives)"
+            )
+        raise type(exc)(f"on Dask worker {get_worker().address}: {exc}{hint}") from None
 
 
 def write_part(curves: object, path: str | os.PathLike[str]) -> None:
@@ -298,14 +317,22 @@ def _groom(text: str, base_dir: str) -> Groom:
     return _GROOMS[key]
 
 
-def _grow_part(text: str, base_dir: str, start: int, count: int, target: str, path: str) -> int:
+def _grow_part(
+    text: str, base_dir: str, start: int, count: int, target: str, path: str, usd: bool = False
+) -> int:
     """A worker's task: hairs ``start`` … ``start + count − 1`` written as the part
-    ``path`` (:func:`write_part`); returns their point count."""
+    ``path`` (:func:`write_part`; with ``usd``, the USD part file of a payloads layout,
+    :func:`follicle.io.usd_payloads.save_usd_part`); returns their point count."""
     task_setup()
     with on_worker():
         groom = _groom(text, base_dir)
         part = target_chunk(groom, groom.generate(count, start), target)
-        write_part(part, path)
+        if usd:
+            from .io.usd_payloads import save_usd_part
+
+            save_usd_part(part, path, target=target)
+        else:
+            write_part(part, path)
     return part.point_count
 
 
@@ -335,21 +362,31 @@ def grow(
     scene: Scene,
     out: str | os.PathLike[str],
     scheduler: str,
-    chunk: int = CHUNK,
+    chunk: int | None = None,
     target: str = "generic",
     skin: bool = True,
     progress: Callable[[int, int], None] | None = None,
+    layout: str = "file",
 ) -> tuple[int, int]:
     """Grow ``scene``'s hair on the Dask cluster ``scheduler`` (see :func:`connect`) in
     tasks of ``chunk`` hair ids and write it to ``out`` (any format ``follicle grow``
     writes; USD and Alembic with the guides and, with ``skin``, the skin for
     ``target``), the same bytes as a grow in one process (see the module). Returns
-    (hairs, points); ``progress(done, total)`` is called as parts are written."""
+    (hairs, points); ``progress(done, total)`` is called as parts are written.
+
+    ``layout="payloads"`` (USD): each task writes its hairs as one part file of the
+    payloads layout (:mod:`follicle.io.usd_payloads`; ``chunk`` hairs each, default
+    :data:`~follicle.io.usd_payloads.PART_HAIRS`) and the client only the root layer, the
+    same bytes as ``follicle grow --layout payloads`` in one process with that chunk."""
+    if layout not in LAYOUTS:
+        raise ConfigError(f"layout {layout!r}: give one of {', '.join(LAYOUTS)}")
+    if layout == "payloads":
+        return _grow_payloads(scene, out, scheduler, chunk, target, skin, progress)
     from .curves import HairCurves
     from .io.dispatch import save
     from .pipeline import groom_scene
 
-    chunk = whole(chunk, "chunk", 1)
+    chunk = whole(CHUNK if chunk is None else chunk, "chunk", 1)
     out = Path(out)
     total = scene.groom.count
     text = scene_to_toml(scene, comments=False)
@@ -383,3 +420,50 @@ def grow(
             else:
                 save(chunks, out, **extras)
     return total, tally[0]
+
+
+def part_ranges(total: int, chunk: int) -> list[tuple[int, int]]:
+    """(start, count) of each part of ``total`` hairs in parts of ``chunk``: one empty
+    part for none, so that a groom of 0 hairs is still a file."""
+    return [(a, min(chunk, total - a)) for a in range(0, total, chunk)] or [(0, 0)]
+
+
+def _grow_payloads(
+    scene: Scene,
+    out: str | os.PathLike[str],
+    scheduler: str,
+    chunk: int | None,
+    target: str,
+    skin: bool,
+    progress: Callable[[int, int], None] | None,
+) -> tuple[int, int]:
+    """:func:`grow` in the payloads layout: one task per part file, written by the worker
+    into a folder beside ``out`` that every worker must reach; the client writes the
+    root layer when all are in (the cluster's progress as they come, in any order)."""
+    from distributed import as_completed
+
+    from .io.usd_payloads import PART_HAIRS, check_payloads_target, finish_payloads, part_file
+    from .pipeline import groom_scene
+
+    chunk = whole(PART_HAIRS if chunk is None else chunk, "chunk", 1)
+    out = check_payloads_target(out)
+    total = scene.groom.count
+    text = scene_to_toml(scene, comments=False)
+    ranges = part_ranges(total, chunk)
+    with cluster(scheduler) as client, temporary_folder(out, "payloads") as staged:
+        calls = [
+            (text, str(scene.base_dir), a, n, target, str(part_file(staged, i)), True)
+            for i, (a, n) in enumerate(ranges)
+        ]
+        futures = submit_all(client, _grow_part, calls, "grow")
+        groom = groom_scene(scene)  # the guides and skin of the root, as the tasks run
+        sizes = {future.key: n for future, (_, n) in zip(futures, ranges, strict=True)}
+        points = done = 0
+        for future in as_completed(futures):
+            points += future.result()
+            done += sizes[future.key]
+            if progress is not None:
+                progress(done, total)
+        mesh = groom.mesh if skin else None
+        finish_payloads(out, staged, len(ranges), groom.guides.curves, mesh=mesh, target=target)
+    return total, points

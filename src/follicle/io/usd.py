@@ -217,6 +217,23 @@ def _new_stage(path: Path, groom_schema: bool = False) -> Usd.Stage:
     return stage
 
 
+def _groom_stage(
+    crate: Path,
+    guides: HairCurves | None,
+    normals: bool,
+    mesh: SkinMesh | None,
+    groom_schema: bool,
+) -> Usd.Stage:
+    """A new crate stage at ``crate`` (:func:`_new_stage`) with the skin ``mesh`` and the
+    ``guides`` defined, ready for the hair under /Groom/Hair."""
+    stage = _new_stage(crate, groom_schema)
+    if mesh is not None:
+        define_skin(stage, SKIN_PATH, mesh)
+    if guides is not None:
+        _define_curves(stage, GROOM_GUIDES_PATH if groom_schema else GUIDES_PATH, guides, normals)
+    return stage
+
+
 def _write_crate(
     chunks: Iterator[HairCurves],
     crate: Path,
@@ -225,12 +242,8 @@ def _write_crate(
     mesh: SkinMesh | None,
     groom_schema: bool,
 ) -> None:
-    stage = _new_stage(crate, groom_schema)
+    stage = _groom_stage(crate, guides, normals, mesh, groom_schema)
     layer = stage.GetRootLayer()
-    if mesh is not None:
-        define_skin(stage, SKIN_PATH, mesh)
-    if guides is not None:
-        _define_curves(stage, GROOM_GUIDES_PATH if groom_schema else GUIDES_PATH, guides, normals)
     for i, chunk in enumerate(chunks):
         _define_curves(stage, f"{HAIR_PATH}/chunk_{i:04d}", chunk, normals)
         layer.Save()  # crate appends the chunk and lets go of its arrays

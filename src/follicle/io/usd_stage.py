@@ -53,6 +53,7 @@ class _Composition:
         self.where = where
         self.memo: dict[tuple[str, str], int] = {}
         self.active: set[tuple[str, str]] = set()
+        self.missing: list[str] = []  # layers an arc names that cannot be opened
 
     def _enter(self, key: tuple[str, str]) -> None:
         if key in self.active:
@@ -81,6 +82,8 @@ class _Composition:
         n = sum(self.prim(layer, spec.path) for spec in layer.rootPrims if spec)
         for asset in layer.subLayerPaths:
             sub = Sdf.Layer.FindOrOpenRelativeToLayer(layer, asset)
+            if sub is None:
+                self.missing.append(asset)
             n += self.layer(sub) if sub is not None else 0
         return self._done(key, n)
 
@@ -110,6 +113,7 @@ class _Composition:
     def _arc(self, layer: Sdf.Layer, asset: str, target: Sdf.Path) -> int:
         other = Sdf.Layer.FindOrOpenRelativeToLayer(layer, asset) if asset else layer
         if other is None:
+            self.missing.append(asset)
             return 0
         if target.isEmpty:
             if not other.defaultPrim:
@@ -419,7 +423,15 @@ def read(
     root = Sdf.Layer.FindOrOpen(path)
     if root is None:
         raise Refused(f"{source}: usd-core could not open it; is it a valid USD file?")
-    _Composition(source).layer(root)
+    composition = _Composition(source)
+    composition.layer(root)
+    if composition.missing:  # its hair would be read in part, or not at all
+        more = len(composition.missing) - 1
+        raise Refused(
+            f"{source}: @{composition.missing[0]}@, a sublayer, reference or payload of"
+            f" it{f' (and {more} more)' if more else ''}, cannot be opened; put the file"
+            " back where the path points, or remove the arc"
+        )
     stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
     when = Usd.TimeCode.EarliestTime() if time is None else Usd.TimeCode(time)
     prims = []

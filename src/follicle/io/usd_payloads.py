@@ -1,0 +1,189 @@
+"""USD hair as a root layer and one payload per part: the layout a groom of any size
+can be written in side by side.
+
+``fox.usdc`` (or ``.usd``, ``.usda``) is the root layer: the stage metadata, ``/Groom``,
+``/Groom/Hair`` (for Unreal's groom schema the Xform with ``GroomAPI``), the guides and
+the skin, as :func:`follicle.io.usd.save_usd` writes them, and under ``/Groom/Hair`` one
+BasisCurves prim per part, ``part_0000``, ``part_0001``, …, each only a payload arc to
+``./fox.usdc.payloads/part_NNNN.usdc``. Each part file is a crate layer of its own (upAxis Y,
+metersPerUnit 1) whose default prim is one pinned Catmull-Rom BasisCurves prim holding
+the part's hairs, written as ``save_usd`` writes a chunk (extent, widths, normals,
+primvars, named and typed for the target tool). USD composes the parts into one stage;
+an application may open it with the payloads unloaded and load the parts it wants.
+
+Why: a part file depends only on its own hairs, so the parts of a groom can be written
+at the same time by different processes (:func:`follicle.distributed.grow` with
+``layout="payloads"``: each Dask worker writes the parts it grows and the client only
+the small root layer), and one process writes the same bytes one part after another.
+
+Writing is atomic as a whole: the parts go to a hidden folder beside the root (each
+part file itself under a temporary name, so a task run twice leaves one whole file),
+the root to a temporary name; then the folder is put in place of ``fox.usdc.payloads/`` and
+the root renamed onto ``fox.usdc``. A ``fox.usdc.payloads/`` that holds anything but part
+files is refused before any hair is grown, never replaced.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import uuid
+from collections.abc import Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from pxr import Sdf, Usd, UsdGeom
+
+from ..atomic import _umask, atomic_path, temporary_folder
+from ..curves import HairCurves
+from ..errors import FormatError
+from .animation import as_guides
+from .attributes import conventional
+from .stream import Curves, as_chunks
+from .targets import Target, for_target, get_target
+from .usd import HAIR_PATH, _check_suffix, _define_curves, _finish, _groom_stage, _writing
+
+if TYPE_CHECKING:
+    from ..mesh.skin import SkinMesh
+
+__all__ = [
+    "PART_HAIRS",
+    "payloads_folder",
+    "part_file",
+    "check_payloads_target",
+    "save_usd_part",
+    "save_usd_payloads",
+    "finish_payloads",
+]
+
+PART_HAIRS = 131_072  # hairs per part file by default: 31 files for 4 M hairs
+_PART = re.compile(r"part_\d{4,}\.usdc")
+
+
+def payloads_folder(path: str | os.PathLike[str]) -> Path:
+    """The folder of ``path``'s part files, beside it: ``fox.usdc`` → ``fox.usdc.payloads``
+    (the whole name, so ``fox.usda`` beside it keeps parts of its own)."""
+    path = Path(path)
+    return path.with_name(f"{path.name}.payloads")
+
+
+def part_file(folder: str | os.PathLike[str], index: int) -> Path:
+    """Part ``index``'s file in ``folder``: ``part_0000.usdc``, …"""
+    return Path(folder) / f"part_{index:04d}.usdc"
+
+
+def check_payloads_target(path: str | os.PathLike[str]) -> Path:
+    """``path`` as the root of a payloads layout, refused (FormatError) before any work
+    when it is not .usd, .usda or .usdc (a .usdz is one package, not a layer with files
+    beside it) or when its payloads folder exists holding anything but part files."""
+    out = _check_suffix(path)
+    if out.suffix.lower() == ".usdz":
+        raise FormatError(
+            f"{out}: a .usdz is one package; the payloads layout writes .usd, .usda or"
+            " .usdc with its part files beside it (or write .usdz as one file)"
+        )
+    folder = payloads_folder(out)
+    if folder.exists() and not (
+        folder.is_dir() and all(_PART.fullmatch(p.name) for p in folder.iterdir())
+    ):
+        raise FormatError(
+            f"{folder}: exists and holds more than the part files of a payloads layout"
+            " (part_NNNN.usdc); move it away or write elsewhere"
+        )
+    return out
+
+
+def save_usd_part(
+    curves: HairCurves,
+    path: str | os.PathLike[str],
+    normals: bool = True,
+    target: Target | str = "generic",
+) -> Path:
+    """Write ``curves`` as one part file: a crate layer whose default prim is a pinned
+    Catmull-Rom BasisCurves prim named for the file (``part_0003``), named and typed as
+    ``target`` reads it; atomically, so a task run twice leaves one whole file."""
+    out = Path(path)
+    curves = for_target(curves, get_target(target), in_units=False)
+    with _writing(out), atomic_path(out) as tmp:
+        stage = Usd.Stage.Open(Sdf.Layer.CreateNew(str(tmp), {"format": "usdc"}))
+        UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+        UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+        _define_curves(stage, f"/{out.stem}", curves, normals)
+        stage.SetDefaultPrim(stage.GetPrimAtPath(f"/{out.stem}"))
+        stage.GetRootLayer().Save()
+    return out
+
+
+def finish_payloads(
+    path: str | os.PathLike[str],
+    staged: Path,
+    parts: int,
+    guides: object | None = None,
+    normals: bool = True,
+    mesh: SkinMesh | None = None,
+    target: Target | str = "generic",
+) -> Path:
+    """Write the root layer ``path`` over the ``parts`` part files in ``staged``
+    (:func:`part_file` 0 … parts − 1, written by :func:`save_usd_part`), with ``guides``
+    and the skin ``mesh`` as :func:`follicle.io.usd.save_usd` has them, then put
+    ``staged`` in place as ``path``'s payloads folder and the root onto ``path``."""
+    out = check_payloads_target(path)
+    tool = get_target(target)
+    guide_curves = None
+    if guides is not None:
+        guide_curves = for_target(conventional(as_guides(guides)), tool, "guides", False)
+    folder = payloads_folder(out)
+    missing = [i for i in range(parts) if not part_file(staged, i).is_file()]
+    if missing:
+        raise FormatError(f"{out}: part {missing[0]} of {parts} was not written; grow again")
+
+    def write(crate: Path) -> None:
+        layer = _groom_stage(crate, guide_curves, normals, mesh, tool.groom_schema).GetRootLayer()
+        # the arcs go in as specs, with no stage open on the layer: one would try to load
+        # each payload, which is not in place yet
+        for i in range(parts):
+            name = part_file(folder, i)
+            spec = Sdf.CreatePrimInLayer(layer, f"{HAIR_PATH}/{name.stem}")
+            spec.specifier = Sdf.SpecifierDef
+            spec.typeName = "BasisCurves"
+            spec.payloadList.Prepend(Sdf.Payload(f"./{folder.name}/{name.name}"))
+        layer.Save()
+
+    with _writing(out), atomic_path(out) as tmp:
+        _finish(out, tmp, write)
+        _swap(staged, folder)
+    return out
+
+
+def _swap(staged: Path, folder: Path) -> None:
+    """Put ``staged`` where ``folder`` is (an older payloads folder is removed after)."""
+    os.chmod(staged, 0o777 & ~_umask())  # made private, as a temporary folder is
+    old = None
+    if folder.exists():
+        old = folder.with_name(f".{folder.name}.old-{uuid.uuid4().hex[:8]}")
+        os.rename(folder, old)
+    os.rename(staged, folder)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def save_usd_payloads(
+    curves: Curves | Iterable[HairCurves],
+    path: str | os.PathLike[str],
+    guides: object | None = None,
+    normals: bool = True,
+    mesh: SkinMesh | None = None,
+    target: Target | str = "generic",
+) -> Path:
+    """Write ``curves`` (HairCurves or a stream of chunks) in the payloads layout: chunk
+    ``i`` of the stream is part file ``i`` (cut the stream into the parts you want;
+    ``follicle grow --layout payloads`` cuts :data:`PART_HAIRS`), the root layer
+    ``path`` with the ``guides`` and the skin ``mesh`` over them (see the module)."""
+    out = check_payloads_target(path)
+    with temporary_folder(out, "payloads") as staged:
+        parts = 0
+        for i, chunk in enumerate(as_chunks(curves)):
+            save_usd_part(chunk, part_file(staged, i), normals, target)
+            parts = i + 1
+        return finish_payloads(out, staged, parts, guides, normals, mesh, target)

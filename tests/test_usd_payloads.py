@@ -1,0 +1,211 @@
+"""USD hair as a root layer with one payload per part file (issue: beyond one machine):
+usd-core composes it into the groom the one-file layout holds, opens it with the parts
+unloaded, and follicle reads it back the same; writing again replaces the parts whole;
+a folder in the way, a .usdz or a part gone missing is one clean refusal."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from pxr import Usd, UsdGeom
+
+from follicle.errors import FormatError
+from follicle.io.usd import load_usd, save_usd
+from follicle.io.usd_payloads import (
+    check_payloads_target,
+    part_file,
+    payloads_folder,
+    save_usd_part,
+    save_usd_payloads,
+)
+from follicle.pipeline import groom_scene
+from follicle.scene import Scene
+from hostile import assert_cli_refused, run_cli, warm
+
+HAIRS = 2500
+
+
+@pytest.fixture(scope="module")
+def groom():
+    return groom_scene(Scene())
+
+
+def _parts(groom, size, count=HAIRS):
+    """The groom's hairs in parts of ``size``, as `follicle grow --layout payloads` cuts."""
+    return [groom.generate(min(size, count - a), a) for a in range(0, count, size)]
+
+
+def _same_curves(a, b):
+    assert (a.curve_count, a.point_count) == (b.curve_count, b.point_count)
+    np.testing.assert_array_equal(a.offsets, b.offsets)
+    np.testing.assert_array_equal(a.points, b.points)
+    assert sorted(a.point_data) == sorted(b.point_data)
+    assert sorted(a.curve_data) == sorted(b.curve_data)
+    for name in a.point_data:
+        np.testing.assert_array_equal(a.point_data[name], b.point_data[name], err_msg=name)
+    for name in a.curve_data:
+        np.testing.assert_array_equal(a.curve_data[name], b.curve_data[name], err_msg=name)
+
+
+@pytest.mark.parametrize("ext, target", [(".usdc", "generic"), (".usda", "unreal")])
+def test_usd_core_composes_the_parts_into_the_one_file_groom(tmp_path, groom, ext, target):
+    parts = _parts(groom, 1000)
+    root = save_usd_payloads(
+        parts, tmp_path / f"fox{ext}", guides=groom.guides, mesh=groom.mesh, target=target
+    )
+    one = save_usd(
+        parts, tmp_path / "one.usdc", guides=groom.guides, mesh=groom.mesh, target=target
+    )
+    folder = payloads_folder(root)
+    assert folder.name == f"fox{ext}.payloads"
+    assert sorted(p.name for p in folder.iterdir()) == [f"part_000{i}.usdc" for i in range(3)]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [f"fox{ext}", folder.name, "one.usdc"]
+    )
+    # usd-core's own API: the composed stage, every part loaded, in id order
+    stage = Usd.Stage.Open(str(root))
+    assert UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y
+    assert stage.GetDefaultPrim().GetPath() == "/Groom"
+    hair = stage.GetPrimAtPath("/Groom/Hair")
+    names = [p.GetName() for p in hair.GetChildren() if p.IsA(UsdGeom.BasisCurves)]
+    assert names[-3:] == ["part_0000", "part_0001", "part_0002"]
+    for i, part in enumerate(parts):
+        prim = UsdGeom.BasisCurves(stage.GetPrimAtPath(f"/Groom/Hair/part_000{i}"))
+        assert prim.GetPrim().HasPayload() and prim.GetPrim().IsLoaded()
+        assert list(prim.GetCurveVertexCountsAttr().Get()) == part.counts.tolist()
+        np.testing.assert_array_equal(np.asarray(prim.GetPointsAttr().Get()), part.points)
+        assert prim.GetBasisAttr().Get() == "catmullRom" and prim.GetExtentAttr().Get()
+    unreal = "GroomAPI" in hair.GetPrimTypeInfo().GetAppliedAPISchemas()
+    assert unreal == (target == "unreal")
+    assert stage.GetPrimAtPath("/Groom/Skin").IsA(UsdGeom.Mesh)
+    # opened with its payloads unloaded: the guides and skin, none of the hair's points
+    light = Usd.Stage.Open(str(root), Usd.Stage.LoadNone)
+    assert not light.GetPrimAtPath("/Groom/Hair/part_0001").IsLoaded()
+    points = UsdGeom.BasisCurves(light.GetPrimAtPath("/Groom/Hair/part_0001")).GetPointsAttr()
+    assert not points.HasAuthoredValue()
+    # follicle reads the same hair, the same guides, from either layout
+    _same_curves(load_usd(root), load_usd(one))
+    _same_curves(load_usd(root, guides=True), load_usd(one, guides=True))
+
+
+def test_the_same_parts_are_the_same_bytes_and_writing_again_replaces_them(tmp_path, groom):
+    first = save_usd_payloads(_parts(groom, 1000), tmp_path / "a.usdc", guides=groom.guides)
+    again = save_usd_payloads(_parts(groom, 1000), tmp_path / "b.usdc", guides=groom.guides)
+    assert first.read_bytes().replace(b"a.usdc.payloads", b"b.usdc.payloads") == (
+        again.read_bytes()
+    )
+    for i in range(3):
+        assert part_file(payloads_folder(first), i).read_bytes() == (
+            part_file(payloads_folder(again), i).read_bytes()
+        )
+    # a part is one whole file of its own: its default prim, named for it
+    part = Usd.Stage.Open(str(part_file(payloads_folder(first), 1)))
+    assert part.GetDefaultPrim().GetPath() == "/part_0001"
+    # fewer, bigger parts written over it: the old folder goes whole, nothing else stays
+    save_usd_payloads(_parts(groom, 2000, 3000), first, guides=groom.guides)
+    assert sorted(p.name for p in payloads_folder(first).iterdir()) == [
+        "part_0000.usdc",
+        "part_0001.usdc",
+    ]
+    assert load_usd(first).curve_count == 3000
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["a.usdc", "a.usdc.payloads", "b.usdc", "b.usdc.payloads"]
+    )
+
+
+def test_what_is_in_the_way_is_refused_before_anything_is_written(tmp_path, groom):
+    theirs = tmp_path / "fox.usdc.payloads"
+    theirs.mkdir()
+    (theirs / "notes.txt").write_text("mine")
+    with pytest.raises(FormatError, match=r"fox.usdc.payloads: exists and holds more"):
+        save_usd_payloads(_parts(groom, 1000), tmp_path / "fox.usdc")
+    (tmp_path / "file.usdc.payloads").write_text("a file, not a folder")
+    with pytest.raises(FormatError, match="file.usdc.payloads: exists"):
+        check_payloads_target(tmp_path / "file.usdc")
+    with pytest.raises(FormatError, match=r"\.usdz is one package"):
+        check_payloads_target(tmp_path / "fox.usdz")
+    with pytest.raises(FormatError, match="must end in .usd"):
+        check_payloads_target(tmp_path / "fox.abc")
+    assert (theirs / "notes.txt").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file.usdc.payloads", "fox.usdc.payloads"]
+
+
+def test_a_part_gone_or_not_usd_is_one_clean_refusal(tmp_path, groom):
+    root = save_usd_payloads(_parts(groom, 1000), tmp_path / "fox.usdc")
+    part_file(payloads_folder(root), 1).unlink()
+    with pytest.raises(
+        FormatError,
+        match=r"fox.usdc: @./fox.usdc.payloads/part_0001.usdc@.*"
+        "cannot be opened",
+    ):
+        load_usd(root)
+    part_file(payloads_folder(root), 2).write_bytes(b"PXR-USDC" + bytes(80))  # a cut crate
+    with pytest.raises(FormatError, match=r"fox.usdc: usd-core could not read it.*part_0002"):
+        load_usd(root)
+    save_usd_part(groom.generate(10), tmp_path / "alone.usdc")
+    assert load_usd(tmp_path / "alone.usdc").curve_count == 10  # a part reads on its own
+
+
+def test_the_cli_writes_payloads_in_a_terminal_and_refuses_bad_options(tmp_path):
+    (tmp_path / "s.toml").write_text(f"[groom]\ncount = {HAIRS}\n")
+    warm()
+    grow = "grow s.toml -o h.usda --layout payloads --chunk 1000".split()
+    out = run_cli(*grow, cwd=tmp_path, tty=True, timeout=300)
+    assert out.rc == 0, out.stdout + out.stderr
+    assert f"{HAIRS:,} hairs" in out.stdout and "Traceback" not in out.stdout
+    assert sorted(p.name for p in (tmp_path / "h.usda.payloads").iterdir()) == [
+        "part_0000.usdc",
+        "part_0001.usdc",
+        "part_0002.usdc",
+    ]
+    one = run_cli("grow", "s.toml", "-o", "one.usdc", cwd=tmp_path, timeout=300)
+    assert one.rc == 0
+    _same_curves(load_usd(tmp_path / "h.usda"), load_usd(tmp_path / "one.usdc"))
+    refused = run_cli("grow", "s.toml", "-o", "x.usdz", "--layout", "payloads", cwd=tmp_path)
+    assert_cli_refused(refused, "x.usdz", ".usdz is one package")
+    refused = run_cli("grow", "s.toml", "-o", "x.abc", "--layout", "payloads", cwd=tmp_path)
+    assert_cli_refused(refused, "x.abc")
+    refused = run_cli(
+        "grow", "s.toml", "-o", "x.usdc", "--layout", "payloads", "--chunk", 0, cwd=tmp_path
+    )
+    assert_cli_refused(refused, "--chunk")
+    refused = run_cli("grow", "s.toml", "-o", "x.usdc", "--layout", "parts", cwd=tmp_path)
+    assert refused.rc == 2 and "payloads" in refused.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["s.toml", "h.usda", "h.usda.payloads", "one.usdc"]
+    )
+
+
+def test_ctrl_c_leaves_neither_root_nor_parts(tmp_path):
+    """SIGINT once parts are on disk: the hidden folder of parts and the root's
+    temporary name go; exit 130; an older groom of the same name stays as it was."""
+    (tmp_path / "s.toml").write_text("[groom]\ncount = 1000000\n")
+    warm()
+    small = run_cli(
+        "grow", "s.toml", "-o", "h.usdc", "--layout", "payloads", "--count", 500, cwd=tmp_path
+    )
+    assert small.rc == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "follicle.cli", "grow", "s.toml", "-o", "h.usdc"]
+        + ["--layout", "payloads", "--chunk", "20000"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    deadline = time.monotonic() + 120
+    while not list(tmp_path.glob(".h.usdc.payloads-*/part_0001.usdc")):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    after = {p.name: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    assert after == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["h.usdc", "h.usdc.payloads", "s.toml"]
