@@ -142,11 +142,16 @@ def _interrupted(signum: int, frame: object) -> None:
 
     from .atomic import remove_pending
 
-    children = multiprocessing.active_children()  # a local Dask cluster's workers …
-    for child in children:
-        child.kill()
-    for child in children:  # … gone before their parts' folder goes
-        child.join(timeout=5)
+    logging.disable(logging.CRITICAL)  # what a local scheduler logs of its dying workers
+    nanny = sys.modules.get("distributed.nanny")  # a local Dask cluster's, if one runs:
+    for each in list(nanny.Nanny._instances) if nanny is not None else []:
+        each.status = sys.modules["distributed.core"].Status.closing  # no worker restarted
+    for _ in range(2):  # its workers, and one its nanny may have started meanwhile, …
+        children = multiprocessing.active_children()
+        for child in children:
+            child.kill()
+        for child in children:  # … gone before their parts' folder goes
+            child.join(timeout=5)
     remove_pending()
     name = signal.Signals(signum).name
     sys.stderr.write(f"\nerror: stopped by {name}; no output was written\n")

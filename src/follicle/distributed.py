@@ -31,6 +31,7 @@ import contextlib
 import logging
 import os
 import shutil
+import sys
 import uuid
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -39,7 +40,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from .atomic import temporary_folder
-from .errors import ConfigError, FollicleError
+from .errors import ConfigError, FollicleError, FormatError
 from .groom.generator import CHUNK, Groom
 from .inputs import base_folder
 from .io.targets import writer_extras
@@ -67,6 +68,7 @@ R = TypeVar("R")
 
 log = logging.getLogger("follicle")
 
+_QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
 CONNECT_SECONDS = 10  # how long a scheduler's address may take to answer
 LAYOUTS = ("file", "payloads")  # how a grow's USD is laid out: one file, or a root and parts
 AHEAD = 3  # grow tasks in flight per worker thread, ahead of the client's writing
@@ -93,6 +95,11 @@ def connect(scheduler: str) -> object:
                 f"--scheduler {scheduler!r}: local:N takes a whole number of workers ≥ 1"
             )
         logging.getLogger("distributed").setLevel(logging.ERROR)  # its start-up chatter
+        # Ctrl-C kills the workers (cli._interrupted): multiprocessing's resource tracker,
+        # started with the cluster, then removes the semaphores they held and would warn
+        # of each on the terminal, under the CLI's one line; its flags come from here
+        if _QUIET_TRACKER not in sys.warnoptions:
+            sys.warnoptions.append(_QUIET_TRACKER)
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
         try:
             cluster = LocalCluster(
@@ -330,6 +337,8 @@ def _grow_part(
         if usd:
             from .io.usd_payloads import save_usd_part
 
+            if not Path(path).parent.is_dir():  # not made again: the job has ended
+                raise FormatError(f"{Path(path).parent}: the grow's parts folder is gone")
             save_usd_part(part, path, target=target)
         else:
             write_part(part, path)
