@@ -209,3 +209,19 @@ def test_ctrl_c_leaves_neither_root_nor_parts(tmp_path):
     after = {p.name: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     assert after == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["h.usdc", "h.usdc.payloads", "s.toml"]
+
+
+def test_a_scene_asks_for_payloads_and_a_batch_refuses_them(tmp_path):
+    """[output].layout = "payloads" is what `follicle grow SCENE` writes (--layout file
+    overrides it); a batch, whose manifest hashes one file per variant, refuses it."""
+    (tmp_path / "s.toml").write_text(
+        '[groom]\ncount = 300\n[output]\ncurves = "h.usdc"\nlayout = "payloads"\n'
+    )
+    assert run_cli("grow", "s.toml", cwd=tmp_path, timeout=300).rc == 0
+    assert [p.name for p in (tmp_path / "h.usdc.payloads").iterdir()] == ["part_0000.usdc"]
+    assert run_cli("grow", "s.toml", "-o", "f.usdc", "--layout", "file", cwd=tmp_path).rc == 0
+    assert not (tmp_path / "f.usdc.payloads").exists()
+    _same_curves(load_usd(tmp_path / "h.usdc"), load_usd(tmp_path / "f.usdc"))
+    refused = run_cli("batch", "s.toml", "-o", "ds", "--no-image", cwd=tmp_path)
+    assert_cli_refused(refused, "s.toml", "[output].layout")
+    assert not (tmp_path / "ds").exists()

@@ -258,6 +258,11 @@ def _job(variant: Variant, out: Path, outputs: Outputs) -> tuple:
     target = outputs.target or scene.output.target
     if suffix:
         _check_curves(variant, suffix, target)
+        if scene.output.layout != "file":  # its parts would escape the manifest's hashes
+            raise ConfigError(
+                f"{variant.source}: [output].layout = {scene.output.layout!r}: a batch"
+                ' writes one curves file per variant; set it to "file" for the batch'
+            )
     header = f"# follicle batch {variant.name} of {variant.source}; relative paths start in"
     text = f"{header} {_shown_path(scene.base_dir)}\n{scene_to_toml(scene, comments=False)}"
     return (

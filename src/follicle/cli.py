@@ -281,10 +281,10 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
 @click.option(
     "--layout",
     type=click.Choice(["file", "payloads"]),
-    default="file",
-    show_default=True,
+    default=None,
     help="USD as one file, or as a root layer with one payload per part file in"
-    " OUT.payloads/ beside it (written side by side by the workers of --scheduler).",
+    " OUT.payloads/ beside it (written side by side by the workers of --scheduler);"
+    " default [output].layout of the scene, file.",
 )
 def grow(
     scene_path: str,
@@ -295,7 +295,7 @@ def grow(
     skin: bool,
     scheduler: str | None,
     chunk: int | None,
-    layout: str,
+    layout: str | None,
 ) -> None:
     """Grow the hair of a scene file and save the curves.
 
@@ -313,6 +313,7 @@ def grow(
     _check_writable_suffix(path, _curve_suffixes())
     tool = target_name or scene.output.target
     _check_target(path, tool)
+    layout = layout or scene.output.layout
     if chunk is not None and chunk < 1:
         raise FollicleError(f"--chunk {chunk}: give a whole number of hairs ≥ 1")
     if chunk is not None and scheduler is None and layout == "file":

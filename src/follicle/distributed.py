@@ -375,7 +375,7 @@ def grow(
     target: str = "generic",
     skin: bool = True,
     progress: Callable[[int, int], None] | None = None,
-    layout: str = "file",
+    layout: str | None = None,
 ) -> tuple[int, int]:
     """Grow ``scene``'s hair on the Dask cluster ``scheduler`` (see :func:`connect`) in
     tasks of ``chunk`` hair ids and write it to ``out`` (any format ``follicle grow``
@@ -383,10 +383,12 @@ def grow(
     ``target``), the same bytes as a grow in one process (see the module). Returns
     (hairs, points); ``progress(done, total)`` is called as parts are written.
 
-    ``layout="payloads"`` (USD): each task writes its hairs as one part file of the
-    payloads layout (:mod:`follicle.io.usd_payloads`; ``chunk`` hairs each, default
+    ``layout`` (default the scene's ``[output].layout``) ``"payloads"`` (USD): each task
+    writes its hairs as one part file of the payloads layout
+    (:mod:`follicle.io.usd_payloads`; ``chunk`` hairs each, default
     :data:`~follicle.io.usd_payloads.PART_HAIRS`) and the client only the root layer, the
     same bytes as ``follicle grow --layout payloads`` in one process with that chunk."""
+    layout = layout or scene.output.layout
     if layout not in LAYOUTS:
         raise ConfigError(f"layout {layout!r}: give one of {', '.join(LAYOUTS)}")
     if layout == "payloads":

@@ -129,6 +129,11 @@ class OutputParams(StrictSection):
         description="the tool USD / Alembic output is written for: its attribute"
         " names, types and units (README: Formats, Targets)",
     )
+    layout: Literal["file", "payloads"] = Field(
+        "file",
+        description="USD from `follicle grow`: one file, or a root layer with one payload"
+        " per part file in CURVES.payloads/ (README: Beyond one machine)",
+    )
 
 
 class Scene(StrictSection):
