@@ -50,8 +50,21 @@ def _layout(fields: tuple[tuple[str, str], ...]) -> tuple[tuple[str, str, int], 
 LAYOUT = {name: _layout(fields) for name, fields in SHAPES.items()}
 COLUMNS = 1 + max(sum(1 if k == "scalar" else 3 for _, k in f) for f in SHAPES.values())
 
-# sdf_sample's arguments for "no skin SDF": an empty grid
-NO_SDF = (np.zeros((0, 0, 0), np.float32), np.zeros(3), 1.0, np.eye(4))
+
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    arr.setflags(write=False)
+    return arr
+
+
+# sdf_sample's arguments for "no skin SDF": an empty grid, read-only as a skin's SDF
+# hands out its own (numba types a read-only array apart: a writable one here made the
+# solver's kernels compile a second time, a minute on first use)
+NO_SDF = (
+    _frozen(np.zeros((0, 0, 0), np.float32)),
+    _frozen(np.zeros(3)),
+    1.0,
+    _frozen(np.eye(4)),
+)
 
 
 class Colliders(NamedTuple):
