@@ -299,6 +299,7 @@ def test_a_worker_that_lacks_a_file_says_so(tmp_path):
     message = str(err.value)
     assert "density.png" in message and "on Dask worker tcp://" in message
     assert "every worker must reach the scene's files" in message
+    assert type(err.value).__name__ == "FileAccessError"  # a FormatError, as it was
     assert not (tmp_path / "part").exists()
 
 

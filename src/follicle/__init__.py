@@ -17,6 +17,7 @@ from typing import Any
 from .curves import HairCurves
 from .errors import (
     ConfigError,
+    FileAccessError,
     FollicleError,
     FormatError,
     InputError,
@@ -54,6 +55,7 @@ __all__ = [
     "FollicleError",
     "InputError",
     "FormatError",
+    "FileAccessError",
     "ConfigError",
     "SimulationError",
     "ResourceError",

@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from .atomic import temporary_folder
-from .errors import ConfigError, FollicleError, FormatError
+from .errors import ConfigError, FileAccessError, FollicleError
 from .groom.generator import CHUNK, Groom
 from .inputs import base_folder
 from .io.targets import writer_extras
@@ -215,22 +215,11 @@ def task_setup() -> int:
     return threads
 
 
-# what a FollicleError says when a file was not there to read or write: on a cluster,
-# usually a worker that does not see the client's paths
-_UNREACHED = (
-    "no such file",
-    "does not exist",
-    "not found",
-    "cannot be read (",  # an OSError or a URL fetch, not "cannot be read as an image"
-    "could not write",
-    "permission denied",
-)
-
-
 @contextmanager
 def on_worker() -> Iterator[None]:
     """Run a task's body: a FollicleError raised in it comes back to the client naming
-    the Dask worker; one about a file it could not find, read or write also says what
+    the Dask worker; one about a file it could not find, read or write
+    (:class:`~follicle.errors.FileAccessError`) also says what
     every worker needs (the scene's files and the output's folder at the client's
     paths), the usual cause on a cluster. A bad file is named as it is, no hint."""
     try:
@@ -239,7 +228,7 @@ def on_worker() -> Iterator[None]:
         from distributed import get_worker
 
         hint = ""
-        if any(words in str(exc).lower() for words in _UNREACHED):
+        if isinstance(exc, FileAccessError):
             hint = (
                 " (every worker must reach the scene's files and the output's folder at"
                 " the paths the client gives)"
@@ -337,8 +326,6 @@ def _grow_part(
         if usd:
             from .io.usd_payloads import save_usd_part
 
-            if not Path(path).parent.is_dir():  # not made again: the job has ended
-                raise FormatError(f"{Path(path).parent}: the grow's parts folder is gone")
             save_usd_part(part, path, target=target)
         else:
             write_part(part, path)

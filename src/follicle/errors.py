@@ -16,6 +16,13 @@ class FormatError(FollicleError):
     """A file cannot be read: missing, unknown extension, truncated or malformed."""
 
 
+class FileAccessError(FormatError):
+    """A file that is not there, or that this process may not read or write (no such
+    file, no permission, a full disk, a server that does not answer), unlike one whose
+    contents are wrong: the fix is where the file is, not what it holds. On a cluster,
+    the usual sign of a worker that does not see the client's paths."""
+
+
 class ConfigError(FollicleError):
     """A scene file (TOML) has a syntax error, an unknown key or a bad value."""
 

@@ -21,7 +21,7 @@ import stat
 from pathlib import Path
 
 from .atomic import atomic_path
-from .errors import ConfigError, FormatError
+from .errors import ConfigError, FileAccessError, FormatError
 
 __all__ = ["base_folder", "cache_folder", "input_file", "is_url"]
 
@@ -61,10 +61,10 @@ def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
     try:
         mode = p.stat().st_mode
     except FileNotFoundError:
-        raise FormatError(f"{p}: no such file") from None
+        raise FileAccessError(f"{p}: no such file") from None
     except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
         reason = getattr(exc, "strerror", None) or exc
-        raise FormatError(f"{p!s:.200}: cannot be read ({reason}); give a {what}") from None
+        raise FileAccessError(f"{p!s:.200}: cannot be read ({reason}); give a {what}") from None
     if stat.S_ISDIR(mode):
         raise FormatError(f"{p}: is a folder, not a file; give a {what}")
     if not stat.S_ISREG(mode):
@@ -104,10 +104,10 @@ def fetched(url: str, what: str = "file") -> Path:
     except FileNotFoundError as exc:
         cause = exc.__cause__  # fsspec's HTTP says "not found" for a server that is down too
         if cause is None or isinstance(cause, FileNotFoundError) or _status(cause) in (404, 410):
-            raise FormatError(f"{url}: no such file") from None
-        raise FormatError(f"{url}: cannot be read ({_reason(cause)}); give a {what}") from None
+            raise FileAccessError(f"{url}: no such file") from None
+        raise FileAccessError(f"{url}: cannot be read ({_reason(cause)}); give a {what}") from None
     except Exception as exc:  # backends raise their own (aiohttp, botocore)
-        raise FormatError(f"{url}: cannot be read ({_reason(exc)}); give a {what}") from None
+        raise FileAccessError(f"{url}: cannot be read ({_reason(exc)}); give a {what}") from None
     if info.get("type") == "directory":
         raise FormatError(f"{url}: is a folder, not a file; give a {what}")
     stamp = [info.get(k) for k in ("size", "mtime", "LastModified", "ETag", "etag", "md5Hash")]

@@ -29,7 +29,7 @@ from pydantic import (
     field_validator,
 )
 
-from .errors import ConfigError, FormatError
+from .errors import ConfigError, FileAccessError
 from .groom.settings import GroomParams, PropertyTag
 from .inputs import input_file, is_url
 from .io.targets import TARGET_NAMES
@@ -216,13 +216,13 @@ def load_scene(path: str | os.PathLike[str] | None) -> Scene:
         return Scene()
     p = Path(path)
     if not is_url(path) and not os.path.lexists(p):
-        raise FormatError(f"{p}: no such scene file")
+        raise FileAccessError(f"{p}: no such scene file")
     p = input_file(path, "scene file (TOML)")
     try:
         with open(p, "rb") as fh:
             raw = fh.read(MAX_SCENE_BYTES + 1)
     except OSError as exc:
-        raise FormatError(f"{p}: cannot be read ({exc.strerror or exc})") from None
+        raise FileAccessError(f"{p}: cannot be read ({exc.strerror or exc})") from None
     if len(raw) > MAX_SCENE_BYTES:
         raise ConfigError(
             f"{p}: larger than {MAX_SCENE_BYTES >> 20} MiB; a scene file is a short TOML text"

@@ -77,7 +77,7 @@ import numpy as np
 
 from ..atomic import atomic_path
 from ..curves import HairCurves
-from ..errors import FormatError, InputError
+from ..errors import FileAccessError, FormatError, InputError
 from ..inputs import input_file
 from ..io.polymesh import skin_from_part
 from ..mesh.skin import SkinMesh
@@ -85,8 +85,8 @@ from ..validate import number
 from .alembic_archive import COLOR_NAMES, GROOM_VERSION_KEYS
 from .alembic_guard import check_archive, read_curves, read_mesh
 from .alembic_sink import send
-from .animation import Animation, animation, as_guides
-from .attributes import column, conventional
+from .animation import Animation, animation, target_guides
+from .attributes import column
 from .curve_bounds import vertex_bounds
 from .guard import curves_from_parts
 from .stream import Curves, as_chunks
@@ -301,7 +301,7 @@ class _Sink:
             text = self.stderr.read().decode(errors="replace").split()
             how = f"crashed with {signal.Signals(-code).name}" if code < 0 else f"exit {code}"
             why = f"its writer process {how}: {' '.join(text)[-200:] or 'no output'}"
-        return FormatError(
+        return FileAccessError(
             f"{self.target}: could not write it ({why}); free disk space or write elsewhere"
         )
 
@@ -373,9 +373,7 @@ def save_abc(
     the groom schema's version on ``/Groom``)."""
     out = _check_suffix(path)
     tool = get_target(target)
-    guide_curves = None
-    if guides is not None:
-        guide_curves = for_target(conventional(as_guides(guides)), tool, "guides")
+    guide_curves = target_guides(guides, tool)
     skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
     chunks = (for_target(chunk, tool) for chunk in as_chunks(curves))
 

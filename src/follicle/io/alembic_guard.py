@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FileAccessError, FormatError
 from .guard import read_guarded
 
 __all__ = ["check_archive", "read_curves", "read_mesh", "OGAWA_MAGIC"]
@@ -116,7 +116,7 @@ def check_archive(path: Path) -> None:
             with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
                 _check_ogawa(path, mm, size)
     except OSError as exc:
-        raise FormatError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        raise FileAccessError(f"{path}: cannot be read ({exc.strerror or exc})") from None
 
 
 def limits(size: int) -> tuple[int, float]:

@@ -48,6 +48,14 @@ def as_guides(guides: object) -> HairCurves:
     return curves
 
 
+def target_guides(guides: object | None, tool: Target, in_units: bool = True) -> HairCurves | None:
+    """``guides`` (Guides or HairCurves; None for none) as a writer for ``tool`` stores
+    them: the conventional attributes, named, typed and (``in_units``) scaled for it."""
+    if guides is None:
+        return None
+    return for_target(conventional(as_guides(guides)), tool, "guides", in_units)
+
+
 def head_matrices(transforms: object) -> np.ndarray:
     """``transforms`` as (F, 4, 4) float64 affine matrices acting on column vectors
     (``p' = M @ p``, translation in the last column, as a SimCache keeps them);

@@ -23,7 +23,7 @@ from typing import BinaryIO
 import numpy as np
 
 from ..arrays import all_finite
-from ..errors import FormatError
+from ..errors import FileAccessError, FormatError
 from ..inputs import input_file
 
 __all__ = ["BinaryFile", "open_binary", "read_bytes", "check_finite", "Spool"]
@@ -94,9 +94,9 @@ class BinaryFile:
                 raise self.fail(f"{a} and {b} sections overlap (bytes {start}..{end})")
 
 
-def _cannot_read(p: Path, exc: OSError) -> FormatError:
+def _cannot_read(p: Path, exc: OSError) -> FileAccessError:
     reason = "no such file" if isinstance(exc, FileNotFoundError) else exc.strerror
-    return FormatError(f"{p}: {reason}")
+    return FileAccessError(f"{p}: {reason}")
 
 
 @contextmanager

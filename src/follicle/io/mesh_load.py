@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FollicleError, FormatError, InputError
+from ..errors import FileAccessError, FollicleError, FormatError, InputError
 from ..inputs import input_file, is_url
 from ..mesh.head import builtin_head
 from ..mesh.skin import SkinMesh
@@ -58,7 +58,7 @@ def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
             f" (or {', '.join(_BUILTIN_PREFIX + k for k in BUILTIN_MESHES)})"
         )
     if not is_url(text) and not os.path.lexists(p):
-        raise FormatError(f"mesh file '{p}' does not exist; check the path")
+        raise FileAccessError(f"mesh file '{p}' does not exist; check the path")
     p = input_file(text, f"mesh file ({', '.join(MESH_EXTENSIONS)})")
     if ext in SCENE_EXTENSIONS:
         return _plausible(_scene_mesh(p, ext, mpu), units, p)

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..arrays import frozen
-from ..errors import FormatError, InputError
+from ..errors import FileAccessError, FormatError, InputError
 from ..inputs import input_file, is_url
 from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..units import Units, units_for
@@ -108,7 +108,7 @@ def load_skin_animation(
             f" ({', '.join(ANIMATION_EXTENSIONS[:4])}) or Alembic (.abc) file with time samples"
         )
     if not is_url(path) and not os.path.lexists(p):
-        raise FormatError(f"skin animation '{p}' does not exist; check the path")
+        raise FileAccessError(f"skin animation '{p}' does not exist; check the path")
     p = input_file(path, "skin animation (USD or Alembic)")
     mpu = units_for(p, units) if p.suffix.lower() == ".abc" else 1.0
     part = _read(p)

@@ -57,10 +57,10 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..atomic import atomic_path
 from ..curves import HairCurves
-from ..errors import FormatError
+from ..errors import FileAccessError, FormatError
 from ..inputs import input_file
-from .animation import Animation, animation, as_guides
-from .attributes import column, conventional
+from .animation import Animation, animation, target_guides
+from .attributes import column
 from .curve_bounds import catmull_rom_bounds
 from .guard import curves_from_parts
 from .stream import Curves, as_chunks
@@ -313,11 +313,11 @@ def _writing(target: Path) -> Iterator[None]:
         yield
     except Tf.ErrorException as exc:
         why = usd_error(exc, first=True)  # the first error is the cause, the rest follow it
-        raise FormatError(
+        raise FileAccessError(
             f"{target}: usd-core could not write it ({why}); free disk space or write elsewhere"
         ) from None
     except OSError as exc:
-        raise FormatError(
+        raise FileAccessError(
             f"{target}: could not write it ({exc.strerror or exc}); free disk"
             " space or write elsewhere"
         ) from None
@@ -349,9 +349,7 @@ def save_usd(
     metres (``metersPerUnit = 1``), which every target converts from."""
     out = _check_suffix(path)
     tool = get_target(target)
-    guide_curves = None
-    if guides is not None:
-        guide_curves = for_target(conventional(as_guides(guides)), tool, "guides", False)
+    guide_curves = target_guides(guides, tool, in_units=False)
     chunks = (for_target(chunk, tool, in_units=False) for chunk in as_chunks(curves))
     with _writing(out), atomic_path(out) as tmp:
         _finish(

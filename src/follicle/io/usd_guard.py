@@ -30,7 +30,7 @@ from typing import BinaryIO
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FileAccessError, FormatError
 from .guard import read_guarded
 
 __all__ = ["check_container", "read_stage", "read_meshes"]
@@ -138,7 +138,7 @@ def check_container(path: Path) -> None:
     try:
         _check_container(path)
     except OSError as exc:
-        raise FormatError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        raise FileAccessError(f"{path}: cannot be read ({exc.strerror or exc})") from None
 
 
 def _check_container(path: Path) -> None:

@@ -37,9 +37,8 @@ from pxr import Sdf, Usd, UsdGeom
 
 from ..atomic import _umask, atomic_path, temporary_folder
 from ..curves import HairCurves
-from ..errors import FormatError
-from .animation import as_guides
-from .attributes import conventional
+from ..errors import FileAccessError, FormatError
+from .animation import target_guides
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 from .usd import HAIR_PATH, _check_suffix, _define_curves, _finish, _groom_stage, _writing
@@ -102,8 +101,12 @@ def save_usd_part(
 ) -> Path:
     """Write ``curves`` as one part file: a crate layer whose default prim is a pinned
     Catmull-Rom BasisCurves prim named for the file (``part_0003``), named and typed as
-    ``target`` reads it; atomically, so a task run twice leaves one whole file."""
+    ``target`` reads it; atomically, so a task run twice leaves one whole file. The
+    folder must exist (a layout's parts folder, which a task that outlives its job must
+    not make again)."""
     out = Path(path)
+    if not out.parent.is_dir():
+        raise FileAccessError(f"{out.parent}: no such folder for the part {out.name}")
     curves = for_target(curves, get_target(target), in_units=False)
     with _writing(out), atomic_path(out) as tmp:
         stage = Usd.Stage.Open(Sdf.Layer.CreateNew(str(tmp), {"format": "usdc"}))
@@ -130,9 +133,7 @@ def finish_payloads(
     ``staged`` in place as ``path``'s payloads folder and the root onto ``path``."""
     out = check_payloads_target(path)
     tool = get_target(target)
-    guide_curves = None
-    if guides is not None:
-        guide_curves = for_target(conventional(as_guides(guides)), tool, "guides", False)
+    guide_curves = target_guides(guides, tool, in_units=False)
     folder = payloads_folder(out)
     missing = [i for i in range(parts) if not part_file(staged, i).is_file()]
     if missing:

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from ..errors import FollicleError, FormatError, InputError
+from ..errors import FileAccessError, FollicleError, FormatError, InputError
 from ..inputs import input_file, is_url
 
 __all__ = ["Texture", "WRAP_MODES", "MAX_TEXTURE_PIXELS"]
@@ -97,7 +97,9 @@ class Texture:
 
         p = Path(path)
         if not is_url(path) and not os.path.lexists(p):
-            raise FormatError(f"texture file '{p}' does not exist or is not a file; check the path")
+            raise FileAccessError(
+                f"texture file '{p}' does not exist or is not a file; check the path"
+            )
         p = input_file(path, "PNG, JPEG or TIFF image file")
         try:
             with warnings.catch_warnings():
