@@ -130,7 +130,7 @@ def test_what_is_in_the_way_is_refused_before_anything_is_written(tmp_path, groo
         check_payloads_target(tmp_path / "file.usdc")
     with pytest.raises(FormatError, match=r"\.usdz is one package"):
         check_payloads_target(tmp_path / "fox.usdz")
-    with pytest.raises(FormatError, match="must end in .usd"):
+    with pytest.raises(FormatError, match=r"fox.abc: the payloads layout .* writes USD"):
         check_payloads_target(tmp_path / "fox.abc")
     assert (theirs / "notes.txt").read_text() == "mine"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file.usdc.payloads", "fox.usdc.payloads"]
@@ -146,7 +146,16 @@ def test_a_part_gone_or_not_usd_is_one_clean_refusal(tmp_path, groom):
     ):
         load_usd(root)
     part_file(payloads_folder(root), 2).write_bytes(b"PXR-USDC" + bytes(80))  # a cut crate
-    with pytest.raises(FormatError, match=r"fox.usdc: usd-core could not read it.*part_0002"):
+    with pytest.raises(
+        FormatError,
+        match=r"fox.usdc: @./fox.usdc.payloads/part_0002.usdc@.*cannot be read \(Cannot read asset",
+    ):
+        load_usd(root)
+    # a part cut short, as a copy that stopped part way leaves it
+    root = save_usd_payloads(_parts(groom, 1000), tmp_path / "cut.usdc")
+    part = part_file(payloads_folder(root), 2)
+    part.write_bytes(part.read_bytes()[:3000])
+    with pytest.raises(FormatError, match=r"part_0002.usdc@.*cannot be read \(Sdf crate file"):
         load_usd(root)
     save_usd_part(groom.generate(10), tmp_path / "alone.usdc")
     assert load_usd(tmp_path / "alone.usdc").curve_count == 10  # a part reads on its own
@@ -170,7 +179,7 @@ def test_the_cli_writes_payloads_in_a_terminal_and_refuses_bad_options(tmp_path)
     refused = run_cli("grow", "s.toml", "-o", "x.usdz", "--layout", "payloads", cwd=tmp_path)
     assert_cli_refused(refused, "x.usdz", ".usdz is one package")
     refused = run_cli("grow", "s.toml", "-o", "x.abc", "--layout", "payloads", cwd=tmp_path)
-    assert_cli_refused(refused, "x.abc")
+    assert_cli_refused(refused, "x.abc", "payloads layout")
     refused = run_cli(
         "grow", "s.toml", "-o", "x.usdc", "--layout", "payloads", "--chunk", 0, cwd=tmp_path
     )

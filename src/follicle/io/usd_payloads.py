@@ -41,7 +41,7 @@ from ..errors import FileAccessError, FormatError
 from .animation import target_guides
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
-from .usd import HAIR_PATH, _check_suffix, _define_curves, _finish, _groom_stage, _writing
+from .usd import HAIR_PATH, SUFFIXES, _define_curves, _finish, _groom_stage, _writing
 
 if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
@@ -76,11 +76,16 @@ def check_payloads_target(path: str | os.PathLike[str]) -> Path:
     """``path`` as the root of a payloads layout, refused (FormatError) before any work
     when it is not .usd, .usda or .usdc (a .usdz is one package, not a layer with files
     beside it) or when its payloads folder exists holding anything but part files."""
-    out = _check_suffix(path)
+    out = Path(path)
     if out.suffix.lower() == ".usdz":
         raise FormatError(
             f"{out}: a .usdz is one package; the payloads layout writes .usd, .usda or"
             " .usdc with its part files beside it (or write .usdz as one file)"
+        )
+    if out.suffix.lower() not in SUFFIXES:
+        raise FormatError(
+            f"{out}: the payloads layout (--layout, [output].layout) writes USD: .usd,"
+            " .usda or .usdc; write one of those, or the layout file"
         )
     folder = payloads_folder(out)
     if folder.exists() and not (

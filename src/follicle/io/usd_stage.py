@@ -81,7 +81,7 @@ class _Composition:
         self._enter(key)
         n = sum(self.prim(layer, spec.path) for spec in layer.rootPrims if spec)
         for asset in layer.subLayerPaths:
-            sub = Sdf.Layer.FindOrOpenRelativeToLayer(layer, asset)
+            sub = self._open(layer, asset)
             if sub is None:
                 self.missing.append(asset)
             n += self.layer(sub) if sub is not None else 0
@@ -110,8 +110,20 @@ class _Composition:
                 )
         return self._done(key, n)
 
+    def _open(self, layer: Sdf.Layer, asset: str) -> Sdf.Layer | None:
+        """The layer ``asset`` names, relative to ``layer``; None when no file is there
+        (the caller adds it to :attr:`missing`); Refused naming it when it cannot be
+        read (a cut or corrupt piece of the stage)."""
+        try:
+            return Sdf.Layer.FindOrOpenRelativeToLayer(layer, asset)
+        except USD_ERRORS as exc:
+            raise Refused(
+                f"{self.where}: @{asset}@, a sublayer, reference or payload of it, cannot"
+                f" be read ({usd_error(exc)}); write it again"
+            ) from None
+
     def _arc(self, layer: Sdf.Layer, asset: str, target: Sdf.Path) -> int:
-        other = Sdf.Layer.FindOrOpenRelativeToLayer(layer, asset) if asset else layer
+        other = self._open(layer, asset) if asset else layer
         if other is None:
             self.missing.append(asset)
             return 0
