@@ -1,16 +1,17 @@
-"""Slow set-up that later tests need, begun in the background when the session starts,
-so that it overlaps the first tests on CI's two cores instead of stalling one test:
+"""Slow set-up that later tests need, done once when the session starts:
 
-- numba compiling follicle's kernels into their cache (:func:`hostile.warm`: grow,
-  simulate and render through the CLI), when nothing is cached yet (a fresh clone);
-- Blender's test environment (``.venv-blender``, :mod:`blender_env`), when the session
-  runs ``test_blender.py`` and it is not made yet.
+- follicle's prebuilt kernels (``src/follicle/_kernels``, what a wheel ships: numba
+  compiling every kernel once, in as many processes as there are cores), when they are
+  missing or stale and more than one test file runs. It is done before the first test,
+  so no test compiles a kernel (the tests then run the kernels a wheel's user runs, and
+  the wheel test's build copies them instead of compiling them again). A single test file
+  compiles what it needs on first use, as a source install does.
+- Blender's test environment (``.venv-blender``, :mod:`blender_env`), begun in the
+  background when the session runs ``test_blender.py`` and it is not made yet; the tests
+  that need it wait on its lock.
 
-Each runs in a child process (not a thread: tests patch those modules' globals), and
-the tests that need the work wait for it as before (``warm()`` finds the cache,
-``blender_python()`` waits on the environment's lock and reuses it), so the results do
-not change, only when the work happens. What is still running when the session ends is
-stopped. ``FOLLICLE_NO_PREWARM=1`` turns this off.
+What is still running in the background when the session ends is stopped.
+``FOLLICLE_NO_PREWARM=1`` turns both off.
 """
 
 from __future__ import annotations
@@ -27,14 +28,33 @@ import pytest
 TESTS = Path(__file__).resolve().parent
 SOURCES = TESTS.parent / "src" / "follicle"
 _started: list[subprocess.Popen] = []
-_COLD = pytest.StashKey[bool]()
+_STALE = pytest.StashKey[bool]()
 
 
-def _cold() -> bool:
-    """True when numba has cached none of follicle's kernels (see cli._first_run)."""
-    cache = os.environ.get("NUMBA_CACHE_DIR")
-    root = Path(cache) if cache else SOURCES
-    return not root.is_dir() or next(root.rglob("*.nbi"), None) is None
+def _kernels_stale() -> bool:
+    """True when src/follicle/_kernels was not built for these sources, this numba and
+    Python, and the CPU levels a wheel built here would ship."""
+    from follicle.prebuild.build import default_levels, is_fresh
+
+    return not is_fresh(SOURCES / "_kernels", SOURCES, default_levels())
+
+
+def _build_kernels() -> None:
+    """``python -m follicle.prebuild build`` into src/follicle/_kernels, now; its output
+    goes to a log in the temp folder, whose end is shown when it fails."""
+    log = Path(tempfile.gettempdir(), "follicle-prewarm-kernels.log")
+    sys.stderr.write(f"\nbuilding follicle's prebuilt kernels for the tests, once (log: {log})\n")
+    with open(log, "wb") as out:
+        done = subprocess.run(
+            [sys.executable, "-m", "follicle.prebuild", "build"],
+            cwd=TESTS,
+            stdin=subprocess.DEVNULL,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+        )
+    if done.returncode != 0:
+        tail = log.read_text(errors="replace")[-3000:]
+        sys.stderr.write(f"building the kernels failed; tests compile on first use:\n{tail}\n")
 
 
 def _start(code: str, name: str) -> None:
@@ -55,21 +75,20 @@ def _start(code: str, name: str) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    # before collection: importing the test modules compiles a few kernels already
-    config.stash[_COLD] = _cold()
+    config.stash[_STALE] = _kernels_stale()
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
     if os.environ.get("FOLLICLE_NO_PREWARM") or session.config.option.collectonly:
         return
     files = {Path(str(item.fspath)).name for item in session.items}
-    if len(files) > 1 and session.config.stash[_COLD]:
-        _start("from hostile import warm; warm()", "kernels")
-    if "test_blender.py" in files:
+    if "test_blender.py" in files:  # first: it downloads while the kernels compile
         import blender_env
 
         if not blender_env.READY.exists() and not os.environ.get("FOLLICLE_BLENDER_PYTHON"):
             _start("import blender_env; blender_env.blender_python()", "blender")
+    if len(files) > 1 and session.config.stash[_STALE]:
+        _build_kernels()
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:

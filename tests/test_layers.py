@@ -28,6 +28,7 @@ LAYERS = [
         "color",
         "rng",
         "threads",
+        "kernels",
     },
     {"mesh"},
     {"io"},
@@ -35,6 +36,7 @@ LAYERS = [
     {"scene"},
     {"pipeline", "distributed", "distributed_sim", "distributed_export", "batch"},
     {"cli", "view", "apps", "__init__"},
+    {"prebuild"},  # runs the commands (cli) to compile every kernel; started as a process
 ]
 LAYER = {name: k for k, names in enumerate(LAYERS) for name in names}
 

@@ -1,6 +1,7 @@
 """follicle: grow, simulate and render hair and fur.
 
-The public API, re-exported lazily so ``import follicle`` stays quick::
+The public API, re-exported lazily so that ``import follicle`` stays quick (no numba,
+USD, Alembic, OpenGL or Dask until they are used)::
 
     mesh = follicle.load_mesh("builtin:head")
     guides = follicle.load_guides("builtin:long", mesh)
@@ -14,7 +15,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from .curves import HairCurves
+from . import render
 from .errors import (
     ConfigError,
     FileAccessError,
@@ -25,13 +26,12 @@ from .errors import (
     SimulationError,
 )
 
-# Imported eagerly (it is light): the name ``render`` must stay the function even
-# after a submodule such as ``follicle.render.camera`` is imported.
-from .render import Camera, Light, render
-
 __version__ = "0.1.0"
 
 _LAZY = {
+    "HairCurves": "follicle.curves",
+    "Camera": "follicle.render.camera",
+    "Light": "follicle.render.camera",
     "SkinMesh": "follicle.mesh.skin",
     "Texture": "follicle.mesh.texture",
     "DensitySampler": "follicle.mesh.sampling",
@@ -51,7 +51,6 @@ _LAZY = {
 }
 
 __all__ = [
-    "HairCurves",
     "FollicleError",
     "InputError",
     "FormatError",
@@ -59,8 +58,6 @@ __all__ = [
     "ConfigError",
     "SimulationError",
     "ResourceError",
-    "Camera",
-    "Light",
     "render",
     *_LAZY,
 ]

@@ -9,11 +9,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 
 from .errors import InputError
+from .kernels import kernel, prange
 
-__all__ = ["frozen", "all_finite", "as_points", "point_bounds", "rigid", "empty_touched", "FMA"]
+__all__ = [
+    "frozen",
+    "readonly",
+    "all_finite",
+    "as_points",
+    "point_bounds",
+    "rigid",
+    "empty_touched",
+    "FMA",
+]
 
 RIGID_TOLERANCE = 1e-6  # a rigid transform's rotation satisfies |RᵀR − I| ≤ this
 PAGE = 4096  # bytes per memory page (the smallest on the platforms we run on)
@@ -30,7 +39,7 @@ def frozen(arr: np.ndarray) -> np.ndarray:
     return arr
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _count_bad(flat):
     bad = 0
     for i in prange(flat.shape[0]):
@@ -39,13 +48,22 @@ def _count_bad(flat):
     return bad
 
 
+def readonly(arr: object, dtype: object = None) -> np.ndarray:
+    """``arr`` as a C-contiguous read-only view (a copy only when it is not contiguous or
+    not of ``dtype``), the caller's array unchanged: what a kernel only reads, passed in
+    one layout and one flag whatever the caller holds, so that numba compiles the kernel
+    once (it types read-only and writable, contiguous and strided arrays apart)."""
+    out = np.ascontiguousarray(arr, dtype=dtype).view()
+    out.flags.writeable = False
+    return out
+
+
 def all_finite(arr: np.ndarray) -> bool:
     """True when no element of the float array ``arr`` is NaN or inf (parallel scan)."""
-    flat = arr.reshape(-1) if arr.flags.c_contiguous else np.ascontiguousarray(arr).reshape(-1)
-    return _count_bad(flat) == 0
+    return _count_bad(readonly(arr).reshape(-1)) == 0
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _touch(flat, step):
     for i in prange((flat.shape[0] + step - 1) // step):
         flat[i * step] = 0
@@ -64,7 +82,7 @@ def empty_touched(shape: tuple[int, ...], dtype: object) -> np.ndarray:
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _point_bounds(pts, lo, hi):
     for i in range(pts.shape[0]):
         for k in range(3):

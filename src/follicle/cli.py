@@ -1,5 +1,5 @@
 """The ``follicle`` command: demo, grow, groom, export, check, export-rib, simulate, render,
-view, info.
+view, info, warm.
 
 Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
 traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
@@ -81,35 +81,18 @@ class _Count(ProgressColumn):
         return Text(done if task.total is None else f"{done}/{task.total:,.0f}")
 
 
-def _first_run() -> bool:
-    """True when numba has cached none of follicle's kernels yet (a fresh install): the
-    first commands then spend a minute or more compiling before any progress. Numba
-    caches under NUMBA_CACHE_DIR when set, else beside the sources, else per user."""
-    from numba.core.config import CACHE_DIR
-    from numba.misc.appdirs import AppDirs
-
-    roots = (
-        [Path(CACHE_DIR)]
-        if CACHE_DIR
-        else [Path(__file__).parent, Path(AppDirs("numba", appauthor=False).user_cache_dir)]
-    )
-    return not any(next(root.rglob("*.nbi"), None) for root in roots if root.is_dir())
-
-
 @contextlib.contextmanager
 def _progress(label: str) -> Iterator[Callable[[int, int], None]]:
     """A progress callback (done, total): a rich bar on a terminal, silence when piped.
 
-    Before the first report the bar spins with the time elapsed, and on a first run it
-    says that follicle's kernels are being compiled (cached for later runs)."""
+    Before the first report the bar spins with the time elapsed; while numba compiles a
+    kernel (a source install's first run, :mod:`follicle.kernels`) it says which, so the
+    wait is never a silent one."""
     if not _err.is_terminal:
         yield lambda done, total: None
         return
-    waiting = (
-        f"{label} (first run: compiling follicle's kernels, cached for later runs)"
-        if _first_run()
-        else label
-    )
+    from .kernels import compile_listener
+
     columns = (
         SpinnerColumn(),
         TextColumn("{task.description}"),
@@ -118,12 +101,17 @@ def _progress(label: str) -> Iterator[Callable[[int, int], None]]:
         TimeElapsedColumn(),
     )
     with Progress(*columns, console=_err, transient=True) as bar:
-        task = bar.add_task(waiting, total=None)
+        task = bar.add_task(label, total=None)
 
         def report(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total, description=label)
 
-        yield report
+        def compiling(name: str, count: int) -> None:
+            what = name.rsplit(".", 1)[-1]
+            bar.update(task, description=f"{label} (compiling kernel {count}, {what}, once)")
+
+        with compile_listener(compiling):
+            yield report
 
 
 @contextlib.contextmanager
@@ -1252,6 +1240,59 @@ def info(source: str | None) -> None:
         click.echo(repr(curves))
         return
     click.echo(scene_to_toml(load_scene(source)), nl=False)
+
+
+@main.command()
+@click.option(
+    "--jobs", type=int, default=None, help="Processes compiling at once (default: the CPUs)."
+)
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Compile for this machine even where this install's prebuilt kernels run.",
+)
+def warm(jobs: int | None, force: bool) -> None:
+    """Compile follicle's kernels for this machine now, all of them, on every core, so
+    that no later command waits for numba. A wheel ships them prebuilt; this is for a
+    source install, another numba, or a CPU the prebuilt ones do not cover."""
+    import subprocess
+
+    from .errors import FollicleError
+    from .kernels.cache import shipped_level
+    from .validate import whole
+
+    if jobs is not None:
+        whole(jobs, "--jobs", 1)
+    level = shipped_level()
+    if level is not None and not force:
+        click.echo(f"nothing to compile: this install's prebuilt kernels ({level}) run here")
+        return
+    start = time.perf_counter()
+    command = [sys.executable, "-m", "follicle.prebuild", "warm"]
+    proc = subprocess.Popen(
+        [*command, *([] if jobs is None else ["--jobs", str(jobs)])],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    with _progress("compiling follicle's kernels for this machine") as progress:
+        total = 0
+        for line in proc.stdout:
+            word, _, rest = line.strip().partition(" ")
+            if word == "tasks":
+                total = int(rest)
+                progress(0, total)
+            elif "/" in word:
+                progress(int(word.split("/")[0]), total)
+        errors = proc.stderr.read()
+    if proc.wait() != 0:
+        last = [line for line in errors.splitlines() if line.strip()][-1:] or ["no message"]
+        raise FollicleError(f"follicle warm: a task of the workload failed: {last[0]}")
+    click.echo(
+        f"compiled follicle's kernels for this machine in {time.perf_counter() - start:.0f} s;"
+        " later commands load them"
+    )
 
 
 @main.command()

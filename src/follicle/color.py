@@ -10,9 +10,10 @@ the same scalar code in a kernel.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from .arrays import readonly
 from .errors import InputError
+from .kernels import kernel
 
 __all__ = [
     "rgb_to_hsv",
@@ -26,7 +27,7 @@ __all__ = [
 ]
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _wrap_hue(h):
     # the hues met per vertex lie within a turn of [0, 360): there the result is exact
     # without the modulo (a library call that would be half of the colour's cost)
@@ -40,7 +41,7 @@ def _wrap_hue(h):
     return h
 
 
-@njit(cache=True)
+@kernel
 def rgb_to_hsv1(r: float, g: float, b: float) -> tuple[float, float, float]:
     """One RGB colour to (hue degrees [0, 360), saturation, value); grey has hue 0, s 0."""
     mx = max(r, g, b)
@@ -59,7 +60,7 @@ def rgb_to_hsv1(r: float, g: float, b: float) -> tuple[float, float, float]:
     return _wrap_hue(h), s, v
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def hsv_to_rgb1(h: float, s: float, v: float) -> tuple[float, float, float]:
     """One HSV colour (hue in degrees, any value wrapped) to RGB."""
     hh = _wrap_hue(h) / 60.0
@@ -81,7 +82,7 @@ def hsv_to_rgb1(h: float, s: float, v: float) -> tuple[float, float, float]:
     return v, p, q
 
 
-@njit(cache=True)
+@kernel
 def hue_distance1(h1: float, h2: float) -> float:
     """Šik 2012 §2.2.6: signed shortest step from hue h1 to h2 (cw positive, ccw negative)."""
     h1 = _wrap_hue(h1)
@@ -91,7 +92,7 @@ def hue_distance1(h1: float, h2: float) -> float:
     return cw if cw <= ccw else -ccw
 
 
-@njit(cache=True)
+@kernel
 def lerp_hsv1(
     h1: float, s1: float, v1: float, h2: float, s2: float, v2: float, t: float
 ) -> tuple[float, float, float]:
@@ -101,7 +102,7 @@ def lerp_hsv1(
 
 
 # ------------------------------------------------------------------ array kernels
-@njit(cache=True)
+@kernel
 def _rgb_to_hsv_kernel(c):
     out = np.empty_like(c)
     for i in range(c.shape[0]):
@@ -109,7 +110,7 @@ def _rgb_to_hsv_kernel(c):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _hsv_to_rgb_kernel(c):
     out = np.empty_like(c)
     for i in range(c.shape[0]):
@@ -117,7 +118,7 @@ def _hsv_to_rgb_kernel(c):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _hue_distance_kernel(a, b):
     out = np.empty_like(a)
     for i in range(a.shape[0]):
@@ -125,7 +126,7 @@ def _hue_distance_kernel(a, b):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _lerp_hsv_kernel(a, b, t):
     out = np.empty_like(a)
     for i in range(a.shape[0]):
@@ -193,4 +194,4 @@ def lerp_hsv(hsv1: object, hsv2: object, t: object) -> np.ndarray:
     a = np.ascontiguousarray(np.broadcast_to(a, shape)).reshape(-1, 3)
     b = np.ascontiguousarray(np.broadcast_to(b, shape)).reshape(-1, 3)
     tf = np.ascontiguousarray(np.broadcast_to(tt, shape[:-1] + (1,))).reshape(-1)
-    return _lerp_hsv_kernel(a, b, tf).reshape(shape)
+    return _lerp_hsv_kernel(readonly(a), readonly(b), readonly(tf)).reshape(shape)

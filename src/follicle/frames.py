@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from .errors import InputError
+from .kernels import kernel
 from .spline import _check_curves
 
 __all__ = ["normalize", "root_frames", "rotation_minimizing_frames", "polyline_frames"]
@@ -44,7 +44,7 @@ def root_frames(
 
 
 # ------------------------------------------------------------------ rotation minimizing frames
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _perpendicular(tx, ty, tz, rx, ry, rz):
     """r made orthogonal to unit t and normalised; if r ∥ t, the axis least aligned with t."""
     d = rx * tx + ry * ty + rz * tz
@@ -64,7 +64,7 @@ def _perpendicular(tx, ty, tz, rx, ry, rz):
     return x / nx, y / nx, z / nx
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def polyline_frames(p, first, tan, nor, bi):
     """Rotation-minimising frame of one polyline ``p`` (N, 3) into ``tan``, ``nor``, ``bi``.
 
@@ -147,7 +147,7 @@ def polyline_frames(p, first, tan, nor, bi):
         bi[i, 2] = tx * ny - ty * nx
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _rmf_kernel(pts, offs, first):
     tan = np.empty_like(pts)
     nor = np.empty_like(pts)

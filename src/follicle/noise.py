@@ -10,9 +10,9 @@ numba functions and can be called from other kernels.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from .errors import InputError
+from .kernels import kernel
 
 __all__ = ["perlin", "noise3", "perlin_array", "noise3_array"]
 
@@ -45,12 +45,12 @@ _SHIFT = np.array([0.31, 0.73, 0.19], dtype=np.float64)
 _CELLS = np.array([[12, 41, 7], [-24, 5, 31], [3, -18, -30]], dtype=np.int64)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _fade(t):
     return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _lerp(t, a, b):
     return a + t * (b - a)
 
@@ -62,13 +62,13 @@ _GY = np.array([1, 1, -1, -1, 0, 0, 0, 0, 1, -1, 1, -1, 1, -1, 1, -1], dtype=np.
 _GZ = np.array([0, 0, 0, 0, 1, 1, -1, -1, 1, 1, -1, -1, 0, 1, 0, -1], dtype=np.float64)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _grad(h, x, y, z):
     h = h & 15
     return _GX[h] * x + _GY[h] * y + _GZ[h] * z
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _corners(p, xi, yi, zi, x, y, z, u, v, w):
     """Perlin's blend of the 8 corner gradients of lattice cell (xi, yi, zi) (each in
     0..255) at fractional position (x, y, z) with fade weights (u, v, w)."""
@@ -97,7 +97,7 @@ def _corners(p, xi, yi, zi, x, y, z, u, v, w):
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def perlin(x: float, y: float, z: float) -> float:
     """Improved Perlin noise at (x, y, z): smooth, about [-1, 1], zero on the integer lattice."""
     fx = np.floor(x)
@@ -111,12 +111,12 @@ def perlin(x: float, y: float, z: float) -> float:
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _clamp1(v):
     return min(1.0, max(-1.0, v))
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def noise3(x: float, y: float, z: float) -> tuple[float, float, float]:
     """Šik 2012 §2.2.5 noise3D: three decorrelated Perlin values, each clamped to [-1, 1]."""
     x += _SHIFT[0]
@@ -148,7 +148,7 @@ def noise3(x: float, y: float, z: float) -> tuple[float, float, float]:
     return _clamp1(n0), _clamp1(n1), _clamp1(n2)
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _perlin_kernel(p):
     out = np.empty(p.shape[0], dtype=np.float64)
     for i in range(p.shape[0]):
@@ -156,7 +156,7 @@ def _perlin_kernel(p):
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _noise3_kernel(p):
     out = np.empty((p.shape[0], 3), dtype=np.float64)
     for i in range(p.shape[0]):

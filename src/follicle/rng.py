@@ -12,9 +12,9 @@ from __future__ import annotations
 import zlib
 
 import numpy as np
-from numba import njit
 
 from .errors import InputError
+from .kernels import kernel
 from .validate import whole
 
 __all__ = [
@@ -59,7 +59,7 @@ def halton(index: object, base: int) -> np.ndarray:
     return _radical_inverse(idx.ravel(), int(base)).reshape(idx.shape)
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _radical_inverse1(i, base):
     inv = 1.0 / base
     f = inv
@@ -71,7 +71,7 @@ def _radical_inverse1(i, base):
     return r
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _radical_inverse(idx, base):
     out = np.empty(idx.shape[0], dtype=np.float64)
     for n in range(idx.shape[0]):
@@ -79,7 +79,7 @@ def _radical_inverse(idx, base):
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def halton_point(k, shift0, shift1):
     """Halton point k in bases (2, 3), toroidally shifted (Cranley–Patterson) by a seed.
 
@@ -91,7 +91,7 @@ def halton_point(k, shift0, shift1):
 
 
 # ------------------------------------------------------------ counter-based streams
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def mix64(x):
     """splitmix64 finaliser: a bijective avalanche of 64 bits (uint64 -> uint64)."""
     z = np.uint64(x)
@@ -100,7 +100,7 @@ def mix64(x):
     return z ^ (z >> _S31)
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def stream_key(seed, id, purpose):
     """Key of the stream for (seed, object id, purpose id); integers, wrapped to 64 bits."""
     h = mix64(np.uint64(seed) + _GOLDEN)
@@ -108,14 +108,14 @@ def stream_key(seed, id, purpose):
     return mix64(h ^ (np.uint64(id) * _K_ID + _GOLDEN))
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def uniform(key, k):
     """The k-th number in [0, 1) of the stream ``key`` (splitmix64 at counter k, 53 bits)."""
     state = np.uint64(key) + (np.uint64(k) + np.uint64(1)) * _GOLDEN
     return np.float64(mix64(state) >> _S11) * _INV53
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _uniforms_kernel(seed, ids, purpose, start, count):
     out = np.empty((ids.shape[0], count), dtype=np.float64)
     for n in range(ids.shape[0]):

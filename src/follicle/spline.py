@@ -11,9 +11,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from .errors import InputError
+from .kernels import kernel
 from .validate import whole
 
 __all__ = [
@@ -82,7 +82,7 @@ def _check_params(t: object, name: str, low_open: bool = False, scalar: bool = F
 
 
 # ------------------------------------------------------------------ scalar kernels
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _locate(t, nseg):
     """Segment index s and local parameter in [0, 1] of global t; snaps t at a vertex."""
     u = t * nseg
@@ -93,7 +93,7 @@ def _locate(t, nseg):
     return s, u - s
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def basis(u):
     """Catmull-Rom weights of P_{s-1}, P_s, P_{s+1}, P_{s+2} at u in [0, 1] (Šik 2012 §2.2.8).
 
@@ -109,7 +109,7 @@ def basis(u):
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _dweights(u):
     u2 = u * u
     return (
@@ -120,13 +120,13 @@ def _dweights(u):
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def control_points(start, n, s):
     """Indices of the 4 control points of segment s, end points duplicated (seed Fig. 2.8)."""
     return start + max(s - 1, 0), start + s, start + s + 1, start + min(s + 2, n - 1)
 
 
-@njit(cache=True)
+@kernel
 def _eval_kernel(v, ts, deriv):
     n = v.shape[0]
     nseg = n - 1
@@ -163,7 +163,7 @@ def derivative(vertices: object, t: object) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ all-curve kernels
-@njit(cache=True)
+@kernel
 def _tangents_kernel(pts, offs):
     out = np.empty_like(pts)
     for c in range(offs.shape[0] - 1):
@@ -186,7 +186,7 @@ def vertex_tangents(points: object, offsets: object) -> np.ndarray:
     return _tangents_kernel(pts, offs)
 
 
-@njit(cache=True)
+@kernel
 def _resample_kernel(pts, offs, offs2, k):
     out = np.empty((offs2[-1], 3), dtype=np.float32)
     for c in range(offs.shape[0] - 1):
@@ -222,7 +222,7 @@ def resample(points: object, offsets: object, k: int) -> tuple[np.ndarray, np.nd
 
 
 # ------------------------------------------------------------------ cutting
-@njit(cache=True)
+@kernel
 def cut_locate(t, nseg):
     """(s, u) of a cut: u == 0 when t_cut falls on vertex s (then no new vertex is made)."""
     x = t * nseg
@@ -233,7 +233,7 @@ def cut_locate(t, nseg):
     return s, x - s
 
 
-@njit(cache=True)
+@kernel
 def _cut_kernel(pts, offs, nverts, tcut, offs2):
     out = np.empty((offs2[-1], 3), dtype=np.float64)
     tpar = np.empty(offs2[-1], dtype=np.float64)
@@ -257,7 +257,7 @@ def _cut_kernel(pts, offs, nverts, tcut, offs2):
     return out, tpar
 
 
-@njit(cache=True)
+@kernel
 def _cut_counts(nverts, tcut):
     out = np.empty(nverts.shape[0], dtype=np.int64)
     for c in range(nverts.shape[0]):
@@ -325,7 +325,7 @@ def cut_curves(
 
 
 # ------------------------------------------------------------------ Bezier form and bounds
-@njit(cache=True)
+@kernel
 def _bezier_kernel(pts, offs):
     nseg = pts.shape[0] - (offs.shape[0] - 1)
     out = np.empty((nseg, 4, 3), dtype=np.float64)
@@ -351,12 +351,12 @@ def to_bezier(points: object, offsets: object) -> np.ndarray:
     return _bezier_kernel(pts, offs)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _cubic_at(c3, c2, c1, c0, u):
     return ((c3 * u + c2) * u + c1) * u + c0
 
 
-@njit(cache=True)
+@kernel
 def _bounds_kernel(pts, offs):
     out = np.empty((offs.shape[0] - 1, 2, 3), dtype=np.float64)
     for c in range(offs.shape[0] - 1):

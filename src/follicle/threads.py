@@ -24,8 +24,6 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import TypeVar
 
-import numba
-
 __all__ = ["workers", "ordered_map", "chained", "threads_for"]
 
 T = TypeVar("T")
@@ -35,11 +33,15 @@ S = TypeVar("S")
 
 def workers(tasks: int) -> int:
     """Threads worth using for ``tasks`` chunks: numba's thread count, at most one each."""
+    import numba
+
     return max(1, min(int(tasks), numba.get_num_threads()))
 
 
 def _one_core(fn: Callable[..., R]) -> Callable[..., R]:
     def run(*args: object) -> R:
+        import numba
+
         numba.set_num_threads(1)  # thread-local: this worker's kernels stay on its core
         return fn(*args)
 
@@ -52,6 +54,8 @@ def threads_for(size: int, grain: int) -> Iterator[int]:
     one, at most numba's count): a problem of ``size`` items shares out in pieces of
     ``grain`` or more. Yields the thread count; numba's is put back on leaving (it is
     per calling thread, so other threads are unaffected)."""
+    import numba
+
     before = numba.get_num_threads()
     threads = max(1, min(before, int(size) // max(int(grain), 1)))
     if threads == before:

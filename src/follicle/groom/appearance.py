@@ -10,10 +10,10 @@ hair ids into chunks gives the same bytes.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
 
 from ..color import hsv_to_rgb1, hue_distance1, rgb_to_hsv1
 from ..errors import InputError
+from ..kernels import kernel, prange
 from ..rng import purpose_id, stream_key, uniform
 from ..validate import whole
 from .params import curve_parameter, per_hair, row
@@ -25,12 +25,12 @@ _VARIATION = purpose_id("color variation")  # numbers 0, 1, 2: hue, saturation, 
 
 
 # --------------------------------------------------------------------------- kernel
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _clamp01(x):
     return min(max(x, 0.0), 1.0)
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _shifted_hsv(r, g, b, dh, ds, dv):
     """Šik 2012 §2.2.6: RGB to HSV minus the shifts; s, v clamped to [0, 1] (hue wraps later)."""
     h, s, v = rgb_to_hsv1(r, g, b)
@@ -42,7 +42,7 @@ def _shifted_hsv(r, g, b, dh, ds, dv):
 ENDS = 10
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _ends_kernel(
     ids,
     seed,
@@ -85,7 +85,7 @@ def _ends_kernel(
         e[8], e[9] = root_op[row(root_op, i)], tip_op[row(tip_op, i)]
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def vertex_look(e, t):
     """(r, g, b, width, opacity) at curve parameter ``t`` of a hair with ends ``e``.
 
@@ -96,7 +96,7 @@ def vertex_look(e, t):
     return r, g, b, u * e[6] + t * e[7], u * e[8] + t * e[9]
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _look_kernel(ends, t, color, width, opacity):
     nv = t.shape[1]
     for i in prange(ends.shape[0]):

@@ -27,10 +27,10 @@ coordinates are clamped to ≥ 0 and renormalised.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
+from ..kernels import kernel, prange
 from ..validate import whole
 
 __all__ = ["GuideTriangulation"]
@@ -94,12 +94,12 @@ def _directions(
 
 
 # --------------------------------------------------------------------------- triangulation
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _dot(p, i, q, j):
     return p[i, 0] * q[j, 0] + p[i, 1] * q[j, 1] + p[i, 2] * q[j, 2]
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _in_circle(i0, i1, i2, d, p, n):
     """Is guide d inside the circumcircle of {i0 < i1 < i2}, all four projected on one plane?
 
@@ -155,7 +155,7 @@ def _in_circle(i0, i1, i2, d, p, n):
     return parity * det * orient > 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _shape(i0, i1, i2, p, n, spacing):
     """Shape tests of triangle {i0 < i1 < i2}: (ok, flipped, unit normal, circumcentre, r²).
 
@@ -196,7 +196,7 @@ def _shape(i0, i1, i2, p, n, spacing):
     return True, flipped, ux, uy, uz, ox + p[i0, 0], oy + p[i0, 1], oz + p[i0, 2], r2
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _accept(i0, i1, i2, p, n, near, spacing):
     """Is triangle {i0 < i1 < i2} kept? Returns (kept, flipped).
 
@@ -225,7 +225,7 @@ def _accept(i0, i1, i2, p, n, near, spacing):
     return True, flipped
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _listed(near, u, g):
     for j in range(near.shape[1]):
         if near[u, j] == g:
@@ -235,7 +235,7 @@ def _listed(near, u, g):
     return False
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _propose_kernel(rows, changed, p, n, near, spacing, out, count):
     """Kept triangles of each guide c = rows[i] and two of its neighbours into out[i].
 
@@ -275,7 +275,7 @@ def _propose_kernel(rows, changed, p, n, near, spacing, out, count):
         count[i] = slot
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _fill_neighbours(near, rows, idx, n, active, k):
     """near[rows[i]] = the first k[i] active neighbours in idx[i] facing the guide's way."""
     for i in range(rows.shape[0]):
@@ -372,7 +372,7 @@ def _peel(p: np.ndarray, tris: np.ndarray, spacing: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- grid
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _bin_boxes(lo, hi, origin, cell, dims):
     """CSR (ptr, items) of the boxes [lo, hi] (N, 3) overlapping each grid cell."""
     m = lo.shape[0]
@@ -404,7 +404,7 @@ def _bin_boxes(lo, hi, origin, cell, dims):
 
 
 # --------------------------------------------------------------------------- weights
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _cell_of(q0, q1, q2, origin, cell, dims):
     c0 = min(max(int(np.floor((q0 - origin[0]) / cell)), 0), dims[0] - 1)
     c1 = min(max(int(np.floor((q1 - origin[1]) / cell)), 0), dims[1] - 1)
@@ -412,7 +412,7 @@ def _cell_of(q0, q1, q2, origin, cell, dims):
     return c0, c1, c2
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _bary(tv, tc, t, q0, q1, q2, v0, v1, v2):
     """Barycentrics of q projected along v onto triangle t (tc: its edge cross product)."""
     ax, ay, az = tv[t, 0, 0] - q0, tv[t, 0, 1] - q1, tv[t, 0, 2] - q2
@@ -425,12 +425,12 @@ def _bary(tv, tc, t, q0, q1, q2, v0, v1, v2):
     return l0, l1, l2
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _faces(tc, t, n0, n1, n2):
     return tc[t, 0] * n0 + tc[t, 1] * n1 + tc[t, 2] * n2 > 0.0
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _write(out_idx, out_w, h, tris, t, g, b0, b1, b2):
     """Hair h: triangle t with barycentrics clamped to ≥ 0 and renormalised, or guide g."""
     if t < 0:
@@ -453,7 +453,7 @@ def _write(out_idx, out_w, h, tris, t, g, b0, b1, b2):
     out_w[h, 2] = b2 / total
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _weights_kernel(
     order,
     q,
@@ -518,7 +518,7 @@ def _weights_kernel(
             out_idx[h, 0] = -1
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _search_kernel(
     rows,
     q,

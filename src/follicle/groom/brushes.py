@@ -17,8 +17,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from ..kernels import kernel
 from ..mesh.sdf import SDF, sdf_sample
 
 __all__ = [
@@ -41,7 +41,7 @@ MIN_LENGTH = 1e-4  # metres: no brush shortens a guide below this
 _PUSH_TRIES = 4  # push-outs of a vertex found inside the skin before giving up
 
 
-@njit(cache=True)
+@kernel
 def dab(points, vp, width, height, cx, cy, radius, seen, reach, depth):
     """One dab of a brush centred on pixel (cx, cy), into ``reach`` (S, V): each
     vertex's falloff (1 − (d/r)²)² within the radius r — 1 at the centre, 0 with no
@@ -76,7 +76,7 @@ def segment_lengths(points: np.ndarray) -> np.ndarray:
     return np.linalg.norm(np.diff(points, axis=1), axis=2)
 
 
-@njit(cache=True)
+@kernel
 def _follow(points, lengths, which, use_skin, values, origin, inv_voxel, local_from_world, margin):
     for g in range(len(which)):  # serial: a parallel launch costs more than 1,000 guides
         s = which[g]
@@ -128,7 +128,7 @@ def follow(
     _follow(points, lengths, which, skin is not None, *grid, float(margin))
 
 
-@njit(cache=True)
+@kernel
 def comb(points, weight, depth, step, which):
     """Drag the vertices of the guides ``which`` by their weight times ``step`` (3,:
     the stroke's step in world units per metre of view depth) times their ``depth``,
@@ -151,7 +151,7 @@ def comb(points, weight, depth, step, which):
             points[s, i, 2] += cz
 
 
-@njit(cache=True)
+@kernel
 def _unit(points, s, i):
     """Segment i of guide s: its unit direction and length."""
     dx = points[s, i + 1, 0] - points[s, i, 0]
@@ -162,7 +162,7 @@ def _unit(points, s, i):
     return dx * k, dy * k, dz * k, n
 
 
-@njit(cache=True)
+@kernel
 def _turned(points, weight, which, normals, puffing):
     """Each guide of ``which`` rebuilt from its root with its segments' lengths, each
     segment's direction moved by its far vertex's weight (× 1 − its place, puffing)
@@ -216,7 +216,7 @@ def puff(points: np.ndarray, weight: np.ndarray, normals: np.ndarray, which: np.
     _turned(points, weight, which, normals, True)
 
 
-@njit(cache=True)
+@kernel
 def _resized(points, lengths, out):
     s, v = points.shape[:2]
     arc = np.empty(v)
@@ -298,7 +298,7 @@ def cut_lengths(
     return out
 
 
-@njit(cache=True)
+@kernel
 def uv_points(uvs, faces, vertices, width, height):
     """The surface point under each texel centre of a width × height texture over the
     mesh's UV square (rows from the top, as interpolation groups read it), (H, W, 3),

@@ -11,8 +11,8 @@ clumps keep their shape on an animated mesh and any chunking gives the same byte
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
 
+from ..kernels import kernel, prange
 from ..rng import purpose_id, stream_key, uniform
 from .knn import PointGrid
 from .params import per_hair, row
@@ -37,7 +37,7 @@ def assign_clumps(
     return out
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _clump_kernel(
     local,
     centre,

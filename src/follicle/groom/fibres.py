@@ -23,10 +23,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from numba import njit, prange
 
 from ..errors import InputError
 from ..frames import polyline_frames
+from ..kernels import kernel, prange
 from ..rng import purpose_id, stream_key, uniform
 from ..validate import whole
 from .params import per_hair, row
@@ -42,7 +42,7 @@ _ROOT_TANGENT = np.array([1.0, 0.0, 0.0])  # local +x: the first normal of every
 
 
 # ------------------------------------------------------------------ numba helpers
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _concentric(u0, u1):
     """Uniform [0,1)² → unit disc, area preserving (Shirley & Chiu; PBRT 13.6.2)."""
     a = 2.0 * u0 - 1.0
@@ -58,7 +58,7 @@ def _concentric(u0, u1):
     return r * np.cos(theta), r * np.sin(theta)
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _fibres_kernel(
     local, ids, seed, count, s_root, s_centre, s_tip, twist, aspect, offset, randomize, out, uv
 ):

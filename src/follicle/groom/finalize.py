@@ -10,9 +10,10 @@ on the skin and with their rotation-minimising frame normals, into flat arrays.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
 
+from ..arrays import readonly
 from ..frames import polyline_frames
+from ..kernels import kernel, prange
 from ..spline import basis, control_points, cut_locate
 from .appearance import vertex_look
 
@@ -21,7 +22,7 @@ __all__ = ["cut_plan", "cut_in_place", "finish", "pack"]
 _ROOT_TANGENT = np.array([1.0, 0.0, 0.0])  # local +x: the first curve normal N_0 (§2.2.8)
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _plan_kernel(tcut, n_total, need):
     for h in range(tcut.shape[0]):
         s, u = cut_locate(tcut[h], n_total - 1)
@@ -41,7 +42,7 @@ def cut_plan(tcut: np.ndarray, n_total: int) -> np.ndarray:
     return need
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _cut_kernel(p, tcut, n_total, length, t_end):
     n = p.shape[1]
     for h in prange(p.shape[0]):
@@ -70,11 +71,11 @@ def cut_in_place(p: np.ndarray, tcut: np.ndarray, n_total: int) -> tuple[np.ndar
     """
     length = np.empty(p.shape[0], dtype=np.int64)
     t_end = np.empty(p.shape[0], dtype=np.float64)
-    _cut_kernel(p, np.ascontiguousarray(tcut, dtype=np.float64), int(n_total), length, t_end)
+    _cut_kernel(p, readonly(tcut, np.float64), int(n_total), length, t_end)
     return length, t_end
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _tangent(q, i, m):
     """Unit Catmull-Rom tangent (P_{i+1} − P_{i−1}) / 2 at vertex i of q[:m] (zero stays zero)."""
     lo = max(i - 1, 0)
@@ -88,14 +89,14 @@ def _tangent(q, i, m):
     return 0.0, 0.0, 0.0
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _similar(q, i, j, m, threshold):
     ax, ay, az = _tangent(q, i, m)
     bx, by, bz = _tangent(q, j, m)
     return ax * bx + ay * by + az * bz > threshold
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _keep_kernel(p, length, threshold, keep):
     n = p.shape[1]
     for h in prange(p.shape[0]):
@@ -157,7 +158,7 @@ def finish(p: np.ndarray, length: np.ndarray, skip_threshold: float | None) -> n
 _BLOCK = 128  # curves per scratch buffer in the pack kernel
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _pack_kernel(
     p,
     length,

@@ -14,10 +14,10 @@ import math
 import os
 
 import numpy as np
-from numba import njit
 
 from ..curves import HairCurves
 from ..errors import InputError
+from ..kernels import kernel
 from ..mesh.skin import SkinMesh
 from ..units import (
     Units,
@@ -37,7 +37,7 @@ _FAR = 0.01  # warn when a root is farther from the mesh than this share of its 
 __all__ = ["Guides", "load_guides", "bind_roots", "resample_arclength"]
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _resample_kernel(points, offsets, s_new, out):
     """Each curve at parameters ``s_new`` of its normalised arc length, as np.interp
     computes it; returns the first zero-length curve, or −1."""

@@ -4,9 +4,9 @@ barycentric ones) and the single-strand offsets of Le Muzic 2012 §5.1.4."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
 
 from ..errors import InputError
+from ..kernels import kernel, prange
 from ..rng import purpose_id, uniforms
 from .knn import PointGrid
 from .params import per_hair, row
@@ -36,7 +36,7 @@ def idw_weights(
     return idx, w
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _idw_kernel(dist, w):
     k = dist.shape[1]
     for h in prange(dist.shape[0]):
@@ -60,7 +60,7 @@ def _idw_kernel(dist, w):
             w[h, j] = x * x / total
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _turn_kernel(index, weight, guide_tangents, tangent, binormal, out):
     for h in prange(index.shape[0]):
         tx = 0.0
@@ -110,7 +110,7 @@ def guide_turn(
     return out
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _blend_kernel(local, idx, w, scale, out):
     n_verts = out.shape[1]
     for h in prange(idx.shape[0]):
@@ -153,7 +153,7 @@ def blend_guides(
     return out
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _tilt_kernel(local, ca, sa, cb, sb):
     for h in prange(local.shape[0]):
         for i in range(local.shape[1]):
@@ -174,7 +174,7 @@ def tilt(local: np.ndarray, seed: int, ids: np.ndarray, max_angle: float) -> Non
     _tilt_kernel(local, c[:, 0].copy(), s[:, 0].copy(), c[:, 1].copy(), s[:, 1].copy())
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _reframe_kernel(rel, idx, tangent, binormal, normal, scale, out):
     for h in prange(idx.shape[0]):
         g = idx[h]

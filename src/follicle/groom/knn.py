@@ -21,10 +21,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 from scipy.spatial import cKDTree
 
 from ..arrays import as_points
+from ..kernels import kernel, prange
 from ..validate import whole
 
 __all__ = ["PointGrid"]
@@ -163,7 +163,7 @@ class PointGrid:
         ci = np.reshape(ci, (rows.size, m)).astype(np.int64, copy=False)
         beyond = cd[:, -1] if m < self.n else np.full(rows.size, np.inf)
         ok = np.empty(rows.size, dtype=np.bool_)
-        _rank_kernel(q, rows, self._orig, ci, beyond, dist, index, ok)
+        _rank_kernel(q, rows, self._orig, ci, np.ascontiguousarray(beyond), dist, index, ok)
         for f in np.flatnonzero(~ok):
             qi = int(rows[f])
             radius = float(dist[qi, -1]) * (1.0 + 1e-9) + 1e-300
@@ -177,7 +177,7 @@ class PointGrid:
 
 
 # ---------------------------------------------------------------------- build
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _build_lists(pts, starts, dims, lo, h):
     """Per cell, the points of its 3×3×3 block sorted by distance from the cell's centre.
 
@@ -250,7 +250,7 @@ def _build_lists(pts, starts, dims, lo, h):
 
 
 # ---------------------------------------------------------------------- kernel
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _offer(d2, ip, out_d, out_i, qi, k):
     """Insert (d2, ip) into row qi's sorted top-k buffer; return the new k-th distance²."""
     j = k - 1
@@ -266,7 +266,7 @@ def _offer(d2, ip, out_d, out_i, qi, k):
     return out_d[qi, k - 1]
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _scan(pts, index, start, stop, qx, qy, qz, out_d, out_i, qi, k):
     """Offer points start … stop−1 to row qi's top-k buffer; return the k-th distance²."""
     worst = out_d[qi, k - 1]
@@ -275,7 +275,7 @@ def _scan(pts, index, start, stop, qx, qy, qz, out_d, out_i, qi, k):
     return worst
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _consider(pts, index, p, qx, qy, qz, out_d, out_i, qi, k, worst):
     """Offer point p to row qi's top-k when it beats the k-th (ties: lower index); new k-th d²."""
     dx = qx - pts[p, 0]
@@ -290,14 +290,14 @@ def _consider(pts, index, p, qx, qy, qz, out_d, out_i, qi, k, worst):
     return _offer(d2, ip, out_d, out_i, qi, k)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _gap2(v, c, origin, h, eps):
     """Squared lower bound on the distance along one axis from v to a point of slab c."""
     g = max(origin + c * h - v, v - (origin + (c + 1) * h), 0.0) - eps
     return g * g if g > 0.0 else 0.0
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _outside(v, lo, hi):
     """Distance from v to the interval [lo, hi] (0 inside)."""
     if v < lo:
@@ -307,14 +307,14 @@ def _outside(v, lo, hi):
     return 0.0
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _offset(a):
     """0, −1, 1, −2, 2, … for a = 0, 1, 2, 3, 4, …: rows from the centre outward."""
     m = (a + 1) // 2
     return -m if a & 1 else m
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _unvisited_bound2(qx, qy, qz, cx, cy, cz, r, dims, lo, hi, h, eps):
     """Lower bound on the squared distance to a point outside the block of radius r.
 
@@ -336,7 +336,7 @@ def _unvisited_bound2(qx, qy, qz, cx, cy, cz, r, dims, lo, hi, h, eps):
     return b2
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _shells(
     qx, qy, qz, cx, cy, cz, pts, index, starts, dims, lo, hi, h, eps, reach, worst, out_d, out_i, qi
 ):
@@ -411,7 +411,7 @@ def _shells(
     return False
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _query_kernel(
     queries,
     pts,
@@ -511,7 +511,7 @@ def _query_kernel(
             hard[qi] = 1
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _rank_kernel(queries, rows, points, cand, beyond, out_d, out_i, ok):
     """Top-k of each row's candidates (original indices) by distance², then index.
 

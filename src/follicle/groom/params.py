@@ -9,14 +9,14 @@ compile; kernels read hair i's value at ``row(a, i)``.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ..errors import InputError
+from ..kernels import kernel
 
 __all__ = ["per_hair", "curve_parameter", "row"]
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def row(a, i):
     """Row of hair ``i`` in a per-hair array with n rows or one shared row."""
     return np.int64(i) if a.shape[0] != 1 else np.int64(0)  # one int type under prange

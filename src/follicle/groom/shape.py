@@ -22,11 +22,11 @@ same bytes.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
 
 from ..arrays import all_finite
 from ..errors import InputError
 from ..frames import polyline_frames
+from ..kernels import kernel, prange
 from ..noise import noise3
 from ..rng import uniforms
 from ..validate import number
@@ -40,7 +40,7 @@ _ROOT_TANGENT = np.array([1.0, 0.0, 0.0])  # local +x: the first normal of the c
 
 
 # ------------------------------------------------------------------------------- kernels
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _frizz_kernel(local, roots, amp_root, amp_tip, freq, offset, blend, t):
     n_verts = local.shape[1]
     for h in prange(local.shape[0]):
@@ -80,7 +80,7 @@ def _frizz_kernel(local, roots, amp_root, amp_tip, freq, offset, blend, t):
             local[h, i, 2] = max(z + fz * amp, floor)
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _kink_kernel(local, roots, tangent, binormal, normal, amp_root, amp_tip, freq, t):
     n_verts = local.shape[1]
     for h in prange(local.shape[0]):
@@ -110,7 +110,7 @@ def _kink_kernel(local, roots, tangent, binormal, normal, amp_root, amp_tip, fre
             local[h, i, 2] = z + kz * amp
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _curl_kernel(local, radius, f_root, f_tip, phase, ramp, t):
     n_verts = local.shape[1]
     for h in prange(local.shape[0]):

@@ -10,12 +10,14 @@ float32 as NumPy computes them, so a file's bytes do not change with the method.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..arrays import readonly
+from ..kernels import kernel
 
 __all__ = ["vertex_bounds", "catmull_rom_bounds"]
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _vertex_bounds(points: np.ndarray) -> np.ndarray:
     out = np.empty((2, 3), np.float32)
     out[0] = points[0]
@@ -30,7 +32,7 @@ def _vertex_bounds(points: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _catmull_rom_bounds(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     out = np.empty((2, 3), np.float32)
     out[0] = np.inf
@@ -58,7 +60,7 @@ def _catmull_rom_bounds(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
 def vertex_bounds(points: np.ndarray) -> np.ndarray:
     """(2, 3) float32 [min, max] of ``points`` (N ≥ 1, 3), as ``points.min(axis=0)`` and
     ``points.max(axis=0)`` give them: the bounds of linear curves."""
-    return _vertex_bounds(np.ascontiguousarray(points, dtype=np.float32))
+    return _vertex_bounds(readonly(points, np.float32))
 
 
 def catmull_rom_bounds(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -67,6 +69,4 @@ def catmull_rom_bounds(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     segment lies in the hull of its Bézier points P_i ± m_i / 3, m_i the vertex tangent
     (half the neighbours' difference; at an end, the end segment, as USD's phantom
     points make it)."""
-    return _catmull_rom_bounds(
-        np.ascontiguousarray(points, dtype=np.float32), np.ascontiguousarray(offsets)
-    )
+    return _catmull_rom_bounds(readonly(points, np.float32), readonly(offsets, np.int64))

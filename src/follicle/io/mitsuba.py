@@ -27,11 +27,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FormatError
+from ..kernels import kernel
 from .attributes import widths
 from .binary import read_bytes
 from .text import line_at, parse_number, write_values
@@ -131,7 +131,7 @@ def load_mitsuba(path: str | os.PathLike[str]) -> HairCurves:
     )
 
 
-@njit(cache=True)
+@kernel
 def _scan(buf, fill, control, counts):
     """Count (``fill`` False) or store the control points and curve sizes of ``buf``:
     (error code, byte position, control points, curves)."""

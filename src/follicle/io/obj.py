@@ -19,11 +19,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FormatError
+from ..kernels import kernel
 from .binary import read_bytes
 from .text import join_continued, line_at, parse_number, write_values
 
@@ -93,7 +93,7 @@ def load_obj(path: str | os.PathLike[str]) -> HairCurves:
     return HairCurves(verts[index], offsets)
 
 
-@njit(cache=True)
+@kernel
 def _scan(buf, fill, verts, index, counts, total):
     """Count (``fill`` False: a quick pass over records and ``l`` entries) or parse,
     check and store (``fill`` True) the ``v`` and ``l`` records of ``buf`` (lines).
@@ -150,7 +150,7 @@ def _scan(buf, fill, verts, index, counts, total):
     return 0, 0, nv, ni, nl
 
 
-@njit(cache=True)
+@kernel
 def _index(buf, i, n, nv, total):
     """The 1-based vertex index of the ``l`` entry at ``i`` (``v`` or ``v/vt``; negative:
     relative to the ``nv`` vertices read so far), or minus an error code."""

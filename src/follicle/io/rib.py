@@ -33,13 +33,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import BinaryIO
 
-import numba
 import numpy as np
-from numba import njit, prange
 
 from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import InputError
+from ..kernels import kernel, prange
 from .attributes import DEFAULT_WIDTH, conventional
 from .stream import Curves, as_chunks
 from .text import write_values
@@ -56,7 +55,7 @@ _LOG10_2 = math.log10(2.0)
 
 
 # ------------------------------------------------------------------ number formatting
-@njit(cache=True)
+@kernel
 def _put_float(x, out, pos, digits):
     """Write ``x`` as C's %.7g would into ``out`` at ``pos`` (``digits``: 7 bytes of
     scratch); return the new position. Unsigned multiply-shift digits: no divisions."""
@@ -124,7 +123,7 @@ def _put_float(x, out, pos, digits):
     return pos + 4
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _format_parts(values, per_line, parts, out):
     """Format ``values`` in ``parts`` runs of whole lines, run p into ``out`` from
     16 · (its first index); return each run's byte count."""
@@ -150,6 +149,8 @@ def _write_floats(fh: BinaryIO, values: np.ndarray, per_line: int) -> None:
     flat = np.ascontiguousarray(values, dtype=np.float32).reshape(-1)
     block = _BLOCK - _BLOCK % per_line
     out = np.empty(16 * min(block, flat.size), dtype=np.uint8)
+    import numba
+
     parts = numba.get_num_threads()
     for a in range(0, flat.size, block):
         run = flat[a : a + block]

@@ -19,7 +19,8 @@ from collections.abc import Sequence
 from typing import BinaryIO
 
 import numpy as np
-from numba import njit
+
+from ..kernels import kernel
 
 __all__ = ["write_values", "parse_number", "join_continued", "line_at"]
 
@@ -29,7 +30,7 @@ _HALF = np.array([2.0 ** (b - 151) for b in range(256)])  # half a float32 ulp, 
 _BLOCK = 1 << 20  # values formatted per kernel call, so the buffer stays small
 
 
-@njit(cache=True)
+@kernel
 def _ndigits(v):
     n = 1
     while v >= 10:
@@ -38,7 +39,7 @@ def _ndigits(v):
     return n
 
 
-@njit(cache=True)
+@kernel
 def _shortest(x, bits):
     """(m, k) with x ≈ m · 10^-k: the fewest digits (≤ 9) that read back as the float32
     ``x`` (> 0, finite; ``bits`` its IEEE-754 bits), m without trailing zeros."""
@@ -66,7 +67,7 @@ def _shortest(x, bits):
     return m, k
 
 
-@njit(cache=True)
+@kernel
 def _format_floats(values, ends, table, table_offsets, buf):
     pos = 0
     bits = values.view(np.uint32)
@@ -117,7 +118,7 @@ def _format_floats(values, ends, table, table_offsets, buf):
     return pos
 
 
-@njit(cache=True)
+@kernel
 def _format_ints(values, ends, table, table_offsets, buf):
     pos = 0
     for i in range(values.shape[0]):
@@ -157,7 +158,7 @@ def write_values(
 
 
 # ------------------------------------------------------------------ reading
-@njit(cache=True)
+@kernel
 def parse_number(buf, i, n):
     """The decimal number at ``buf[i:]``: (value float64, next index, ok)."""
     neg = False

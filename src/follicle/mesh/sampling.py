@@ -26,9 +26,10 @@ from numbers import Real
 from pathlib import Path
 
 import numpy as np
-from numba import njit, prange
 
+from ..arrays import readonly
 from ..errors import InputError
+from ..kernels import kernel, prange
 from ..rng import halton_point, purpose_id, stream_key, uniform
 from ..validate import number, positive, whole
 from .skin import SkinMesh
@@ -74,7 +75,7 @@ def subtriangle_table(depth: int) -> np.ndarray:
     return table.astype(np.float32)
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _level(g):
     """Subdivision depth of sub-triangle index g (0 for the whole triangle)."""
     level = 0
@@ -103,7 +104,7 @@ _RULE_POINTS = np.array(
 _RULE_WEIGHTS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0]) / 12.0
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _leaf_value(data, repeat, uvs, t, table, g):
     """Mean bilinear density over sub-triangle g of triangle t.
 
@@ -125,7 +126,7 @@ def _leaf_value(data, repeat, uvs, t, table, g):
     return total
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _merged_leaves(data, repeat, uvs, t, depth, table, scratch, out_sub, out_val, at):
     """Subdivide triangle t to ``depth``, merge equal siblings (Fig. 2.3), emit leaves.
 
@@ -165,7 +166,7 @@ def _merged_leaves(data, repeat, uvs, t, depth, table, scratch, out_sub, out_val
     return count
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _subdivide(
     data,
     repeat,
@@ -210,7 +211,7 @@ def _subdivide(
                 out_weight[k] = out_val[k] * areas[t] / 4.0 ** _level(out_sub[k])
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _build_grid(cdf, cells):
     """lo[k] = first i with cdf[i] > ceil(k·2³²/cells), k = 0 … cells (§2.1.6)."""
     lo = np.empty(cells + 1, dtype=np.int32)
@@ -224,7 +225,7 @@ def _build_grid(cdf, cells):
     return lo
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _sub_values(data, repeat, uvs, parents, subs, table):
     """Density value and depth of every stored sub-triangle (recomputed, not stored)."""
     values = np.empty(parents.shape[0], dtype=np.float64)
@@ -239,7 +240,7 @@ def _sub_values(data, repeat, uvs, parents, subs, table):
 _BATCH = 512  # samples per batch: the grid loads of a batch overlap in memory
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _sample_kernel(records, grid, table, seed, halton, start, tri, bary, index):
     """Samples start … start+n−1 into ``tri``, ``bary`` (and ``index`` when it is long).
 
@@ -356,7 +357,7 @@ class DensitySampler:
         self._records = records
         self.table = subtriangle_table(int(self.depths.max()))
         cells = max(1, min(int(round(grid_factor * len(parents))), 2**31 - 2))
-        self.grid = _build_grid(self.cdf, cells)
+        self.grid = _build_grid(readonly(self.cdf), cells)
         for arr in (records, self.table, self.grid, self.depths):
             arr.setflags(write=False)
 

@@ -43,11 +43,11 @@ import copy
 import math
 
 import numpy as np
-from numba import njit, prange
 
 from ..arrays import as_points, frozen, rigid
 from ..errors import InputError, ResourceError
 from ..frames import normalize
+from ..kernels import kernel, prange
 from ..validate import positive, whole
 from .skin import closest_weights
 
@@ -339,7 +339,7 @@ def _pseudo_normals(
 
 
 # ------------------------------------------------------------------- lookup
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _grid_place(values, origin, inv_voxel, m, px, py, pz):
     """A world point in grid units (u), the nearest point of the grid box (c) and the
     cell (i) holding that."""
@@ -353,7 +353,7 @@ def _grid_place(values, origin, inv_voxel, m, px, py, pz):
     return ux, uy, uz, cx, cy, cz, min(int(cx), sx - 2), min(int(cy), sy - 2), min(int(cz), sz - 2)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
     """Signed distance and unit outward normal at the world point (px, py, pz).
 
@@ -370,7 +370,7 @@ def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
     return d, nx, ny, nz
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz, below):
     """:func:`sdf_sample` plus a bound b such that (b − m)/√3 is how far the point may
     move before the sampled distance can fall to m ≥ 0 (inside the box d itself, whose
@@ -430,7 +430,7 @@ def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz, below):
     return d, wx, wy, wz, bound
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _sample_kernel(values, origin, inv_voxel, local_from_world, points, dist, normal):
     for i in prange(points.shape[0]):
         d, x, y, z = sdf_sample(
@@ -443,7 +443,7 @@ def _sample_kernel(values, origin, inv_voxel, local_from_world, points, dist, no
 
 
 # -------------------------------------------------------------------- build
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _distance2(px, py, pz, verts, faces, t):
     """(squared distance, wa, wb, wc): p to triangle t, and its closest point's weights."""
     i, j, k = faces[t, 0], faces[t, 1], faces[t, 2]
@@ -467,7 +467,7 @@ def _distance2(px, py, pz, verts, faces, t):
     return dx * dx + dy * dy + dz * dz, wa, wb, wc
 
 
-@njit(cache=True)
+@kernel
 def _block_pairs(tri_lo, tri_hi, blocks, size, count):
     """The ``count`` (block, triangle) pairs where triangle t's vertex box (tri_lo …
     tri_hi, inclusive) meets a block of size³ vertices, in ascending triangle order."""
@@ -485,7 +485,7 @@ def _block_pairs(tri_lo, tri_hi, blocks, size, count):
     return blk, tri
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _band_kernel(
     verts,
     faces,
@@ -546,7 +546,7 @@ def _band_kernel(
                             closest[v] = t
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _sweep_kernel(verts, faces, origin, voxel, dims, reach2, closest, dist2):
     """Give every vertex beyond the band a closest triangle: sweeps along ±x, then ±y,
     then ±z. The + sweep (in place) and the − sweep (on a copy) of an axis run as two
@@ -568,7 +568,7 @@ def _sweep_kernel(verts, faces, origin, voxel, dims, reach2, closest, dist2):
                 dist2[v] = back_dist2[v]
 
 
-@njit(cache=True)
+@kernel
 def _sweep(verts, faces, origin, voxel, dims, reach2, axis, step, closest, dist2):
     """One sweep along ``axis`` in direction ``step`` (±1), slab by slab.
 
@@ -606,7 +606,7 @@ def _sweep(verts, faces, origin, voxel, dims, reach2, axis, step, closest, dist2
                             closest[v] = t
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _sign_kernel(
     verts,
     faces,

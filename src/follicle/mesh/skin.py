@@ -16,12 +16,12 @@ import copy
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
 from scipy.spatial import cKDTree
 
-from ..arrays import frozen
+from ..arrays import frozen, readonly
 from ..errors import InputError
 from ..frames import normalize
+from ..kernels import kernel, prange
 from .texture import Texture
 
 __all__ = ["SkinMesh", "SurfacePoints", "closest_weights", "MAX_COORDINATE"]
@@ -373,7 +373,7 @@ class SkinMesh:
         n = len(tri)
         out = [np.empty((n, 3)) for _ in range(4)]
         uv = np.zeros((n, 2))
-        uvs = self.uvs if self.uvs is not None else np.zeros((0, 2))
+        uvs = readonly(self.uvs if self.uvs is not None else np.zeros((0, 2)))
         _evaluate_kernel(
             self._verts(pose),
             self.vertex_normals(pose),
@@ -415,7 +415,7 @@ class SkinMesh:
             qi = np.repeat(np.arange(len(qc)), counts)
             gap = np.linalg.norm(qc[qi] - centres[cand], axis=1) - radii[cand]
             keep = gap <= dv[qi] * (1 + 1e-9) + 1e-12
-            t, bu, bv, d2 = _closest_kernel(qc, verts, self.faces, qi[keep], cand[keep])
+            t, bu, bv, d2 = _closest_kernel(readonly(qc), verts, self.faces, qi[keep], cand[keep])
             tri_out[s : s + chunk] = t
             bary_out[s : s + chunk, 0], bary_out[s : s + chunk, 1] = bu, bv
             dist_out[s : s + chunk] = np.sqrt(d2)
@@ -450,7 +450,7 @@ class SkinMesh:
         )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def closest_weights(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """Weights (wa, wb, wc) of the point of triangle abc closest to p, by Voronoi region
     (Ericson, RTCD §5.1.5). A vertex region gives two exact zeros, an edge region one.
@@ -491,7 +491,7 @@ def closest_weights(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     return va * inv, vb * inv, vc * inv
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _closest_kernel(q, verts, faces, qi, ti):
     """Best (triangle, u, v, squared distance) per query over candidate pairs (qi, ti).
 
@@ -523,7 +523,7 @@ def _closest_kernel(q, verts, faces, qi, ti):
     return best_t, best_u, best_v, best_d
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel(parallel=True, nogil=True)
 def _evaluate_kernel(
     verts, normals, tangents, uvs, faces, tri, bary, position, normal, tangent, binormal, uv
 ):

@@ -12,10 +12,10 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from ..errors import FileAccessError, FollicleError, FormatError, InputError
 from ..inputs import input_file, is_url
+from ..kernels import kernel
 
 __all__ = ["Texture", "WRAP_MODES", "MAX_TEXTURE_PIXELS"]
 
@@ -162,14 +162,14 @@ def checked_uv(uv: object, what: str) -> np.ndarray:
     return uv
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _wrap(i, n, repeat):
     if repeat:
         return i % n  # Python semantics in numba: never negative
     return min(max(i, 0), n - 1)
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def bilinear(data, repeat, u, v, c):
     """Channel ``c`` of (H, W, C) ``data`` at (u, v), bilinear; for use inside kernels."""
     h, w = data.shape[0], data.shape[1]
@@ -187,7 +187,7 @@ def bilinear(data, repeat, u, v, c):
     return top * (1.0 - fy) + bottom * fy
 
 
-@njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def _sample_kernel(data, repeat, uv):
     out = np.empty((uv.shape[0], data.shape[2]), dtype=np.float64)
     for n in range(uv.shape[0]):

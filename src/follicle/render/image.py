@@ -10,10 +10,10 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from numba import njit
 
 from ..atomic import atomic_path
 from ..errors import InputError
+from ..kernels import kernel
 
 __all__ = [
     "linear_to_srgb",
@@ -77,7 +77,7 @@ def srgb8_table() -> np.ndarray:
     return _half_luts()[0]
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def half_bits(bits):
     """The float16 bit pattern nearest (ties to even, as numpy's and the GPU's
     conversion) to the float32 whose bit pattern is ``bits`` (an integer)."""

@@ -96,9 +96,9 @@ class RenderParams(StrictSection):
         Field(strict=False),
     ] = Field((960, 960), description="image width and height, pixels")
     engine: Literal[ENGINES] = Field(  # type: ignore[valid-type]
-        "opengl",
-        description="raster engine: opengl, cpu (follicle's strand rasterizer) or auto"
-        " (OpenGL on a GPU, the CPU engine on a software GL or without EGL)",
+        "auto",
+        description="raster engine: auto (OpenGL on a GPU, follicle's CPU strand"
+        " rasterizer on a software GL or without EGL), opengl or cpu",
     )
     shading: Literal[SHADINGS] = Field(  # type: ignore[valid-type]
         "kajiya-kay", description="hair shading model"

@@ -20,8 +20,8 @@ from collections.abc import Iterable
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
 
+from ..kernels import kernel, prange
 from ..mesh.sdf import sdf_lookup
 from .settings import SHAPES
 
@@ -117,7 +117,7 @@ def colliders(
     return Colliders(np.array(rows, np.float64).reshape(-1, COLUMNS), *sdf)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _push_ball(px, py, pz, cx, cy, cz, r, nx, ny, nz, hit, gap):
     """Project p out of the ball (c, r), its normal then in n; else shrink ``gap`` to
     p's distance from the ball."""
@@ -132,13 +132,13 @@ def _push_ball(px, py, pz, cx, cy, cz, r, nx, ny, nz, hit, gap):
     return cx + r * ux, cy + r * uy, cz + r * uz, ux, uy, uz, True, gap
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _push_sphere(row, px, py, pz, margin, nx, ny, nz, hit, gap):
     """Out of the sphere (centre, radius) grown by ``margin``."""
     return _push_ball(px, py, pz, row[1], row[2], row[3], row[4] + margin, nx, ny, nz, hit, gap)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _push_capsule(row, px, py, pz, margin, nx, ny, nz, hit, gap):
     """Out of the capsule (a, b, radius) grown by ``margin``: out of the ball about the
     nearest point of its axis."""
@@ -153,7 +153,7 @@ def _push_capsule(row, px, py, pz, margin, nx, ny, nz, hit, gap):
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _push_plane(row, px, py, pz, margin, nx, ny, nz, hit, gap):
     """Out of the half-space behind the plane (a point on it, its unit normal) moved
     ``margin`` along the normal: the hair stays on the side the normal points to."""
@@ -164,7 +164,7 @@ def _push_plane(row, px, py, pz, margin, nx, ny, nz, hit, gap):
     return px - d * ux, py - d * uy, pz - d * uz, ux, uy, uz, True, gap
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def collide(px, py, pz, colliders, margin):
     """p moved out of every collider grown by ``margin``: (x, y, z, nx, ny, nz, hit,
     clearance). ``n`` is the last contact's outward normal. ``clearance`` is 0 after a
@@ -213,7 +213,7 @@ def collide(px, py, pz, colliders, margin):
     return px, py, pz, nx, ny, nz, hit, 0.0 if hit else gap
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _clearance_kernel(x, colliders, out):
     for s in prange(x.shape[0]):
         for i in range(x.shape[1]):

@@ -35,9 +35,8 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
 from ..arrays import FMA
+from ..kernels import kernel
 
 __all__ = [
     "distance_pass",
@@ -54,10 +53,10 @@ __all__ = [
 
 _TINY = 1e-12  # segments shorter than this have no direction
 
-_jit = njit(cache=True, error_model="numpy", fastmath=FMA)
+_jit = kernel(error_model="numpy", fastmath=FMA)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _segment(X, i, b):
     """(dx, dy, dz, length) of strand b's segment from vertex i − 1 to vertex i."""
     dx = X[i, 0, b] - X[i - 1, 0, b]

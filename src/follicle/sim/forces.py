@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from ..kernels import kernel
 from ..noise import noise3
 
 __all__ = ["acceleration"]
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def acceleration(px, py, pz, tx, ty, tz, gravity, wind, turbulence, frequency, scroll):
     """Acceleration at a vertex at p with unit tangent t.
 

@@ -20,13 +20,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 from scipy.spatial.transform import Rotation, Slerp
 
 from ..arrays import rigid
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError, SimulationError
 from ..groom.guides import Guides
+from ..kernels import kernel, prange
 from ..mesh.sdf import SDF
 from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..noise import perlin
@@ -117,7 +117,7 @@ def _head_transform(transform: object) -> np.ndarray:
     return world
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _reach(x, v, length):  # pragma: no cover - compiled
     """Per strand, its farthest vertex from the root in strand lengths; NaN when any of
     its positions or velocities is not finite (one pass, no temporaries)."""

@@ -22,10 +22,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
 
 from ..arrays import FMA
 from ..errors import SimulationError
+from ..kernels import kernel, prange
 from .collision import Colliders, collide
 from .constraints import (
     bend_pass,
@@ -74,7 +74,7 @@ def per_substep(k: float | np.ndarray, substep: float) -> float | np.ndarray:
 BLOCK = 32  # strands per block: the inner loops run across them
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _pin(roots0, frames0, roots1, frames1, f, s, b, root, frame):
     """Strand s's root and frame, into column b of ``root`` (3, B) / ``frame`` (3, 3, B),
     a fraction ``f`` of the way from pose 0 to pose 1: positions blended, the frame
@@ -108,7 +108,7 @@ def _pin(roots0, frames0, roots1, frames1, f, s, b, root, frame):
     frame[2, 0, b], frame[2, 1, b], frame[2, 2, b] = nx, ny, nz
 
 
-@njit(cache=True, error_model="numpy", fastmath=FMA)
+@kernel(error_model="numpy", fastmath=FMA)
 def _collide_pass(
     X,
     W,
@@ -160,7 +160,7 @@ def _collide_pass(
 SETTLE_FROM = 1e-4  # relative stretch from which the settle pass moves a vertex (README: Dynamics)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _hang(
     px,
     py,
@@ -204,7 +204,7 @@ def _hang(
     return qx, qy, qz, nx, ny, nz, True, 0.0
 
 
-@njit(cache=True, error_model="numpy", fastmath=FMA)
+@kernel(error_model="numpy", fastmath=FMA)
 def _settle_pass(
     X,
     W,
@@ -315,7 +315,7 @@ class Constants(NamedTuple):
     up: np.ndarray  # (3,) unit vector against gravity; zero without gravity
 
 
-@njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
+@kernel(parallel=True, error_model="numpy", fastmath=FMA)
 def _substep_kernel(
     x, v, clear, model, start, end, f, wind, scroll, shift, c, colliders, energy, bad
 ):

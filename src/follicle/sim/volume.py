@@ -51,10 +51,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
 
 from ..arrays import FMA, all_finite
 from ..errors import InputError
+from ..kernels import kernel, prange
 from ..threads import threads_for
 from ..validate import is_whole, number, positive, whole
 
@@ -341,7 +341,7 @@ def _splat_grid(x: np.ndarray, v: np.ndarray, spec: GridSpec, blur_passes: int) 
 # --- kernels ---------------------------------------------------------------------------
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _bounds_kernel(pts, lo, hi):
     """Per chunk of points, the smallest and largest coordinate on each axis."""
     m = pts.shape[0]
@@ -367,7 +367,7 @@ def _bounds(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lo.min(axis=0), hi.max(axis=0)
 
 
-@njit(cache=True)
+@kernel
 def _locate(px, py, pz, origin, inv_h, nx, ny, nz):
     """Cell (i, j, k) holding the point and its fractions (tx, ty, tz) in [0, 1).
 
@@ -383,7 +383,7 @@ def _locate(px, py, pz, origin, inv_h, nx, ny, nz):
     return ix, iy, iz, fx - ix, fy - iy, fz - iz
 
 
-@njit(cache=True)
+@kernel
 def _corner(cell, c, nx, ny, nz):
     """Corner ``c`` (0..7, bits x, y, z) of a cell: vertex (i, j, k) and tent weight.
 
@@ -402,7 +402,7 @@ def _corner(cell, c, nx, ny, nz):
     return i, j, k, w
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _cell(px, py, pz, origin, inv_h, nx, ny, nz):
     """Cell (i, j, k) and fractions of a point, both clamped into the grid: a point a
     little outside (the solver's grid is placed a substep earlier) reads the border."""
@@ -422,7 +422,7 @@ def _cell(px, py, pz, origin, inv_h, nx, ny, nz):
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _add(cell, w, vx, vy, vz):
     cell[0] += w
     cell[1] += w * vx
@@ -430,7 +430,7 @@ def _add(cell, w, vx, vy, vz):
     cell[3] += w * vz
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _splat_point(grid, origin, inv_h, px, py, pz, vx, vy, vz):
     """Add a particle's tent weight and momentum (eq. 3.2, 3.3) to the sums ``grid``
     (nx, ny, nz, 4); corners off the grid are left out."""
@@ -455,7 +455,7 @@ def _splat_point(grid, origin, inv_h, px, py, pz, vx, vy, vz):
                 _add(grid[i, j, k], w, vx, vy, vz)
 
 
-@njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
+@kernel(parallel=True, error_model="numpy", fastmath=FMA)
 def _splat(x, v, grids, origin, inv_h):
     """Splat particles (M, 3) into the sums ``grids`` (P, nx, ny, nz, 4) of [w, w·vx,
     w·vy, w·vz] (eq. 3.2, numerator of 3.3): part k, the k-th of P consecutive runs of
@@ -467,7 +467,7 @@ def _splat(x, v, grids, origin, inv_h):
             _splat_point(grid, origin, inv_h, x[p, 0], x[p, 1], x[p, 2], v[p, 0], v[p, 1], v[p, 2])
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _part_sums(grids):
     """The parts' sums (P, nx, ny, nz, 4) added in part order: (nx, ny, nz, 4)."""
     flat = grids.reshape(grids.shape[0], -1)
@@ -480,7 +480,7 @@ def _part_sums(grids):
     return out.reshape(grids.shape[1:])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def _box_blur(src):
     """One box-blur pass: each vertex the mean of its 3×3×3 neighbours inside the grid.
 
@@ -520,7 +520,7 @@ def _box_blur(src):
     return a
 
 
-@njit(cache=True)
+@kernel
 def _resolve(sums, h):
     """Density and flow: velocity (eq. 3.3; 0 where D <= 1e-12), then the vertex density
     gradient.
@@ -550,7 +550,7 @@ def _resolve(sums, h):
     return density, flow
 
 
-@njit(cache=True)
+@kernel
 def _density_at(density, origin, inv_h, px, py, pz):
     """Trilinear density at a point (0 outside the grid)."""
     nx, ny, nz = density.shape
@@ -562,7 +562,7 @@ def _density_at(density, origin, inv_h, px, py, pz):
     return d
 
 
-@njit(cache=True)
+@kernel
 def _vector_at(field, at, origin, inv_h, px, py, pz):
     """Trilinear value of channels at … at + 2 of a vertex field at a point (0 outside)."""
     nx, ny, nz, _ = field.shape
@@ -576,7 +576,7 @@ def _vector_at(field, at, origin, inv_h, px, py, pz):
     return fx, fy, fz
 
 
-@njit(cache=True)
+@kernel
 def _sample_density(density, origin, inv_h, pts):
     """``_density_at`` for each row of ``pts`` (M, 3)."""
     out = np.empty(pts.shape[0])
@@ -585,7 +585,7 @@ def _sample_density(density, origin, inv_h, pts):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _sample_vector(field, at, origin, inv_h, pts):
     """``_vector_at`` for each row of ``pts`` (M, 3)."""
     out = np.empty((pts.shape[0], 3))
@@ -596,7 +596,7 @@ def _sample_vector(field, at, origin, inv_h, pts):
     return out
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _exchange(flow, origin, inv_h, px, py, pz, vx, vy, vz, friction, push):
     """A particle's velocity after friction (eq. 3.4) and repulsion (eq. 3.5–3.7,
     ``push`` = s_repulsion·h/dt) with the hair around it (``flow`` (nx, ny, nz, 6)).
@@ -632,7 +632,7 @@ def _exchange(flow, origin, inv_h, px, py, pz, vx, vy, vz, friction, push):
     return vx, vy, vz
 
 
-@njit(cache=True, parallel=True, error_model="numpy", fastmath=FMA)
+@kernel(parallel=True, error_model="numpy", fastmath=FMA)
 def _update(x, v, free, flow, origin, inv_h, friction, push):
     """:func:`_exchange` for every free particle of ``x``, ``v`` (M, 3), in place."""
     for p in prange(x.shape[0]):

@@ -12,7 +12,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+
+from ...kernels import kernel, prange
 
 __all__ = ["TILE_SIDES", "CHUNKS", "tile_grid", "bin_boxes", "dealt_tiles", "tile_bounds"]
 
@@ -36,7 +37,7 @@ def tile_grid(w: int, h: int, threads: int) -> tuple[int, int, int]:
     return side, nx, ny
 
 
-@njit(cache=True)
+@kernel
 def dealt_tiles(tile_start):
     """The tiles by decreasing work (their list lengths), to be dealt to the threads in
     turn (thread t takes order[t::threads]), so no thread is left with the dense middle
@@ -45,7 +46,7 @@ def dealt_tiles(tile_start):
     return np.argsort(-counts, kind="mergesort")
 
 
-@njit(cache=True)
+@kernel
 def tile_bounds(k, nx, tile, w, h):
     """Pixel columns [x_lo, x_hi) and rows [y_lo, y_hi) of tile k of a w × h image."""
     ty, tx = divmod(k, nx)
@@ -53,7 +54,7 @@ def tile_bounds(k, nx, tile, w, h):
     return x_lo, min(x_lo + tile, w), y_lo, min(y_lo + tile, h)
 
 
-@njit(cache=True)
+@kernel
 def _tile_range(lo, hi, tile, n):
     """First and last tile (inclusive) that [lo, hi] pixels touch; last < first: none."""
     if not (hi >= 0.0 and lo < n * tile):  # NaN boxes fall out here too
@@ -63,7 +64,7 @@ def _tile_range(lo, hi, tile, n):
     return a, b
 
 
-@njit(cache=True)
+@kernel
 def _chunk(boxes, lo, hi, tile, nx, ny, row, items):
     """The tiles of primitives lo .. hi − 1: each entry counted in ``row`` (per tile),
     and with ``items`` not empty also written there at ``row``'s cursors."""
@@ -79,7 +80,7 @@ def _chunk(boxes, lo, hi, tile, nx, ny, row, items):
                 row[k] += 1
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def bin_boxes(boxes, tile, nx, ny):
     """Tile lists of primitives with pixel boxes ``boxes`` (M, 4: x0, x1, y0, y1).
 

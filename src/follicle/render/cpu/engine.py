@@ -28,11 +28,10 @@ import time
 from functools import cached_property
 from typing import TYPE_CHECKING
 
-import numba
 import numpy as np
-from numba import njit, prange
 
 from ...curves import HairCurves
+from ...kernels import kernel, prange
 from ..camera import Camera
 from ..engines import RasterRenderer
 from ..frame import Frame, hair_vertices, prepare_frame
@@ -56,7 +55,7 @@ SPACE_ORDER_BITS = 6
 STAGES = ("shadows", "skin", "steps", "bin", "raster", "resolve")
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def _resolve(buf, behind, blend, table, out):
     """The frame to 8-bit sRGB (``out`` (H, W, 4) uint8, alpha 255): with ``blend``,
     weighted blended OIT's last step, the hair's average colour Σcαw / Σαw over the
@@ -360,6 +359,8 @@ def skin_depth(mesh: SkinMesh, camera: Camera, size: tuple[int, int]) -> np.ndar
 
 
 def _threads() -> int:
+    import numba
+
     return numba.get_num_threads()
 
 

@@ -20,8 +20,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 
+from ...kernels import kernel, prange
 from .bins import dealt_tiles, tile_bounds
 
 __all__ = ["PASSES", "segment_boxes", "draw_strands"]
@@ -31,7 +31,7 @@ PASSES = {"oit": 0, "over": 1, "nearest": 2, "layers": 3}
 FAST = {"contract", "arcp", "afn", "reassoc"}
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def segment_boxes(steps, step_start):
     """Pixel box (x0, x1, y0, y1) of each segment's steps, grown by their half widths
     across a diagonal and a pixel; NaN when no step of it is drawable."""
@@ -57,14 +57,14 @@ def segment_boxes(steps, step_start):
     return boxes
 
 
-@njit(cache=True)
+@kernel
 def _oit_weight(depth, consts):
     """Weighted blended OIT's weight exp(−k·Δdepth/depth): nearer hair outweighs farther."""
     oit_depth, sharpness = consts[0], consts[1]
     return max(math.exp(-sharpness * max(depth - oit_depth, 0.0) / oit_depth), 1e-20)
 
 
-@njit(cache=True, fastmath=FAST, inline="always")
+@kernel(fastmath=FAST, inline="always")
 def _fragment(mode, buf, first, ref, row, col, u, cover, a, b, wa, wb, consts):
     """A fragment at (row, col), ``u`` along the piece a → b, covering ``cover`` of the
     pixel: dropped behind the opaque layer ``ref``; otherwise, by pass, into the OIT
@@ -91,7 +91,7 @@ def _fragment(mode, buf, first, ref, row, col, u, cover, a, b, wa, wb, consts):
         buf[row, col, min(max(k, 0), 3)] += alpha
 
 
-@njit(cache=True, fastmath=FAST, inline="always")
+@kernel(fastmath=FAST, inline="always")
 def _thin_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, consts):
     """A piece under a pixel wide: a pixel column (row) at a time along its major axis,
     the pixels across it covered by the hair's cross-section (width / cos of the slope)."""
@@ -136,7 +136,7 @@ def _thin_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, con
                 _fragment(mode, buf, first, ref, c, q, u, cover, a, b, wa, wb, consts)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _joint(step, dx, dy):
     """The unit screen tangent at ``step`` (its joint with the next piece lies across
     it), pointing along the piece (dx, dy); the piece's own direction where the step
@@ -147,7 +147,7 @@ def _joint(step, dx, dy):
     return (tx, ty) if tx * dx + ty * dy >= 0.0 else (-tx, -ty)
 
 
-@njit(cache=True, fastmath=FAST, inline="always")
+@kernel(fastmath=FAST, inline="always")
 def _wide_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, consts):
     """A piece a pixel wide or more: a ribbon. A pixel of its box is its when its centre
     lies past the line across the hair at a and before the one at b (each across the
@@ -184,7 +184,7 @@ def _wide_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, con
                 _fragment(mode, buf, first, ref, i, j, u, cover, a, b, wa, wb, consts)
 
 
-@njit(cache=True, fastmath=FAST, inline="always")
+@kernel(fastmath=FAST, inline="always")
 def _piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, consts):
     """Rasterize the piece from step a to step b (rows of STEP_FIELDS) inside the tile
     [x_lo, x_hi) × [y_lo, y_hi): thin along its major axis, wide as a ribbon."""
@@ -197,7 +197,7 @@ def _piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, consts):
         _thin_piece(mode, buf, first, ref, a, b, x_lo, x_hi, y_lo, y_hi, wa, wb, consts)
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def draw_strands(
     mode, steps, step_start, tile_start, items, tile, nx, buf, first, ref, consts, threads
 ):

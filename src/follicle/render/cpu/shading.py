@@ -14,8 +14,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from ...kernels import kernel
 from ..options import SHADINGS
 
 __all__ = [
@@ -90,27 +90,27 @@ def pack_shadow(
 
 
 # ----------------------------------------------------------------------------- vectors
-@njit(cache=True)
+@kernel
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True)
+@kernel
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(cache=True)
+@kernel
 def scaled(a, s):
     return (a[0] * s, a[1] * s, a[2] * s)
 
 
-@njit(cache=True)
+@kernel
 def added(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(cache=True)
+@kernel
 def unit(a):
     n = math.sqrt(dot(a, a))
     if n <= 0.0:
@@ -119,7 +119,7 @@ def unit(a):
 
 
 # ----------------------------------------------------------------------------- noise
-@njit(cache=True)
+@kernel
 def _hash01(x):
     """hair_common.glsl's lowbias32 mix of a 32-bit unsigned integer, to [0, 1)."""
     x = x & _U32
@@ -131,7 +131,7 @@ def _hash01(x):
     return float(x) * (1.0 / 4294967296.0)
 
 
-@njit(cache=True)
+@kernel
 def _strand_noise(seed, x):
     """Smooth value noise along a strand: x in cycles, seed in [0, 1) picks the strand."""
     i = math.floor(x)
@@ -144,7 +144,7 @@ def _strand_noise(seed, x):
 
 
 # ----------------------------------------------------------------------------- models
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _power(powers, row, x):
     """x^e for x in [0, 1] from row ``row`` of :func:`pack_powers`' tables (linear
     between POWER_STEPS + 1 exact values): a pow call costs 20–40 ns, and each step of
@@ -155,7 +155,7 @@ def _power(powers, row, x):
     return a + (powers[row, i + 1] - a) * (f - i)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _kk_specular(T, L, E, powers, row):
     """Almeida 2014 eq. 3.9 on the cone of mirror directions around T, to the power of
     the table's exponent."""
@@ -165,7 +165,7 @@ def _kk_specular(T, L, E, powers, row):
     return _power(powers, row, c)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _strand_specular(T, H, powers, row):
     """Scheuermann 2004 (Almeida 2014 Alg. 6 lines 19–21): sin(T, H)^p, faded out as T
     turns away from H; sin^p as (1 − cos²)^(p/2) from the table."""
@@ -174,12 +174,12 @@ def _strand_specular(T, H, powers, row):
     return x * x * (3.0 - 2.0 * x) * _power(powers, row, 1.0 - th * th)
 
 
-@njit(cache=True)
+@kernel
 def _gaussian(width, x):
     return math.exp(-0.5 * x * x / (width * width)) / (width * math.sqrt(2.0 * math.pi))
 
 
-@njit(cache=True)
+@kernel
 def _fresnel(eta, c):
     """Unpolarised Fresnel reflectance of a dielectric at incidence cosine c."""
     sin_t2 = (1.0 - c * c) / (eta * eta)
@@ -191,13 +191,13 @@ def _fresnel(eta, c):
     return 0.5 * (rs * rs + rp * rp)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _light(lrad, i, key):
     s = key if i == 0 else 1.0
     return (lrad[i, 0] * s, lrad[i, 1] * s, lrad[i, 2] * s)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _shade_tangent(model, prm, powers, T, N, E, base, t, seed, key, nl, ldir, lrad, amb):
     """Kajiya-Kay (model 0) or Scheuermann (model 1): diffuse, a primary lobe towards
     the hair's hue by specular_tint and a secondary lobe tinted by the hair colour, on
@@ -246,7 +246,7 @@ def _shade_tangent(model, prm, powers, T, N, E, base, t, seed, key, nl, ldir, lr
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _shade_marschner(prm, T, E, base, key, nl, ldir, lrad, amb):
     """Marschner et al. 2003, simplified for real time (shade_marschner.glsl): R, TT and
     TRT lobes with the hair colour as an absorption per fibre diameter, and a sin(T, L)
@@ -308,7 +308,7 @@ def _shade_marschner(prm, T, E, base, key, nl, ldir, lrad, amb):
 
 
 # ----------------------------------------------------------------------------- shadows
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _dom_opacity(first, layers, qx, qy, z, layer_depth):
     """Hair opacity in front of light depth z at texel (qx, qy), counted linearly
     across each of the four layers (lights.glsl, dom_opacity)."""
@@ -319,7 +319,7 @@ def _dom_opacity(first, layers, qx, qy, z, layer_depth):
     return total
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _skin_lit(skin, stx, sty, z, r):
     """lights.glsl skin_lit: the skin's shadow test over a box 2r + 1 texels wide around
     (stx, sty), each texel weighted by its overlap (r = 0: the 2x2 bilinear PCF); the
@@ -351,12 +351,12 @@ def _skin_lit(skin, stx, sty, z, r):
     return total / (width * width)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _lit(skin, x, y, z, hi):
     return 1.0 if z <= skin[min(max(y, 0), hi), min(max(x, 0), hi)] else 0.0
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def key_visibility(p, lift, soft, lvp, first, layers, skin, sh):
     """Share of the key light reaching world point p: the deep opacity maps' hair
     transmittance exp(−κ·opacity), bilinear over the four nearest texels, times the
@@ -394,7 +394,7 @@ def key_visibility(p, lift, soft, lvp, first, layers, skin, sh):
 
 
 # ----------------------------------------------------------------------------- radiance
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def hair_radiance(
     model, prm, powers, common, P, T, N, E, base, t, seed, width, v2, nl, ldir, lrad, amb,
     lvp, first, layers, skin, sh,
@@ -415,7 +415,7 @@ def hair_radiance(
     return (rgb[0] * s, rgb[1] * s, rgb[2] * s)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def skin_radiance(P, N, E, color, wrap, nl, ldir, lrad, amb, lvp, first, layers, skin, sh):
     """mesh_fs.glsl: two-sided Lambert of ``color`` with a wrap-around term, the key
     light shadowed by hair and skin (the lookup's arguments as :func:`hair_radiance`'s),

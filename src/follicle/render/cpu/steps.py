@@ -15,8 +15,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 
+from ...kernels import kernel, prange
 from .shading import added, cross, dot, hair_radiance, scaled, unit
 
 __all__ = ["STEP_FIELDS", "MAX_SUBDIVISIONS", "space_order", "segment_steps", "fill_steps"]
@@ -30,7 +30,7 @@ MAX_SUBDIVISIONS = 16
 CHORD_TOLERANCE_PX = 0.25  # largest gap between spline and steps, pixels
 
 
-@njit(cache=True)
+@kernel
 def _power_form(p0, p1, p2, p3):
     """Uniform Catmull-Rom in power form: P(u) = p1 + (a u³ + b u² + c u) / 2."""
     a = (
@@ -47,12 +47,12 @@ def _power_form(p0, p1, p2, p3):
     return a, b, c
 
 
-@njit(cache=True)
+@kernel
 def _point(points, i):
     return (float(points[i, 0]), float(points[i, 1]), float(points[i, 2]))
 
 
-@njit(cache=True)
+@kernel
 def _neighbours(points, first, last, i):
     """Control points P_{i-1} .. P_{i+2} of segment i, clamped to the curve."""
     return (
@@ -63,7 +63,7 @@ def _neighbours(points, first, last, i):
     )
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _pixel_size(p, view):
     """World size of a pixel at p: per metre of depth (perspective) or flat."""
     if view[3] > 0.5:
@@ -72,7 +72,7 @@ def _pixel_size(p, view):
     return view[10]
 
 
-@njit(cache=True)
+@kernel
 def _step_count(p0, p1, p2, p3, view, most):
     """hair_gs.glsl: the chord error of n steps falls as 1/n² from its value at n = 1;
     and no step is longer than ``view[11]`` pixels."""
@@ -100,7 +100,7 @@ def _step_count(p0, p1, p2, p3, view, most):
     return min(max(int(math.ceil(steps)), 1), most)
 
 
-@njit(cache=True)
+@kernel
 def _spread(v):
     """The low 10 bits of v moved to every third bit (one axis of a Morton code)."""
     v &= 0x3FF
@@ -110,7 +110,7 @@ def _spread(v):
     return (v | (v << 2)) & 0x9249249
 
 
-@njit(cache=True)
+@kernel
 def space_order(points, offsets, bits):
     """The curves in space order: sorted, stably, by the Morton code of the cell of a
     2^bits-per-axis grid over the roots that holds their root.
@@ -149,7 +149,7 @@ def space_order(points, offsets, bits):
     return order
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def segment_steps(points, offsets, order, view, subdivisions):
     """Per segment, the curves taken in ``order``, its step count; and per curve (in
     that order) the index of its first segment (C + 1,)."""
@@ -169,7 +169,7 @@ def segment_steps(points, offsets, order, view, subdivisions):
     return counts, seg_base
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _project(p, vp, view, size_x, size_y):
     """Pixel x, y and depth of p; depth NaN outside the clip volume."""
     cx = vp[0, 0] * p[0] + vp[0, 1] * p[1] + vp[0, 2] * p[2] + vp[0, 3]
@@ -184,7 +184,7 @@ def _project(p, vp, view, size_x, size_y):
     return x, (cy / cw + 1.0) * 0.5 * size_y, cz / cw * 0.5 + 0.5
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def fill_steps(
     points,
     offsets,

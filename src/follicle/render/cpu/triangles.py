@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 
+from ...kernels import kernel, prange
 from .bins import dealt_tiles, tile_bounds
 from .shading import skin_radiance, unit
 
@@ -19,7 +19,7 @@ __all__ = ["project_triangles", "draw_triangles", "shade_skin"]
 _UNIT_DEPTH = 2.0**-24  # the smallest step of a 24-bit depth buffer
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def project_triangles(vertices, faces, vp, size_x, size_y, camera):
     """Screen vertices (V, 3: x, y, depth) and triangle boxes (F, 4; NaN when a corner
     is outside the clip volume). ``camera``: rows from the top and view depth; else the
@@ -62,7 +62,7 @@ def project_triangles(vertices, faces, vp, size_x, size_y, camera):
     return screen, boxes
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def draw_triangles(screen, faces, tile_start, items, tile, nx, depth, tri, bary, camera, threads):
     """Rasterize every tile's triangles, nearest wins (``depth`` (H, W) starts at +inf or
     the far value). ``camera``: perspective-correct barycentrics into ``bary`` (H, W, 2)
@@ -114,7 +114,7 @@ def draw_triangles(screen, faces, tile_start, items, tile, nx, depth, tri, bary,
                                 depth[i, j] = z
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _skin_sample(
     f, b1, b2, vertices, normals, faces, eye, skin, wrap, nl, ldir, lrad, amb,
     lvp, dom_first, dom_layers, dom_skin, sh,
@@ -140,7 +140,7 @@ def _skin_sample(
     )
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def shade_skin(
     tri,
     bary,
