@@ -10,6 +10,7 @@ from follicle.curves import HairCurves
 from follicle.errors import ConfigError, InputError
 from follicle.render import Camera, Light, Renderer, render, save_png
 from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
+from follicle.render.engines import make_renderer
 from follicle.render.settings import RenderParams
 from follicle.render.strands import back_to_front, segment_indices, strand_seeds
 from glmark import gl
@@ -375,15 +376,18 @@ def test_bad_settings_are_config_errors_naming_the_key(kwargs, message):
 
 
 @gl
-def test_settings_and_overrides_draw_as_one_object():
+def test_settings_and_overrides_draw_as_one_object(each_engine):
     """``render(settings=p, key=v)`` draws what ``render(settings=p.replace(key=v))`` does,
-    and what a Renderer drawing those settings does."""
+    and what the settings' engine's renderer drawing those settings does."""
     curves = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0))
-    base = RenderParams(size=(48, 32), msaa=0, hair_color=(0.05, 0.8, 0.05), hair_width=0.05)
+    base = RenderParams(
+        engine=each_engine, size=(48, 32), msaa=0, hair_color=(0.05, 0.8, 0.05), hair_width=0.05
+    )
     given = render(curves, camera=FRONT, settings=base, shading="marschner", shadows=False)
     changed = base.replace(shading="marschner", shadows=False)
     np.testing.assert_array_equal(given, render(curves, camera=FRONT, settings=changed))
-    with Renderer.from_settings(changed) as r:
+    with make_renderer(changed) as r:
+        assert type(r).__name__ == ("Renderer" if each_engine == "opengl" else "CpuRenderer")
         np.testing.assert_array_equal(given, r.draw(curves, camera=FRONT, settings=changed))
     assert given[16, 24, 1] > given[16, 24, 0] + 40  # the settings' green hair
     with pytest.raises(InputError, match="settings: expected RenderParams"):

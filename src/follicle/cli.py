@@ -1256,6 +1256,7 @@ def warm(jobs: int | None, force: bool) -> None:
     that no later command waits for numba. A wheel ships them prebuilt; this is for a
     source install, another numba, or a CPU the prebuilt ones do not cover."""
     import subprocess
+    import tempfile
 
     from .errors import FollicleError
     from .kernels.cache import shipped_level
@@ -1269,24 +1270,28 @@ def warm(jobs: int | None, force: bool) -> None:
         return
     start = time.perf_counter()
     command = [sys.executable, "-m", "follicle.prebuild", "warm"]
-    proc = subprocess.Popen(
-        [*command, *([] if jobs is None else ["--jobs", str(jobs)])],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    assert proc.stdout is not None and proc.stderr is not None
-    with _progress("compiling follicle's kernels for this machine") as progress:
-        total = 0
-        for line in proc.stdout:
-            word, _, rest = line.strip().partition(" ")
-            if word == "tasks":
-                total = int(rest)
-                progress(0, total)
-            elif "/" in word:
-                progress(int(word.split("/")[0]), total)
-        errors = proc.stderr.read()
-    if proc.wait() != 0:
+    # the tasks' messages go to a file, not a pipe that nobody reads while they run
+    with tempfile.TemporaryFile("w+") as log:
+        proc = subprocess.Popen(
+            [*command, *([] if jobs is None else ["--jobs", str(jobs)])],
+            stdout=subprocess.PIPE,
+            stderr=log,
+            text=True,
+        )
+        assert proc.stdout is not None
+        with _progress("compiling follicle's kernels for this machine") as progress:
+            total = 0
+            for line in proc.stdout:
+                word, _, rest = line.strip().partition(" ")
+                if word == "tasks":
+                    total = int(rest)
+                    progress(0, total)
+                elif "/" in word:
+                    progress(int(word.split("/")[0]), total)
+        proc.wait()
+        log.seek(0)
+        errors = log.read()
+    if proc.returncode != 0:
         last = [line for line in errors.splitlines() if line.strip()][-1:] or ["no message"]
         raise FollicleError(f"follicle warm: a task of the workload failed: {last[0]}")
     click.echo(

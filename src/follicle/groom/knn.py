@@ -501,7 +501,7 @@ def _query_kernel(
                 worst,
                 out_d,
                 out_i,
-                qi,
+                np.int64(qi),  # prange's index is unsigned in the parallel loop: one type
             )
         if done:
             hard[qi] = 0

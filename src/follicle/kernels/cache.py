@@ -43,14 +43,9 @@ from typing import Any
 
 import numba
 from numba.core import config
-from numba.core.caching import (
-    CompileResultCacheImpl,
-    InTreeCacheLocator,
-    UserProvidedCacheLocator,
-    UserWideCacheLocator,
-    _Cache,
-)
+from numba.core.caching import CompileResultCacheImpl, _Cache, _CacheLocator
 from numba.core.serialize import dumps
+from numba.misc.appdirs import AppDirs
 
 __all__ = [
     "KernelCache",
@@ -178,7 +173,12 @@ def _read(path: Path, limit: int) -> bytes | None:
     """The bytes of ``path``, or None when it is missing, unreadable or over ``limit``."""
     try:
         with open(path, "rb") as handle:
-            data = handle.read(limit + 1)
+            size = os.fstat(handle.fileno()).st_size
+            if size > limit:
+                return None
+            # read(n) reserves n bytes first: ask for the file's size, not the limit, so
+            # a process under a memory limit can load a small kernel
+            data = handle.read(size + 1)
     except OSError:
         return None
     return data if len(data) <= limit else None
@@ -239,15 +239,25 @@ class _Store:
             _write(self.index, pickle.dumps(((*_FORMAT, numba.__version__), self.stamp, entries)))
 
 
-def _writable_folder(py_func: Any, source: str) -> Path | None:
-    """Where this machine's compilations of a kernel go, as numba chooses for its own
-    cache: NUMBA_CACHE_DIR, else ``__pycache__`` beside the source, else the user's cache
-    folder; the first that can be written. None: nowhere (then nothing is kept)."""
-    for locator in (UserProvidedCacheLocator, InTreeCacheLocator, UserWideCacheLocator):
-        found = locator.from_function(py_func, source)
-        if found is not None:
-            return Path(found.get_cache_path())
-    return None
+def _folders(source: str) -> list[Path]:
+    """Where this machine's compilations of a kernel may be kept, in numba's order for
+    its own cache: NUMBA_CACHE_DIR, ``__pycache__`` beside the source, the user's cache
+    folder. Nothing is made here (a run that compiles nothing writes nothing)."""
+    subpath = _CacheLocator.get_suitable_cache_subpath(source)
+    folders = [Path(config.CACHE_DIR) / subpath] if config.CACHE_DIR else []
+    folders.append(Path(source).parent / "__pycache__")
+    folders.append(Path(AppDirs(appname="numba", appauthor=False).user_cache_dir) / subpath)
+    return folders
+
+
+def _writable(folder: Path) -> bool:
+    """Whether ``folder`` is, or can be made, a folder this process writes to."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError:
+        return False
+    return True
 
 
 class KernelCache(_Cache):
@@ -280,24 +290,27 @@ class KernelCache(_Cache):
             where = None  # not one of follicle's files: no shipped copy
         build = os.environ.get(BUILD_ENV)
         self._shipped: _Store | None = None
-        self._mine: _Store | None = None
         if build:
             if config.CPU_NAME is None or where is None:
                 raise RuntimeError(f"{BUILD_ENV} needs NUMBA_CPU_NAME and a follicle kernel")
-            self._mine = _Store(Path(build) / config.CPU_NAME / where, base, stamp)
+            self._mine = [_Store(Path(build) / config.CPU_NAME / where, base, stamp)]
         else:
-            folder = _writable_folder(func, source)
-            self._mine = None if folder is None else _Store(folder, base, stamp)
+            self._mine = [_Store(folder, base, stamp) for folder in _folders(source)]
             level = shipped_level()
             if level is not None and where is not None:
                 self._shipped = _Store(SHIPPED / level / where, base, stamp)
                 self._level = level
         self._ready = True
 
+    def _keeper(self) -> _Store | None:
+        """Where a new compilation goes: the first of the folders that can be written."""
+        self._setup()
+        return next((store for store in self._mine if _writable(store.folder)), None)
+
     @property
     def cache_path(self) -> str:
-        self._setup()
-        return str(self._mine.folder) if self._mine is not None else ""
+        keeper = self._keeper()
+        return "" if keeper is None else str(keeper.folder)
 
     def enable(self) -> None:
         self._enabled = True
@@ -306,10 +319,10 @@ class KernelCache(_Cache):
         self._enabled = False
 
     def flush(self) -> None:
-        self._setup()
-        if self._mine is not None:
+        keeper = self._keeper()
+        if keeper is not None:
             with contextlib.suppress(OSError):
-                self._mine.index.unlink()
+                keeper.index.unlink()
 
     def _key(self, sig: object, magic: tuple) -> tuple:
         """numba's index key: argument types, codegen, bytecode and closure hashes."""
@@ -326,9 +339,7 @@ class KernelCache(_Cache):
         self._setup()
         target_context.refresh()
         codegen = target_context.codegen()
-        looks = []
-        if self._mine is not None:
-            looks.append((self._mine, codegen.magic_tuple()))
+        looks = [(store, codegen.magic_tuple()) for store in self._mine if store.folder.is_dir()]
         if self._shipped is not None:
             triple = codegen.magic_tuple()[0]
             looks.append((self._shipped, (triple, self._level, "")))
@@ -347,14 +358,16 @@ class KernelCache(_Cache):
 
     def save_overload(self, sig: object, data: Any) -> None:
         """Keep a new compilation; a folder that cannot be written keeps nothing."""
-        if not self._enabled or self._mine is None:
+        if not self._enabled or not self._impl.check_cachable(data):
             return
-        if not self._impl.check_cachable(data):
+        keeper = self._keeper()
+        if keeper is None:
+            log.debug("kernel %s not kept: no cache folder can be written", self._impl.name)
             return
         try:
-            self._mine.save(self._key(sig, data.codegen.magic_tuple()), self._impl.reduce(data))
+            keeper.save(self._key(sig, data.codegen.magic_tuple()), self._impl.reduce(data))
         except OSError as exc:
-            log.debug("kernel %s not kept in %s: %s", self._impl.name, self._mine.folder, exc)
+            log.debug("kernel %s not kept in %s: %s", self._impl.name, keeper.folder, exc)
 
 
 class _Impl(CompileResultCacheImpl):

@@ -199,7 +199,16 @@ def _subdivide(
                 continue
             if out_sub.shape[0] == 0:
                 counts[t] = _merged_leaves(
-                    data, repeat, uvs, t, depths[t], table, scratch, empty_sub, empty_val, 0
+                    data,
+                    repeat,
+                    uvs,
+                    t,
+                    depths[t],
+                    table,
+                    scratch,
+                    empty_sub,
+                    empty_val,
+                    np.int64(0),
                 )
                 continue
             at = offsets[t]
