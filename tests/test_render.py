@@ -9,8 +9,8 @@ import trimesh
 from follicle.curves import HairCurves
 from follicle.errors import ConfigError, InputError
 from follicle.render import Camera, Light, Renderer, render, save_png
-from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
 from follicle.render.engines import make_renderer
+from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
 from follicle.render.settings import RenderParams
 from follicle.render.strands import back_to_front, segment_indices, strand_seeds
 from glmark import gl
