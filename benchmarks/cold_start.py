@@ -4,7 +4,8 @@ virtual environment, each run a new process.
 
 For each command: the cold run's seconds, the warm run's (the same cache, second run),
 the share of the cold run spent compiling numba kernels and the kernels it compiled
-(``compile_probe.py`` listens to numba's compile events), and the target of the issue
+(``compile_probe.py`` listens to numba's compile events; the seconds are the
+process's wall time, Python's start-up included), and the target of the issue
 "The first minute": cold ≤ 1.5 × warm + 5 s. ``--baseline`` runs each command cold once
 more with ``NUMBA_CPU_NAME=generic``, for which the wheel ships no kernels: what a first
 run costs where everything compiles on first use (a source install, another numba) —
@@ -73,6 +74,7 @@ def probe(bin_: Path, work: Path, cache: Path, args: list[str], **env: str) -> d
     report = work / "probe.json"
     environ = {**os.environ, "NUMBA_CACHE_DIR": str(cache), **env}
     environ.pop("PYTHONPATH", None)
+    start = time.perf_counter()
     done = subprocess.run(
         [bin_ / "python", PROBE, report, *args, *out],
         cwd=work,
@@ -83,7 +85,8 @@ def probe(bin_: Path, work: Path, cache: Path, args: list[str], **env: str) -> d
     )
     if done.returncode != 0:
         raise RuntimeError(f"{args}: exit {done.returncode}\n{done.stderr[-2000:]}")
-    return json.loads(report.read_text())
+    # the wall time of the whole process, interpreter start-up included, as a user sees it
+    return {**json.loads(report.read_text()), "seconds": time.perf_counter() - start}
 
 
 def workspace(folder: Path) -> Path:

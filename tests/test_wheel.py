@@ -112,3 +112,30 @@ def test_a_damaged_prebuilt_kernel_is_compiled_again(installed, tmp_path):
     finally:
         for data, original in zip(files, originals, strict=True):
             data.write_bytes(original)
+
+
+def test_follicle_warm_on_a_terminal_has_nothing_to_compile_where_kernels_ship(installed, tmp_path):
+    """`follicle warm` on a terminal (``script`` gives it a pseudo-terminal): nothing to
+    do where the wheel's kernels run; a bad ``--jobs`` is one line and exit 2."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("PYTHONPATH", None)
+
+    def on_terminal(*args: str) -> subprocess.CompletedProcess:
+        line = " ".join([str(installed / "follicle"), *args])
+        return subprocess.run(
+            ["script", "-qec", line, "/dev/null"],
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+
+    done = on_terminal("warm")
+    assert done.returncode == 0, done.stdout
+    assert "nothing to compile: this install's prebuilt kernels (" in done.stdout
+    refused = on_terminal("warm", "--jobs", "0")
+    assert refused.returncode == 2
+    lines = [line for line in refused.stdout.splitlines() if line.strip()]
+    assert len(lines) == 1 and "--jobs" in lines[0] and "Traceback" not in refused.stdout
+    assert not (tmp_path / "cache").exists() or not list((tmp_path / "cache").rglob("*.nbi"))

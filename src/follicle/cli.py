@@ -31,8 +31,6 @@ from rich.progress import (
 from rich.text import Text
 
 from .errors import FollicleError
-from .io.targets import NAMED_FORMATS, TARGET_NAMES, check_named, writer_extras
-from .scene import RenderParams, SimParams
 
 if TYPE_CHECKING:
     from .curves import HairCurves
@@ -161,6 +159,46 @@ def _handle_signals() -> None:
 _MESH_ONLY = (".ply", ".glb", ".gltf", ".stl", ".off")  # written only as meshes
 
 
+class _LazyChoice(click.Choice):
+    """A :class:`click.Choice` whose values are made when first needed (a command's
+    ``--help``, or checking a value), so that ``follicle --help`` imports none of the
+    settings models and formats they come from."""
+
+    def __init__(self, make: Callable[[], tuple[str, ...]]) -> None:
+        self._make = make
+        self._values: tuple[str, ...] | None = None
+        self.case_sensitive = True
+
+    @property
+    def choices(self) -> tuple[str, ...]:  # type: ignore[override]
+        if self._values is None:
+            self._values = self._make()
+        return self._values
+
+    @choices.setter
+    def choices(self, values: tuple[str, ...]) -> None:
+        self._values = tuple(values)
+
+
+def _choices(model: str, key: str, *more: str) -> _LazyChoice:
+    """The values a scene key of Literal type takes (``model``: RenderParams or
+    SimParams), and ``more``, as the CLI offers them."""
+
+    def make() -> tuple[str, ...]:
+        from . import scene
+
+        field = getattr(scene, model).model_fields[key]
+        return (*(str(v) for v in get_args(field.annotation)), *more)
+
+    return _LazyChoice(make)
+
+
+def _target_names() -> tuple[str, ...]:
+    from .io.targets import TARGET_NAMES
+
+    return TARGET_NAMES
+
+
 def _scheduler_option(what: str, per: str, same: str, reach: str = "") -> Callable:
     """A command's ``--scheduler`` option: ``what`` it does on a Dask cluster (``per``:
     how the work splits into tasks), that ``same`` byte for byte, and what every worker
@@ -178,7 +216,7 @@ def _scheduler_option(what: str, per: str, same: str, reach: str = "") -> Callab
 _TARGET_OPTION = click.option(
     "--target",
     "target_name",
-    type=click.Choice(TARGET_NAMES),
+    type=_LazyChoice(_target_names),
     default=None,
     help="The tool the USD / Alembic file is for: its attribute names, types and units"
     " (default [output].target, else generic; README: Formats, Targets).",
@@ -292,6 +330,7 @@ def grow(
     and the skin mesh, named and typed for the --target tool.
     """
     from .io.dispatch import save
+    from .io.targets import writer_extras
     from .pipeline import groom_scene
     from .pipeline import grow as grow_scene
     from .scene import load_scene
@@ -377,6 +416,8 @@ def groom(
 
 def _check_target(path: str, target: str) -> None:
     """``--target`` only for the formats that carry names (:func:`check_named`)."""
+    from .io.targets import check_named
+
     check_named(path, Path(path).suffix, target, "--target")
 
 
@@ -534,6 +575,7 @@ def _export_mesh(source: str, out: str, target: str) -> None:
     from .io.dispatch import save
     from .io.mesh_load import load_mesh
     from .io.mesh_save import MESH_WRITE_EXTENSIONS, save_mesh
+    from .io.targets import NAMED_FORMATS
 
     mesh = load_mesh(source)
     suffix = Path(out).suffix.lower()
@@ -649,14 +691,6 @@ def _curve_suffixes() -> tuple[str, ...]:
     return (".npz", *sorted(set(WRITERS) - {".npz"}))
 
 
-def _choices(model: type, key: str) -> tuple[str, ...]:
-    """The values a scene key of Literal type takes, as the CLI offers them."""
-    return tuple(str(v) for v in get_args(model.model_fields[key].annotation))
-
-
-MOTIONS = _choices(SimParams, "motion")
-
-
 @main.command()
 @click.argument("scene_paths", metavar="[SCENE]...", nargs=-1, type=click.Path())
 @click.option(
@@ -686,7 +720,7 @@ MOTIONS = _choices(SimParams, "motion")
 @click.option("--size", type=(int, int), default=None, help="Image width and height.")
 @click.option(
     "--engine",
-    type=click.Choice(_choices(RenderParams, "engine")),
+    type=_choices("RenderParams", "engine"),
     default=None,
     help="Render engine (default [render].engine).",
 )
@@ -767,7 +801,7 @@ def batch(
 @click.option("--fps", type=float, default=24.0, show_default=True, help="Frames per second.")
 @click.option(
     "--motion",
-    type=click.Choice(MOTIONS),
+    type=_choices("SimParams", "motion"),
     default=None,
     help="Head animation, overrides [sim].motion: turn (look left and back), nod,"
     ' shake (a fading "no"); each takes [sim].motion_period, then holds still.',
@@ -908,20 +942,20 @@ def _simulated(scene: Scene, run: SimRun, target: str) -> str:
 @click.option("--size", type=(int, int), default=None, help="Image width and height.")
 @click.option(
     "--engine",
-    type=click.Choice([*_choices(RenderParams, "engine"), "mitsuba"]),
+    type=_choices("RenderParams", "engine", "mitsuba"),
     default=None,
     help="auto (default: opengl on a GPU, else cpu), opengl, cpu (follicle's strand"
     " rasterizer) or mitsuba: a path-traced reference still (pbr extra).",
 )
 @click.option(
     "--shading",
-    type=click.Choice(_choices(RenderParams, "shading")),
+    type=_choices("RenderParams", "shading"),
     default=None,
     help="Hair shading (opengl).",
 )
 @click.option(
     "--msaa",
-    type=click.Choice(_choices(RenderParams, "msaa")),
+    type=_choices("RenderParams", "msaa"),
     default=None,
     help="Multisample anti-aliasing samples (opengl).",
 )
@@ -1305,7 +1339,7 @@ def warm(jobs: int | None, force: bool) -> None:
 @click.option(
     "--target",
     "target_name",
-    type=click.Choice(TARGET_NAMES),
+    type=_LazyChoice(_target_names),
     default="generic",
     show_default=True,
     help="The tool that will open FILE.",
