@@ -10,8 +10,8 @@ process's wall time, Python's start-up included), and the target of the issue
 more with ``NUMBA_CPU_NAME=generic``, for which the wheel ships no kernels: what a first
 run costs where everything compiles on first use (a source install, another numba) —
 the same-run baseline of the prebuilt kernels. ``--first-command`` times the README's
-first line on a fresh venv: the install (from the wheel, and editable from the source
-tree) and ``follicle demo`` after it.
+first line on a fresh venv: the install (from the wheel, and editable from a clean clone
+of HEAD) and ``follicle demo`` after it.
 
 Run: ``.venv/bin/python benchmarks/cold_start.py [--wheel W.whl] [--baseline]
 [--first-command] [--keep DIR]``. The wheel is built with ``pip wheel --no-deps
@@ -158,9 +158,12 @@ def kernel_lists(rows: list[dict]) -> str:
 def first_command(wheel: Path, tmp: Path) -> str:
     """The README's first line, on a fresh venv: install, then ``follicle demo``."""
     lines = ["| install | venv + pip install s | follicle demo s | total s |", "|---|---|---|---|"]
+    # a clean clone of HEAD, as a new user has it: no kernels built or cached in the tree
+    clone = tmp / "clone"
+    subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
     for label, install in (
         ("wheel (prebuilt kernels)", [str(wheel)]),
-        ("`pip install -e .` (source, kernels compiled on first use)", ["-e", str(ROOT)]),
+        ("`pip install -e .` of a clean clone (kernels compiled on first use)", ["-e", str(clone)]),
     ):
         bin_, seconds = fresh_venv(tmp / f"first-{len(lines)}", *install)
         work = workspace(tmp / f"first-work-{len(lines)}")
