@@ -94,8 +94,9 @@ def hold_compliance(rest_length: np.ndarray, style_length: float) -> np.ndarray:
     seg = rest_length.astype(np.float64)
     s = np.concatenate([np.zeros(seg.shape[:1] + (1,)), np.cumsum(seg, axis=1)], axis=1)
     length = s[:, -1:]
-    sag = s * s * (6.0 * length * length - 4.0 * length * s + s * s) / (30.0 * style_length**3)
-    return sag / STANDARD_GRAVITY
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # ℓ³ may underflow
+        sag = s * s * (6.0 * length * length - 4.0 * length * s + s * s) / (30.0 * style_length**3)
+    return np.where(s > 0.0, sag, 0.0) / STANDARD_GRAVITY  # inf: no hold there
 
 
 BLOCK = 32  # strands per block: the inner loops run across them
