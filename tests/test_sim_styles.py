@@ -150,6 +150,17 @@ def test_a_styled_groom_keeps_its_rise_under_gravity(styled):
     assert -change[group == list(GROUPS).index("back")].mean() <= 0.1
 
 
+def test_short_fur_lying_low_on_top_keeps_its_rise(head):
+    """Fur on top of the head: 60 strands of 1–3 cm, 5–25° above level, default [sim]:
+    after 2 s it keeps ≥ 0.9 of its rise (measured 1.00); the old hold (× the sine of
+    the rise) let it fall flat (−0.60, its tips 0.42 of its length lower)."""
+    curves, _ = styled_guides(0, head, 60, {"top": ((0.01, 0.03), (5.0, 25.0))})
+    sim = Simulator(Guides(curves, head))
+    before = rise(sim)
+    rise_change(sim)
+    assert rise(sim).sum() >= 0.9 * before.sum()
+
+
 def test_long_straight_hair_still_falls(head, tmp_path):
     """The back spikes made 30–45 cm long (read in centimetres, default [sim]): in 2 s
     every tip drops ≥ 0.25 of its strand's length (measured 0.34–0.37, as with no hold
