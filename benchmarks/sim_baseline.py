@@ -10,7 +10,7 @@ over the iterations, the two segment parities and the vertex index where the alg
 is sequential root to tip (local shape, strain limit). follicle's settle pass, which
 hangs back at length the few segments the last collision pass put off it, is left out:
 on the benchmark's scene it costs the baseline nothing, so the ratio only flatters it.
-The hold of rising strands (``shape_hold``) is not in it either: compare it with
+The hold of styled strands (``shape_hold``) is not in it either: compare it with
 ``shape_hold = 0`` (benchmarks/sim.py does).
 Positions and velocities are kept component-major,
 (3, N, S), so every vertex slice is contiguous along the strands; buffers are allocated

@@ -148,7 +148,7 @@ def test_global_shape_keeps_a_standing_style_under_gravity():
     style = _strands(up=True, length=0.15)
     rest = Simulator(style).positions.copy()
     kept = Simulator(style, params=SimParams(shape_global=0.5, shape_local=0.5))
-    # loose: no bending and no hold (which keeps rising strands up by default)
+    # loose: no bending and no hold (which keeps styled strands up by default)
     loose = Simulator(style, params=SimParams(bend_stiffness=0.0, shape_hold=0.0))
     for sim in (kept, loose):
         _run(sim, 2.0)

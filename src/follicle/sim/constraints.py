@@ -25,10 +25,10 @@ segment starting at each vertex.
 - shape matching: local (each segment towards its rest direction in the frame of the
   previous segment, so curls and partings keep their form) and global (each vertex
   towards the skinned rest pose, by a root-to-tip profile).
-- hold: global shape matching again, each vertex's stiffness the hold × how far its
-  rest segment rises against gravity (the sine of its elevation, 0 when level or
-  hanging): a rising strand's weight is carried by its stiffness, a hanging one's by
-  its length, so spikes stand and hanging hair still swings (issue: styles that hold).
+- hold: global shape matching again, each vertex's stiffness from its place along its
+  strand (:func:`.solver.hold_compliance`): the compliance that lets it sag as far as
+  a level cantilever of the style length's stiffness would there, so short styled
+  strands stand and long ones fall and swing (issue 41: styled hair must hold).
 """
 
 from __future__ import annotations
@@ -47,7 +47,6 @@ __all__ = [
     "rest_pose",
     "local_shape_pass",
     "global_shape_pass",
-    "hold_profile",
     "hold_pass",
 ]
 
@@ -290,19 +289,6 @@ def global_shape_pass(X, W, target, k_profile, nb):
             X[i, 0, b] += kb * (target[i, 0, b] - X[i, 0, b])
             X[i, 1, b] += kb * (target[i, 1, b] - X[i, 1, b])
             X[i, 2, b] += kb * (target[i, 2, b] - X[i, 2, b])
-
-
-@_jit
-def hold_profile(rest_dir, up, k, iterations, out, nb):
-    """``out`` (N, B): each vertex's per-iteration hold stiffness, ``k`` × the rise of
-    its rest segment against gravity, max(0, ``rest_dir``[i] · ``up``) (``up`` (3,) the
-    unit vector against gravity), linearised over ``iterations`` (Le Muzic 2012 eq. 5.5)."""
-    for b in range(nb):
-        out[0, b] = 0.0
-    for i in range(1, rest_dir.shape[0]):
-        for b in range(nb):
-            rise = rest_dir[i, 0, b] * up[0] + rest_dir[i, 1, b] * up[1] + rest_dir[i, 2, b] * up[2]
-            out[i, b] = 1.0 - (1.0 - k * max(rise, 0.0)) ** (1.0 / iterations)
 
 
 @_jit

@@ -138,11 +138,14 @@ class SimParams(StrictSection):
         description="global shape: full up to the first, zero from the second"
         " (root-to-tip fractions)",
     )
-    shape_hold: Unit = Field(
-        0.1,
-        description="global shape stiffness where the rest pose rises against gravity,"
-        " × the sine of each segment's rise (0 level or hanging): holds spikes up and"
-        " leaves hanging hair free to swing; 0 = off",
+    shape_hold: float = Field(
+        0.12,
+        ge=0,
+        le=10,
+        description="style length, m: how long a strand stands out level and keeps its"
+        " groomed shape (it sags a tenth of this at its tip; longer strands sag as"
+        " (length / this)³, so long hair falls and swings). What trades style for"
+        " softness: lower is softer; 0 = off",
     )
     dftl_damping: Unit = Field(0.9, description="DFTL velocity correction s (Almeida 2014 eq. 3.1)")
     collision_margin: float = Field(

@@ -10,9 +10,10 @@ a settle pass that hangs segments the collisions stretched or crushed back at le
 root to tip, and the velocity update (with Almeida 2014 eq. 3.1's correction for DFTL and the
 strain limit, and friction at contacts). Soft constraint stiffnesses are linearised over
 the iterations, k' = 1 − (1 − k)^(1/n) (Le Muzic 2012 eq. 5.5); the shape stiffnesses
-(local, global and the hold, which holds what rises against gravity; TressFX's local and
-global shape constraints) are given for a substep of SHAPE_SUBSTEP and keep their
-compliance at any other (:func:`per_substep`), so a style sags alike at any substep.
+(local and global; TressFX's local and global shape constraints) are given for a
+substep of SHAPE_SUBSTEP and keep their compliance at any other (:func:`per_substep`),
+so a style sags alike at any substep; the hold, global shape matching that keeps a
+groom's style, is given as a compliance per vertex (:func:`hold_compliance`).
 A strand whose step would leave a non-finite value is put back as it was and reported.
 """
 
@@ -34,7 +35,6 @@ from .constraints import (
     follow_the_leader,
     global_shape_pass,
     hold_pass,
-    hold_profile,
     local_shape_pass,
     rest_pose,
     strain_limit,
@@ -43,9 +43,16 @@ from .forces import acceleration
 from .model import Model
 from .state import State
 
-__all__ = ["SHAPE_SUBSTEP", "Solver", "linearised", "per_substep"]
+__all__ = [
+    "SHAPE_SUBSTEP",
+    "STANDARD_GRAVITY",
+    "Solver",
+    "hold_compliance",
+    "linearised",
+    "per_substep",
+]
 
-# the substep the shape stiffnesses (shape_local, shape_global, shape_hold) are given
+# the substep the shape stiffnesses (shape_local, shape_global) are given
 # for: [sim].substep's default. At another substep they keep their compliance (below)
 SHAPE_SUBSTEP = 1 / 120
 
@@ -69,6 +76,27 @@ def per_substep(k: float | np.ndarray, substep: float) -> float | np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.where(k > 0.0, k * ratio / (k * ratio + 1.0 - k), 0.0)
     return out if out.ndim else float(out)
+
+
+STANDARD_GRAVITY = 9.80665  # m/s²: the gravity the style length is measured under
+
+
+def hold_compliance(rest_length: np.ndarray, style_length: float) -> np.ndarray:
+    """Each vertex's hold compliance α (S, N), s², from the strands' segment rest lengths
+    (S, N − 1): the one that lets it sag, under STANDARD_GRAVITY, as far as a level
+    cantilever (Euler–Bernoulli) bent under its own weight does at its arc length s,
+    w(s) = s² (6L² − 4Ls + s²) / (30 ℓ³) for a strand of length L and the style length
+    ℓ (``style_length``, m): a level strand ℓ long sags a tenth of ℓ at its tip, and the
+    tip's sag over the length grows as (L / ℓ)³. Where the strand bends so, each vertex's
+    pull towards its rest place, w / α, is its own weight: short styled strands stand,
+    long ones fall and swing, at any vertex count (the compliance follows arc length,
+    not vertices) and at any substep (XPBD, Macklin et al. 2016: a vertex sags g α)."""
+    seg = rest_length.astype(np.float64)
+    s = np.concatenate([np.zeros(seg.shape[:1] + (1,)), np.cumsum(seg, axis=1)], axis=1)
+    length = s[:, -1:]
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # ℓ³ may underflow
+        sag = s * s * (6.0 * length * length - 4.0 * length * s + s * s) / (30.0 * style_length**3)
+    return np.where(s > 0.0, sag, 0.0) / STANDARD_GRAVITY  # inf: no hold there
 
 
 BLOCK = 32  # strands per block: the inner loops run across them
@@ -274,14 +302,16 @@ def _settle_pass(
 class Strands(NamedTuple):
     """A Model's per-strand data as the substep kernel reads it: per-vertex arrays in
     the block layout of :func:`_blocked` (inverse masses, rest lengths, rest shape in
-    the root frame, bending rest, collision margins) and per-strand rows (the static
-    point and the first segment's direction in the root frame)."""
+    the root frame, bending rest, collision margins, the hold's per-iteration stiffness)
+    and per-strand rows (the static point and the first segment's direction in the root
+    frame)."""
 
     w: np.ndarray
     rest_length: np.ndarray
     rest_local: np.ndarray
     bend_rest: np.ndarray
     margin: np.ndarray
+    hold: np.ndarray
     static_local: np.ndarray
     root_direction: np.ndarray
 
@@ -311,8 +341,7 @@ class Constants(NamedTuple):
     stretch_limit: float  # −1 for none
     limit_damping: float
     friction: float
-    k_hold: float  # the hold's stiffness per substep (not linearised: per vertex)
-    up: np.ndarray  # (3,) unit vector against gravity; zero without gravity
+    hold: bool  # the hold is on (its stiffness is per vertex, in Strands)
 
 
 @kernel(parallel=True, error_model="numpy", fastmath=FMA)
@@ -325,7 +354,7 @@ def _substep_kernel(
     ``start`` to ``end`` (roots, frames), under ``wind`` (3,) with the noise at
     ``scroll``, colliders that moved at most ``shift`` (m); ``energy`` and ``bad`` out,
     per strand."""
-    w, rest_length, rest_local, bend_rest, margin, static_local, root_direction = model
+    w, rest_length, rest_local, bend_rest, margin, k_hold, static_local, root_direction = model
     roots0, frames0 = start
     roots1, frames1 = end
     (
@@ -350,11 +379,9 @@ def _substep_kernel(
         stretch_limit,
         limit_damping,
         friction,
-        k_hold,
-        up,
+        hold,
     ) = c
     strands, n = x.shape[0], x.shape[1]
-    hold = k_hold > 0.0 and (up[0] != 0.0 or up[1] != 0.0 or up[2] != 0.0)
     shape = k_local > 0.0 or k_global[1] > 0.0 or hold
     correct = dftl or stretch_limit >= 0.0  # Almeida 2014 eq. 3.1 applies
     correction = dftl_damping if dftl else limit_damping
@@ -370,10 +397,9 @@ def _substep_kernel(
         contact = np.zeros((n, 3, BLOCK))
         target = np.empty((n, 3, BLOCK))
         rest_dir = np.empty((n, 3, BLOCK))
-        k_rise = np.empty((n, BLOCK))  # the hold's stiffness per vertex
         ref = np.empty((n, 3, BLOCK))  # where each vertex was last found clear …
         gap2 = np.empty((n, BLOCK))  # … and how far (squared) it may move from there
-        W, L, R, M = w[block], rest_length[block], bend_rest[block], margin[block]
+        W, L, R, M, K = w[block], rest_length[block], bend_rest[block], margin[block], k_hold[block]
         root = np.empty((3, BLOCK))
         frame = np.empty((3, 3, BLOCK))
         static = np.empty((3, BLOCK))
@@ -438,8 +464,6 @@ def _substep_kernel(
                     X[i, 2, b] += m * (vz * damp + az * dt) * h
         if shape:
             rest_pose(root, frame, rest_local[block], target, rest_dir, nb)
-        if hold:
-            hold_profile(rest_dir, up, k_hold, iterations, k_rise, nb)
         for _ in range(iterations):
             if not dftl:
                 distance_pass(X, W, L, k_stretch, row, nb)
@@ -450,7 +474,7 @@ def _substep_kernel(
             if k_global[1] > 0.0:  # the profile never rises towards the tip
                 global_shape_pass(X, W, target, k_global, nb)
             if hold:
-                hold_pass(X, W, target, k_rise, nb)
+                hold_pass(X, W, target, K, nb)
             _collide_pass(
                 X,
                 W,
@@ -537,13 +561,6 @@ def _substep_kernel(
             bad[s] = 0 if ok[b] else 1
 
 
-def _against(gravity: tuple[float, float, float]) -> np.ndarray:
-    """The unit vector against ``gravity`` (zero without gravity): what the hold lifts."""
-    g = np.asarray(gravity, np.float64)
-    norm = float(np.linalg.norm(g))
-    return -g / norm if norm > 0.0 else np.zeros(3)
-
-
 def _blocked(a: np.ndarray, vertices: int) -> np.ndarray:
     """Per-vertex strand data (S, M, …), M ≤ ``vertices``, in the kernel's block layout
     (blocks, N, …, BLOCK): strands innermost, padded with zeros (missing vertices and the
@@ -587,6 +604,17 @@ class Solver:
         k = per_substep(p.shape_global * np.where(t <= start, 1.0, fade), p.substep)
         return linearised(k, p.iterations)
 
+    def hold_profile(self) -> np.ndarray:
+        """Per-vertex hold stiffness (S, N), linearised: the compliance of
+        :func:`hold_compliance` for ``shape_hold`` as the style length, per substep
+        (k = h² / (h² + α)); zero where the hold is off (``shape_hold`` = 0)."""
+        p = self.params
+        if p.shape_hold <= 0.0:
+            return np.zeros((self.model.strands, self.model.vertices))
+        h2 = p.substep * p.substep
+        k = h2 / (h2 + hold_compliance(self.model.rest_length, p.shape_hold))
+        return linearised(k, p.iterations)
+
     def constants(self) -> tuple[Strands, Constants]:
         """The kernel's strands and constants for ``params`` (made again only when the
         params object changes; params cannot change in place, so they cannot go stale)."""
@@ -616,8 +644,7 @@ class Solver:
                 stretch_limit=-1.0 if p.stretch_limit is None else p.stretch_limit,
                 limit_damping=p.stretch_limit_damping,
                 friction=p.friction,
-                k_hold=per_substep(p.shape_hold, p.substep),
-                up=_against(p.gravity),
+                hold=p.shape_hold > 0.0,
             )
             m = self.model
             margin = np.full(m.rest_length.shape[:1] + (m.vertices,), p.collision_margin)
@@ -630,6 +657,7 @@ class Solver:
                 local,
                 bend,
                 _blocked(margin, m.vertices),
+                _blocked(self.hold_profile(), m.vertices),
                 m.static_local,
                 m.root_direction,
             )

@@ -50,6 +50,7 @@ CONTROLS: dict[str, tuple[Control, ...]] = {
         _f("bend_attenuation", 0.0, 10.0),
         _f("shape_local"),
         _f("shape_global"),
+        _f("shape_hold", 0.0, 0.5),
         _f("friction"),
         _f("volume_friction"),
         _f("volume_repulsion"),
