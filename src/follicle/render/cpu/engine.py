@@ -33,10 +33,10 @@ import numpy as np
 from ...curves import HairCurves
 from ...kernels import kernel, prange
 from ..camera import Camera
-from ..engines import RasterRenderer
 from ..frame import Frame, hair_vertices, prepare_frame
 from ..image import half_bits, srgb8_table
 from ..options import MAX_STEP_PX, background_rows, soft_radius
+from ..raster import RasterRenderer
 from ..strands import StrandTables
 from .bins import bin_boxes, tile_grid
 from .lines import PASSES, draw_strands, segment_boxes
@@ -87,7 +87,7 @@ def _view(eye: np.ndarray, perspective: bool, forward, right, pixel: float, step
 
 class CpuRenderer(RasterRenderer):
     """The CPU engine, with :class:`~follicle.render.Renderer`'s interface
-    (:class:`~follicle.render.engines.RasterRenderer`): ``size``, ``msaa`` (coverage here
+    (:class:`~follicle.render.raster.RasterRenderer`): ``size``, ``msaa`` (coverage here
     is analytic; 2 or more supersamples the skin 2 × 2), ``background`` and
     ``shadow_size``. Holds no GPU resources. After a :meth:`draw`, :attr:`timings` has
     the seconds of each stage of that frame (:data:`STAGES`)."""
