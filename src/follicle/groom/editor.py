@@ -49,12 +49,16 @@ _RANGES = {"length": (-1.0, 1.0)}  # strength; others 0..1
 class _State:
     """One version of the guides: world positions at rest (S, V, 3) float64, each
     root's triangle (S,) and barycentric coordinates (S, 2), and the interpolation
-    groups (a part brush paints them)."""
+    groups (a part brush paints them). ``loaded``: the guides the editor was given,
+    for the first state only — undone to it, the guides are those bytes, not the
+    float64 points rounded back to float32 (a step off where the rest shape's root
+    was added back)."""
 
     points: np.ndarray
     triangles: np.ndarray
     bary: np.ndarray
     groups: InterpolationGroups
+    loaded: Guides | None = None
 
 
 class GuideEditor:
@@ -74,7 +78,7 @@ class GuideEditor:
         n = guides.vertex_count
         points = guides.rest_shapes(n).astype(np.float64) + guides.root_positions[:, None]
         triangles, bary = guides.triangles.copy(), guides.bary.copy()
-        self._state = _State(points, triangles, bary, guides.groups)
+        self._state = _State(points, triangles, bary, guides.groups, guides)
         self._margin = None if margin is None else number(margin, "margin", lo=0.0, unit="m")
         self._undo: list[_State] = []
         self._redo: list[_State] = []
@@ -142,7 +146,7 @@ class GuideEditor:
 
     def _set(self, state: _State) -> None:
         self._state = state
-        self._guides = None
+        self._guides = state.loaded
 
     def save(self, path: str | os.PathLike[str], **options: object) -> Path:
         """Write the guides (with their root bindings) to ``path`` in the curves format
