@@ -28,16 +28,18 @@ from __future__ import annotations
 
 import contextlib
 import math
+import multiprocessing
 import os
+import signal
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import InputError, ResourceError
 from ..io.mitsuba import save_mitsuba
 from ..validate import whole
 from .camera import Camera, Light, default_lights, frame_scene
@@ -226,6 +228,75 @@ def _sensor(mi, camera: Camera, size: tuple[int, int], spp: int, seed: int) -> d
     }
 
 
+def _path_trace(job: dict, out: str, reports: Any) -> None:
+    """In the child process: the scene of ``job`` path-traced, its RGBA saved to
+    ``out`` (.npy); progress in per cent put on ``reports``."""
+    mi = _mitsuba()
+    scene: dict[str, object] = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": MAX_DEPTH, "hide_emitters": True},
+        "sensor": _sensor(mi, job["camera"], job["size"], job["spp"], job["seed"]),
+        **job["emitters"],
+    }
+    with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
+        if job["hair"] is not None:
+            scene["hair"] = _hair_shape(
+                mi, job["hair"], job["hair_color"], job["hair_width"], Path(folder)
+            )
+        if job["skin"] is not None:
+            scene["skin"] = _skin_shape(mi, job["skin"], job["skin_color"])
+        with _reporting(mi, lambda done, total: reports.put(done)):
+            image = mi.render(mi.load_dict(scene), seed=job["seed"], spp=job["spp"])
+        np.save(out, np.array(image, dtype=np.float64))
+
+
+_CHILD = _path_trace  # what the child runs (a test puts a crash in its place)
+
+
+def _child_main(target: Callable[..., None], job: dict, out: str, reports: Any) -> None:
+    """The child process: ``target`` run; an exception is put on ``reports`` as its
+    one-line message (the parent raises it), not printed as a traceback."""
+    try:
+        target(job, out, reports)
+    except Exception as exc:  # reported to the parent, which raises it
+        reports.put(f"{type(exc).__name__}: {exc}".splitlines()[0])
+
+
+def _in_child(job: dict, progress: Callable[[int, int], None] | None) -> np.ndarray:
+    """:func:`_path_trace` in a child process, so that Mitsuba crashing (a segfault in
+    its curve shape on some grooms) is one ResourceError, not this process gone without
+    a word; progress relayed to ``progress``."""
+    context = multiprocessing.get_context("spawn")
+    reports = context.SimpleQueue()
+    with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
+        out = os.path.join(folder, "rgba.npy")
+        child = context.Process(target=_child_main, args=(_CHILD, job, out, reports))
+        child.start()
+        try:
+            failed = None
+            while child.is_alive() or not reports.empty():
+                while not reports.empty():
+                    report = reports.get()
+                    if isinstance(report, str):
+                        failed = report
+                    elif progress is not None:
+                        progress(report, 100)
+                child.join(0.1)
+        finally:
+            if child.is_alive():  # interrupted: the child goes too
+                child.kill()
+                child.join()
+        if child.exitcode == 0 and os.path.exists(out):
+            return np.load(out)
+    code = child.exitcode or 0
+    how = f"crashed with {signal.Signals(-code).name}" if code < 0 else f"failed ({failed})"
+    hairs = 0 if job["hair"] is None else job["hair"].curve_count
+    raise ResourceError(
+        f"mitsuba {how} path-tracing {hairs:,} hairs at {job['size'][0]}x{job['size'][1]};"
+        " render fewer hairs, or use --engine opengl or cpu"
+    )
+
+
 def render_mitsuba(
     curves: HairCurves | None,
     mesh: object | None = None,
@@ -267,20 +338,20 @@ def render_mitsuba(
         camera = frame_scene(hair, mesh, settings.fov, w / h)
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
-    mi = _mitsuba()
-    scene: dict[str, object] = {
-        "type": "scene",
-        "integrator": {"type": "path", "max_depth": MAX_DEPTH, "hide_emitters": True},
-        "sensor": _sensor(mi, camera, (w, h), spp, seed),
-        **_emitters(default_lights() if lights is None else lights, camera),
+    _mitsuba()  # installed, with the variant: an InputError here, not in the child
+    job = {
+        "hair": hair,
+        "skin": skin,
+        "hair_color": hair_color,
+        "hair_width": hair_width,
+        "skin_color": skin_color,
+        "camera": camera,
+        "size": (w, h),
+        "spp": spp,
+        "seed": seed,
+        "emitters": _emitters(default_lights() if lights is None else lights, camera),
     }
-    with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
-        if hair is not None:
-            scene["hair"] = _hair_shape(mi, hair, hair_color, hair_width, Path(folder))
-        if skin is not None:
-            scene["skin"] = _skin_shape(mi, skin, skin_color)
-        with _reporting(mi, progress):
-            rgba = np.array(mi.render(mi.load_dict(scene), seed=seed, spp=spp), dtype=np.float64)
+    rgba = _in_child(job, progress)
     alpha = np.clip(rgba[..., 3:], 0.0, 1.0)
     linear = np.empty((h, w, 4))
     linear[..., :3] = rgba[..., :3] + (1.0 - alpha) * background_rows(background, h)[:, None, :]
