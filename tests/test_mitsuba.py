@@ -1,8 +1,6 @@
 """Mitsuba 3 reference renderer: same framing and hair coverage as the GL render, colour
 from absorption, reproducible images, clear errors, `follicle render --engine mitsuba`."""
 
-import os
-import signal
 import sys
 
 import numpy as np
@@ -196,14 +194,10 @@ def test_missing_mitsuba_names_the_extra(head, monkeypatch):
         render_mitsuba(head[1], size=SIZE, spp=1)
 
 
-def _crash(job, out, reports):
-    """Mitsuba's curve shape segfaulting (as on 100,000 hairs), in the child."""
-    reports.put(10)
-    os.kill(os.getpid(), signal.SIGSEGV)
-
-
-def _raise(job, out, reports):
-    raise RuntimeError("bsplinecurve: something Mitsuba refused\nC++ trace")
+# the child faked: a segfault after 10 % (as Mitsuba's curve shape on 100,000 hairs),
+# and an exception's one line
+CRASH = "import os, signal; print(10, flush=True); os.kill(os.getpid(), signal.SIGSEGV)"
+ERROR = "print('error: RuntimeError: bsplinecurve: something Mitsuba refused'); exit(1)"
 
 
 def test_mitsuba_crashing_is_one_error_not_the_process_gone(head, monkeypatch):
@@ -211,12 +205,12 @@ def test_mitsuba_crashing_is_one_error_not_the_process_gone(head, monkeypatch):
     progress until then still heard; an exception there is one line too."""
     mesh, hair = head
     heard = []
-    monkeypatch.setattr(mitsuba, "_CHILD", _crash)
+    monkeypatch.setattr(mitsuba, "_CHILD", [sys.executable, "-c", CRASH])
     with pytest.raises(ResourceError) as caught:
         render_mitsuba(hair, mesh, size=SIZE, spp=1, progress=lambda d, t: heard.append(d))
     assert str(caught.value).startswith("mitsuba crashed with SIGSEGV path-tracing 300 hairs")
     assert heard == [10]
-    monkeypatch.setattr(mitsuba, "_CHILD", _raise)
+    monkeypatch.setattr(mitsuba, "_CHILD", [sys.executable, "-c", ERROR])
     with pytest.raises(ResourceError, match="failed \\(RuntimeError: bsplinecurve") as caught:
         render_mitsuba(hair, mesh, size=SIZE, spp=1)
     assert "\n" not in str(caught.value)
@@ -224,7 +218,7 @@ def test_mitsuba_crashing_is_one_error_not_the_process_gone(head, monkeypatch):
 
 def test_cli_mitsuba_crashing_is_one_line_and_exit_2(tmp_path, monkeypatch):
     (tmp_path / "scene.toml").write_text(SCENE)
-    monkeypatch.setattr(mitsuba, "_CHILD", _crash)
+    monkeypatch.setattr(mitsuba, "_CHILD", [sys.executable, "-c", CRASH])
     args = ["render", str(tmp_path / "scene.toml"), "--engine", "mitsuba", "--spp", "1"]
     result = CliRunner().invoke(main, [*args, "-o", str(tmp_path / "still.png")])
     assert result.exit_code == 2, result.output

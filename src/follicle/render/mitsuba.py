@@ -28,13 +28,15 @@ from __future__ import annotations
 
 import contextlib
 import math
-import multiprocessing
 import os
+import pickle
 import signal
+import subprocess
+import sys
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -228,9 +230,9 @@ def _sensor(mi, camera: Camera, size: tuple[int, int], spp: int, seed: int) -> d
     }
 
 
-def _path_trace(job: dict, out: str, reports: Any) -> None:
+def _path_trace(job: dict, out: str, report: Callable[[int], None]) -> None:
     """In the child process: the scene of ``job`` path-traced, its RGBA saved to
-    ``out`` (.npy); progress in per cent put on ``reports``."""
+    ``out`` (.npy); progress in per cent told to ``report``."""
     mi = _mitsuba()
     scene: dict[str, object] = {
         "type": "scene",
@@ -245,56 +247,58 @@ def _path_trace(job: dict, out: str, reports: Any) -> None:
             )
         if job["skin"] is not None:
             scene["skin"] = _skin_shape(mi, job["skin"], job["skin_color"])
-        with _reporting(mi, lambda done, total: reports.put(done)):
+        with _reporting(mi, lambda done, total: report(done)):
             image = mi.render(mi.load_dict(scene), seed=job["seed"], spp=job["spp"])
         np.save(out, np.array(image, dtype=np.float64))
 
 
-_CHILD = _path_trace  # what the child runs (a test puts a crash in its place)
-
-
-def _child_main(target: Callable[..., None], job: dict, out: str, reports: Any) -> None:
-    """The child process: ``target`` run; an exception is put on ``reports`` as its
-    one-line message (the parent raises it), not printed as a traceback."""
-    try:
-        target(job, out, reports)
-    except Exception as exc:  # reported to the parent, which raises it
-        reports.put(f"{type(exc).__name__}: {exc}".splitlines()[0])
+# the child's command, given the job and output files (a test fakes a crash with another)
+_CHILD = [sys.executable, "-m", "follicle.render.mitsuba"]
 
 
 def _in_child(job: dict, progress: Callable[[int, int], None] | None) -> np.ndarray:
-    """:func:`_path_trace` in a child process, so that Mitsuba crashing (a segfault in
-    its curve shape on some grooms) is one ResourceError, not this process gone without
-    a word; progress relayed to ``progress``."""
-    context = multiprocessing.get_context("spawn")
-    reports = context.SimpleQueue()
+    """:func:`_path_trace` in a child process (this module run with the job's file), so
+    that Mitsuba crashing (a segfault in its curve shape on some grooms) is one
+    ResourceError, not this process gone without a word. The child prints its
+    progress, one number a line, or ``error: …``."""
     with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
-        out = os.path.join(folder, "rgba.npy")
-        child = context.Process(target=_child_main, args=(_CHILD, job, out, reports))
-        child.start()
+        job_file, out = os.path.join(folder, "job.pickle"), os.path.join(folder, "rgba.npy")
+        with open(job_file, "wb") as f:
+            pickle.dump(job, f)
+        child = subprocess.Popen([*_CHILD, job_file, out], stdout=subprocess.PIPE, text=True)
+        failed = None
         try:
-            failed = None
-            while child.is_alive() or not reports.empty():
-                while not reports.empty():
-                    report = reports.get()
-                    if isinstance(report, str):
-                        failed = report
-                    elif progress is not None:
-                        progress(report, 100)
-                child.join(0.1)
+            for line in child.stdout or ():
+                if line.startswith("error: "):
+                    failed = line[len("error: ") :].strip()
+                elif progress is not None and line.strip().isdigit():
+                    progress(int(line), 100)
+            child.wait()
         finally:
-            if child.is_alive():  # interrupted: the child goes too
+            if child.poll() is None:  # interrupted: the child goes too
                 child.kill()
-                child.join()
-        if child.exitcode == 0 and os.path.exists(out):
+                child.wait()
+        if child.returncode == 0 and os.path.exists(out):
             return np.load(out)
-    code = child.exitcode or 0
+    code = child.returncode
     how = f"crashed with {signal.Signals(-code).name}" if code < 0 else f"failed ({failed})"
     hairs = 0 if job["hair"] is None else job["hair"].curve_count
     raise ResourceError(
         f"mitsuba {how} path-tracing {hairs:,} hairs at {job['size'][0]}x{job['size'][1]};"
         " render fewer hairs, or use --engine opengl or cpu"
     )
+
+
+def _child_main(job_file: str, out: str) -> None:
+    """The child process: the job read and path-traced; an exception is one
+    ``error: …`` line for the parent to raise, not a traceback."""
+    with open(job_file, "rb") as f:
+        job = pickle.load(f)  # written by _in_child into its own temporary folder
+    try:
+        _path_trace(job, out, lambda done: print(done, flush=True))
+    except Exception as exc:  # reported to the parent, which raises it
+        print(f"error: {type(exc).__name__}: {exc}".splitlines()[0], flush=True)
+        sys.exit(1)
 
 
 def render_mitsuba(
@@ -360,3 +364,7 @@ def render_mitsuba(
     if out is not None:
         save_png(image, out)
     return image
+
+
+if __name__ == "__main__":
+    _child_main(*sys.argv[1:])
