@@ -21,7 +21,7 @@ def _texts() -> list[Path]:
         found += [
             p
             for p in (ROOT / folder).rglob("*")
-            if p.suffix in (".py", ".md", ".toml")
+            if p.suffix in (".py", ".md", ".toml", ".glsl")
             and "__pycache__" not in p.parts
             and ".egg-info" not in str(p)
         ]

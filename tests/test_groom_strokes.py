@@ -111,7 +111,8 @@ def test_damaged_logs_are_refused_in_a_child_under_limits(made):
         names.append(name)
     res = run_api(
         f"""
-        from follicle.groom.strokes import load_strokes, replay
+        from follicle.groom.editor import replay
+        from follicle.groom.strokes import load_strokes
         head = follicle.load_mesh("builtin:head")
         outcome = []
         for k in range({len(names)}):

@@ -822,7 +822,7 @@ def test_xforms_move_points_widths_and_normals(tmp_path):
         )
 
 
-def test_several_objects_join_keeping_common_attributes(tmp_path, caplog):
+def test_several_objects_join_filling_an_attribute_one_lacks(tmp_path, caplog):
     path = _write(
         tmp_path / "two.abc",
         dict(
@@ -836,4 +836,6 @@ def test_several_objects_join_keeping_common_attributes(tmp_path, caplog):
     with caplog.at_level(logging.WARNING, logger="follicle"):
         back = load_abc(path)
     assert back.counts.tolist() == [4, 5] and np.array_equal(back.points, PTS)
-    assert list(back.point_data) == ["width"] and "dropped: a" in caplog.text
+    assert sorted(back.point_data) == ["a", "width"] and "dropped" not in caplog.text
+    assert back.point_data["a"].tolist() == [1, 1, 1, 1, 0, 0, 0, 0, 0]  # zeros, as Blender's Join
+    assert "filled" in caplog.text and "(no a)" in caplog.text

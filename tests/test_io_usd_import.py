@@ -171,6 +171,40 @@ def test_blender_hair_nurbs_beside_basis_rgba_colour_and_default_radius(tmp_path
     assert not [r for r in caplog.records if "dropped" in r.getMessage()]
 
 
+def test_an_attribute_on_one_curves_object_only_is_kept_and_filled(tmp_path, caplog):
+    """Blender hair with colour and root UVs beside a NURBS curve without them: joined
+    as Blender's Join does (zeros where missing; opacity 1, so the curve stays drawn),
+    with one warning naming the object without them."""
+    path = tmp_path / "two.usda"
+    stage = _stage(path, UsdGeom.Tokens.z)
+    uv = np.float32([[0.25, 0.5], [0.75, 0.125]])
+    _define(
+        stage,
+        ("cubic", "catmullRom", "pinned"),
+        "/root/Curves/Curves",
+        [4, 3],
+        HAIR,
+        widths=([0.0002] * 7, "vertex"),
+        color=(F4, "vertex", RGBA),
+        surface_uv_coordinate=(Sdf.ValueTypeNames.TexCoord2fArray, "uniform", uv),
+    )
+    _define(
+        stage, ([4], NURBS_KNOTS, None), "/root/Nurbs/Nurbs", [5], NURBS, ([0.0002] * 5, "vertex")
+    )
+    stage.Save()
+    with caplog.at_level(logging.WARNING, logger="follicle"):
+        back = load_curves(path)
+    assert back.counts.tolist() == [4, 3, 5]
+    np.testing.assert_array_equal(back.point_data["color"][:7], RGBA[:, :3])
+    np.testing.assert_array_equal(back.point_data["color"][7:], 0.0)
+    np.testing.assert_array_equal(back.point_data["opacity"], [*RGBA[:, 3], 1, 1, 1, 1, 1])
+    assert back.curve_data["root_uv"].tolist() == [[0.25, 0.5], [0.75, 0.125], [0.0, 0.0]]
+    said = [r.getMessage() for r in caplog.records if "curves object" in r.getMessage()]
+    assert len(said) == 1 and "dropped" not in said[0], said
+    assert "/root/Nurbs/Nurbs" in said[0] and "/root/Curves" not in said[0]
+    assert "color" in said[0] and "opacity" in said[0] and "root_uv" in said[0]
+
+
 @pytest.mark.parametrize("fmt", ["hair", "tfx", "npz", "usdc"])
 def test_blender_colours_survive_export_to_every_format(tmp_path, fmt):
     """The reported failure: Blender USD → .hair wrote wrong colours, → .tfx crashed."""

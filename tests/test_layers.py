@@ -47,33 +47,86 @@ def _unit(module: Path) -> str:
     return rel.parts[0] if len(rel.parts) > 1 else rel.stem
 
 
-def _imported_units(module: Path) -> set[str]:
-    """The units ``module`` imports anywhere in its body (relative or absolute)."""
+def _imports(module: Path) -> list[tuple[list[str], list[str]]]:
+    """What ``module`` imports of follicle anywhere in its body (relative or absolute):
+    (the path under follicle/, the names imported from it) for each import."""
     tree = ast.parse(module.read_text("utf-8"))
-    package = module.relative_to(ROOT).parts[:-1]
-    out = set()
+    package = list(module.relative_to(ROOT).parts[:-1])
+    out = []
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
             if node.level:  # relative: resolve against the module's package
-                base = list(package[: len(package) - (node.level - 1)])
+                base = package[: len(package) - (node.level - 1)]
                 parts = base + (node.module.split(".") if node.module else [])
-                if not parts:  # `from . import x` at the top: x is the unit
-                    out.update(alias.name for alias in node.names)
-                    continue
             elif node.module and node.module.split(".")[0] == "follicle":
                 parts = node.module.split(".")[1:]
-                if not parts:
-                    out.update(alias.name for alias in node.names)
-                    continue
             else:
                 continue
-            out.add(parts[0])
+            out.append((parts, [alias.name for alias in node.names]))
         elif isinstance(node, ast.Import):
             for alias in node.names:
                 parts = alias.name.split(".")
                 if parts[0] == "follicle" and len(parts) > 1:
-                    out.add(parts[1])
+                    out.append((parts[1:], []))
     return out
+
+
+def _imported_units(module: Path) -> set[str]:
+    """The units ``module`` imports (`from . import x` at the top: x is the unit)."""
+    out = set()
+    for parts, names in _imports(module):
+        out.update([parts[0]] if parts else names)
+    return out
+
+
+def _is_module(parts: list[str]) -> bool:
+    path = ROOT.joinpath(*parts)
+    return path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
+
+
+def _module_name(module: Path) -> str:
+    """``render.cpu.engine`` for follicle/render/cpu/engine.py, ``render`` for its
+    package's __init__.py."""
+    parts = module.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imported_modules(module: Path) -> set[str]:
+    """The modules ``module`` imports: `from .x import y` imports x, or x.y where y is
+    a module."""
+    out = set()
+    for parts, names in _imports(module):
+        base = list(parts)
+        while base and not _is_module(base):  # `from .x.f import g`: f is not a module
+            base.pop()
+        for name in names or [""]:
+            sub = [*base, name]
+            out.add(".".join(sub if name and base == parts and _is_module(sub) else base))
+    return out - {"", _module_name(module)}
+
+
+def _cycle(graph: dict[str, set[str]]) -> list[str]:
+    """One cycle of ``graph`` (its nodes in order, the first repeated last), or []."""
+    state: dict[str, int] = {}  # 1 on the current path, 2 done
+
+    def visit(node: str, path: list[str]) -> list[str]:
+        state[node] = 1
+        for other in sorted(graph.get(node, ())):
+            if state.get(other) == 1:
+                return [*path[path.index(other) :], other] if other in path else [other]
+            if other not in state:
+                found = visit(other, [*path, other])
+                if found:
+                    return found
+        state[node] = 2
+        return []
+
+    for node in sorted(graph):
+        if node not in state:
+            found = visit(node, [node])
+            if found:
+                return found
+    return []
 
 
 def _graph() -> dict[str, set[str]]:
@@ -125,3 +178,29 @@ def test_the_check_sees_an_upward_import(tmp_path, monkeypatch):
     monkeypatch.setattr(sys.modules[__name__], "ROOT", fake)
     assert _graph() == {"mesh": {"pipeline"}}
     assert LAYER["pipeline"] > LAYER["mesh"]
+
+
+def _module_graph() -> dict[str, set[str]]:
+    return {_module_name(m): _imported_modules(m) for m in ROOT.rglob("*.py")}
+
+
+def test_no_modules_import_each_other_in_a_cycle():
+    """Not even two modules of one package, nor through an import inside a function."""
+    assert _cycle(_module_graph()) == []
+
+
+def test_the_check_sees_a_cycle_within_a_package(tmp_path, monkeypatch):
+    fake = tmp_path / "follicle"
+    (fake / "groom").mkdir(parents=True)
+    (fake / "groom" / "__init__.py").write_text("")
+    (fake / "groom" / "editor.py").write_text("from .strokes import load\n")
+    (fake / "groom" / "strokes.py").write_text("def f():\n    from .editor import Editor\n")
+    (fake / "groom" / "guides.py").write_text("from follicle.groom import editor\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", fake)
+    assert _module_graph() == {
+        "groom": set(),
+        "groom.editor": {"groom.strokes"},
+        "groom.strokes": {"groom.editor"},
+        "groom.guides": {"groom.editor"},
+    }
+    assert _cycle(_module_graph()) == ["groom.editor", "groom.strokes", "groom.editor"]

@@ -11,9 +11,9 @@ from scipy.ndimage import binary_dilation
 
 from follicle.cli import main
 from follicle.curves import HairCurves
-from follicle.errors import ConfigError, InputError
+from follicle.errors import ConfigError, InputError, ResourceError
 from follicle.pipeline import groom_scene
-from follicle.render import Camera, Light, render, srgb_to_linear
+from follicle.render import Camera, Light, mitsuba, render, srgb_to_linear
 from follicle.render.mitsuba import absorption_from_color, render_mitsuba
 from follicle.scene import Scene
 from glmark import gl
@@ -192,6 +192,40 @@ def test_missing_mitsuba_names_the_extra(head, monkeypatch):
     monkeypatch.setitem(sys.modules, "mitsuba", None)  # import mitsuba -> ImportError
     with pytest.raises(InputError, match=r"pip install 'follicle\[pbr\]'"):
         render_mitsuba(head[1], size=SIZE, spp=1)
+
+
+# the child faked: a segfault after 10 % (as Mitsuba's curve shape on 100,000 hairs),
+# and an exception's one line
+CRASH = "import os, signal; print(10, flush=True); os.kill(os.getpid(), signal.SIGSEGV)"
+ERROR = "print('error: RuntimeError: bsplinecurve: something Mitsuba refused'); exit(1)"
+
+
+def test_mitsuba_crashing_is_one_error_not_the_process_gone(head, monkeypatch):
+    """The path tracer runs in a child: its segfault is one ResourceError naming it,
+    progress until then still heard; an exception there is one line too."""
+    mesh, hair = head
+    heard = []
+    monkeypatch.setattr(mitsuba, "_CHILD", [sys.executable, "-c", CRASH])
+    with pytest.raises(ResourceError) as caught:
+        render_mitsuba(hair, mesh, size=SIZE, spp=1, progress=lambda d, t: heard.append(d))
+    assert str(caught.value).startswith("mitsuba crashed with SIGSEGV path-tracing 300 hairs")
+    assert heard == [10]
+    monkeypatch.setattr(mitsuba, "_CHILD", [sys.executable, "-c", ERROR])
+    with pytest.raises(ResourceError, match="failed \\(RuntimeError: bsplinecurve") as caught:
+        render_mitsuba(hair, mesh, size=SIZE, spp=1)
+    assert "\n" not in str(caught.value)
+
+
+def test_cli_mitsuba_crashing_is_one_line_and_exit_2(tmp_path, monkeypatch):
+    (tmp_path / "scene.toml").write_text(SCENE)
+    monkeypatch.setattr(mitsuba, "_CHILD", [sys.executable, "-c", CRASH])
+    args = ["render", str(tmp_path / "scene.toml"), "--engine", "mitsuba", "--spp", "1"]
+    result = CliRunner().invoke(main, [*args, "-o", str(tmp_path / "still.png")])
+    assert result.exit_code == 2, result.output
+    lines = [x for x in result.output.splitlines() if x.startswith("error:")]
+    assert lines == [lines[0]] and "mitsuba crashed with SIGSEGV" in lines[0]
+    assert "Traceback" not in result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]
 
 
 SCENE = """\

@@ -234,3 +234,25 @@ def test_a_scene_asks_for_payloads_and_a_batch_refuses_them(tmp_path):
     refused = run_cli("batch", "s.toml", "-o", "ds", "--no-image", cwd=tmp_path)
     assert_cli_refused(refused, "s.toml", "[output].layout")
     assert not (tmp_path / "ds").exists()
+
+
+def test_the_reading_limits_follow_the_parts_the_stage_loads(tmp_path, groom, monkeypatch):
+    """The root of a payloads layout is a few kilobytes; the child reading it is given
+    memory and time for the root and its part files (sized from the root alone, a 1 M
+    hair groom failed: out of memory, or a healthy part called corrupt)."""
+    from follicle.io import usd_guard
+
+    root = save_usd_payloads(_parts(groom, 1000), tmp_path / "fox.usdc", guides=groom.guides)
+    parts = sum(p.stat().st_size for p in payloads_folder(root).iterdir())
+    assert parts > 20 * root.stat().st_size
+    asked = []
+    real = usd_guard.read_guarded
+
+    def spy(kind, path, memory, seconds, *args, **options):
+        asked.append((memory, seconds))
+        return real(kind, path, memory, seconds, *args, **options)
+
+    monkeypatch.setattr(usd_guard, "read_guarded", spy)
+    back = load_usd(root)
+    assert back.curve_count == HAIRS
+    assert asked == [usd_guard.limits(root.stat().st_size + parts)]

@@ -401,7 +401,7 @@ def groom(
 ) -> None:
     """Replay a stroke log (brushes on the guides, README: Grooming by hand) headless
     and save the guides it makes."""
-    from .groom.strokes import replay_file
+    from .groom.editor import replay_file
 
     _check_writable_suffix(out, _curve_suffixes())
     with _step("groom"):

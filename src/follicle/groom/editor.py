@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -31,10 +31,10 @@ from ..render.options import parse_size
 from ..validate import number, positive
 from . import brushes
 from .groups import InterpolationGroups, color_label
-from .guides import Guides
-from .strokes import load_strokes, replay, save_strokes, stroke_entry
+from .guides import Guides, load_guides
+from .strokes import load_strokes, save_strokes, stroke_camera, stroke_entry
 
-__all__ = ["GuideEditor"]
+__all__ = ["GuideEditor", "replay", "replay_file"]
 
 HISTORY = 256  # strokes kept for undo
 SPACING = 0.25  # a stroke's dabs this share of the radius apart
@@ -49,12 +49,16 @@ _RANGES = {"length": (-1.0, 1.0)}  # strength; others 0..1
 class _State:
     """One version of the guides: world positions at rest (S, V, 3) float64, each
     root's triangle (S,) and barycentric coordinates (S, 2), and the interpolation
-    groups (a part brush paints them)."""
+    groups (a part brush paints them). ``loaded``: the guides the editor was given,
+    for the first state only — undone to it, the guides are those bytes, not the
+    float64 points rounded back to float32 (a step off where the rest shape's root
+    was added back)."""
 
     points: np.ndarray
     triangles: np.ndarray
     bary: np.ndarray
     groups: InterpolationGroups
+    loaded: Guides | None = None
 
 
 class GuideEditor:
@@ -74,7 +78,7 @@ class GuideEditor:
         n = guides.vertex_count
         points = guides.rest_shapes(n).astype(np.float64) + guides.root_positions[:, None]
         triangles, bary = guides.triangles.copy(), guides.bary.copy()
-        self._state = _State(points, triangles, bary, guides.groups)
+        self._state = _State(points, triangles, bary, guides.groups, guides)
         self._margin = None if margin is None else number(margin, "margin", lo=0.0, unit="m")
         self._undo: list[_State] = []
         self._redo: list[_State] = []
@@ -142,7 +146,7 @@ class GuideEditor:
 
     def _set(self, state: _State) -> None:
         self._state = state
-        self._guides = None
+        self._guides = state.loaded
 
     def save(self, path: str | os.PathLike[str], **options: object) -> Path:
         """Write the guides (with their root bindings) to ``path`` in the curves format
@@ -220,7 +224,7 @@ class GuideEditor:
     ) -> Path:
         """Write :attr:`log` as a stroke log (:mod:`follicle.groom.strokes`) naming the
         ``mesh`` and ``guides`` it started from, for ``follicle groom`` to replay."""
-        return save_strokes(self, path, mesh, guides)
+        return save_strokes(self.log, path, mesh, guides)
 
     def replay(self, path: str | os.PathLike[str]) -> None:
         """Apply a stroke log's strokes, undos and redos in order."""
@@ -620,3 +624,55 @@ def _dabs(line: np.ndarray, spacing: float) -> np.ndarray:
     n = max(int(math.ceil(n)), 1)
     at = np.linspace(0.0, arc[-1], n + 1)
     return np.stack([np.interp(at, arc, line[:, 0]), np.interp(at, arc, line[:, 1])], axis=1)
+
+
+def replay(editor: GuideEditor, doc: Mapping[str, object], name: str = "strokes") -> None:
+    """Apply a loaded stroke log's entries (:func:`~.strokes.load_strokes`) to
+    ``editor`` in order; a bad stroke is an InputError naming ``name`` and the entry."""
+    for i, entry in enumerate(doc["strokes"]):  # type: ignore[arg-type]
+        where = f"{name}: strokes[{i}]"
+        if entry == {"undo": True}:
+            editor.undo()
+            continue
+        if entry == {"redo": True}:
+            editor.redo()
+            continue
+        try:
+            camera = stroke_camera(entry.get("camera"))
+            options = entry.get("options", {})
+            if not isinstance(options, dict):
+                raise InputError("options: expected an object")
+            join = entry.get("join", False)
+            if not isinstance(join, bool):
+                raise InputError("join: expected true or false")
+            editor.stroke(
+                entry["brush"],
+                entry.get("path"),
+                camera,
+                entry.get("radius"),
+                entry.get("strength", 0.5),
+                entry.get("size", (960, 540)),
+                join,
+                **options,
+            )
+        except (InputError, TypeError) as exc:
+            raise InputError(f"{where}: {exc}") from None
+
+
+def replay_file(
+    path: str | os.PathLike[str], guides: str | None = None, mesh: str | None = None
+) -> GuideEditor:
+    """A :class:`GuideEditor` on the guides and mesh the log at ``path`` names (or
+    ``guides`` / ``mesh``, paths or ``builtin:`` names, when given; the mesh defaults
+    to ``builtin:head``) with the log replayed — what ``follicle groom`` runs."""
+    from ..io.mesh_load import load_mesh
+
+    name = os.fspath(path)
+    doc = load_strokes(name)
+    source = guides or doc.get("guides")
+    if source is None:
+        raise InputError(f"{name} names no guides; give them (follicle groom --guides)")
+    skin = load_mesh(mesh or doc.get("mesh") or "builtin:head")
+    editor = GuideEditor(load_guides(source, skin))
+    replay(editor, doc, name)
+    return editor

@@ -2,9 +2,9 @@
 
 A :class:`~follicle.GuideEditor` records every stroke, undo and redo it is given
 (:attr:`~follicle.GuideEditor.log`); :func:`save_strokes` writes that list with the
-mesh and guides it started from, and :func:`replay` (``follicle groom strokes.json``)
-applies it again headless, byte for byte — so a hand-made groom is reproducible,
-reviewable as text and testable::
+mesh and guides it started from, and :func:`~follicle.groom.editor.replay` (``follicle
+groom strokes.json``) applies it again headless, byte for byte — so a hand-made groom
+is reproducible, reviewable as text and testable::
 
     {
       "follicle_strokes": 1,
@@ -23,16 +23,12 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from ..atomic import atomic_path
 from ..errors import FormatError, InputError
 from ..render.camera import Camera
-
-if TYPE_CHECKING:
-    from .editor import GuideEditor
 
 __all__ = [
     "VERSION",
@@ -40,8 +36,7 @@ __all__ = [
     "stroke_entry",
     "save_strokes",
     "load_strokes",
-    "replay",
-    "replay_file",
+    "stroke_camera",
 ]
 
 VERSION = 1
@@ -75,20 +70,21 @@ def stroke_entry(
 
 
 def save_strokes(
-    editor: GuideEditor,
+    log: Sequence[Mapping[str, object]],
     path: str | os.PathLike[str],
     mesh: str | None = None,
     guides: str | None = None,
 ) -> Path:
-    """Write ``editor``'s log to ``path`` (JSON, atomically), with the ``mesh`` and
-    ``guides`` sources (paths or ``builtin:`` names) it started from when given."""
+    """Write a :class:`~follicle.GuideEditor`'s ``log`` to ``path`` (JSON, atomically),
+    with the ``mesh`` and ``guides`` sources (paths or ``builtin:`` names) it started
+    from when given."""
     doc: dict[str, object] = {"follicle_strokes": VERSION}
     if mesh is not None:
         doc["mesh"] = str(mesh)
     if guides is not None:
         doc["guides"] = str(guides)
     head = json.dumps(doc, indent=1)[:-2]  # without the closing brace
-    lines = ",\n  ".join(json.dumps(entry) for entry in editor.log)  # a stroke a line
+    lines = ",\n  ".join(json.dumps(entry) for entry in log)  # a stroke a line
     text = (
         f'{head},\n "strokes": [\n  {lines}\n ]\n}}\n'
         if lines
@@ -141,61 +137,8 @@ def load_strokes(path: str | os.PathLike[str]) -> dict[str, object]:
     return doc
 
 
-def replay(editor: GuideEditor, doc: Mapping[str, object], name: str = "strokes") -> None:
-    """Apply a loaded log's entries to ``editor`` in order; a bad stroke is an
-    InputError naming ``name`` and the entry."""
-    for i, entry in enumerate(doc["strokes"]):  # type: ignore[arg-type]
-        where = f"{name}: strokes[{i}]"
-        if entry == {"undo": True}:
-            editor.undo()
-            continue
-        if entry == {"redo": True}:
-            editor.redo()
-            continue
-        try:
-            camera = _camera(entry.get("camera"))
-            options = entry.get("options", {})
-            if not isinstance(options, dict):
-                raise InputError("options: expected an object")
-            join = entry.get("join", False)
-            if not isinstance(join, bool):
-                raise InputError("join: expected true or false")
-            editor.stroke(
-                entry["brush"],
-                entry.get("path"),
-                camera,
-                entry.get("radius"),
-                entry.get("strength", 0.5),
-                entry.get("size", (960, 540)),
-                join,
-                **options,
-            )
-        except (InputError, TypeError) as exc:
-            raise InputError(f"{where}: {exc}") from None
-
-
-def replay_file(
-    path: str | os.PathLike[str], guides: str | None = None, mesh: str | None = None
-) -> GuideEditor:
-    """A :class:`~follicle.GuideEditor` on the guides and mesh the log at ``path`` names
-    (or ``guides`` / ``mesh``, paths or ``builtin:`` names, when given; the mesh
-    defaults to ``builtin:head``) with the log replayed — what ``follicle groom`` runs."""
-    from ..io.mesh_load import load_mesh
-    from .editor import GuideEditor
-    from .guides import load_guides
-
-    name = os.fspath(path)
-    doc = load_strokes(name)
-    source = guides or doc.get("guides")
-    if source is None:
-        raise InputError(f"{name} names no guides; give them (follicle groom --guides)")
-    skin = load_mesh(mesh or doc.get("mesh") or "builtin:head")
-    editor = GuideEditor(load_guides(source, skin))
-    replay(editor, doc, name)
-    return editor
-
-
-def _camera(view: object) -> Camera:
+def stroke_camera(view: object) -> Camera:
+    """The camera of a log entry (its ``camera`` object), checked."""
     if not isinstance(view, dict):
         raise InputError("camera: expected an object with eye and target")
     unknown = set(view) - set(_CAMERA_KEYS)

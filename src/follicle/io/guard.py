@@ -208,35 +208,68 @@ def _curves(part: dict, stored: bool = False) -> HairCurves:
         raise FormatError(f"{part['where']}: {exc}") from None
 
 
+# what a curves object without an attribute gets when joined to others that have it:
+# zeros, as Blender's Join fills them, but opacity 1 (a file without opacity is opaque;
+# zero would hide that object's hair)
+_FILL = {"opacity": 1.0}
+
+
+def _filled(
+    curves: list[HairCurves], get: Callable[[HairCurves], dict], rows: Callable[[HairCurves], int]
+) -> tuple[list[dict], dict[str, list[int]]]:
+    """Each part's attributes (``get``: point or curve data) with those some parts lack
+    added to them (:data:`_FILL`, else zeros) where all that have one agree on its row
+    shape, and the parts that lacked each; attributes of disagreeing shapes
+    are left out of every part."""
+    names = set().union(*(set(get(p)) for p in curves))
+    out: list[dict] = [{} for _ in curves]
+    missing: dict[str, list[int]] = {}
+    for name in sorted(names):
+        have = [get(p)[name] for p in curves if name in get(p)]
+        if len({a.shape[1:] for a in have}) != 1:
+            continue
+        for i, p in enumerate(curves):
+            if name in get(p):
+                out[i][name] = get(p)[name]
+            else:
+                fill = _FILL.get(name, 0)
+                out[i][name] = np.full((rows(p), *have[0].shape[1:]), fill, have[0].dtype)
+                missing.setdefault(name, []).append(i)
+    return out, missing
+
+
 def curves_from_parts(parts: list[dict], source: Path, stored: bool = False) -> HairCurves:
-    """Curves parts (prims, objects) joined in order, keeping the attributes every part
-    has with one row shape; the others are dropped with a warning naming them.
-    ``stored``: integers kept as the file stores them (for `follicle check`)."""
+    """Curves parts (prims, objects) joined in order. An attribute some parts lack is
+    kept, filled on them as Blender's Join does (zeros; opacity 1), with one warning
+    naming the parts without it; one whose row shape differs between parts is dropped
+    with a warning. ``stored``: integers kept as the file stores them (for `follicle
+    check`)."""
     curves = [_curves(p, stored) for p in parts]
     if len(curves) == 1:
         return curves[0]
-
-    def common(get: Callable[[HairCurves], dict]) -> set[str]:
-        names = set.intersection(*(set(get(p)) for p in curves))
-        return {k for k in names if len({get(p)[k].shape[1:] for p in curves}) == 1}
-
-    pkeys = common(lambda p: p.point_data)
-    ckeys = common(lambda p: p.curve_data)
-    dropped = set().union(*(set(p.point_data) | set(p.curve_data) for p in curves)) - pkeys - ckeys
+    point_data, pmissing = _filled(curves, lambda p: p.point_data, lambda p: len(p.points))
+    curve_data, cmissing = _filled(curves, lambda p: p.curve_data, lambda p: p.curve_count)
+    kept = set(point_data[0]) | set(curve_data[0])
+    dropped = set().union(*(set(p.point_data) | set(p.curve_data) for p in curves)) - kept
     if dropped:
         log.warning(
-            "%s: attributes not on every curves object were dropped: %s",
+            "%s: attributes of different shapes on different curves objects were dropped: %s",
             source,
             ", ".join(sorted(dropped)),
         )
+    without: dict[int, list[str]] = {}
+    for name, where in sorted({**pmissing, **cmissing}.items()):
+        for i in where:
+            without.setdefault(i, []).append(name)
+    if without:
+        log.warning(
+            "%s: attributes not on every curves object were filled (zeros, opacity 1) on %s",
+            source,
+            "; ".join(f"{parts[i]['where']} (no {', '.join(n)})" for i, n in without.items()),
+        )
     return HairCurves.concatenate(
         [
-            HairCurves(
-                p.points,
-                p.offsets,
-                {k: p.point_data[k] for k in pkeys},
-                {k: p.curve_data[k] for k in ckeys},
-            )
-            for p in curves
+            HairCurves(p.points, p.offsets, pd, cd)
+            for p, pd, cd in zip(curves, point_data, curve_data, strict=True)
         ]
     )

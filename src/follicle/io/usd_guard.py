@@ -12,11 +12,12 @@ reference each other many times over compose for ever. So :func:`read_stage`
 2. reads it with usd-core in a child process (:func:`follicle.io.guard.read_guarded`:
    :mod:`follicle.io.usd_stage` for curves, :mod:`follicle.io.usd_mesh` for meshes,
    one usd-core thread); the child caps its address space at ``MEMORY_BASE +
-   MEMORY_PER_BYTE × file size`` (1.5 GiB + 16 × size; Python and pxr alone map 1.1
-   GB) and is killed after ``SECONDS_BASE + size / BYTES_PER_SECOND`` of wall time
-   (6 s + 1 s per 16 MB). Before composing anything it counts the prims composition
-   would make through references, payloads and sublayers (at most 100,000, repeats
-   counted) and refuses cycles;
+   MEMORY_PER_BYTE × size`` (1.5 GiB + 16 × size; Python and pxr alone map 1.1 GB)
+   and is killed after ``SECONDS_BASE + size / BYTES_PER_SECOND`` of wall time (6 s +
+   1 s per 16 MB), the size being that of what the stage loads (:func:`stage_bytes`:
+   the file and, in follicle's payloads layout, its part files). Before composing
+   anything it counts the prims composition would make through references, payloads
+   and sublayers (at most 100,000, repeats counted) and refuses cycles;
 3. turns a refusal, a crash, the memory limit or the time limit into one FormatError
    naming the file.
 """
@@ -24,6 +25,7 @@ reference each other many times over compose for ever. So :func:`read_stage`
 from __future__ import annotations
 
 import codecs
+import os
 import zipfile
 from pathlib import Path
 from typing import BinaryIO
@@ -33,7 +35,7 @@ import numpy as np
 from ..errors import FileAccessError, FormatError
 from .guard import read_guarded
 
-__all__ = ["check_container", "read_stage", "read_meshes"]
+__all__ = ["check_container", "read_stage", "read_meshes", "payloads_folder", "stage_bytes"]
 
 MEMORY_BASE = 3 << 29  # bytes of address space: Python and pxr take 1.1 GB opening a stage
 MEMORY_PER_BYTE = 16  # and this many bytes per byte of the file
@@ -161,6 +163,25 @@ def _check_container(path: Path) -> None:
 
 
 # ------------------------------------------------------------------ the child
+def payloads_folder(path: str | os.PathLike[str]) -> Path:
+    """The folder of ``path``'s part files in the payloads layout
+    (:mod:`follicle.io.usd_payloads`), beside it: ``fox.usdc`` → ``fox.usdc.payloads``
+    (the whole name, so ``fox.usda`` beside it keeps parts of its own)."""
+    path = Path(path)
+    return path.with_name(f"{path.name}.payloads")
+
+
+def stage_bytes(path: Path) -> int:
+    """The bytes of the layers the stage of ``path`` loads: the file, and the part
+    files of its :func:`payloads_folder` when it has one (the root of a payloads
+    layout is a few kilobytes; its parts are the hair)."""
+    size = path.stat().st_size
+    folder = payloads_folder(path)
+    if folder.is_dir():
+        size += sum(p.stat().st_size for p in folder.glob("*.usdc") if p.is_file())
+    return size
+
+
 def limits(size: int) -> tuple[int, float]:
     """(bytes of address space, seconds) the child may use for a file of ``size`` bytes."""
     return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
@@ -176,7 +197,7 @@ def read_stage(
     ``offsets``, ``point_data`` and ``curve_data`` arrays, read in a child process
     (see the module; ``stored``: under the file's own names); FormatError naming the
     file on any failure."""
-    memory, seconds = limits(path.stat().st_size)
+    memory, seconds = limits(stage_bytes(path))
     return read_guarded(
         "usd-curves",
         path,
@@ -194,5 +215,5 @@ def read_meshes(path: Path, animated: bool = False) -> list[dict]:
     """The Mesh prims of ``path`` (see :mod:`follicle.io.usd_mesh`; ``animated``: with
     the first one's points at every time sample), read as :func:`read_stage` reads
     curves."""
-    memory, seconds = limits(path.stat().st_size)
+    memory, seconds = limits(stage_bytes(path))
     return read_guarded("usd-mesh", path, memory, seconds, "usd-core", _HINT, animated=animated)

@@ -42,6 +42,7 @@ from .animation import target_guides
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 from .usd import HAIR_PATH, SUFFIXES, _define_curves, _finish, _groom_stage, _writing
+from .usd_guard import payloads_folder
 
 if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
@@ -58,13 +59,6 @@ __all__ = [
 
 PART_HAIRS = 131_072  # hairs per part file by default: 31 files for 4 M hairs
 _PART = re.compile(r"part_\d{4,}\.usdc")
-
-
-def payloads_folder(path: str | os.PathLike[str]) -> Path:
-    """The folder of ``path``'s part files, beside it: ``fox.usdc`` → ``fox.usdc.payloads``
-    (the whole name, so ``fox.usda`` beside it keeps parts of its own)."""
-    path = Path(path)
-    return path.with_name(f"{path.name}.payloads")
 
 
 def part_file(folder: str | os.PathLike[str], index: int) -> Path:

@@ -69,7 +69,7 @@ class Kernel:
             from .cache import KernelCache
 
             made = numba.njit(**self.options)(self.py_func)
-            made._cache = KernelCache(made.py_func)  # what enable_caching() sets
+            made._cache = KernelCache(made.py_func, compiling)  # what enable_caching() sets
             self._dispatcher = made
             _bind(self.py_func)
         return self._dispatcher

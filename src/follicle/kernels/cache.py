@@ -37,7 +37,7 @@ import pickle
 import platform
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -263,16 +263,18 @@ def _writable(folder: Path) -> bool:
 class KernelCache(_Cache):
     """A kernel's cache (numba's ``_Cache`` interface, installed on its dispatcher by
     :func:`follicle.kernels.kernel`): this machine's compilations first, then the shipped
-    kernels of :func:`shipped_level`. Set up on first use, so importing a module of
-    kernels touches no file.
+    kernels of :func:`shipped_level`; ``compiling(name)`` is told before numba compiles
+    the kernel (:func:`follicle.kernels.compiling`). Set up on first use, so importing a
+    module of kernels touches no file.
 
     With ``FOLLICLE_KERNELS_BUILD`` set (a wheel's build, :mod:`follicle.prebuild.build`),
     kernels are read from and written to that folder only, under the level named by
     NUMBA_CPU_NAME, laid out as a wheel ships them.
     """
 
-    def __init__(self, py_func: Any) -> None:
+    def __init__(self, py_func: Any, compiling: Callable[[str], None]) -> None:
         self._py_func = py_func
+        self._compiling = compiling  # called with the kernel's name before numba compiles it
         self._enabled = True
         self._ready = False
 
@@ -351,9 +353,7 @@ class KernelCache(_Cache):
                 return self._impl.rebuild(target_context, payload)
             except Exception:
                 log.debug("kernel %s from %s cannot be loaded", self._impl.name, store.folder)
-        from . import compiling
-
-        compiling(self._impl.name)
+        self._compiling(self._impl.name)
         return None
 
     def save_overload(self, sig: object, data: Any) -> None:

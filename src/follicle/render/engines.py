@@ -8,15 +8,13 @@ context can be made at all — so a machine without Mesa still renders.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import FollicleError, InputError
-from ..validate import whole
 from .image import save_png
-from .options import DEFAULT_SHADOW_SIZE, MAX_SHADOW_SIZE, parse_background, parse_size
+from .options import ENGINES
 
 if TYPE_CHECKING:
     from ..curves import HairCurves
@@ -28,55 +26,13 @@ if TYPE_CHECKING:
 __all__ = [
     "ENGINES",
     "SOFTWARE_GL",
-    "RasterRenderer",
     "resolve_engine",
     "make_renderer",
     "render",
 ]
 
-ENGINES = ("auto", "opengl", "cpu")
 SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "swr")  # GL_RENDERER of a CPU's GL
 _automatic: dict[int, str] = {}  # pid -> the engine "auto" chose
-
-
-R = TypeVar("R", bound="RasterRenderer")
-
-
-class RasterRenderer:
-    """What the raster engines' renderers share: made with an image ``size`` (width,
-    height), ``msaa`` samples, a ``background`` (one linear RGB colour or (top, bottom))
-    and ``shadow_size`` texels a side for the key light's maps, or from a scene's
-    ``[render]`` (:meth:`from_settings`); used as context managers (:meth:`release`)."""
-
-    def __init__(
-        self,
-        size: Sequence[int] = (960, 960),
-        msaa: int = 4,
-        background: object = None,
-        shadow_size: int = DEFAULT_SHADOW_SIZE,
-    ) -> None:
-        self.size = parse_size(size)
-        self.msaa = whole(msaa, "msaa", 0, 64, what="samples per pixel (0 or 1: off)")
-        self.shadow_size = whole(shadow_size, "shadow_size", 16, MAX_SHADOW_SIZE, what="texels")
-        self.background = parse_background(background)
-
-    @classmethod
-    def from_settings(cls: type[R], settings: RenderParams | None = None) -> R:
-        """A renderer of the ``size``, ``msaa``, background and ``shadow_size`` of
-        ``settings`` (:class:`~follicle.render.settings.RenderParams`; None: defaults)."""
-        from .settings import with_overrides
-
-        s = with_overrides(settings, {})
-        return cls(s.size, s.msaa, s.background, s.shadow_size)
-
-    def release(self) -> None:
-        """Free what the renderer holds (nothing here)."""
-
-    def __enter__(self: R) -> R:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.release()
 
 
 def _choose() -> str:

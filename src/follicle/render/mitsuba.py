@@ -29,6 +29,10 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import pickle
+import signal
+import subprocess
+import sys
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -37,7 +41,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import InputError, ResourceError
 from ..io.mitsuba import save_mitsuba
 from ..validate import whole
 from .camera import Camera, Light, default_lights, frame_scene
@@ -226,6 +230,77 @@ def _sensor(mi, camera: Camera, size: tuple[int, int], spp: int, seed: int) -> d
     }
 
 
+def _path_trace(job: dict, out: str, report: Callable[[int], None]) -> None:
+    """In the child process: the scene of ``job`` path-traced, its RGBA saved to
+    ``out`` (.npy); progress in per cent told to ``report``."""
+    mi = _mitsuba()
+    scene: dict[str, object] = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": MAX_DEPTH, "hide_emitters": True},
+        "sensor": _sensor(mi, job["camera"], job["size"], job["spp"], job["seed"]),
+        **job["emitters"],
+    }
+    with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
+        if job["hair"] is not None:
+            scene["hair"] = _hair_shape(
+                mi, job["hair"], job["hair_color"], job["hair_width"], Path(folder)
+            )
+        if job["skin"] is not None:
+            scene["skin"] = _skin_shape(mi, job["skin"], job["skin_color"])
+        with _reporting(mi, lambda done, total: report(done)):
+            image = mi.render(mi.load_dict(scene), seed=job["seed"], spp=job["spp"])
+        np.save(out, np.array(image, dtype=np.float64))
+
+
+# the child's command, given the job and output files (a test fakes a crash with another)
+_CHILD = [sys.executable, "-m", "follicle.render.mitsuba"]
+
+
+def _in_child(job: dict, progress: Callable[[int, int], None] | None) -> np.ndarray:
+    """:func:`_path_trace` in a child process (this module run with the job's file), so
+    that Mitsuba crashing (a segfault in its curve shape on some grooms) is one
+    ResourceError, not this process gone without a word. The child prints its
+    progress, one number a line, or ``error: …``."""
+    with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
+        job_file, out = os.path.join(folder, "job.pickle"), os.path.join(folder, "rgba.npy")
+        with open(job_file, "wb") as f:
+            pickle.dump(job, f)
+        child = subprocess.Popen([*_CHILD, job_file, out], stdout=subprocess.PIPE, text=True)
+        failed = None
+        try:
+            for line in child.stdout or ():
+                if line.startswith("error: "):
+                    failed = line[len("error: ") :].strip()
+                elif progress is not None and line.strip().isdigit():
+                    progress(int(line), 100)
+            child.wait()
+        finally:
+            if child.poll() is None:  # interrupted: the child goes too
+                child.kill()
+                child.wait()
+        if child.returncode == 0 and os.path.exists(out):
+            return np.load(out)
+    code = child.returncode
+    how = f"crashed with {signal.Signals(-code).name}" if code < 0 else f"failed ({failed})"
+    hairs = 0 if job["hair"] is None else job["hair"].curve_count
+    raise ResourceError(
+        f"mitsuba {how} path-tracing {hairs:,} hairs at {job['size'][0]}x{job['size'][1]};"
+        " render fewer hairs, or use --engine opengl or cpu"
+    )
+
+
+def _child_main(job_file: str, out: str) -> None:
+    """The child process: the job read and path-traced; an exception is one
+    ``error: …`` line for the parent to raise, not a traceback."""
+    with open(job_file, "rb") as f:
+        job = pickle.load(f)  # written by _in_child into its own temporary folder
+    try:
+        _path_trace(job, out, lambda done: print(done, flush=True))
+    except Exception as exc:  # reported to the parent, which raises it
+        print(f"error: {type(exc).__name__}: {exc}".splitlines()[0], flush=True)
+        sys.exit(1)
+
+
 def render_mitsuba(
     curves: HairCurves | None,
     mesh: object | None = None,
@@ -267,20 +342,20 @@ def render_mitsuba(
         camera = frame_scene(hair, mesh, settings.fov, w / h)
     elif not isinstance(camera, Camera):
         raise InputError(f"camera: expected a Camera, got {type(camera).__name__}")
-    mi = _mitsuba()
-    scene: dict[str, object] = {
-        "type": "scene",
-        "integrator": {"type": "path", "max_depth": MAX_DEPTH, "hide_emitters": True},
-        "sensor": _sensor(mi, camera, (w, h), spp, seed),
-        **_emitters(default_lights() if lights is None else lights, camera),
+    _mitsuba()  # installed, with the variant: an InputError here, not in the child
+    job = {
+        "hair": hair,
+        "skin": skin,
+        "hair_color": hair_color,
+        "hair_width": hair_width,
+        "skin_color": skin_color,
+        "camera": camera,
+        "size": (w, h),
+        "spp": spp,
+        "seed": seed,
+        "emitters": _emitters(default_lights() if lights is None else lights, camera),
     }
-    with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
-        if hair is not None:
-            scene["hair"] = _hair_shape(mi, hair, hair_color, hair_width, Path(folder))
-        if skin is not None:
-            scene["skin"] = _skin_shape(mi, skin, skin_color)
-        with _reporting(mi, progress):
-            rgba = np.array(mi.render(mi.load_dict(scene), seed=seed, spp=spp), dtype=np.float64)
+    rgba = _in_child(job, progress)
     alpha = np.clip(rgba[..., 3:], 0.0, 1.0)
     linear = np.empty((h, w, 4))
     linear[..., :3] = rgba[..., :3] + (1.0 - alpha) * background_rows(background, h)[:, None, :]
@@ -289,3 +364,7 @@ def render_mitsuba(
     if out is not None:
         save_png(image, out)
     return image
+
+
+if __name__ == "__main__":
+    _child_main(*sys.argv[1:])

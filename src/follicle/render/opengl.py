@@ -27,7 +27,6 @@ from ..curves import HairCurves
 from ..errors import InputError
 from .camera import Camera
 from .context import get_context
-from .engines import RasterRenderer
 from .frame import Frame, hair_vertices, prepare_frame
 from .image import encode_srgb8
 from .options import (
@@ -35,6 +34,7 @@ from .options import (
     MAX_STEP_PX,
 )
 from .programs import get_program, set_uniforms, use_framebuffer
+from .raster import RasterRenderer
 from .shadows import UNITS as SHADOW_UNITS
 from .shadows import ShadowMaps
 from .strands import StrandTables, back_to_front, vertex_tangents

@@ -10,6 +10,7 @@ from ..errors import InputError
 from ..validate import number, whole
 
 __all__ = [
+    "ENGINES",
     "SHADINGS",
     "MAX_SUBDIVISIONS",
     "MAX_LIGHTS",
@@ -35,6 +36,7 @@ __all__ = [
     "point_attr",
 ]
 
+ENGINES = ("auto", "opengl", "cpu")  # the raster engines (follicle.render.engines)
 SHADINGS = ("kajiya-kay", "scheuermann", "marschner")
 MAX_SUBDIVISIONS = 16
 MAX_LIGHTS = 8

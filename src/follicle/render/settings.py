@@ -16,7 +16,6 @@ from pydantic import BeforeValidator, Field, model_validator
 from ..errors import ConfigError, InputError
 from ..settings import RGB, StrictSection, Unit, Vec3, not_bool, shown
 from .camera import DEFAULT_FOV, Camera, Light
-from .engines import ENGINES
 from .options import (
     DEFAULT_BACKGROUND,
     DEFAULT_HAIR_COLOR,
@@ -24,6 +23,7 @@ from .options import (
     DEFAULT_HAIR_WIDTH,
     DEFAULT_SHADOW_SIZE,
     DEFAULT_SKIN_COLOR,
+    ENGINES,
     MAX_SHADOW_SIZE,
     MAX_SIZE,
     MAX_SUBDIVISIONS,

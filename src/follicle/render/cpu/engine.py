@@ -33,10 +33,10 @@ import numpy as np
 from ...curves import HairCurves
 from ...kernels import kernel, prange
 from ..camera import Camera
-from ..engines import RasterRenderer
 from ..frame import Frame, hair_vertices, prepare_frame
 from ..image import half_bits, srgb8_table
 from ..options import MAX_STEP_PX, background_rows, soft_radius
+from ..raster import RasterRenderer
 from ..strands import StrandTables
 from .bins import bin_boxes, tile_grid
 from .lines import PASSES, draw_strands, segment_boxes
@@ -87,7 +87,7 @@ def _view(eye: np.ndarray, perspective: bool, forward, right, pixel: float, step
 
 class CpuRenderer(RasterRenderer):
     """The CPU engine, with :class:`~follicle.render.Renderer`'s interface
-    (:class:`~follicle.render.engines.RasterRenderer`): ``size``, ``msaa`` (coverage here
+    (:class:`~follicle.render.raster.RasterRenderer`): ``size``, ``msaa`` (coverage here
     is analytic; 2 or more supersamples the skin 2 × 2), ``background`` and
     ``shadow_size``. Holds no GPU resources. After a :meth:`draw`, :attr:`timings` has
     the seconds of each stage of that frame (:data:`STAGES`)."""
@@ -182,7 +182,7 @@ class CpuRenderer(RasterRenderer):
                 tile,
                 nx,
                 buf,
-                ref,
+                ref[..., 0],  # the layers pass's nearest hair: not read here
                 ref,
                 consts,
                 _threads(),
@@ -258,8 +258,9 @@ class CpuRenderer(RasterRenderer):
             tile_start, items = bin_boxes(boxes, tile, nx, ny)
             consts = np.array([1.0, 0.0, f.layer / depth_range], np.float64)
             args = (steps, step_start, tile_start, items, tile, nx)
-            draw_strands(PASSES["nearest"], *args, first, skin, skin, consts, _threads())
-            draw_strands(PASSES["layers"], *args, layers, first[..., 0], skin, consts, _threads())
+            opaque = skin[..., None]  # one sample a texel
+            draw_strands(PASSES["nearest"], *args, first, skin, opaque, consts, _threads())
+            draw_strands(PASSES["layers"], *args, layers, first[..., 0], opaque, consts, _threads())
         shadow = pack_shadow(
             True,
             f.layer / depth_range,
@@ -277,14 +278,14 @@ class CpuRenderer(RasterRenderer):
         )
 
     def _opaque(self, f: Frame, shadow: tuple) -> tuple[np.ndarray, np.ndarray]:
-        """The background and the shaded skin (H, W, 3), and the skin's view depth (H, W;
-        +inf where there is none). With ``msaa`` 2 or more the skin is drawn and shaded
-        at 2 × 2 samples a pixel, each triangle shaded once a pixel (its silhouette
-        anti-aliased); the hair is then tested against the farthest of a pixel's
-        samples."""
+        """The background and the shaded skin (H, W, 3), and the skin's view depth at
+        each pixel's samples (H, W, samples; +inf where there is none). With ``msaa`` 2
+        or more the skin is drawn and shaded at 2 × 2 samples a pixel, each triangle
+        shaded once a pixel (its silhouette anti-aliased), and the hair is tested
+        against each sample (:func:`.lines.draw_strands`)."""
         w, h = self.size
         if f.mesh is None:
-            return self._backdrop, self._buffer("ref", (h, w), np.float64, np.inf)
+            return self._backdrop, self._buffer("ref", (h, w, 1), np.float64, np.inf)
         k = 2 if self.msaa >= 2 else 1
         depth = self._buffer("depth", (h * k, w * k), np.float64, np.inf)
         tri = self._buffer("tri", (h * k, w * k), np.int32, -1)
@@ -293,11 +294,11 @@ class CpuRenderer(RasterRenderer):
         vertices, faces, normals = f.mesh
         behind = self._buffer("behind", (h, w, 3), np.float32, None)
         np.copyto(behind, self._backdrop)
-        ref = self._buffer("ref", (h, w), np.float64, None)
+        ref = self._buffer("ref", (h, w, k * k), np.float64, None)
+        ref[:] = depth.reshape(h, k, w, k).transpose(0, 2, 1, 3).reshape(h, w, k * k)
         shade_skin(
             tri,
             bary,
-            depth,
             k,
             vertices,
             normals,
@@ -311,7 +312,6 @@ class CpuRenderer(RasterRenderer):
             np.asarray(f.ambient, np.float64),
             shadow,
             behind,
-            ref,
         )
         return behind, ref
 

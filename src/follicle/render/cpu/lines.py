@@ -67,12 +67,20 @@ def _oit_weight(depth, consts):
 @kernel(fastmath=FAST, inline="always")
 def _fragment(mode, buf, first, ref, row, col, u, cover, a, b, wa, wb, consts):
     """A fragment at (row, col), ``u`` along the piece a → b, covering ``cover`` of the
-    pixel: dropped behind the opaque layer ``ref``; otherwise, by pass, into the OIT
-    sums (Σcαw, Σαw, Π(1 − α)), "over", the nearest depth, or its deep-opacity layer."""
+    pixel: depth-tested against each of the pixel's samples of the opaque layer ``ref``
+    (H, W, samples) and weighed by the share it is in front of (as a GPU's MSAA: where
+    hair passes behind the skin's silhouette it shows only beside the skin, not over
+    the edge pixel); then, by pass, into the OIT sums (Σcαw, Σαw, Π(1 − α)), "over",
+    the nearest depth, or its deep-opacity layer."""
     depth = a[2] + (b[2] - a[2]) * u
-    if not depth < ref[row, col]:  # behind the skin
+    samples = ref.shape[2]
+    front = 0
+    for s in range(samples):
+        if depth < ref[row, col, s]:
+            front += 1
+    if front == 0:  # behind the skin
         return
-    alpha = min((a[4] + (b[4] - a[4]) * u) * cover, 1.0)
+    alpha = min((a[4] + (b[4] - a[4]) * u) * cover, 1.0) * front / samples
     if mode == 0:
         aw = alpha * (wa + (wb - wa) * u)
         buf[row, col, 0] += (a[5] + (b[5] - a[5]) * u) * aw
@@ -203,10 +211,11 @@ def draw_strands(
 ):
     """Draw every tile's segments into ``buf`` (H, W, channels of the pass).
 
-    ``ref`` (H, W): depth of the opaque layer (skin) the hair is tested against;
+    ``ref`` (H, W, samples): depth of the opaque layer (skin) the hair is tested against
+    at each of a pixel's samples;
     ``first`` (H, W): the nearest hair depths (the layers pass); ``consts``: OIT depth,
     OIT sharpness, layer thickness; ``threads``: numba's thread count."""
-    h, w = ref.shape
+    h, w = ref.shape[:2]
     order = dealt_tiles(tile_start)
     for t in prange(threads):
         for k in order[t::threads]:

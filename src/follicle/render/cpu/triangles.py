@@ -144,7 +144,6 @@ def _skin_sample(
 def shade_skin(
     tri,
     bary,
-    depth,
     k,
     vertices,
     normals,
@@ -158,13 +157,10 @@ def shade_skin(
     amb,
     shadow,
     out,
-    ref,
 ):
-    """The skin's linear RGB into ``out`` (H, W, 3) over the background already there,
-    and into ``ref`` (H, W) the farthest depth of each pixel's samples (what the hair
-    is tested against).
+    """The skin's linear RGB into ``out`` (H, W, 3) over the background already there.
 
-    ``tri``, ``bary`` and ``depth`` hold k × k samples a pixel (multisampling): as a
+    ``tri`` and ``bary`` hold k × k samples a pixel (multisampling): as a
     GPU's MSAA, each triangle in a pixel is shaded once (at the first of its samples)
     and weighs by the share of the samples it covers; the rest keeps the background."""
     h, w = out.shape[:2]
@@ -174,10 +170,8 @@ def shade_skin(
         for j in range(w):
             r = g = b = 0.0
             empty = 0
-            far = -np.inf
             for s in range(k * k):
                 si, sj = i * k + s // k, j * k + s % k
-                far = max(far, depth[si, sj])
                 f = tri[si, sj]
                 if f < 0:
                     empty += 1
@@ -200,7 +194,6 @@ def shade_skin(
                 r += rgb[0] * count
                 g += rgb[1] * count
                 b += rgb[2] * count
-            ref[i, j] = far
             if empty == k * k:
                 continue
             keep = empty * inv

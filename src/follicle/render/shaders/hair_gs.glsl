@@ -1,4 +1,4 @@
-// 002 §5.2.1-5.2.2: smooth each segment with a uniform Catmull-Rom spline in the
+// Le Muzic 2012 §5.2.1-5.2.2: smooth each segment with a uniform Catmull-Rom spline in the
 // geometry shader (lines_adjacency gives the neighbours P0 and P3 of segment P1-P2)
 // and expand it into a triangle strip facing the viewer: the camera (perspective) or
 // a light (orthographic). With LINES, for hair thinner than a pixel, emit a one-pixel
@@ -34,7 +34,7 @@ void main() {
     vec3 p1 = gs_in[1].position;
     vec3 p2 = gs_in[2].position;
     vec3 p3 = gs_in[3].position;
-    // uniform Catmull-Rom in power form (002 Listing 5.6): P(u) = p1 + (a u^3 + b u^2 + c u) / 2
+    // uniform Catmull-Rom in power form (Le Muzic 2012 Listing 5.6): P(u) = p1 + (a u^3 + b u^2 + c u) / 2
     vec3 a = -p0 + 3.0 * p1 - 3.0 * p2 + p3;
     vec3 b = 2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3;
     vec3 c = p2 - p0;

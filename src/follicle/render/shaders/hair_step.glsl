@@ -1,6 +1,6 @@
 // One point of a hair on its way to the screen: a Catmull-Rom step in the geometry
 // shader, or a vertex in the line vertex shader (hair_line_vs.glsl, one step a segment).
-// It faces the viewer (002 §5.2.2), gets its coverage and, with SHADE, its shade;
+// It faces the viewer (Le Muzic 2012 §5.2.2), gets its coverage and, with SHADE, its shade;
 // hair_step fills the varyings (gs_out) but the position and v, and returns the
 // ribbon's half-width offset (zero with LINES).
 uniform mat4 view_proj;
@@ -16,7 +16,7 @@ float pixel_size(vec3 p) {
 }
 
 vec3 hair_step(vec3 pos, vec3 tan, float width, float opacity, vec3 color, float t, float seed) {
-    // facing the viewer: offset along tangent x view direction (002 §5.2.2)
+    // facing the viewer: offset along tangent x view direction (Le Muzic 2012 §5.2.2)
     vec3 to_eye = eye.w > 0.5 ? eye.xyz - pos : eye.xyz;
     vec3 side = cross(tan, to_eye);
     float side_len = length(side);

@@ -1,4 +1,4 @@
-// Kajiya-Kay (001 §3.3.1 eq. 3.8-3.9, 002 §5.2.3, Listing A.2): diffuse from the sine of
+// Kajiya-Kay (Almeida 2014 §3.3.1 eq. 3.8-3.9; Le Muzic 2012 §5.2.3, Listing A.2): diffuse from the sine of
 // the tangent-light angle, specular from the cone of mirror directions around the
 // tangent; optionally a second, hair-tinted highlight on a tangent shifted along the
 // ribbon normal (specular2 > 0).

@@ -1,4 +1,4 @@
-// Scheuermann 2004 (001 §3.3.1, Alg. 5-6): two highlights from tangents shifted along
+// Scheuermann 2004 (Almeida 2014 §3.3.1, Alg. 5-6): two highlights from tangents shifted along
 // the ribbon normal, the primary (white) lobe tilted towards the root and the secondary
 // (tinted by the hair colour) towards the tip, like Marschner's R and TRT. Noise along
 // each strand jitters both shifts and masks the secondary highlight (Alg. 6 lines 13
