@@ -5,6 +5,7 @@ no file behind."""
 
 from __future__ import annotations
 
+import re
 import signal
 import subprocess
 import sys
@@ -129,6 +130,68 @@ def test_bad_schedulers_are_refused_and_write_nothing(tmp_path, monkeypatch):
         with pytest.raises(ConfigError, match="whole number of workers"):
             distributed.grow(scene, tmp_path / "h.usdc", bad)
     assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
+
+
+@pytest.mark.parametrize(
+    ("address", "words"),
+    [
+        ("local:²", "whole number of workers"),  # a digit to str.isdigit, not to int()
+        ("local:" + "9" * 400, "whole number of workers"),
+        ("local:100000", "at most"),  # a Python process each: refused before any starts
+        ("tls://127.0.0.1:8786", "tcp:// only"),
+        ("ucx://127.0.0.1:8786", "tcp:// only"),
+        ("nowhere", "tcp://HOST:PORT"),
+    ],
+)
+def test_schedulers_it_cannot_use_are_refused_at_once(tmp_path, address, words):
+    with pytest.raises(ConfigError, match=f"--scheduler .*{words}"):
+        distributed.connect(address)
+
+
+def test_an_address_that_accepts_but_never_speaks_is_refused_in_time(monkeypatch):
+    """A Dask server sends its handshake as it accepts; a silent one would hold the
+    client for ever (its own timeout covers only the connection)."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    held = []
+    threading.Thread(target=lambda: held.append(server.accept()), daemon=True).start()
+    monkeypatch.setattr(distributed, "CONNECT_SECONDS", 1)
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    try:
+        with pytest.raises(ConfigError, match="accepted a connection but said nothing within 1 s"):
+            distributed.connect(address)
+    finally:
+        server.close()
+
+
+def test_a_running_scheduler_is_reached_by_its_address_with_or_without_tcp():
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=1, processes=False, protocol="tcp://", dashboard_address=":0"
+    ) as cluster:
+        for address in (cluster.scheduler_address, cluster.scheduler_address[len("tcp://") :]):
+            client = distributed.connect(address)
+            try:
+                assert client.submit(sum, [41, 1]).result() == 42
+            finally:
+                distributed.close(client)
+
+
+def test_the_cli_refuses_bad_schedulers_in_one_line_on_a_terminal(tmp_path):
+    (tmp_path / "s.toml").write_text(SCENE)
+    for address in ("local:²", "local:100000", "tls://127.0.0.1:8786"):
+        out = run_cli(
+            "grow", "s.toml", "-o", "x.abc", "--scheduler", address, cwd=tmp_path, tty=True
+        )
+        assert out.rc == 2 and "Traceback" not in out.stdout, out.stdout
+        text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", out.stdout)  # the bar, erased
+        assert text.count("error:") == 1 and "error: --scheduler" in text, text
+    assert not (tmp_path / "x.abc").exists()
 
 
 def test_the_cli_grows_on_a_local_cluster_in_a_terminal(tmp_path):

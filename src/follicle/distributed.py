@@ -70,6 +70,7 @@ log = logging.getLogger("follicle")
 
 _QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
 CONNECT_SECONDS = 10  # how long a scheduler's address may take to answer
+MAX_WORKERS_PER_CORE = 4  # local:N at most this many worker processes a core
 LAYOUTS = ("file", "payloads")  # how a grow's USD is laid out: one file, or a root and parts
 AHEAD = 3  # grow tasks in flight per worker thread, ahead of the client's writing
 _GROOMS: dict[tuple[str, str], Groom] = {}  # per worker process: the scenes it has built
@@ -88,11 +89,19 @@ def connect(scheduler: str) -> object:
         raise ConfigError(
             "--scheduler: Dask is not installed; pip install 'follicle[dist]' (dask[distributed])"
         ) from None
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     if scheduler.startswith("local:"):
         n = scheduler.removeprefix("local:")
-        if not (n.isdigit() and int(n) >= 1):
+        most = MAX_WORKERS_PER_CORE * (cores or 1)
+        if not (n.isascii() and n.isdigit() and len(n) <= 6 and int(n) >= 1):
             raise ConfigError(
-                f"--scheduler {scheduler!r}: local:N takes a whole number of workers ≥ 1"
+                f"--scheduler {scheduler[:40]!r}: local:N takes a whole number of workers ≥ 1"
+            )
+        if int(n) > most:
+            raise ConfigError(
+                f"--scheduler {scheduler!r}: at most {most} local workers here"
+                f" ({MAX_WORKERS_PER_CORE} a core; each is a Python process); give"
+                f" local:{cores or 1} for one a core"
             )
         logging.getLogger("distributed").setLevel(logging.ERROR)  # its start-up chatter
         # Ctrl-C kills the workers (cli._interrupted): multiprocessing's resource tracker,
@@ -100,7 +109,6 @@ def connect(scheduler: str) -> object:
         # of each on the terminal, under the CLI's one line; its flags come from here
         if _QUIET_TRACKER not in sys.warnoptions:
             sys.warnoptions.append(_QUIET_TRACKER)
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
         try:
             cluster = LocalCluster(
                 n_workers=int(n),
@@ -120,6 +128,7 @@ def connect(scheduler: str) -> object:
         client._follicle_cluster = cluster  # closed with the client (close())
         log.info("Dask: %d local workers, dashboard %s", int(n), client.dashboard_link)
         return client
+    _check_answers(scheduler)
     try:
         client = Client(scheduler, timeout=CONNECT_SECONDS)
         log.info("Dask: scheduler %s, dashboard %s", scheduler, client.dashboard_link)
@@ -130,6 +139,48 @@ def connect(scheduler: str) -> object:
             f" {CONNECT_SECONDS} s ({type(exc).__name__}); start one (dask scheduler) or"
             " give local:N"
         ) from None
+
+
+def _check_answers(scheduler: str) -> None:
+    """ConfigError naming ``--scheduler`` unless ``scheduler`` is a TCP address whose
+    server speaks within CONNECT_SECONDS: a Dask server sends its handshake as soon as it
+    accepts a connection, and the client's own timeout does not cover a server that
+    accepts and then says nothing (it would wait for ever)."""
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    shown = repr(scheduler[:200])
+    try:
+        scheme, location = parse_address(scheduler)
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError):
+        raise ConfigError(
+            f"--scheduler {shown}: expected local:N or a scheduler's address, tcp://HOST:PORT"
+        ) from None
+    if scheme != "tcp":
+        raise ConfigError(
+            f"--scheduler {shown}: follicle connects to a Dask scheduler over tcp:// only"
+            f" ({scheme}:// needs security or transport settings that follicle does not pass);"
+            " give tcp://HOST:PORT, e.g. through an SSH tunnel"
+        )
+    try:
+        with socket.create_connection((host, port), timeout=CONNECT_SECONDS) as conn:
+            conn.settimeout(CONNECT_SECONDS)
+            said = conn.recv(1)
+    except TimeoutError:
+        said = b""
+    except OSError as exc:
+        raise ConfigError(
+            f"--scheduler {shown}: no Dask scheduler answered there within"
+            f" {CONNECT_SECONDS} s ({type(exc).__name__}); start one (dask scheduler) or"
+            " give local:N"
+        ) from None
+    if not said:
+        raise ConfigError(
+            f"--scheduler {shown}: the address accepted a connection but said nothing within"
+            f" {CONNECT_SECONDS} s, so it is not a Dask scheduler; check the host and port"
+        )
 
 
 def close(client: object) -> None:
