@@ -4,6 +4,7 @@ and on a local Dask cluster, kept on a second run, and bad sweeps refused by nam
 from __future__ import annotations
 
 import csv
+import re
 import filecmp
 import sys
 
@@ -14,6 +15,7 @@ from follicle.batch import Outputs, parse_seeds, parse_vary, run_batch, variants
 from follicle.cli import main
 from follicle.errors import ConfigError
 from follicle.scene import Scene
+from hostile import assert_api_refused, run_api, run_cli
 
 
 def _scene() -> Scene:
@@ -126,4 +128,57 @@ def test_a_parquet_manifest_without_pyarrow_is_refused_before_the_batch(tmp_path
     batch = variants([("a", _scene())], [], range(2))
     with pytest.raises(ConfigError, match="needs pyarrow; pip install pyarrow"):
         run_batch(batch, tmp_path / "b", Outputs(None, image=False), manifest="parquet")
+    assert not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("0:100000000000000000000", "0 <= A < B <= 2^63"),  # len(range) would overflow
+        ("0:" + "9" * 5000, "0 <= A < B <= 2^63"),
+        ("0:1000000", "more than 100,000 variants"),
+        ("5:", "0 <= A < B"),
+    ],
+)
+def test_seed_ranges_too_large_for_a_batch_are_refused(text, words):
+    with pytest.raises(ConfigError, match=f"^--seeds .*{re.escape(words)}"):
+        parse_seeds(text)
+
+
+@pytest.mark.parametrize(
+    "spec",
+    ["1" + "0" * 400 + ":2:3", "0:1" + "0" * 400 + ":3", "-1" + "0" * 30 + ":0:2"],
+)
+def test_sweep_bounds_with_hundreds_of_digits_are_refused(spec):
+    with pytest.raises(ConfigError, match=r"^--vary groom\.curl_radius=.{0,80}: START and STOP"):
+        parse_vary(f"groom.curl_radius={spec}")
+
+
+def test_a_batch_past_the_cap_is_refused_before_any_variant_is_made(tmp_path):
+    """Two sweeps of 1,000 values: a million variants, refused from the sizes alone in a
+    child under the memory limit (built first, they were gigabytes: a scene each)."""
+    res = run_api(
+        """
+        from follicle.batch import parse_vary, variants
+        from follicle.scene import Scene
+        sweeps = [parse_vary("groom.curl_radius=0.001:0.01:1000"),
+                  parse_vary("groom.kink_tip=0.001:0.003:1000")]
+        variants([("default", Scene())], sweeps)
+        """,
+        tmp_path,
+        timeout=60,
+    )
+    assert_api_refused(res, "1,000,000 variants", "more than 100,000", error="ConfigError")
+
+
+def test_the_cli_refuses_huge_seeds_and_sweeps_in_one_line_on_a_terminal(tmp_path):
+    for args in (
+        ("--seeds", "0:100000000000000000000"),
+        ("--vary", "groom.curl_radius=1" + "0" * 400 + ":2:3"),
+    ):
+        out = run_cli("batch", "-o", "b", *args, cwd=tmp_path, tty=True, timeout=60)
+        assert out.rc == 2 and "Traceback" not in out.stdout, out.stdout[-2000:]
+        plain = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", out.stdout)  # the terminal's colours
+        lines = [line for line in plain.splitlines() if line.strip()]
+        assert len(lines) == 1 and "error: " in lines[0] and args[0] in lines[0], out.stdout
     assert not (tmp_path / "b").exists()

@@ -73,7 +73,9 @@ __all__ = [
 
 MANIFESTS = {"csv": "manifest.csv", "parquet": "manifest.parquet"}
 Progress = Callable[[int, int], None]
-_MAX_VARIANTS = 10_000_000  # a sweep's product beyond this is a typo, not a dataset
+# variants a batch: each holds its scene (about 10 kB) while the batch runs, so 100,000
+# take about 1 GB; a dataset beyond is several batches (docs/scale.md)
+_MAX_VARIANTS = 100_000
 # per process: the groom inputs (mesh, guides, textures) last read, by batch run (its
 # pending folder), so variants that differ in other keys share them, within one run only
 _INPUTS: dict[str, object] = {}
@@ -139,13 +141,20 @@ def parse_seeds(text: str) -> range:
     """``A:B`` (seeds A … B − 1) or one seed ``N``; ConfigError naming ``--seeds``."""
     parts = text.split(":")
     try:
-        ends = [int(p) for p in parts]
+        ends = [int(p) for p in parts if len(p.strip()) <= 20]  # 2^63 has 19 digits
     except ValueError:
         ends = []
-    if len(ends) == 1:
+    if len(ends) == 1 and len(parts) == 1:
         ends.append(ends[0] + 1)
-    if len(ends) != 2 or ends[0] < 0 or ends[1] <= ends[0]:
-        raise ConfigError(f"--seeds {text}: expected A:B with 0 <= A < B (0:100), or one seed")
+    if len(ends) != 2 or ends[0] < 0 or ends[1] <= ends[0] or ends[1] > 1 << 63:
+        raise ConfigError(
+            f"--seeds {_short(text)}: expected A:B with 0 <= A < B <= 2^63 (0:100), or one seed"
+        )
+    if ends[1] - ends[0] > _MAX_VARIANTS:
+        raise ConfigError(
+            f"--seeds {text}: {ends[1] - ends[0]:,} seeds, more than {_MAX_VARIANTS:,} variants"
+            " a batch; split it into batches of seed ranges"
+        )
     return range(*ends)
 
 
@@ -162,19 +171,21 @@ def variants(
         raise ConfigError(f"--vary: a key is swept twice ({', '.join(keys)}); sweep each once")
     if seeds is not None and "groom.seed" in keys:
         raise ConfigError("--vary groom.seed and --seeds both set the seed; give one")
-    combos = list(itertools.product(*(s.values for s in sweeps)))
-    total = len(scenes) * len(combos) * (1 if seeds is None else len(seeds))
+    # counted from the sizes before any combination is made
+    combos = math.prod(len(s.values) for s in sweeps)
+    total = len(scenes) * combos * (1 if seeds is None else len(seeds))
     if total > _MAX_VARIANTS:
         raise ConfigError(
-            f"--vary/--seeds: {total:,} variants, more than {_MAX_VARIANTS:,}; split the batch"
+            f"--vary/--seeds: {total:,} variants, more than {_MAX_VARIANTS:,} a batch (each"
+            " holds its whole scene while the batch runs); split the batch"
         )
     width = max(5, len(str(total - 1)))
     out: list[Variant] = []
     for source, scene in scenes:
-        for combo in combos:
+        for combo in itertools.product(*(s.values for s in sweeps)):
             varied = scene
             for key, value in zip(keys, combo, strict=True):
-                varied = _with(varied, key, value, f"--vary {key}={value}")
+                varied = _with(varied, key, value, _short(f"--vary {key}={value}"))
             for seed in [varied.groom.seed] if seeds is None else seeds:
                 if seeds is not None:
                     varied = _with(varied, "groom.seed", seed, f"--seeds {seed}")
@@ -486,17 +497,27 @@ def _value(text: str) -> object:
         return text
 
 
+def _short(text: str) -> str:
+    """``text`` as an error message shows it: at most 80 characters."""
+    return text if len(text) <= 80 else f"{text[:77]}..."
+
+
 def _spaced(text: str, start: str, stop: str, count: str) -> tuple[object, ...]:
     """``START:STOP:N``: N evenly spaced numbers from START to STOP, ends included."""
     a, b = _value(start.strip()), _value(stop.strip())
     n = _value(count.strip())
     numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b))
-    if not numbers or not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= 1_000_000:
+    if not numbers or not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= _MAX_VARIANTS:
         raise ConfigError(
-            f"--vary {text}: START:STOP:N takes two numbers and a count of 1 to 1,000,000"
+            f"--vary {_short(text)}: START:STOP:N takes two numbers and a count of 1 to"
+            f" {_MAX_VARIANTS:,}"
         )
-    if not (math.isfinite(a) and math.isfinite(b)):
-        raise ConfigError(f"--vary {text}: START and STOP must be finite")
+    if any(isinstance(v, int) and abs(v) >= 1 << 63 for v in (a, b)) or not (
+        math.isfinite(a) and math.isfinite(b)
+    ):
+        raise ConfigError(
+            f"--vary {_short(text)}: START and STOP must be finite (whole numbers within ±2^63)"
+        )
     if n == 1:
         return (a,)
     whole = isinstance(a, int) and isinstance(b, int) and (b - a) % (n - 1) == 0

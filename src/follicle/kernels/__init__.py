@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import platform
+import sys
 import types
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -135,6 +136,12 @@ def _reason() -> str:
             return "this install has no prebuilt kernels: a source install"
         if not isinstance(built, dict):
             return "its prebuilt kernels' manifest is damaged"
+        here = (numba.__version__, f"{sys.version_info[0]}.{sys.version_info[1]}")
+        if (built.get("numba"), built.get("python"), built.get("machine")) == (
+            *here,
+            platform.machine(),
+        ):
+            return "its prebuilt kernels were built from other sources: the code has changed"
         return (
             f"its prebuilt kernels were built for numba {built.get('numba')}, Python"
             f" {built.get('python')} on {built.get('machine')}, and these sources; this is"
