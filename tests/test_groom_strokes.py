@@ -161,3 +161,29 @@ def test_loading_checks_the_structure_and_names_the_entry(tmp_path):
     path.write_text("{")
     with pytest.raises(FormatError, match="s.json"):
         load_strokes(path)
+
+
+def test_a_number_of_thousands_of_digits_is_refused_naming_the_log(tmp_path):
+    path = tmp_path / "digits.json"
+    path.write_text(
+        '{"follicle_strokes": 1, "strokes": [{"brush": "comb", "radius": 1%s}]}' % ("0" * 5000)
+    )
+    with pytest.raises(FormatError, match="digits.json: a number .* thousands of digits"):
+        load_strokes(path)
+
+
+def test_a_stroke_of_tens_of_thousands_of_points_is_refused_at_once_on_a_terminal(made, tmp_path):
+    """cut, delete and part test every guide against every segment of the path: a log
+    whose one stroke has 50,000 points took minutes; refused before any work."""
+    folder, log, _ = made
+    doc = json.loads(log.read_text())
+    stroke = next(s for s in doc["strokes"] if s.get("brush") == "cut")
+    xs = np.linspace(150.0, 330.0, 50_000)
+    for brush in ("cut", "delete", "part"):
+        doc["strokes"] = [{**stroke, "brush": brush, "path": [[x, 120.0] for x in xs]}]
+        path = tmp_path / f"{brush}.json"
+        path.write_text(json.dumps(doc))
+        out = run_cli("groom", path.name, "-o", "g.npz", cwd=tmp_path, tty=True, timeout=60)
+        assert not out.timed_out and out.rc == 2, out.stdout[-2000:]
+        assert "Traceback" not in out.stdout and "50,000 points" in out.stdout, out.stdout
+    assert not (tmp_path / "g.npz").exists()

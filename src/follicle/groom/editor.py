@@ -40,6 +40,10 @@ HISTORY = 256  # strokes kept for undo
 SPACING = 0.25  # a stroke's dabs this share of the radius apart
 NEIGHBOURS = 4  # existing guides an added guide takes its shape from
 MAX_DABS = 100_000  # dabs in one stroke (a stroke log cannot ask for a hang)
+# points of one stroke's path: cut, delete and part test every guide against every
+# segment (about 3.5 ms a point at 1,000 guides); a mouse drag is logged in pieces of a
+# few dozen (``join``), so this bounds one entry of a log to seconds
+MAX_PATH_POINTS = 4096
 PART_STEPS = 8  # a part brush's pushes, each followed by follow-the-leader
 GROUP_TEXELS = 256  # texels a side of a parting painted where there was no group texture
 _RANGES = {"length": (-1.0, 1.0)}  # strength; others 0..1
@@ -603,6 +607,11 @@ def _path(path: object) -> np.ndarray:
         raise InputError("path: expected (K, 2) pixel positions") from None
     if line.ndim != 2 or line.shape[1] != 2 or len(line) == 0:
         raise InputError(f"path: expected (K ≥ 1, 2) pixel positions, got shape {line.shape}")
+    if len(line) > MAX_PATH_POINTS:
+        raise InputError(
+            f"path: {len(line):,} points, more than {MAX_PATH_POINTS:,} in one stroke; split it"
+            " into strokes joined to the one before (join)"
+        )
     if not np.isfinite(line).all():
         raise InputError("path: holds NaN or inf; every point must be a finite pixel position")
     return line

@@ -111,6 +111,11 @@ def load_strokes(path: str | os.PathLike[str]) -> dict[str, object]:
         doc = json.loads(Path(name).read_bytes().decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise FormatError(f"{name}: not a JSON stroke log ({exc})") from None
+    except ValueError:  # an integer of more digits than Python converts (4,300)
+        raise FormatError(
+            f"{name}: a number in the stroke log has thousands of digits; not a log follicle"
+            " wrote (numbers are pixels, radii and strengths)"
+        ) from None
     if not isinstance(doc, dict) or doc.get("follicle_strokes") != VERSION:
         raise FormatError(
             f"{name}: not a follicle stroke log (expected an object with"
