@@ -295,3 +295,17 @@ def test_a_full_disk_is_one_line_and_leaves_nothing(tmp_path, room):
         "); free disk space or write elsewhere"
     ), line
     assert files(tmp_path) == before
+
+
+def test_objects_sharing_one_array_are_counted_as_the_parent_will_hold_them():
+    """Alembic and USD store an array shared by many objects once: read, they are views
+    of one buffer in the child, but a copy each once written out and joined. The child
+    counts every copy against what the file's size allows before writing any."""
+    from follicle.io.guard_server import READER_OVERHEAD, Refused, _check_size
+
+    shared = np.zeros((1 << 20, 3), np.float32)  # 12 MiB, held once
+    parts = [{"points": shared, "offsets": np.arange(0, 1 << 20, 8)} for _ in range(100)]
+    room = READER_OVERHEAD + (512 << 20)
+    with pytest.raises(Refused, match=r"x\.abc: its objects hold 1\.2\d GiB .* than the 0\.50 GiB"):
+        _check_size(parts, room, "x.abc", "Alembic")
+    _check_size(parts[:35], room, "x.abc", "Alembic")  # 0.45 GiB: within

@@ -35,12 +35,17 @@ import select
 import signal
 import sys
 import traceback
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 
 __all__ = ["READERS", "Refused", "serve", "MAX_ANIMATION_POINTS"]
+
+# Of a child's address-space cap, what Python, numpy and pxr take (about 1.1 GB with a
+# stage open); the rest bounds the arrays a file may give, as the parent holds them
+READER_OVERHEAD = 1 << 30
 
 # the most points (samples × points a sample) a skin animation read may hold: 480 MB as
 # float64 (follicle.io.skin_animation)
@@ -80,6 +85,34 @@ def _save(parts: list[dict], out: Path) -> dict:
     return {"parts": manifest}
 
 
+def _arrays(value: object) -> Iterator[np.ndarray]:
+    """Every array in ``value`` (parts as readers make them: dicts, lists, arrays)."""
+    if isinstance(value, np.ndarray):
+        yield value
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from _arrays(item)
+    elif isinstance(value, (list, tuple)):
+        for item in value:
+            yield from _arrays(item)
+
+
+def _check_size(parts: list[dict], cap: int, source: str, tool: str) -> None:
+    """Refused unless the parts' arrays, each counted whole as the parent will hold it,
+    fit the memory this file was given less :data:`READER_OVERHEAD`: a file whose objects share one array on disk
+    (Alembic and USD deduplicate) reads small here, as views, but is a copy per object
+    once written out and joined."""
+    total = sum(a.nbytes for a in _arrays(parts))
+    room = max(cap - READER_OVERHEAD, 0)
+    if total > room:
+        raise Refused(
+            f"{source}: its objects hold {total / 2**30:.2f} GiB of arrays once read, more than"
+            f" the {room / 2**30:.2f} GiB a file of its size may give ({tool} stores an array"
+            " that many objects share once); split it, or join its objects in the tool that"
+            " made it"
+        )
+
+
 def _read_request(request: dict, reader: ModuleType) -> None:
     """Read ``request["source"]`` into ``request["out"]`` (see the module), with the
     address space capped at ``request["memory"]`` bytes first."""
@@ -88,7 +121,9 @@ def _read_request(request: dict, reader: ModuleType) -> None:
     cap = request["memory"] if hard == resource.RLIM_INFINITY else min(request["memory"], hard)
     resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
     try:
-        result = _save(reader.read_request(request), out)
+        parts = reader.read_request(request)
+        _check_size(parts, cap, source, request["tool"])
+        result = _save(parts, out)
     except Refused as exc:
         result = {"refused": str(exc)}
     except MemoryError:
