@@ -29,7 +29,9 @@ from typing import TYPE_CHECKING
 
 from ..atomic import atomic_path
 from ..errors import FormatError, InputError
+from ..inputs import input_file
 from ..render.camera import Camera
+from ..validate import file_path
 
 if TYPE_CHECKING:
     from .editor import GuideEditor
@@ -104,7 +106,9 @@ def load_strokes(path: str | os.PathLike[str]) -> dict[str, object]:
     """A stroke log read and checked: its version, sources and entries (each a stroke
     with known keys, or an undo or redo); FormatError or InputError naming the file and
     the entry otherwise. The strokes' own values are checked when replayed."""
+    path = file_path(path, "load_strokes path")
     name = os.fspath(path)
+    input_file(name, "stroke log (JSON)")  # a folder, FIFO or device refused by name
     try:
         size = os.path.getsize(name)
     except OSError as exc:
@@ -184,7 +188,7 @@ def replay_file(
     from .editor import GuideEditor
     from .guides import load_guides
 
-    name = os.fspath(path)
+    name = os.fspath(file_path(path, "replay_file path"))
     doc = load_strokes(name)
     source = guides or doc.get("guides")
     if source is None:
