@@ -112,10 +112,12 @@ def _public_calls(tmp_path):
     complex or an object; a settings value out of range."""
     from follicle import (
         Camera,
+        Groom,
         HairCurves,
         Light,
         SkinMesh,
         Texture,
+        grow,
         load_curves,
         load_guides,
         load_mesh,
@@ -187,6 +189,8 @@ def _public_calls(tmp_path):
             f"fit_camera({shown})": (lambda b=bad: fit_camera(b), "fit_camera points"),
         }
     calls["Texture(ragged)"] = (lambda: Texture([[1, 2], [3]]), "texture")
+    calls["Groom('x', guides)"] = (lambda: Groom("x", load_guides("builtin:short", mesh)), "mesh")
+    calls["grow('scene.toml')"] = (lambda: grow("scene.toml"), "scene")
     calls["from_polylines(3)"] = (lambda: HairCurves.from_polylines(3), "polylines")
     return calls
 

@@ -121,7 +121,7 @@ def default_output(source: str | os.PathLike[str], tail: str) -> str:
 
 
 def remote_reach(base: str, path: str) -> str | None:
-    """Why the scene at the URL folder ``base`` may not name ``path`` (None when it may):
+    """Why the scene at the URL ``base`` may not name ``path`` (None when it may):
     a remote scene names files beside it on its own server (relative paths, builtins,
     or URLs on its own server), never a file of this machine nor of another server."""
     if path.startswith("builtin:"):

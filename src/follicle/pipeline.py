@@ -118,6 +118,10 @@ def grow(
     scene: Scene | None = None, progress: Callable[[int, int], None] | None = None
 ) -> tuple[SkinMesh, HairCurves]:
     """Grow the hair of ``scene`` (the default scene when None): (mesh, curves)."""
+    if scene is not None and not isinstance(scene, Scene):
+        raise InputError(
+            f"scene: expected a follicle.Scene (load_scene), got {type(scene).__name__}"
+        )
     groom = groom_scene(scene if scene is not None else Scene())
     return groom.mesh, groom.generate(progress=progress)
 
