@@ -4,8 +4,8 @@ and on a local Dask cluster, kept on a second run, and bad sweeps refused by nam
 from __future__ import annotations
 
 import csv
-import re
 import filecmp
+import re
 import sys
 
 import pytest
@@ -13,7 +13,7 @@ from click.testing import CliRunner
 
 from follicle.batch import Outputs, parse_seeds, parse_vary, run_batch, variants
 from follicle.cli import main
-from follicle.errors import ConfigError
+from follicle.errors import ConfigError, FollicleError
 from follicle.scene import Scene
 from hostile import assert_api_refused, run_api, run_cli
 
@@ -182,3 +182,76 @@ def test_the_cli_refuses_huge_seeds_and_sweeps_in_one_line_on_a_terminal(tmp_pat
         lines = [line for line in plain.splitlines() if line.strip()]
         assert len(lines) == 1 and "error: " in lines[0] and args[0] in lines[0], out.stdout
     assert not (tmp_path / "b").exists()
+
+
+def test_a_url_sweep_is_values_not_a_range() -> None:
+    """A value with :// (a URL, whose port has a colon) is one value, never START:STOP:N."""
+    one = "http://127.0.0.1:8000/head.obj"
+    assert parse_vary(f"mesh.path={one}").values == (one,)
+    two = f"{one},s3://bucket/b.obj"
+    assert parse_vary(f"mesh.path={two}").values == (one, "s3://bucket/b.obj")
+    assert parse_vary("groom.count=10:30:3").values == (10, 20, 30)
+
+
+@pytest.mark.parametrize("tty", [False, True])
+def test_the_manifest_never_replaces_an_input_in_the_batch_folder(tmp_path, tty) -> None:
+    """A scene (or a file it reads) in the batch folder under the manifest's name is one
+    line naming it, before any variant is made; the folder stays as it was."""
+    from hostile import assert_cli_refused, run_cli, warm
+
+    ds = tmp_path / "ds"
+    ds.mkdir()
+    (ds / "manifest.csv").write_text("[groom]\ncount = 50\n")  # a scene, as its name says not
+    (ds / "scene.toml").write_text('[groom]\ncount = 50\ndensity = "manifest.parquet"\n')
+    (ds / "manifest.parquet").write_bytes(b"\x89PNG, say")
+    before = {p.name: p.read_bytes() for p in ds.iterdir()}
+    warm()
+    for args, names in (
+        (["ds/manifest.csv", "-o", "ds"], ["manifest.csv", "would replace the scene"]),
+        (["ds/scene.toml", "-o", "ds", "--manifest", "parquet"], ["[groom].density"]),
+    ):
+        out = run_cli("batch", *args, "--no-image", "--curves", "none", cwd=tmp_path, tty=tty)
+        if tty:
+            assert out.rc == 2 and "Traceback" not in out.stdout, out.stdout
+            assert all(name in out.stdout for name in names), out.stdout
+        else:
+            assert_cli_refused(out, *names)
+    assert {p.name: p.read_bytes() for p in ds.iterdir()} == before
+    swept = variants([("a", _scene())], [parse_vary(f"mesh.path={ds}/manifest.csv")])
+    with pytest.raises(
+        FollicleError, match=r"manifest.csv: the output would replace .*\[mesh\].path"
+    ):
+        run_batch(swept, ds, Outputs(None, image=False))
+    assert {p.name: p.read_bytes() for p in ds.iterdir()} == before
+
+
+def test_a_stopped_batch_says_which_variants_it_kept(tmp_path) -> None:
+    """SIGTERM after a variant is made: exit 143, and the line says the finished variants
+    are kept in the folder (not "no output was written"); they are there, whole."""
+    import signal
+    import subprocess
+    import time
+
+    from hostile import FOLLICLE, warm
+
+    (tmp_path / "s.toml").write_text("[groom]\ncount = 30000\n")
+    warm()
+    proc = subprocess.Popen(
+        [*FOLLICLE, "batch", "s.toml", "-o", "ds", "--seeds", "0:40", "--no-image"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    deadline = time.monotonic() + 120
+    while not (tmp_path / "ds" / "v00001").is_dir():
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    line = err.decode().strip()
+    kept = sorted(p.name for p in (tmp_path / "ds").iterdir())
+    assert kept[:2] == ["v00000", "v00001"] and "manifest.csv" not in kept
+    assert line.startswith("error: stopped by SIGTERM; kept the variants finished"), line
+    assert "of 40, in ds" in line and "no output was written" not in line, line
+    assert len(line.splitlines()) == 1

@@ -174,3 +174,14 @@ def test_light_directions():
         Light((0, 1, 0), intensity=-1)
     with pytest.raises(InputError):
         Light((0, 1, 0), space="screen")
+
+
+@pytest.mark.parametrize("eye", ["abc", {"x": 1}, [[0, 0], [1]], [0, "one", 2], 1j, object()])
+def test_a_camera_or_light_of_the_wrong_kind_is_an_input_error_naming_it(eye):
+    """Not NumPy's ValueError or TypeError (`Camera(eye="abc")`)."""
+    with pytest.raises(InputError, match="^camera eye: expected an array of numbers"):
+        Camera(eye=eye, target=(0, 0, 0))
+    with pytest.raises(InputError, match="^light direction: expected an array of numbers"):
+        Light(direction=eye)
+    with pytest.raises(InputError, match="^fit_camera points: expected an array of numbers"):
+        fit_camera(eye)

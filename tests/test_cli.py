@@ -180,3 +180,60 @@ def test_an_output_path_the_system_refuses_is_one_line_exit_2(tmp_path, suffix):
     assert result.exit_code == 2, result.output
     assert "Traceback" not in result.output and str(blocker) in result.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file", "s.toml"]
+
+
+def _inputs_folder(tmp_path):
+    """A scene whose mesh, guides and textures are files beside it: (folder, their bytes)."""
+    from follicle.groom.builtin_guides import builtin_guides
+    from follicle.io.mesh_save import save_mesh
+
+    save_mesh(follicle.load_mesh("builtin:head"), tmp_path / "head.obj")
+    follicle.save(builtin_guides("short"), tmp_path / "guides.npz")
+    ramp = np.linspace(1, 255, 16 * 16).reshape(16, 16).astype(np.uint8)
+    Image.fromarray(ramp).save(tmp_path / "density.png")
+    Image.fromarray(np.dstack([ramp, ramp, ramp])).save(tmp_path / "color.png")
+    (tmp_path / "s.toml").write_text(
+        '[mesh]\npath = "head.obj"\n[guides]\npath = "guides.npz"\n'
+        '[groom]\ncount = 200\ndensity = "density.png"\nroot_color = "color.png"\n'
+        "[render]\nsize = [32, 32]\n"
+    )
+    (tmp_path / "link.obj").symlink_to(tmp_path / "head.obj")
+    return {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()}
+
+
+@pytest.mark.parametrize(
+    ("args", "names"),
+    [
+        (["grow", "s.toml", "-o", "head.obj"], ["head.obj", "[mesh].path"]),
+        (["grow", "s.toml", "-o", "guides.npz"], ["guides.npz", "[guides].path"]),
+        (["grow", "s.toml", "-o", "link.obj"], ["link.obj", "[mesh].path"]),
+        (["render", "s.toml", "-o", "density.png"], ["density.png", "[groom].density"]),
+        (["render", "s.toml", "-o", "color.png"], ["color.png", "[groom].root_color"]),
+        (["simulate", "s.toml", "--frames", "2", "-o", "guides.npz"], ["[guides].path"]),
+        (["export", "guides.npz", "-o", "guides.npz"], ["guides.npz", "its own input"]),
+        (["export", "head.obj", "-o", "link.obj"], ["link.obj", "its own input"]),
+    ],
+)
+def test_an_output_never_replaces_an_input_of_the_same_run(tmp_path, args, names):
+    """`-o` naming the scene's mesh, guides or a texture, or a link to one, is one line
+    naming the input, before anything is read or written: every file stays as it was."""
+    from hostile import assert_cli_refused, run_cli, warm
+
+    before = _inputs_folder(tmp_path)
+    warm()
+    out = run_cli(*args, cwd=tmp_path)
+    line = assert_cli_refused(out, *names)
+    assert "would replace" in line
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before
+
+
+def test_an_output_that_is_an_input_is_refused_on_a_terminal_too(tmp_path):
+    from hostile import run_cli, warm
+
+    before = _inputs_folder(tmp_path)
+    warm()
+    for args in (["grow", "s.toml", "-o", "head.obj"], ["render", "s.toml", "-o", "color.png"]):
+        out = run_cli(*args, cwd=tmp_path, tty=True)
+        assert out.rc == 2 and "Traceback" not in out.stdout, out.stdout
+        assert "would replace the scene's" in out.stdout and args[-1] in out.stdout
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before

@@ -63,3 +63,22 @@ def test_a_file_size_limit_is_one_line_and_exit_2(tmp_path, suffix):
     out = Outcome(proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - start, False)
     assert_cli_refused(out, f"h{suffix}")
     assert files(tmp_path) == {"s.toml"}
+
+
+def test_the_line_of_a_stop_names_the_outputs_this_run_finished(tmp_path):
+    """What a signal's line says was kept (export's files, simulate's caches, render's
+    frames): only the outputs put in place since the command began, not older files of
+    the same names, nor the ones not yet written."""
+    from follicle.cli import _finished
+
+    old, new, later = (tmp_path / n for n in ("a.usdc", "b.usdc", "c.usdc"))
+    old.write_text("from an earlier run")
+    note = _finished([old, new, later])
+    assert note() is None
+    new.write_text("this run's")
+    assert note() == f"the 1 of 3 files finished ({new})"
+    old.write_text("replaced")  # in place: the mtime moves
+    tmp = tmp_path / ".a.usdc.tmp"
+    tmp.write_text("renamed onto it, as every output is")
+    os.replace(tmp, old)
+    assert note() == f"the 2 of 3 files finished ({old} … b.usdc)"

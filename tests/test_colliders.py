@@ -126,9 +126,30 @@ follow = false
         ('kind = "plane"\nnormal = [0, 0, 0]', "non-zero normal"),
         ('kind = "box"', "'sphere', 'capsule' or 'plane'"),
         ('kind = "plane"\nnormal = [0, 1]', "normal"),
+        # too short to make unit length (its square underflows): not blamed on substep later
+        ('kind = "plane"\nnormal = [1e-200, 0, 0]', r"normal: .*length at least"),
+        ('kind = "plane"\nnormal = [0, 1e-12, 0]', r"normal: .*length at least"),
     ],
 )
 def test_bad_plane_colliders_are_refused_naming_the_key(tmp_path, body, needle):
     with pytest.raises(ConfigError, match=needle) as caught:
         scene_from_toml(f"[[sim.colliders]]\n{body}\n", "bad.toml", tmp_path)
     assert "bad.toml" in str(caught.value) and "colliders" in str(caught.value)
+
+
+def test_a_tiny_normal_is_refused_by_the_settings_and_by_the_table():
+    """A 1e-200 normal is refused where it is given, naming the collider's normal, and a
+    shape that bypasses the settings (any object with the fields) by the table: never a
+    simulation that blows up and blames [sim].substep."""
+    from types import SimpleNamespace
+
+    from follicle.errors import InputError
+
+    with pytest.raises(ConfigError, match=r"normal: a plane needs a non-zero normal"):
+        ColliderParams(kind="plane", normal=(1e-200, 0, 0))
+    with pytest.raises(ConfigError, match=r"\[sim\]\.colliders\.0: normal"):
+        SimParams().replace(colliders=[{"kind": "plane", "normal": [0, 0, 1e-200]}])
+    shape = SimpleNamespace(kind="plane", centre=(0, 0, 0), normal=(1e-200, 0, 0), follow=True)
+    with pytest.raises(InputError, match="plane normal"):
+        colliders([shape])
+    ColliderParams(kind="plane", normal=(0, 1e-6, 0))  # short, and still a direction

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from follicle.errors import FormatError
+from follicle.errors import ConfigError, FormatError
 from follicle.inputs import input_file, is_url
 from follicle.io.dispatch import load_curves, save
 from follicle.io.mesh_load import load_mesh
@@ -166,3 +166,82 @@ def test_a_served_groom_exports_the_bytes_of_the_file_on_disk(served, tmp_path):
     want = (tmp_path / "disk.abc").read_bytes()
     assert (tmp_path / "one.abc").read_bytes() == want
     assert (tmp_path / "out" / "guides.abc").read_bytes() == want
+
+
+@pytest.mark.parametrize(
+    ("line", "key"),
+    [
+        ('[mesh]\npath = "{local}/head.obj"\n', "[mesh].path"),
+        ('[mesh]\npath = "file://{local}/head.obj"\n', "[mesh].path"),
+        ('[mesh]\npath = "head.obj"\n[guides]\npath = "{local}/guides.hair"\n', "[guides].path"),
+        ('[mesh]\npath = "head.obj"\n[groom]\ndensity = "{local}/density.png"\n', "density"),
+        ('[mesh]\npath = "head.obj"\n[groom]\nroot_color = "file://{local}/c.png"\n', "color"),
+        ('[mesh]\npath = "http://127.0.0.1:9/head.obj"\n', "[mesh].path"),
+    ],
+)
+def test_a_served_scene_reads_nothing_but_files_beside_it(served, tmp_path, line, key):
+    """A scene fetched from a server may not name this machine's files (an absolute path,
+    a file:// URL) nor another server's: one line naming the key, and the local file,
+    a whole mesh that would grow, is never read."""
+    folder, url, _ = served
+    local = tmp_path / "local"
+    local.mkdir()
+    for name in ("head.obj", "guides.hair", "density.png"):
+        (local / name).write_bytes((folder / name).read_bytes())
+    (local / "c.png").write_bytes((folder / "color.png").read_bytes())
+    (folder / "evil.toml").write_text(line.format(local=local))
+    warm()
+    out = run_cli("grow", f"{url}/evil.toml", "-o", tmp_path / "h.npz", cwd=tmp_path)
+    got = assert_cli_refused(out, f"{url}/evil.toml", key)
+    assert "own server" in got
+    assert not (tmp_path / "h.npz").exists()
+    with pytest.raises(ConfigError, match="own server"):
+        load_scene(f"{url}/evil.toml")
+
+
+def test_a_served_scene_writes_its_default_outputs_in_the_current_folder(served, tmp_path):
+    """`follicle grow URL` and `follicle render URL` without -o write the scene's
+    [output] file names in the current folder (a local scene's are beside it), never a
+    folder named after the URL, nor where the remote scene's [output] points."""
+    folder, url, _ = served
+    (folder / "out.toml").write_text(
+        SCENE.replace("count = 2000", "count = 100")
+        + f'[output]\ncurves = "{tmp_path}/elsewhere/h.npz"\nimage = "../pic.png"\n'
+        + "[render]\nsize = [32, 32]\n"
+    )
+    work = tmp_path / "work"
+    work.mkdir()
+    warm()
+    for tty in (False, True):
+        grown = run_cli("grow", f"{url}/s.toml", "--count", 100, cwd=work, tty=tty)
+        assert grown.rc == 0, grown.stdout + grown.stderr
+        assert sorted(p.name for p in work.iterdir()) == ["hair.npz"]
+        assert load_curves(work / "hair.npz").curve_count == 100
+        (work / "hair.npz").unlink()
+    assert run_cli("grow", f"{url}/out.toml", cwd=work).rc == 0
+    assert run_cli("render", f"{url}/out.toml", cwd=work).rc == 0
+    assert sorted(p.name for p in work.iterdir()) == ["h.npz", "pic.png"]
+    assert not (tmp_path / "elsewhere").exists() and not (tmp_path / "pic.png").exists()
+    rendered = run_cli("render", f"{url}/guides.hair", cwd=work)
+    assert rendered.rc == 0, rendered.stderr
+    assert sorted(p.name for p in work.iterdir()) == ["guides.png", "h.npz", "pic.png"]
+
+
+def test_a_skin_animation_url_is_fetched_like_every_url_input(served, tmp_path):
+    """`follicle simulate --skin-animation URL`: fetched, not read as a local path."""
+    from test_skin_animation import _frames, _usd
+
+    folder, url, sent = served
+    head = load_mesh(folder / "head.obj")
+    _usd(folder / "anim.usdc", _frames(head.rest_vertices, 4), head.faces)
+    (tmp_path / "s.toml").write_text('[groom]\ncount = 50\n[guides]\npath = "builtin:short"\n')
+    warm()
+    for tty in (False, True):
+        out = run_cli(
+            "simulate", "s.toml", "--skin-animation", f"{url}/anim.usdc", "--frames", 3,
+            "-o", "sim.npz", cwd=tmp_path, tty=tty, timeout=120,
+        )  # fmt: skip
+        assert out.rc == 0, out.stdout + out.stderr
+        assert "skin animation" in out.stdout
+    assert "/anim.usdc" in sent
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cache", "s.toml", "sim.npz", "site"]

@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -256,3 +257,100 @@ def test_the_reading_limits_follow_the_parts_the_stage_loads(tmp_path, groom, mo
     back = load_usd(root)
     assert back.curve_count == HAIRS
     assert asked == [usd_guard.limits(root.stat().st_size + parts)]
+
+
+def _snapshot(folder):
+    """Every file under ``folder`` (links as links) and its bytes or link target."""
+    out = {}
+    for p in sorted(folder.rglob("*")):
+        if p.is_symlink():
+            out[str(p.relative_to(folder))] = ("link", str(p.readlink()))
+        elif p.is_file():
+            out[str(p.relative_to(folder))] = p.read_bytes()
+    return out
+
+
+def test_nothing_follicle_did_not_write_is_deleted_by_a_payloads_layout(tmp_path, groom):
+    """A payloads folder is replaced only when all it holds are part files follicle wrote,
+    judged by their contents: a part_0000.usdc that is a folder of the user's files, a
+    part file that is not a crate, a link among the parts, or the payloads folder itself
+    a symbolic link is refused before anything is written, and everything stays."""
+    root = tmp_path / "fox.usdc"
+    parts = payloads_folder(root)
+    theirs = part_file(parts, 0)
+    theirs.mkdir(parents=True)
+    (theirs / "thesis.txt").write_text("five years of work")
+    before = _snapshot(tmp_path)
+    with pytest.raises(FormatError, match=r"fox.usdc.payloads: exists .* part_0000.usdc is a fold"):
+        save_usd_payloads(_parts(groom, 1000), root)
+    assert _snapshot(tmp_path) == before
+    theirs.joinpath("thesis.txt").unlink()
+    theirs.rmdir()
+    theirs.write_text("not a crate, but named like a part")
+    with pytest.raises(FormatError, match=r"part_0000.usdc is not a USD crate follicle wrote"):
+        check_payloads_target(root)
+    theirs.unlink()
+    (tmp_path / "mine.usdc").write_bytes(b"mine")
+    theirs.symlink_to(tmp_path / "mine.usdc")
+    with pytest.raises(FormatError, match=r"part_0000.usdc is a symbolic link"):
+        save_usd_payloads(_parts(groom, 1000), root)
+    assert (tmp_path / "mine.usdc").read_bytes() == b"mine" and theirs.is_symlink()
+    # the payloads folder a symbolic link to a folder of the user's: refused, no stray link
+    theirs.unlink()
+    parts.rmdir()
+    elsewhere = tmp_path / "elsewhere"
+    save_usd_payloads(_parts(groom, 1000), tmp_path / "made.usdc")
+    payloads_folder(tmp_path / "made.usdc").rename(elsewhere)  # part files it wrote, even
+    parts.symlink_to(elsewhere, target_is_directory=True)
+    before = _snapshot(tmp_path)
+    with pytest.raises(FormatError, match=r"fox.usdc.payloads: exists and is a symbolic link"):
+        save_usd_payloads(_parts(groom, 1000), root)
+    assert _snapshot(tmp_path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["elsewhere", "fox.usdc.payloads", "made.usdc", "mine.usdc"]
+    )
+
+
+def test_writing_again_removes_only_the_part_files(tmp_path, groom, monkeypatch):
+    """A file that lands in an older payloads folder after it was checked stays: of the
+    old folder only its part files are removed, and the folder only when empty."""
+    import os
+
+    root = save_usd_payloads(_parts(groom, 1000), tmp_path / "fox.usdc")
+    late = payloads_folder(root) / "late.txt"
+    rename = os.rename
+
+    def then_a_file_lands(src, dst):
+        if Path(src) == payloads_folder(root) and not late.exists():
+            late.write_text("written meanwhile")  # after the checks, before the move aside
+        rename(src, dst)
+
+    monkeypatch.setattr(os, "rename", then_a_file_lands)
+    save_usd_payloads(_parts(groom, 2000), root)
+    kept = [p for p in tmp_path.iterdir() if p.name.startswith(".fox.usdc.payloads.old-")]
+    assert len(kept) == 1 and [p.name for p in kept[0].iterdir()] == ["late.txt"]
+    assert sorted(p.name for p in payloads_folder(root).iterdir()) == [
+        "part_0000.usdc",
+        "part_0001.usdc",
+    ]
+
+
+def test_a_name_usd_cannot_hold_is_refused_naming_the_character(tmp_path):
+    """A newline in the root's name (its payload arcs name the folder by it, and a USD
+    asset path holds no control character) is one line saying so, not "free disk
+    space", on a terminal too, with nothing written."""
+    (tmp_path / "s.toml").write_text("[groom]\ncount = 300\n")
+    warm()
+    for tty in (False, True):
+        out = run_cli(
+            "grow", "s.toml", "-o", "a\nb.usdc", "--layout", "payloads", cwd=tmp_path, tty=tty
+        )
+        text = out.stdout + out.stderr
+        assert out.rc == 2 and "Traceback" not in text, text
+        assert "a\\nb.usdc" in text and "character that is not allowed" in text, text
+        assert "disk space" not in text
+        if not tty:
+            assert_cli_refused(out, "a\\nb.usdc", "not allowed")
+    with pytest.raises(FormatError, match="not allowed"):
+        check_payloads_target(tmp_path / "tab\there.usda")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]

@@ -104,3 +104,109 @@ def test_a_request_too_big_for_memory_is_a_resource_error_and_one_cli_line(monke
     assert result.output.startswith("error:") and result.output.count("\n") == 1
     assert "GiB are free" in result.output and "Groom.chunks()" in result.output
     assert not out.exists()
+
+
+def _public_calls(tmp_path):
+    """Public functions and constructors, each with one argument given wrong: a path that
+    is None, a number, bytes or a folder; an array that is text, a dict, ragged lists,
+    complex or an object; a settings value out of range."""
+    from follicle import (
+        Camera,
+        Groom,
+        HairCurves,
+        Light,
+        SkinMesh,
+        Texture,
+        grow,
+        load_curves,
+        load_guides,
+        load_mesh,
+        load_scene,
+        save,
+    )
+    from follicle.groom.strokes import load_strokes, replay_file
+    from follicle.io.mesh_save import save_mesh
+    from follicle.io.sim_cache import load_cache
+    from follicle.io.skin_animation import load_skin_animation
+    from follicle.render import fit_camera, save_png
+    from follicle.scene import ColliderParams, GroomParams, SimParams
+
+    folder = tmp_path / "folder"
+    folder.mkdir(exist_ok=True)
+    mesh = load_mesh("builtin:head")
+    hair = HairCurves.from_array(np.zeros((2, 3, 3), np.float32) + np.arange(3)[None, :, None])
+    calls = {
+        "load_strokes(folder)": (lambda: load_strokes(folder), "folder"),
+        "replay_file(None)": (lambda: replay_file(None), "replay_file path"),
+        "GroomParams(count=-1)": (lambda: GroomParams(count=-1), "[groom].count"),
+        "SimParams(substep=0)": (lambda: SimParams(substep=0), "[sim].substep"),
+        "ColliderParams(kind='box')": (lambda: ColliderParams(kind="box"), "kind"),
+        "Guides(vertices='abc')": (lambda: load_guides(hair, mesh, vertices="abc"), "vertices"),
+    }
+    for bad in (None, 3, b"hair.npz", ["a"]):
+        calls |= {
+            f"load_curves({bad!r})": (lambda b=bad: load_curves(b), "load_curves path"),
+            f"load_mesh({bad!r})": (lambda b=bad: load_mesh(b), "load_mesh path"),
+            f"load_guides({bad!r})": (lambda b=bad: load_guides(b, mesh), "load_guides source"),
+            f"load_cache({bad!r})": (lambda b=bad: load_cache(b), "load_cache path"),
+            f"load_strokes({bad!r})": (lambda b=bad: load_strokes(b), "load_strokes path"),
+            f"Texture.load({bad!r})": (lambda b=bad: Texture.load(b), "Texture.load path"),
+            f"save(hair, {bad!r})": (lambda b=bad: save(hair, b), "save path"),
+            f"save_mesh(mesh, {bad!r})": (lambda b=bad: save_mesh(mesh, b), "save_mesh path"),
+            f"save_png({bad!r})": (lambda b=bad: save_png(np.zeros((2, 2, 4)), b), "save_png"),
+            f"load_skin_animation({bad!r})": (
+                lambda b=bad: load_skin_animation(b, mesh),
+                "load_skin_animation path",
+            ),
+        }
+        if bad is not None:
+            calls[f"load_scene({bad!r})"] = (lambda b=bad: load_scene(b), "load_scene path")
+    for bad in ("abc", {"a": 1}, [[1, 2], [3]], object(), [1, "x", 2], 1j):
+        shown = repr(bad)[:12]
+        calls |= {
+            f"Camera(eye={shown})": (lambda b=bad: Camera(eye=b, target=(0, 0, 0)), "camera eye"),
+            f"Camera(up={shown})": (
+                lambda b=bad: Camera(eye=(0, 0, 1), target=(0, 0, 0), up=b),
+                "camera up",
+            ),
+            f"Light(direction={shown})": (lambda b=bad: Light(direction=b), "light direction"),
+            f"Light.ambient({shown})": (lambda b=bad: Light.ambient(color=b), "light color"),
+            f"HairCurves({shown}, offsets)": (lambda b=bad: HairCurves(b, [0, 3]), "points"),
+            f"HairCurves(points, {shown})": (
+                lambda b=bad: HairCurves(np.zeros((3, 3)), b),
+                "offsets",
+            ),
+            f"HairCurves.from_array({shown})": (lambda b=bad: HairCurves.from_array(b), "array"),
+            f"HairCurves.from_polylines([{shown}])": (
+                lambda b=bad: HairCurves.from_polylines([b]),
+                "polylines[0]",
+            ),
+            f"SkinMesh({shown}, faces)": (lambda b=bad: SkinMesh(b, [[0, 1, 2]]), "vertices"),
+            f"SkinMesh(uvs={shown})": (
+                lambda b=bad: SkinMesh(np.eye(3), [[0, 1, 2]], uvs=b),
+                "uvs",
+            ),
+            f"fit_camera({shown})": (lambda b=bad: fit_camera(b), "fit_camera points"),
+        }
+    calls["Texture(ragged)"] = (lambda: Texture([[1, 2], [3]]), "texture")
+    calls["Groom('x', guides)"] = (lambda: Groom("x", load_guides("builtin:short", mesh)), "mesh")
+    calls["grow('scene.toml')"] = (lambda: grow("scene.toml"), "scene")
+    calls["from_polylines(3)"] = (lambda: HairCurves.from_polylines(3), "polylines")
+    return calls
+
+
+def test_public_calls_refuse_a_wrong_argument_with_a_follicle_error_naming_it(tmp_path):
+    """Every public call given an argument of the wrong kind raises a FollicleError that
+    names the argument, never Python's ValueError, TypeError or IsADirectoryError."""
+    crashed = []
+    for call, (run, name) in _public_calls(tmp_path).items():
+        try:
+            run()
+        except FollicleError as exc:
+            if name not in str(exc):
+                crashed.append(f"{call}: {exc} (does not name {name})")
+        except Exception as exc:  # noqa: BLE001 - what the test looks for
+            crashed.append(f"{call}: {type(exc).__name__}: {exc}")
+        else:
+            crashed.append(f"{call}: accepted")
+    assert not crashed, "\n".join(crashed)

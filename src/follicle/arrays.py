@@ -14,6 +14,7 @@ from .errors import InputError
 from .kernels import kernel, prange
 
 __all__ = [
+    "as_array",
     "frozen",
     "readonly",
     "all_finite",
@@ -30,6 +31,24 @@ PAGE = 4096  # bytes per memory page (the smallest on the platforms we run on)
 # multiply-add (rounded once; 15 % off the volume update). No other reordering, so a
 # kernel still gives the same bytes on the same machine with any thread count.
 FMA = {"contract"}
+
+
+def as_array(value: object, name: str, dtype: object = None, numbers: bool = True) -> np.ndarray:
+    """``value`` as a NumPy array (of ``dtype`` when given; no copy when it already is
+    one), or InputError naming the argument ``name`` when NumPy cannot make one of it
+    (lists of different lengths) or, with ``numbers``, when it does not hold real numbers
+    (text, a dict, None, complex numbers, other objects): what a public function's
+    array argument goes through, rather than NumPy's own ValueError or TypeError."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        why = "lists of different lengths" if "inhomogeneous" in str(exc) else str(exc)[:80]
+        raise InputError(f"{name}: expected an array of numbers ({why})") from None
+    if numbers and arr.dtype.kind not in "biuf":
+        text = repr(value)
+        shown = text if len(text) <= 60 else text[:57] + "..."
+        raise InputError(f"{name}: expected an array of numbers, got {shown}")
+    return arr if dtype is None else arr.astype(dtype, copy=False)
 
 
 def frozen(arr: np.ndarray) -> np.ndarray:

@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from .errors import InputError
+from .validate import file_path
 
 __all__ = ["atomic_path", "temporary_folder", "pending_folders", "deliver", "remove_pending"]
 
@@ -37,6 +38,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     leaves a half-written output behind; an OSError without a file name gets ``path``'s.
     The parent folder is created.
     """
+    path = file_path(path, "output path")
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(

@@ -52,8 +52,8 @@ from pathlib import Path
 
 from .atomic import atomic_path, deliver, pending_folders
 from .errors import ConfigError, FollicleError
-from .inputs import base_folder
-from .scene import Scene, scene_from_toml, scene_to_toml
+from .inputs import base_folder, check_apart
+from .scene import Scene, holds_paths, scene_files, scene_from_toml, scene_to_toml
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -122,7 +122,8 @@ def parse_vary(text: str) -> Sweep:
     """``KEY=SPEC`` as a :class:`Sweep`: ``KEY`` is ``section.key`` of a scene file;
     ``SPEC`` is ``START:STOP:N`` (N evenly spaced numbers, both ends included; whole
     numbers when START and STOP are and the steps fall on them), ``a,b,c`` (TOML
-    values, or bare words as strings) or one value. ConfigError naming ``--vary``."""
+    values, or bare words as strings) or one value; a SPEC with ``://`` (a URL) is
+    never a range. ConfigError naming ``--vary``."""
     key, sep, spec = text.partition("=")
     key, spec = key.strip(), spec.strip()
     if not sep or not key or not spec:
@@ -132,7 +133,7 @@ def parse_vary(text: str) -> Sweep:
         )
     _field(key)
     parts = spec.split(":")
-    if len(parts) == 3:
+    if len(parts) == 3 and "://" not in spec:  # a URL's colons make no range
         return Sweep(key, _spaced(text, *parts))
     return Sweep(key, tuple(_value(v.strip()) for v in spec.split(",")))
 
@@ -217,6 +218,7 @@ def run_batch(
     out = Path(out_dir).resolve()
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: not a folder; -o names the batch's folder")
+    check_apart([out / MANIFESTS[manifest]], _inputs(batch), fix="give the batch another folder")
     jobs = [_job(v, out, outputs) for v in batch]
     records: list[dict | None] = [
         _kept(out / v.name, job) for v, job in zip(batch, jobs, strict=True)
@@ -243,6 +245,27 @@ def run_batch(
         else:
             _write_parquet(tmp, header, rows)
     return path
+
+
+def _inputs(batch: Sequence[Variant]) -> Iterator[tuple[str, str]]:
+    """The files the batch reads, as (label, path): each source scene and the files of
+    its scene, and each path a variant's swept values give."""
+    seen: set[str] = set()
+    for variant in batch:
+        if variant.source not in seen:
+            seen.add(variant.source)
+            if variant.source != "default" or os.path.isfile(variant.source):
+                yield "the scene", variant.source
+            yield from scene_files(variant.scene)
+        for key, value in variant.values:
+            if isinstance(value, str) and not value.startswith("builtin:") and _is_path(key):
+                yield f"--vary {key}", variant.scene.resolve(value)
+
+
+def _is_path(key: str) -> bool:
+    """Whether the scene key ``section.key`` holds file paths."""
+    section, name = _field(key)
+    return holds_paths(Scene.model_fields[section].annotation.model_fields[name])
 
 
 def _made(calls: list[tuple], scheduler: str | None) -> Iterator[dict]:

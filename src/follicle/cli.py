@@ -119,10 +119,22 @@ def _step(what: str) -> Iterator[None]:
     log.info("%s in %.2f s", what, time.perf_counter() - start)
 
 
+# what the running command has finished and keeps when a signal stops it: a function
+# that says so in a few words ("3 of 10 variants in out/"), or says None for nothing yet
+_kept: list[Callable[[], str | None]] = []
+
+
+def _keeping(note: Callable[[], str | None]) -> None:
+    """From now on, a signal's line says ``note()``: the outputs finished and kept."""
+    _kept[:] = [note]
+
+
 def _interrupted(signum: int, frame: object) -> None:
     """Ctrl-C or SIGTERM: remove the outputs being written and end at once, exit 128 + the
-    signal's number. Exiting here, rather than raising KeyboardInterrupt, works also when
-    the signal lands inside numba's compiled code, where an exception cannot unwind."""
+    signal's number, saying what was kept (the outputs a command finished before it,
+    :func:`_keeping`) or that no output was written. Exiting here, rather than raising
+    KeyboardInterrupt, works also when the signal lands inside numba's compiled code,
+    where an exception cannot unwind."""
     import multiprocessing
     import signal
 
@@ -140,7 +152,12 @@ def _interrupted(signum: int, frame: object) -> None:
             child.join(timeout=5)
     remove_pending()
     name = signal.Signals(signum).name
-    sys.stderr.write(f"\nerror: stopped by {name}; no output was written\n")
+    try:
+        note = _kept[0]() if _kept else None
+    except Exception:  # noqa: BLE001 - the line must come out whatever the note does
+        note = "some outputs finished before it (see the output folder)"
+    what = f"kept {note}, the output being written removed" if note else "no output was written"
+    sys.stderr.write(f"\nerror: stopped by {name}; {what.translate(_ESCAPES)}\n")
     sys.stderr.flush()
     os._exit(128 + signum)
 
@@ -336,7 +353,7 @@ def grow(
     from .scene import load_scene
 
     scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
-    path = out or scene.resolve(scene.output.curves)
+    path = out or scene.output_path(scene.output.curves)
     _check_writable_suffix(path, _curve_suffixes())
     tool = target_name or scene.output.target
     _check_target(path, tool)
@@ -349,9 +366,12 @@ def grow(
             " payloads; give one of them"
         )
     if layout == "payloads":
-        from .io.usd_payloads import check_payloads_target
+        from .io.usd_payloads import check_payloads_target, payloads_folder
 
         check_payloads_target(path)  # before any hair is grown
+        _check_apart(path, scene_path, scene, folders=[payloads_folder(path)])
+    else:
+        _check_apart(path, scene_path, scene)
     if scheduler is not None:
         from .distributed import grow as grow_distributed
 
@@ -404,6 +424,8 @@ def groom(
     from .groom.editor import replay_file
 
     _check_writable_suffix(out, _curve_suffixes())
+    given = (("the stroke log", strokes_path), ("--guides", guides), ("--mesh", mesh))
+    _check_apart([out, *([groups_out] if groups_out else [])], None, more=given)
     with _step("groom"):
         editor = replay_file(strokes_path, guides, mesh)
     editor.save(out)
@@ -419,6 +441,27 @@ def _check_target(path: str, target: str) -> None:
     from .io.targets import check_named
 
     check_named(path, Path(path).suffix, target, "--target")
+
+
+def _check_apart(
+    outputs: str | os.PathLike[str] | list,
+    source: str | None,
+    scene: Scene | None = None,
+    more: tuple[tuple[str, str | None], ...] = (),
+    folders: list | tuple = (),
+) -> None:
+    """Before anything is read: InputError when an output would replace an input of the
+    same run, the scene file ``source`` or a file the ``scene`` reads (its mesh, guides,
+    textures, skin animation), or one of ``more`` ((label, path or None) pairs; see
+    :func:`follicle.inputs.check_apart`)."""
+    from .inputs import check_apart
+    from .scene import scene_files
+
+    inputs = [("the scene", source)] if source else []
+    inputs += scene_files(scene) if scene is not None else []
+    inputs += [(label, path) for label, path in more if path]
+    outs = [outputs] if isinstance(outputs, (str, os.PathLike)) else outputs
+    check_apart(outs, inputs, folders)
 
 
 def _grown_chunks(
@@ -501,6 +544,7 @@ def export(
         _export_files(sources, out, suffix, tool, scheduler)
         return
     source = sources[0]
+    _check_apart(out, None, more=(("its own input", source),))
     if (
         source.startswith("builtin:")
         and source[len("builtin:") :] in BUILTIN_MESHES
@@ -528,9 +572,34 @@ def _export_files(
     _check_target(targets[0], target)
     where = " on Dask" if scheduler else ""
     with _step(f"export{where}"), _progress(f"converting files{where}") as progress:
+        _keeping(_finished(targets))
         done = export_files(sources, targets, scheduler, target, progress)
     for path, (hairs, points) in zip(targets, done, strict=True):
         click.echo(f"{hairs:,} hairs, {points:,} points → {path}")
+
+
+def _finished(paths: list, noun: str = "files") -> Callable[[], str | None]:
+    """A note for :func:`_keeping`: those of ``paths`` this run has put in place since
+    now (new, or replaced: another file than now), in a few words, or None."""
+
+    def stamp(path: str) -> tuple[int, int] | None:
+        try:
+            st = os.stat(path)
+        except (OSError, ValueError):
+            return None
+        return st.st_ino, st.st_mtime_ns
+
+    names = [str(p) for p in paths]
+    before = {name: stamp(name) for name in names}
+
+    def note() -> str | None:
+        new = [n for n in names if (now := stamp(n)) is not None and now != before[n]]
+        if not new:
+            return None
+        first = f"{new[0]} … {Path(new[-1]).name}" if len(new) > 1 else new[0]
+        return f"the {len(new):,} of {len(names):,} {noun} finished ({first})"
+
+    return note
 
 
 def _export_targets(sources: tuple[str, ...], out: str, suffix: str | None) -> list[str]:
@@ -674,6 +743,7 @@ def export_rib(scene_path: str, out: str, voxels: int, count: int | None, seed: 
 
     scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
     _check_writable_suffix(out, (".rib",))
+    _check_apart([out, str(Path(out).with_suffix(".follicle.z"))], scene_path, scene)
     with _step("grow and bound"), _progress("bounding voxels") as progress:
         done = export(scene, out, voxels, progress=progress)
     sizes = [p.stat().st_size for p in (done.rib, done.frame)]
@@ -777,7 +847,21 @@ def batch(
     outputs = Outputs(None if suffix == "none" else suffix, image, target_name, skin)
     where = " on Dask" if scheduler else ""
     with _step(f"batch{where}"), _progress(f"making {len(batch_):,} variants{where}") as progress:
-        manifest = run_batch(batch_, out, outputs, scheduler, progress, manifest_format)
+        done = [0]
+        _keeping(
+            lambda: (
+                f"the variants finished, {done[0]:,} of {len(batch_):,}, in {out} (run the"
+                " batch again to make the rest; the manifest is written last)"
+                if done[0]
+                else None
+            )
+        )
+
+        def counted(finished: int, total: int) -> None:
+            done[0] = finished
+            progress(finished, total)
+
+        manifest = run_batch(batch_, out, outputs, scheduler, counted, manifest_format)
     click.echo(f"{len(batch_):,} variants → {manifest}")
 
 
@@ -842,6 +926,10 @@ def simulate(
 
     scenes = [_sim_scene(path, count, motion, skin_animation) for path in scene_paths]
     targets = _cache_targets(scene_paths, scenes, out)
+    for path, scene in zip(scene_paths, scenes, strict=True):
+        _check_apart(targets, path, scene)
+    if len(targets) > 1:
+        _keeping(_finished(targets, "caches"))
     if scheduler is not None:
         from .distributed_sim import simulate_scenes
 
@@ -867,7 +955,10 @@ def _sim_scene(
     scene = _with_overrides(load_scene(path), count=count)
     changes: dict[str, object] = {} if motion is None else {"motion": motion}
     if skin_animation is not None:  # it replaces the scene's motion, not one given here
-        changes = {"motion": "none", **changes, "skin_animation": os.path.abspath(skin_animation)}
+        from .inputs import is_url
+
+        given = skin_animation if is_url(skin_animation) else os.path.abspath(skin_animation)
+        changes = {"motion": "none", **changes, "skin_animation": given}
     if changes:
         scene = scene.replace(sim=scene.sim.replace("command line", **changes))
     return scene
@@ -881,7 +972,7 @@ def _cache_targets(paths: tuple[str, ...], scenes: list[Scene], out: str | None)
     from .errors import InputError
 
     if len(paths) == 1:
-        target = out or scenes[0].resolve("sim.npz")
+        target = out or scenes[0].output_path("sim.npz")
         _check_writable_suffix(target, (".npz",))
         return [target]
     if out is None:
@@ -1001,6 +1092,7 @@ def render(
     simulation cache (`follicle simulate`) to a PNG sequence or an MP4, seen through one
     camera. `--engine mitsuba` path-traces a still with Mitsuba 3 instead."""
     from .errors import InputError
+    from .inputs import default_output
     from .io.dispatch import load_curves
     from .io.mesh_load import load_mesh
     from .io.sim_cache import is_cache
@@ -1032,8 +1124,9 @@ def render(
         _not_for(source, f"--engine {engine}" if engine else "--engine opengl or cpu", spp=spp)
     if Path(source).suffix.lower() == ".toml":
         scene = _with_overrides(load_scene(source), count=count)
-        target = out or scene.resolve(scene.output.image)
+        target = out or scene.output_path(scene.output.image)
         _check_writable_suffix(target, (".png",))
+        _check_apart(target, source, scene, more=(("--mesh", mesh_path),))
         _not_for(source, "a scene", frames=frame_range, scheduler=scheduler)
         with _step("grow"), _progress("growing hair") as progress:
             mesh, curves = grow_scene(scene, progress)
@@ -1050,8 +1143,9 @@ def render(
         return
     else:
         scene = Scene()
-        target = out or str(Path(source).with_suffix(".png"))
+        target = out or default_output(source, ".png")
         _check_writable_suffix(target, (".png",))
+        _check_apart(target, None, more=(("the curves file", source), ("--mesh", mesh_path)))
         _not_for(source, "a curves file", count=count, frames=frame_range, scheduler=scheduler)
         curves = load_curves(source)
         mesh = load_mesh(mesh_path) if mesh_path else None
@@ -1086,20 +1180,25 @@ def _render_cache(
     the video OUT.mp4 (frames encoded as they are rendered), here or on the Dask cluster
     ``scheduler`` in tasks of ``frames_per_task`` frames."""
     from .errors import InputError
+    from .inputs import default_output
     from .io.sim_cache import load_cache
-    from .pipeline import cache_scene, render_cache
+    from .pipeline import cache_scene, frame_name, render_cache
 
     cache = load_cache(source)
     frames = _frame_range(frame_range, cache.frame_count)
     scene = _with_overrides(cache_scene(cache), count=count)
     scene = scene.replace(render=scene.render.replace("command line", **overrides))
-    target = Path(out) if out else Path(source).with_name(Path(source).stem + "_frames")
+    target = Path(out or default_output(source, "_frames"))
     video = target.suffix.lower() == ".mp4"
     if not video and (target.suffix.lower() == ".png" or target.is_file()):
         raise InputError(
             f"{target}: a simulation cache renders to a folder of frame_0000.png, … or to an"
             " .mp4 video; give -o a folder or a .mp4 file"
         )
+    written = [target] if video else [target / frame_name(cache, f) for f in frames]
+    _check_apart(written, None, scene, more=(("the cache", source),))
+    if not video:
+        _keeping(_finished(written, "frames"))
     start = time.perf_counter()
     if scheduler is not None:
         from . import distributed_sim

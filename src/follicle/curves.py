@@ -13,17 +13,28 @@ from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .arrays import all_finite, point_bounds
+from .arrays import all_finite, as_array, point_bounds
 from .errors import InputError
 
 __all__ = ["HairCurves"]
 
 
 def _as_points(points: object, name: str = "points") -> np.ndarray:
-    arr = np.asarray(points, dtype=np.float32)
+    arr = as_array(points, name, np.float32)
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise InputError(f"{name}: expected an array of shape (P, 3), got shape {arr.shape}")
     return np.ascontiguousarray(arr)
+
+
+def _data(data: Mapping[str, object] | None, name: str) -> dict[str, np.ndarray]:
+    """Attribute arrays by name, each made an array (InputError naming it otherwise)."""
+    if data is None:
+        return {}
+    if not isinstance(data, Mapping):
+        raise InputError(
+            f"{name}: expected a mapping of names to arrays, got {type(data).__name__}"
+        )
+    return {k: as_array(v, f"{name}[{k!r}]", numbers=False) for k, v in data.items()}
 
 
 class HairCurves:
@@ -44,7 +55,7 @@ class HairCurves:
         curve_data: Mapping[str, object] | None = None,
     ) -> None:
         self.points = _as_points(points)
-        offs = np.asarray(offsets)
+        offs = as_array(offsets, "offsets")
         if offs.ndim != 1 or offs.size < 1:
             raise InputError(
                 f"offsets: expected a 1-D array of C + 1 entries, got shape {offs.shape}"
@@ -53,8 +64,8 @@ class HairCurves:
             if not np.all(np.equal(np.mod(offs, 1), 0)):
                 raise InputError("offsets: entries must be whole numbers")
         self.offsets = np.ascontiguousarray(offs, dtype=np.int64)
-        self.point_data = {k: np.asarray(v) for k, v in (point_data or {}).items()}
-        self.curve_data = {k: np.asarray(v) for k, v in (curve_data or {}).items()}
+        self.point_data = _data(point_data, "point_data")
+        self.curve_data = _data(curve_data, "curve_data")
         self._validate()
 
     # ---------------------------------------------------------------- construction
@@ -66,7 +77,13 @@ class HairCurves:
         curve_data: Mapping[str, object] | None = None,
     ) -> HairCurves:
         """Build from a sequence of (n_i, 3) vertex arrays, one per curve."""
-        arrays = [_as_points(p, f"polylines[{i}]") for i, p in enumerate(polylines)]
+        try:
+            each = iter(polylines)  # type: ignore[call-overload]
+        except TypeError:
+            raise InputError(
+                f"polylines: expected a sequence of (n, 3) arrays, got {type(polylines).__name__}"
+            ) from None
+        arrays = [_as_points(p, f"polylines[{i}]") for i, p in enumerate(each)]
         counts = np.array([len(a) for a in arrays], dtype=np.int64)
         offsets = np.zeros(len(arrays) + 1, dtype=np.int64)
         np.cumsum(counts, out=offsets[1:])
@@ -81,7 +98,7 @@ class HairCurves:
         curve_data: Mapping[str, object] | None = None,
     ) -> HairCurves:
         """Build from an (S, N, 3) array of S curves with N vertices each."""
-        arr = np.asarray(array, dtype=np.float32)
+        arr = as_array(array, "array", np.float32)
         if arr.ndim != 3 or arr.shape[2] != 3:
             raise InputError(f"array: expected shape (S, N, 3), got {arr.shape}")
         s, n, _ = arr.shape

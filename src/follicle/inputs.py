@@ -18,12 +18,24 @@ import os
 import re
 import shutil
 import stat
+from collections.abc import Iterable
 from pathlib import Path
 
 from .atomic import atomic_path
-from .errors import ConfigError, FileAccessError, FormatError
+from .errors import ConfigError, FileAccessError, FormatError, InputError
+from .validate import file_path
 
-__all__ = ["base_folder", "cache_folder", "input_file", "is_url"]
+__all__ = [
+    "base_folder",
+    "cache_folder",
+    "check_apart",
+    "default_output",
+    "input_file",
+    "is_remote",
+    "is_url",
+    "local_file",
+    "remote_reach",
+]
 
 _URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]+://")
 # the package a protocol's fsspec backend needs, as the error says it
@@ -34,6 +46,96 @@ _BLOCK = 1 << 20
 def is_url(path: object) -> bool:
     """Whether ``path`` is a URL (``protocol://…``), not a file name."""
     return isinstance(path, str) and _URL.match(path) is not None
+
+
+def is_remote(path: object) -> bool:
+    """Whether ``path`` is a URL of another machine (``https://…``, ``s3://…``): any URL
+    but ``file://``."""
+    return is_url(path) and not str(path).lower().startswith("file://")
+
+
+def local_file(path: str | os.PathLike[str]) -> Path | None:
+    """The file of this machine that ``path`` names, absolute: a path, or the path of a
+    ``file://`` URL; None for a remote URL or a ``builtin:`` name."""
+    text = os.fspath(path)
+    if isinstance(text, bytes) or text.startswith("builtin:") or is_remote(text):
+        return None
+    if is_url(text):
+        from urllib.parse import unquote, urlsplit
+
+        text = unquote(urlsplit(text).path)
+    return Path(os.path.abspath(text))
+
+
+def _real(path: Path) -> Path:
+    """``path`` with every symbolic link on the way resolved (it need not exist)."""
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError):  # a loop of links: compare it as written
+        return path
+
+
+def check_apart(
+    outputs: Iterable[str | os.PathLike[str]],
+    inputs: Iterable[tuple[str, str | os.PathLike[str]]],
+    folders: Iterable[str | os.PathLike[str]] = (),
+    what: str = "the output",
+    fix: str = "write it elsewhere, or under another name",
+) -> None:
+    """InputError, before anything is read or written, when an output of a run would
+    replace one of its inputs: an output file that is an input (symbolic links
+    followed; written whole under a temporary name, it would be renamed onto it), or a
+    folder of ``folders`` (an output replaced whole, such as a payloads folder) that is
+    or holds one. ``inputs`` are (label, path) pairs, the label naming the input in the
+    message ("the scene's [mesh].path"); builtins and remote URLs are never replaced."""
+    read: dict[Path, tuple[str, str]] = {}
+    for label, path in inputs:
+        local = local_file(path)
+        if local is not None:
+            read.setdefault(_real(local), (label, os.fspath(path)))
+    for out in outputs:
+        hit = read.get(_real(Path(os.path.abspath(out))))
+        if hit is not None:
+            raise InputError(f"{out}: {what} would replace {' '.join(hit)}; {fix}")
+    for folder in folders:
+        whole = _real(Path(os.path.abspath(folder)))
+        for src, (label, path) in read.items():
+            if src.is_relative_to(whole):
+                raise InputError(
+                    f"{folder}: {what} replaces this folder, which holds {label} {path}; {fix}"
+                )
+
+
+def default_output(source: str | os.PathLike[str], tail: str) -> str:
+    """Where a command writes the output named after ``source`` when no -o names it: the
+    source's file name stem + ``tail`` (``.png``, ``_frames``) beside it, or, for a
+    source on another machine (a URL), in the current folder."""
+    if is_remote(source):
+        from urllib.parse import unquote, urlsplit
+
+        stem = Path(unquote(urlsplit(str(source)).path)).stem or "out"
+        return f"{stem}{tail}"
+    local = local_file(source) if is_url(source) else Path(source)
+    assert local is not None
+    return str(local.with_name(f"{local.stem}{tail}"))
+
+
+def remote_reach(base: str, path: str) -> str | None:
+    """Why the scene at the URL ``base`` may not name ``path`` (None when it may):
+    a remote scene names files beside it on its own server (relative paths, builtins,
+    or URLs on its own server), never a file of this machine nor of another server."""
+    if path.startswith("builtin:"):
+        return None
+    if not is_url(path):
+        if os.path.isabs(path):
+            return "a path of this machine"
+        return None
+    from urllib.parse import urlsplit
+
+    here, there = urlsplit(base), urlsplit(path)
+    if (here.scheme.lower(), here.netloc.lower()) == (there.scheme.lower(), there.netloc.lower()):
+        return None
+    return f"a file of {there.scheme}://{there.netloc}, not of its own server"
 
 
 def base_folder(text: str) -> Path | str:
@@ -55,6 +157,7 @@ def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
     """``path`` if it names a regular file (symbolic links followed), else FormatError
     naming it and saying what it is instead; ``what`` says what was expected. A URL
     gives the local copy :func:`fetched` keeps of it."""
+    path = file_path(path, "path")
     if is_url(path):
         return fetched(path, what)
     p = Path(path)

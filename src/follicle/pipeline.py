@@ -21,7 +21,7 @@ from .io.mesh_load import load_mesh
 from .mesh.skin import SkinMesh
 from .render import Camera, fit_camera, make_renderer, render, save_png
 from .scene import RenderParams, Scene, scene_from_toml, scene_to_toml
-from .validate import positive, whole
+from .validate import file_path, positive, whole
 
 if TYPE_CHECKING:
     from .io.sim_cache import SimCache
@@ -118,6 +118,10 @@ def grow(
     scene: Scene | None = None, progress: Callable[[int, int], None] | None = None
 ) -> tuple[SkinMesh, HairCurves]:
     """Grow the hair of ``scene`` (the default scene when None): (mesh, curves)."""
+    if scene is not None and not isinstance(scene, Scene):
+        raise InputError(
+            f"scene: expected a follicle.Scene (load_scene), got {type(scene).__name__}"
+        )
     groom = groom_scene(scene if scene is not None else Scene())
     return groom.mesh, groom.generate(progress=progress)
 
@@ -277,6 +281,7 @@ def describe_cache(path: str | os.PathLike[str]) -> str:
     """One paragraph on the cache at ``path`` for `follicle info`: frames, fps and length,
     guides and vertices, the head motion and the hairs `follicle render` grows. Reading the
     stored scene checks it too, so a damaged one is refused here as in `follicle render`."""
+    path = file_path(path, "describe_cache path")
     from .io.sim_cache import load_cache
 
     cache = load_cache(path)
@@ -432,6 +437,7 @@ def render_cache(
     all) picks cache frames; files are named by cache frame, so ranges add up to one
     sequence seen through one camera (:func:`render_frames`).
     """
+    out_dir = file_path(out_dir, "render_cache out_dir")
     frames = check_frames(cache, frames)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -17,6 +17,9 @@ from __future__ import annotations
 import math
 import os
 import sys
+import types
+import typing
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
@@ -28,15 +31,17 @@ from pydantic import (
     ValidationInfo,
     field_validator,
 )
+from pydantic.fields import FieldInfo
 
 from .errors import ConfigError, FileAccessError
 from .groom.settings import GroomParams, PropertyTag
-from .inputs import input_file, is_url
+from .inputs import input_file, is_remote, is_url, remote_reach
 from .io.targets import TARGET_NAMES
 from .render.settings import LightParams, RenderParams
 from .settings import StrictSection, format_errors, shown
 from .sim.settings import ColliderParams, SimParams
 from .units import UNITS, metres_per_unit, units_for
+from .validate import file_path
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -54,8 +59,11 @@ __all__ = [
     "LightParams",
     "OutputParams",
     "PropertyTag",
+    "holds_paths",
     "load_scene",
     "parse_scene",
+    "scene_files",
+    "scene_paths",
     "scene_to_toml",
     "MAX_SCENE_BYTES",
 ]
@@ -185,12 +193,71 @@ class Scene(StrictSection):
             return f"{self.base_dir.rstrip('/')}/{path}"
         return str(self.base_dir / path)
 
+    def output_path(self, name: str) -> str:
+        """Where a default output ``name`` ([output].curves, …) goes: resolved like an
+        input beside a scene of this machine; for a scene read from another machine (a
+        URL), its file name alone, in the current folder."""
+        if is_remote(self.base_dir):
+            return Path(name).name or name
+        return self.resolve(name)
+
     def _owner_hint(self, name: str) -> str:
         return f"scene = scene.replace({name}=...)"
 
 
 # every section names its [table] (Section.replace): the scene's field of that name
 assert all(f.exclude or f.annotation._section == k for k, f in Scene.model_fields.items())
+
+
+def holds_paths(field: FieldInfo) -> bool:
+    """Whether a scene key's text values are file paths: typed ``str`` (alone or in a
+    union) or a groom property (a number, an image path, or a table with ``texture``);
+    a choice (Literal) holds names, not paths."""
+    a = field.annotation
+    union = typing.get_origin(a) in (typing.Union, types.UnionType)
+    return a is typing.Any or a is str or (union and str in typing.get_args(a))
+
+
+def scene_paths(scene: Scene, outputs: bool = False) -> Iterator[tuple[str, str]]:
+    """Every file path the scene's keys give, as written: (``[section].key``, path),
+    for text values of path keys (:func:`holds_paths`) and a groom property table's
+    ``texture``; the [output] keys only with ``outputs``."""
+    for name, field in Scene.model_fields.items():
+        if field.exclude or (name == "output" and not outputs):
+            continue
+        model = getattr(scene, name)
+        for key, sub in type(model).model_fields.items():
+            if not holds_paths(sub):
+                continue
+            value = getattr(model, key)
+            if isinstance(value, dict):
+                value = value.get("texture")
+            if isinstance(value, str):
+                yield f"[{name}].{key}", value
+
+
+def scene_files(scene: Scene) -> list[tuple[str, str]]:
+    """The files a scene reads (its inputs, not [output]), resolved as it reads them, as
+    (``the scene's [section].key``, path) pairs; built-ins left out."""
+    return [
+        (f"the scene's {key}", scene.resolve(path))
+        for key, path in scene_paths(scene)
+        if not path.startswith("builtin:")
+    ]
+
+
+def _check_remote(scene: Scene, source: str) -> None:
+    """A scene read from another machine reads only files beside it on its own server:
+    ConfigError naming the key of one that is a path of this machine, a ``file://`` URL
+    or a file of another server (the user never named those). Its [output] names only
+    a file name (:meth:`Scene.output_path`)."""
+    for key, path in scene_paths(scene):
+        why = remote_reach(source, path)
+        if why is not None:
+            raise ConfigError(
+                f"{source}: {key} = {shown(path)}: is {why}; a scene read from a URL names"
+                " files beside it on its own server (a relative path)"
+            )
 
 
 def parse_scene(
@@ -214,6 +281,7 @@ def load_scene(path: str | os.PathLike[str] | None) -> Scene:
     """
     if path is None:
         return Scene()
+    path = file_path(path, "load_scene path")
     p = Path(path)
     if not is_url(path) and not os.path.lexists(p):
         raise FileAccessError(f"{p}: no such scene file")
@@ -232,7 +300,10 @@ def load_scene(path: str | os.PathLike[str] | None) -> Scene:
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{p}: not a UTF-8 text file (bad byte at offset {exc.start})") from None
     if is_url(path):  # its relative paths are URLs beside it
-        return scene_from_toml(text, str(path), str(path).rsplit("/", 1)[0])
+        scene = scene_from_toml(text, str(path), str(path).rsplit("/", 1)[0])
+        if is_remote(path):
+            _check_remote(scene, str(path))
+        return scene
     return scene_from_toml(text, str(p), p.resolve().parent)
 
 

@@ -54,6 +54,22 @@ class Section(BaseModel):
     _section: ClassVar[str | None] = None
     _owner: ClassVar[str | None] = None
 
+    def __init__(self, /, **data: object) -> None:
+        """Validated as :meth:`replace` validates: ConfigError naming ``[section].key``,
+        not pydantic's ValidationError (a ValueError), for a value out of range."""
+        try:
+            super().__init__(**data)
+        except ValidationError as err:
+            cls = type(self)
+            if cls._section is None:  # a table of a section ([[sim.colliders]]): its class
+                raise ConfigError(format_errors("settings", err, cls, (cls.__name__,))) from None
+            raise ConfigError(format_errors(cls.__name__, err, cls, (cls._section,))) from None
+
+    # pydantic calls a model's own __init__ when it validates it inside another (a
+    # [[sim.colliders]] entry); marked as its base __init__, it keeps to direct calls,
+    # and the enclosing model's errors name the whole place ([sim].colliders.0.normal)
+    __init__.__pydantic_base_init__ = True  # type: ignore[attr-defined]
+
     def __setattr__(self, name: str, value: object) -> None:
         kind = type(self).__name__
         raise ConfigError(

@@ -21,12 +21,13 @@ argument be None (returned as it is) and says "or None" when the value is refuse
 from __future__ import annotations
 
 import math
+import os
 from numbers import Integral, Real
 from typing import Literal, overload
 
 from .errors import InputError
 
-__all__ = ["number", "positive", "whole", "is_whole"]
+__all__ = ["file_path", "number", "positive", "whole", "is_whole"]
 
 _SHOWN = 60  # characters of a given value's repr kept in a message
 
@@ -178,3 +179,20 @@ def whole(
         want = "" if hi is None else f" ≤ {hi}"
     want += " or None" if allow_none else ""
     raise InputError(f"{name}: expected {what}{want} (got {_show(value)})")
+
+
+def file_path(value: object, name: str = "path") -> str | os.PathLike[str]:
+    """``value`` as it is when it names a file: a ``str`` (a path, a URL or a
+    ``builtin:`` name) or an ``os.PathLike`` giving one; else an InputError naming
+    ``name`` (None, a number, bytes, a list: what ``open`` would refuse with a
+    TypeError)."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, os.PathLike):
+        try:
+            text = os.fspath(value)
+        except TypeError:
+            text = None
+        if isinstance(text, str):
+            return value
+    raise InputError(f"{name}: expected a file path (str or os.PathLike), got {_show(value)}")

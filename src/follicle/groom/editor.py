@@ -28,7 +28,7 @@ from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
 from ..render.camera import Camera
 from ..render.options import parse_size
-from ..validate import number, positive
+from ..validate import file_path, number, positive
 from . import brushes
 from .groups import InterpolationGroups, color_label
 from .guides import Guides, load_guides
@@ -155,6 +155,7 @@ class GuideEditor:
     def save(self, path: str | os.PathLike[str], **options: object) -> Path:
         """Write the guides (with their root bindings) to ``path`` in the curves format
         its extension names (:func:`follicle.save`)."""
+        path = file_path(path, "GuideEditor.save path")
         from ..io.dispatch import save
 
         return save(self.guides.curves, path, **options)
@@ -676,7 +677,7 @@ def replay_file(
     to ``builtin:head``) with the log replayed — what ``follicle groom`` runs."""
     from ..io.mesh_load import load_mesh
 
-    name = os.fspath(path)
+    name = os.fspath(file_path(path, "replay_file path"))
     doc = load_strokes(name)
     source = guides or doc.get("guides")
     if source is None:

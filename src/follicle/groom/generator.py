@@ -235,6 +235,10 @@ class Groom:
         displacement_scale: float = 1.0,
         resolve_path: Callable[[str], str] = str,
     ) -> None:
+        if not isinstance(mesh, SkinMesh):
+            raise InputError(
+                f"mesh: expected a follicle.SkinMesh (load_mesh), got {type(mesh).__name__}"
+            )
         self.mesh = mesh
         if isinstance(guides, HairCurves):
             guides = Guides(guides, mesh)

@@ -29,6 +29,7 @@ from ..units import (
     units_for,
     warn_guide_size,
 )
+from ..validate import file_path, whole
 from .groups import InterpolationGroups, mesh_groups
 
 log = logging.getLogger("follicle")
@@ -74,8 +75,7 @@ def _resample_kernel(points, offsets, s_new, out):
 
 def resample_arclength(curves: HairCurves, vertices: int) -> np.ndarray:
     """Every curve resampled to ``vertices`` points evenly spaced by arc length, (C, n, 3)."""
-    if vertices < 2:
-        raise InputError(f"vertices: need at least 2 per curve, got {vertices}")
+    vertices = whole(vertices, "vertices", 2, what="a whole number of vertices per curve")
     out = np.empty((curves.curve_count, vertices, 3), dtype=np.float64)
     points = np.ascontiguousarray(curves.points, dtype=np.float64)
     offsets = np.ascontiguousarray(curves.offsets, dtype=np.int64)
@@ -158,7 +158,7 @@ class Guides:
         if curves.curve_count == 0:
             raise InputError("guides: need at least one guide curve")
         self.mesh = mesh
-        n = vertices if vertices is not None else int(curves.counts.max())
+        n = whole(vertices, "vertices", 2, allow_none=True) or int(curves.counts.max())
         if not _bound(curves):
             curves = bind_roots(curves, mesh)
         self.curves = curves
@@ -257,7 +257,7 @@ def load_guides(
 
     if isinstance(source, HairCurves):
         name, curves = "guides", scale_curves(source, metres_per_unit(units))
-    elif str(source).startswith("builtin:"):
+    elif str(file_path(source, "load_guides source")).startswith("builtin:"):
         units_for(str(source), units)  # built-in guides are metres: other units are an error
         if groups is None:  # they part where the mesh says (the built-in head's mid-plane)
             groups = mesh_groups(mesh)

@@ -28,7 +28,9 @@ from pathlib import Path
 
 from ..atomic import atomic_path
 from ..errors import FormatError, InputError
+from ..inputs import input_file
 from ..render.camera import Camera
+from ..validate import file_path
 
 __all__ = [
     "VERSION",
@@ -100,7 +102,9 @@ def load_strokes(path: str | os.PathLike[str]) -> dict[str, object]:
     """A stroke log read and checked: its version, sources and entries (each a stroke
     with known keys, or an undo or redo); FormatError or InputError naming the file and
     the entry otherwise. The strokes' own values are checked when replayed."""
+    path = file_path(path, "load_strokes path")
     name = os.fspath(path)
+    input_file(name, "stroke log (JSON)")  # a folder, FIFO or device refused by name
     try:
         size = os.path.getsize(name)
     except OSError as exc:

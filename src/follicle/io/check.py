@@ -19,6 +19,7 @@ from pathlib import Path
 
 from ..curves import HairCurves
 from ..units import scale_curves
+from ..validate import file_path
 from .attributes import plausible_widths
 from .guard import curves_from_parts
 from .targets import Target, get_target, problems
@@ -76,6 +77,7 @@ def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[Hair
     from .usd import SUFFIXES as USD_SUFFIXES
     from .usd import usd_parts
 
+    path = file_path(path, "check_file path")
     t = get_target(target)
     suffix = Path(path).suffix.lower()
     alembic = suffix == ".abc"

@@ -14,6 +14,7 @@ from pathlib import Path
 from ..curves import HairCurves
 from ..errors import FormatError
 from ..units import Units, scale_curves, units_for
+from ..validate import file_path
 from .alembic import load_abc, save_abc
 from .attributes import plausible_widths
 from .cyhair import load_cyhair, save_cyhair
@@ -62,6 +63,7 @@ def _suffix(path: str | os.PathLike[str], table: dict, verb: str) -> str:
 def save(curves: Curves, path: str | os.PathLike[str], **options: object) -> Path:
     """Write ``curves`` (HairCurves, or an iterable of HairCurves chunks) to ``path`` in
     the format its extension names."""
+    path = file_path(path, "save path")
     writer = WRITERS[_suffix(path, WRITERS, "write")]
     return writer(as_chunks(curves), path, **options)
 
@@ -75,6 +77,7 @@ def load_curves(path: str | os.PathLike[str], units: Units = "m") -> HairCurves:
     no other ``units``. Widths that are not hair (a median over 5 mm: a tool's default
     radius, or the wrong unit) log a warning naming the file.
     """
+    path = file_path(path, "load_curves path")
     reader = READERS[_suffix(path, READERS, "read")]
     mpu = units_for(path, units)  # checked before the file is read
     curves = scale_curves(reader(path), mpu)

@@ -99,9 +99,9 @@ def _arrays(value: object) -> Iterator[np.ndarray]:
 
 def _check_size(parts: list[dict], cap: int, source: str, tool: str) -> None:
     """Refused unless the parts' arrays, each counted whole as the parent will hold it,
-    fit the memory this file was given less :data:`READER_OVERHEAD`: a file whose objects share one array on disk
-    (Alembic and USD deduplicate) reads small here, as views, but is a copy per object
-    once written out and joined."""
+    fit the memory this file was given less :data:`READER_OVERHEAD`: a file whose
+    objects share one array on disk (Alembic and USD deduplicate) reads small here, as
+    views, but is a copy per object once written out and joined."""
     total = sum(a.nbytes for a in _arrays(parts))
     room = max(cap - READER_OVERHEAD, 0)
     if total > room:

@@ -14,6 +14,7 @@ from ..inputs import input_file, is_url
 from ..mesh.head import builtin_head
 from ..mesh.skin import SkinMesh
 from ..units import Units, units_for, warn_mesh_size
+from ..validate import file_path
 
 __all__ = ["load_mesh", "MESH_EXTENSIONS", "BUILTIN_MESHES"]
 
@@ -42,6 +43,7 @@ def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
     units other than metres for a built-in mesh or a glTF or USD file (they declare
     their own) raise InputError.
     """
+    path = file_path(path, "load_mesh path")
     mpu = units_for(path, units)
     text = os.fspath(path)
     if isinstance(text, str) and text.startswith(_BUILTIN_PREFIX):

@@ -16,6 +16,7 @@ import numpy as np
 from ..atomic import atomic_path
 from ..errors import FormatError
 from ..mesh.skin import SkinMesh
+from ..validate import file_path
 
 __all__ = ["save_mesh", "MESH_WRITE_EXTENSIONS"]
 
@@ -25,6 +26,7 @@ MESH_WRITE_EXTENSIONS = (".obj", ".ply", ".glb", ".gltf", ".stl", ".off")
 def save_mesh(mesh: SkinMesh, path: str | os.PathLike[str]) -> Path:
     """Write ``mesh``'s rest vertices, triangles and per-vertex UVs to ``path``,
     atomically, in the format its extension names; the same mesh gives the same bytes."""
+    path = file_path(path, "save_mesh path")
     import trimesh
 
     target = Path(path)

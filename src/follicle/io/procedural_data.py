@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import FormatError
 from ..mesh.skin import SkinMesh
-from ..validate import number, whole
+from ..validate import file_path, number, whole
 
 __all__ = ["VoxelGrid", "FrameData", "MAX_VOXELS"]
 
@@ -107,6 +107,7 @@ class FrameData:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> FrameData:
         """Read a frame file; FormatError naming the file and the fault if it is not one."""
+        path = file_path(path, "FrameData.load path")
         where = str(path)
         try:
             if not stat.S_ISREG(os.stat(path).st_mode):  # a pipe or a device could hang

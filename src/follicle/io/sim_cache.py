@@ -31,7 +31,7 @@ import numpy as np
 
 from ..arrays import RIGID_TOLERANCE, all_finite, frozen, rigid
 from ..errors import FormatError, InputError
-from ..validate import positive
+from ..validate import file_path, positive
 from .npz import load_arrays, save_arrays
 
 __all__ = [
@@ -168,6 +168,7 @@ def save_cache(
     """Write a simulation cache to ``path`` (.npz) atomically; positions and skin vertices
     are stored as float32, transforms as float64. Bad arrays raise InputError and write
     nothing."""
+    path = file_path(path, "save_cache path")
     if Path(path).suffix.lower() != ".npz":
         raise FormatError(f"{path}: a simulation cache must end in .npz")
     try:
@@ -196,6 +197,7 @@ def save_cache(
 def write_cache(cache: SimCache, path: str | os.PathLike[str]) -> Path:
     """:func:`save_cache` of everything ``cache`` holds (a simulation's, before it is
     written)."""
+    path = file_path(path, "write_cache path")
     return save_cache(
         path,
         cache.positions,
@@ -210,6 +212,7 @@ def write_cache(cache: SimCache, path: str | os.PathLike[str]) -> Path:
 def is_cache(path: str | os.PathLike[str]) -> bool:
     """True when ``path`` is a readable ``.npz`` whose ``format`` says simulation cache (any
     version); False for curves files, other archives, damaged, non-zip and missing files."""
+    path = file_path(path, "is_cache path")
     try:
         tag = load_arrays(path, only={"format"})[1].get("format")
     except FormatError:
@@ -226,6 +229,7 @@ def _is_tag(tag: np.ndarray | None) -> bool:
 
 def load_cache(path: str | os.PathLike[str]) -> SimCache:
     """Read and check a cache written by :func:`save_cache`; FormatError says what is wrong."""
+    path = file_path(path, "load_cache path")
     p, data = load_arrays(path)
     if not _is_tag(data.get("format")):
         raise FormatError(

@@ -29,7 +29,7 @@ from ..errors import FileAccessError, FormatError, InputError
 from ..inputs import input_file, is_url
 from ..mesh.skin import MAX_COORDINATE, SkinMesh
 from ..units import Units, units_for
-from ..validate import number
+from ..validate import file_path, number
 from .polymesh import polygon_layout
 
 __all__ = ["SkinAnimation", "load_skin_animation", "ANIMATION_EXTENSIONS"]
@@ -101,6 +101,7 @@ def load_skin_animation(
     no more than one sample, or its points are not finite; InputError naming it when its
     mesh is not ``skin`` (other points or polygons) or its first sample is more than
     :data:`SIZE_RATIO` times larger or smaller than the skin (other units)."""
+    path = file_path(path, "load_skin_animation path")
     p = Path(os.fspath(path))
     if p.suffix.lower() not in ANIMATION_EXTENSIONS:
         raise FormatError(

@@ -20,14 +20,16 @@ Writing is atomic as a whole: the parts go to a hidden folder beside the root (e
 part file itself under a temporary name, so a task run twice leaves one whole file),
 the root to a temporary name; then the folder is put in place of ``fox.usdc.payloads/`` and
 the root renamed onto ``fox.usdc``. A ``fox.usdc.payloads/`` that holds anything but part
-files is refused before any hair is grown, never replaced.
+files follicle wrote (checked by their contents, not their names), or that is a symbolic
+link, is refused before any hair is grown, never replaced; of an older folder only its
+part files are removed.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
-import shutil
 import uuid
 from collections.abc import Iterable
 from pathlib import Path
@@ -38,11 +40,12 @@ from pxr import Sdf, Usd, UsdGeom
 from ..atomic import _umask, atomic_path, temporary_folder
 from ..curves import HairCurves
 from ..errors import FileAccessError, FormatError
+from ..validate import file_path
 from .animation import target_guides
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 from .usd import HAIR_PATH, SUFFIXES, _define_curves, _finish, _groom_stage, _writing
-from .usd_guard import payloads_folder
+from .usd_guard import check_container, payloads_folder
 
 if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
@@ -52,6 +55,7 @@ __all__ = [
     "payloads_folder",
     "part_file",
     "check_payloads_target",
+    "written_parts",
     "save_usd_part",
     "save_usd_payloads",
     "finish_payloads",
@@ -69,8 +73,11 @@ def part_file(folder: str | os.PathLike[str], index: int) -> Path:
 def check_payloads_target(path: str | os.PathLike[str]) -> Path:
     """``path`` as the root of a payloads layout, refused (FormatError) before any work
     when it is not .usd, .usda or .usdc (a .usdz is one package, not a layer with files
-    beside it) or when its payloads folder exists holding anything but part files."""
-    out = Path(path)
+    beside it), when its name has a character a USD asset path cannot hold (the root's
+    payload arcs name the folder), or when its payloads folder exists and is anything
+    but a folder of part files follicle wrote (:func:`written_parts`): a symbolic link,
+    a file, or a folder holding anything else is never replaced."""
+    out = Path(file_path(path, "payloads layout path"))
     if out.suffix.lower() == ".usdz":
         raise FormatError(
             f"{out}: a .usdz is one package; the payloads layout writes .usd, .usda or"
@@ -81,15 +88,68 @@ def check_payloads_target(path: str | os.PathLike[str]) -> Path:
             f"{out}: the payloads layout (--layout, [output].layout) writes USD: .usd,"
             " .usda or .usdc; write one of those, or the layout file"
         )
-    folder = payloads_folder(out)
-    if folder.exists() and not (
-        folder.is_dir() and all(_PART.fullmatch(p.name) for p in folder.iterdir())
-    ):
+    bad = next((c for c in out.name if _NOT_IN_ASSET_PATH.match(c)), None)
+    if bad is not None:
         raise FormatError(
-            f"{folder}: exists and holds more than the part files of a payloads layout"
-            " (part_NNNN.usdc); move it away or write elsewhere"
+            f"{out}: the name has a character that is not allowed ({bad!r}): the root layer"
+            " names its payloads folder by it, and a USD asset path holds no control"
+            " characters; give a name without it"
         )
+    written_parts(payloads_folder(out))
     return out
+
+
+# what usd-core refuses in an asset path (Sdf: C0 and C1 control characters), and text
+# that is not Unicode (a file name's undecodable bytes)
+_NOT_IN_ASSET_PATH = re.compile(r"[\x00-\x1f\x7f-\x9f\ud800-\udfff]")
+
+
+def written_parts(folder: str | os.PathLike[str]) -> list[Path]:
+    """The part files in the payloads folder ``folder`` (none when it is not there),
+    each checked by its contents to be one follicle wrote: a regular file named
+    ``part_NNNN.usdc`` that is a whole crate layer. FormatError naming the folder when it
+    is a symbolic link or a file, or holds anything else (a folder, a link, another
+    file): follicle replaces only what it wrote."""
+    folder = Path(folder)
+    if not os.path.lexists(folder):
+        return []
+    fix = "it is never replaced: move it away or write elsewhere"
+    if folder.is_symlink():
+        raise FormatError(
+            f"{folder}: exists and is a symbolic link, not a payloads folder follicle wrote; {fix}"
+        )
+    if not folder.is_dir():
+        raise FormatError(f"{folder}: exists and is not a folder; {fix}")
+    parts = []
+    for entry in os.scandir(folder):
+        path = Path(entry.path)
+        if entry.is_symlink():
+            what = "a symbolic link"
+        elif entry.is_dir():
+            what = "a folder"
+        elif not (entry.is_file() and _PART.fullmatch(entry.name)):
+            what = "not a part file (part_NNNN.usdc)"
+        elif not _is_part(path):
+            what = "not a USD crate follicle wrote"
+        else:
+            parts.append(path)
+            continue
+        raise FormatError(
+            f"{folder}: exists and holds more than the part files of a payloads layout:"
+            f" {entry.name} is {what}; {fix}"
+        )
+    return sorted(parts)
+
+
+def _is_part(path: Path) -> bool:
+    """Whether ``path`` holds what :func:`save_usd_part` writes, judged without opening it
+    in usd-core (a folder given by mistake may hold anything): a whole crate layer, its
+    table of contents and sections inside the file."""
+    try:
+        check_container(path)
+    except FormatError:  # FileAccessError too
+        return False
+    return True
 
 
 def save_usd_part(
@@ -157,15 +217,23 @@ def finish_payloads(
 
 
 def _swap(staged: Path, folder: Path) -> None:
-    """Put ``staged`` where ``folder`` is (an older payloads folder is removed after)."""
+    """Put ``staged`` where ``folder`` is. An older payloads folder is moved aside first
+    and then only the part files follicle wrote in it are removed (checked again now,
+    :func:`written_parts`), and the folder itself once it is empty: anything else found
+    in it stays, never deleted."""
     os.chmod(staged, 0o777 & ~_umask())  # made private, as a temporary folder is
+    parts = written_parts(folder)
     old = None
-    if folder.exists():
+    if os.path.lexists(folder):
         old = folder.with_name(f".{folder.name}.old-{uuid.uuid4().hex[:8]}")
         os.rename(folder, old)
     os.rename(staged, folder)
     if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+        for part in parts:
+            with contextlib.suppress(OSError):
+                os.unlink(old / part.name)
+        with contextlib.suppress(OSError):  # not empty: something appeared meanwhile
+            os.rmdir(old)
 
 
 def save_usd_payloads(

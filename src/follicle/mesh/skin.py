@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..arrays import frozen, readonly
+from ..arrays import as_array, frozen, readonly
 from ..errors import InputError
 from ..frames import normalize
 from ..kernels import kernel, prange
@@ -82,13 +82,13 @@ class SkinMesh:
     ) -> None:
         self.name = str(name)
         what = f"mesh '{self.name}'"
-        verts = np.asarray(vertices, dtype=np.float64)
+        verts = as_array(vertices, f"{what}: vertices", np.float64)
         if verts.ndim != 2 or verts.shape[1] != 3 or len(verts) == 0:
             raise InputError(
                 f"{what}: vertices must have shape (V, 3) with V > 0, got {verts.shape}"
             )
         _checked_positions(verts, f"{what}: vertex")
-        f = np.asarray(faces)
+        f = as_array(faces, f"{what}: faces")
         if f.size == 0:
             raise InputError(f"{what} has no faces; give at least one triangle")
         if f.ndim != 2 or f.shape[1] != 3:
@@ -108,7 +108,7 @@ class SkinMesh:
         self.vertices = self.rest_vertices
         self.uvs: np.ndarray | None = None
         if uvs is not None:
-            uv = np.asarray(uvs, dtype=np.float64)
+            uv = as_array(uvs, f"{what}: uvs", np.float64)
             if uv.shape != (len(verts), 2):
                 raise InputError(
                     f"{what}: uvs must have shape ({len(verts)}, 2), one per vertex, got {uv.shape}"
@@ -138,14 +138,14 @@ class SkinMesh:
         if (vertices is None) == (transform is None):
             raise InputError(f"{what}: posed needs exactly one of vertices= or transform=")
         if transform is not None:
-            m = np.asarray(transform, dtype=np.float64)
+            m = as_array(transform, f"{what}: transform", np.float64)
             if m.shape != (4, 4) or not np.all(np.isfinite(m)):
                 raise InputError(f"{what}: transform must be a finite 4x4 matrix, got {m.shape}")
             if not np.allclose(m[3], [0.0, 0.0, 0.0, 1.0]):
                 raise InputError(f"{what}: transform must be affine (last row 0, 0, 0, 1)")
             verts = self.rest_vertices @ m[:3, :3].T + m[:3, 3]
         else:
-            verts = np.asarray(vertices, dtype=np.float64)
+            verts = as_array(vertices, f"{what}: vertices", np.float64)
             if verts.shape != self.rest_vertices.shape:
                 raise InputError(
                     f"{what}: pose vertices must have shape {self.rest_vertices.shape}"
@@ -345,7 +345,7 @@ class SkinMesh:
 
     # ------------------------------------------------------------------ evaluation
     def _check_samples(self, triangles: object, bary: object) -> tuple[np.ndarray, np.ndarray]:
-        tri = np.asarray(triangles)
+        tri = as_array(triangles, "triangles")
         if tri.ndim != 1 or (tri.size and not np.issubdtype(tri.dtype, np.integer)):
             raise InputError(f"triangles must be a 1-D integer array, got {tri.dtype} {tri.shape}")
         tri = tri.astype(np.int64)
@@ -353,7 +353,7 @@ class SkinMesh:
             raise InputError(
                 f"triangles: index out of range for mesh '{self.name}' with {len(self.faces)} faces"
             )
-        b = np.asarray(bary, dtype=np.float64)
+        b = as_array(bary, "bary", np.float64)
         if b.shape != (len(tri), 2):
             raise InputError(f"bary must have shape ({len(tri)}, 2), got {b.shape}")
         if not np.all(np.isfinite(b)):
@@ -395,7 +395,7 @@ class SkinMesh:
         Candidates are the triangles whose bounding sphere comes within the distance
         to the nearest vertex; each is tested exactly, so the result is exact.
         """
-        q = np.asarray(points, dtype=np.float64)
+        q = as_array(points, "points", np.float64)
         if q.ndim != 2 or q.shape[1] != 3:
             raise InputError(f"points must have shape (n, 3), got {q.shape}")
         _finite_rows(q, "points")

@@ -13,9 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arrays import as_array
 from ..errors import FileAccessError, FollicleError, FormatError, InputError
 from ..inputs import input_file, is_url
 from ..kernels import kernel
+from ..validate import file_path
 
 __all__ = ["Texture", "WRAP_MODES", "MAX_TEXTURE_PIXELS"]
 
@@ -63,7 +65,7 @@ class Texture:
     __slots__ = ("data", "wrap", "name")
 
     def __init__(self, data: object, wrap: str = "repeat", name: str = "texture") -> None:
-        arr = np.asarray(data)
+        arr = as_array(data, f"texture {name!r}: data")
         if arr.ndim == 2:
             arr = arr[:, :, None]
         if arr.ndim != 3 or arr.shape[0] < 1 or arr.shape[1] < 1 or arr.shape[2] < 1:
@@ -93,6 +95,7 @@ class Texture:
         so does an image of more than :data:`MAX_TEXTURE_PIXELS` pixels (read from its
         header, before decoding), a truncated one, or a FIFO, device or folder.
         """
+        path = file_path(path, "Texture.load path")
         from PIL import Image
 
         p = Path(path)

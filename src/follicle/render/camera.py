@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..arrays import all_finite, point_bounds
+from ..arrays import all_finite, as_array, point_bounds
 from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
@@ -39,7 +39,7 @@ DEFAULT_FOV = 30.0  # vertical field of view, degrees: every camera's and [rende
 
 
 def _vec3(value: object, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float64)
+    arr = as_array(value, name, np.float64)
     if arr.shape != (3,):
         raise InputError(f"{name}: expected 3 numbers, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -143,7 +143,7 @@ class Camera:
         The depth is the distance in front of the camera along its viewing axis
         (negative behind it). ``size`` is (width, height) in pixels.
         """
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        pts = as_array(points, "project points", np.float64).reshape(-1, 3)
         w, h = (float(s) for s in size)
         right, up, forward = self.basis()
         rel = pts - self.eye
@@ -182,7 +182,7 @@ def fit_camera(
     each axis's feasible range (then centred in the picture). Unlike fitting a bounding
     box's corners, this frames a round head as tightly as its silhouette allows.
     """
-    pts = np.asarray(points)
+    pts = as_array(points, "fit_camera points")
     if pts.dtype.kind != "f":
         pts = pts.astype(np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:

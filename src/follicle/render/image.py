@@ -14,6 +14,7 @@ import numpy as np
 from ..atomic import atomic_path
 from ..errors import InputError
 from ..kernels import kernel
+from ..validate import file_path
 
 __all__ = [
     "linear_to_srgb",
@@ -120,6 +121,7 @@ def save_png(image: object, path: str | os.PathLike[str]) -> None:
 
     Float images are taken as linear RGB(A) in [0, 1] and encoded to sRGB first.
     """
+    path = file_path(path, "save_png path")
     from PIL import Image
 
     arr = np.asarray(image)

@@ -21,6 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..errors import InputError
 from ..kernels import kernel, prange
 from ..mesh.sdf import sdf_lookup
 from .settings import SHAPES
@@ -112,7 +113,13 @@ def colliders(
                 row[c : c + 3] = r @ value + t
             else:
                 turned = r @ value
-                row[c : c + 3] = turned / np.linalg.norm(turned)
+                length = float(np.linalg.norm(turned))
+                if not 0.0 < length < math.inf:  # settings refuse it; a duck-typed shape
+                    raise InputError(
+                        f"{shape.kind} {field}: {value.tolist()} has no direction (too short"
+                        " to make unit length); give e.g. (0, 1, 0)"
+                    )
+                row[c : c + 3] = turned / length
         rows.append(row)
     return Colliders(np.array(rows, np.float64).reshape(-1, COLUMNS), *sdf)
 

@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, model_validator
 
 from ..settings import StrictSection, Unit, Vec3
 
-__all__ = ["SimParams", "ColliderParams", "MAX_ACCELERATION", "SHAPES"]
+__all__ = ["SimParams", "ColliderParams", "MAX_ACCELERATION", "MIN_NORMAL", "SHAPES"]
 
 # an acceleration on the hair (gravity, wind): beyond ±100 m/s² (10 g) the skin's
 # collisions and the strands' lengths fight and segments stretch (README: Dynamics)
 MAX_ACCELERATION = 100.0
+# a plane's normal is a direction, made unit length: one shorter than this is a typo
+# (or would underflow when squared), not a direction
+MIN_NORMAL = 1e-9
 Accel = Annotated[float, Field(ge=-MAX_ACCELERATION, le=MAX_ACCELERATION)]
 Acceleration = Annotated[tuple[Accel, Accel, Accel], Field(strict=False)]
 
@@ -46,8 +50,12 @@ class ColliderParams(StrictSection):
 
     @model_validator(mode="after")
     def _normal_has_a_direction(self) -> ColliderParams:
-        if self.kind == "plane" and not any(self.normal):
-            raise ValueError("normal: a plane needs a non-zero normal, e.g. (0, 1, 0)")
+        # the solver makes it unit length: its squared length must not underflow to 0
+        if self.kind == "plane" and not math.fsum(c * c for c in self.normal) >= MIN_NORMAL**2:
+            raise ValueError(
+                f"normal: a plane needs a non-zero normal, of length at least {MIN_NORMAL:g}"
+                f" (got {list(self.normal)}), e.g. (0, 1, 0)"
+            )
         return self
 
 

@@ -4,26 +4,14 @@ the same scene, with its file paths rewritten for the new file's folder."""
 from __future__ import annotations
 
 import os
-import types
-import typing
 from pathlib import Path
-
-from pydantic.fields import FieldInfo
 
 from ..atomic import atomic_path
 from ..errors import FormatError
-from ..scene import Scene, scene_to_toml
+from ..scene import Scene, holds_paths, scene_to_toml
+from ..validate import file_path
 
 __all__ = ["relocated", "save_scene"]
-
-
-def _holds_paths(field: FieldInfo) -> bool:
-    """Whether a key's text values are file paths: typed ``str`` (alone or in a union) or
-    a groom property (a number, an image path, or a table with ``texture``); a choice
-    (Literal) holds names, not paths."""
-    a = field.annotation
-    union = typing.get_origin(a) in (typing.Union, types.UnionType)
-    return a is typing.Any or a is str or (union and str in typing.get_args(a))
 
 
 def _relative(path: str, folder: Path) -> str:
@@ -56,7 +44,7 @@ def relocated(scene: Scene, folder: str | os.PathLike[str]) -> Scene:
         model = getattr(scene, name)
         if field.exclude:
             continue
-        keys = [k for k, f in type(model).model_fields.items() if _holds_paths(f)]
+        keys = [k for k, f in type(model).model_fields.items() if holds_paths(f)]
         moved = {k: _moved(getattr(model, k), scene, folder) for k in keys}
         sections[name] = model.model_copy(update=moved)
     return scene.model_copy(update={**sections, "base_dir": folder})
@@ -65,6 +53,7 @@ def relocated(scene: Scene, folder: str | os.PathLike[str]) -> Scene:
 def save_scene(scene: Scene, path: str | os.PathLike[str]) -> Path:
     """Write ``scene`` to the TOML file ``path`` (every key, defaults filled in, paths
     relative to the file's folder), atomically; returns the path."""
+    path = file_path(path, "save_scene path")
     target = Path(path)
     if target.suffix.lower() != ".toml":
         raise FormatError(f"{target}: a scene file must end in .toml")
