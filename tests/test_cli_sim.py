@@ -140,7 +140,9 @@ def test_cli_motions_match_the_module_and_the_scene():
 
     from follicle.scene import SimParams
 
-    assert cli.MOTIONS == MOTIONS == get_args(SimParams.model_fields["motion"].annotation)
+    option = next(o for o in cli.simulate.params if o.name == "motion")
+    offered = tuple(option.type.choices)
+    assert offered == MOTIONS == get_args(SimParams.model_fields["motion"].annotation)
 
 
 @pytest.mark.parametrize("command", [["simulate"], ["render"]])

@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from follicle.curves import HairCurves
-from follicle.errors import InputError, ResourceError, SimulationError
+from follicle.errors import ConfigError, InputError, ResourceError, SimulationError
 from follicle.io.sim_cache import load_cache
 from follicle.scene import SimParams
 from follicle.sim import Simulator
@@ -345,7 +345,7 @@ COMBINED = [  # extremes that only show together
 
 def test_gusts_and_turbulence_cannot_lift_the_wind_past_its_limit():
     SimParams(wind=(10.0, 0.0, 0.0), wind_gust=4.0, wind_turbulence=1.0)  # peaks at 100
-    with pytest.raises(ValueError, match=r"peaks at 101 m/s²; at most 100"):
+    with pytest.raises(ConfigError, match=r"\[sim\]: .*peaks at 101 m/s²; at most 100"):
         SimParams(wind=(10.1, 0.0, 0.0), wind_gust=4.0, wind_turbulence=1.0)
 
 
@@ -384,7 +384,7 @@ def _shake(mesh, curves, settings: dict) -> tuple[float, float]:
 def test_every_accepted_sim_value_gives_a_stable_simulation(head, name, value):
     mesh, curves = head
     if (name, value) in PEAK_REFUSED:
-        with pytest.raises(ValueError, match=r"wind × \(1 \+ wind_gust\)"):
+        with pytest.raises(ConfigError, match=r"\[sim\]: wind × \(1 \+ wind_gust\)"):
             SimParams(**{name: value})
         return
     if (name, value) in REFUSED:
