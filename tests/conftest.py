@@ -2,10 +2,10 @@
 
 - follicle's prebuilt kernels (``src/follicle/_kernels``, what a wheel ships: numba
   compiling every kernel once, in as many processes as there are cores), when they are
-  missing or stale and more than one test file runs. It is done before the first test,
-  so no test compiles a kernel (the tests then run the kernels a wheel's user runs, and
-  the wheel test's build copies them instead of compiling them again). A single test file
-  compiles what it needs on first use, as a source install does.
+  missing or stale and more than one test file runs. It is done before collection (which
+  runs kernels), so no test compiles a kernel (the tests then run the kernels a wheel's
+  user runs, and the wheel test's build copies them instead of compiling them again). A
+  single test file compiles what it needs on first use, as a source install does.
 - Blender's test environment (``.venv-blender``, :mod:`blender_env`), begun in the
   background when the session runs ``test_blender.py`` and it is not made yet; the tests
   that need it wait on its lock.
@@ -28,7 +28,6 @@ import pytest
 TESTS = Path(__file__).resolve().parent
 SOURCES = TESTS.parent / "src" / "follicle"
 _started: list[subprocess.Popen] = []
-_STALE = pytest.StashKey[bool]()
 
 
 def _kernels_stale() -> bool:
@@ -74,20 +73,30 @@ def _start(code: str, name: str) -> None:
         )
 
 
+def _test_files(config: pytest.Config) -> set[str]:
+    """The names of the test files the session's arguments name, or hold when folders."""
+    files: set[str] = set()
+    for arg in config.args or [str(TESTS)]:
+        path = Path(config.invocation_params.dir, arg.split("::")[0])
+        if path.is_dir():
+            files.update(p.name for p in path.rglob("test_*.py"))
+        elif path.suffix == ".py":
+            files.add(path.name)
+    return files
+
+
 def pytest_configure(config: pytest.Config) -> None:
-    config.stash[_STALE] = _kernels_stale()
-
-
-def pytest_collection_finish(session: pytest.Session) -> None:
-    if os.environ.get("FOLLICLE_NO_PREWARM") or session.config.option.collectonly:
+    """Before collection, because collecting runs kernels (parameters made from grooms):
+    a process that ran one before the prebuilt kernels were there compiles them all."""
+    if os.environ.get("FOLLICLE_NO_PREWARM") or config.option.collectonly:
         return
-    files = {Path(str(item.fspath)).name for item in session.items}
+    files = _test_files(config)
     if "test_blender.py" in files:  # first: it downloads while the kernels compile
         import blender_env
 
         if not blender_env.READY.exists() and not os.environ.get("FOLLICLE_BLENDER_PYTHON"):
             _start("import blender_env; blender_env.blender_python()", "blender")
-    if len(files) > 1 and session.config.stash[_STALE]:
+    if len(files) > 1 and _kernels_stale():
         _build_kernels()
 
 
