@@ -15,6 +15,7 @@ import functools
 import json
 import os
 import pty
+import re
 import resource
 import select
 import signal
@@ -36,13 +37,15 @@ FOLLICLE = [sys.executable, "-m", "follicle.cli"]
 @dataclass
 class Outcome:
     """What a child process did: exit code (negative: killed by that signal), its output,
-    and how long it took; ``timed_out`` when it was killed at the time limit."""
+    and how long it took; ``timed_out`` when it was killed at the time limit; ``tty``
+    when it ran on a pseudo-terminal (its one output is ``stdout``, colours and all)."""
 
     rc: int
     stdout: str
     stderr: str
     seconds: float
     timed_out: bool
+    tty: bool = False
 
 
 def _limits(memory: int) -> None:  # runs in the child, before exec
@@ -139,7 +142,7 @@ def run(
     proc.wait()
     os.close(master)
     text = b"".join(chunks).decode(errors="replace")
-    return Outcome(proc.returncode, text, "", time.perf_counter() - start, timed_out)
+    return Outcome(proc.returncode, text, "", time.perf_counter() - start, timed_out, True)
 
 
 def run_cli(
@@ -218,7 +221,8 @@ def assert_cli_refused(out: Outcome, *names: str) -> str:
     assert not out.timed_out, f"did not finish in {SECONDS} s\n{shown}"
     assert out.rc == 2, shown
     assert "Traceback" not in out.stderr + out.stdout, shown
-    lines = [line for line in out.stderr.splitlines() if line.strip()]
+    said = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", out.stdout) if out.tty else out.stderr
+    lines = [line.strip() for line in said.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: "), shown
     for name in names:
         assert name in lines[0], f"{name!r} not named\n{shown}"

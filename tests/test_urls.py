@@ -8,13 +8,15 @@ from __future__ import annotations
 
 import functools
 import http.server
+import socketserver
 import threading
+import time
 
 import numpy as np
 import pytest
 from PIL import Image
 
-from follicle.errors import ConfigError, FormatError
+from follicle.errors import ConfigError, FileAccessError, FormatError
 from follicle.inputs import input_file, is_url
 from follicle.io.dispatch import load_curves, save
 from follicle.io.mesh_load import load_mesh
@@ -245,3 +247,150 @@ def test_a_skin_animation_url_is_fetched_like_every_url_input(served, tmp_path):
         assert "skin animation" in out.stdout
     assert "/anim.usdc" in sent
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cache", "s.toml", "sim.npz", "site"]
+
+
+class _Hostile(socketserver.BaseRequestHandler):
+    """A server that misbehaves by the path asked for: /trickle.* sends a 1 MiB body a
+    byte every 50 ms, /headers.* sends headers without end, /silent.* never answers,
+    /endless.* streams zeros without a length, /liar.* declares a terabyte."""
+
+    gets: list[str]
+
+    def handle(self) -> None:
+        request = b""
+        while b"\r\n\r\n" not in request:
+            more = self.request.recv(4096)
+            if not more:
+                return
+            request += more
+        method, path = request.split(b" ", 2)[:2]
+        kind = path.decode().strip("/").split(".")[0]
+        if method == b"GET":
+            self.gets.append(kind)
+        send = self.request.sendall
+        try:
+            if kind == "silent":
+                time.sleep(30)
+            elif kind == "headers":
+                send(b"HTTP/1.1 200 OK\r\n")
+                for i in range(600):
+                    send(b"X-More-%d: yes\r\n" % i)
+                    time.sleep(0.05)
+            elif kind == "liar":
+                send(b"HTTP/1.1 200 OK\r\nContent-Length: 1000000000000\r\n\r\n")
+                if method == b"GET":
+                    send(bytes(1 << 16))
+            elif kind == "endless":
+                send(b"HTTP/1.1 200 OK\r\nConnection: close\r\n\r\n")
+                if method == b"GET":
+                    for _ in range(1 << 16):  # 4 GiB at most, should no one stop reading
+                        send(bytes(1 << 16))
+            else:  # trickle
+                send(b"HTTP/1.1 200 OK\r\nContent-Length: 1048576\r\n\r\n")
+                if method == b"GET":
+                    for _ in range(600):
+                        send(b"#")
+                        time.sleep(0.05)
+        except OSError:  # the client left: what a watched fetch does
+            pass
+
+
+@pytest.fixture
+def hostile_server(tmp_path, monkeypatch):
+    """(base URL, kinds fetched with GET) of a :class:`_Hostile` server; fetches wait
+    1 s for 16 KiB and are kept in tmp_path/cache."""
+    gets: list[str] = []
+    server = socketserver.ThreadingTCPServer(
+        ("127.0.0.1", 0), type("Handler", (_Hostile,), {"gets": gets})
+    )
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    monkeypatch.setenv("FOLLICLE_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("FOLLICLE_URL_TIMEOUT", "1")
+    yield f"http://127.0.0.1:{server.server_address[1]}", gets
+    server.shutdown()
+    server.server_close()
+
+
+def _cached(tmp_path) -> list[str]:
+    return sorted(p.name for p in (tmp_path / "cache").rglob("*") if p.is_file())
+
+
+@pytest.mark.parametrize(
+    ("kind", "says"),
+    [("trickle", "sent 2"), ("headers", "sent nothing"), ("silent", "sent nothing")],
+)
+def test_a_server_too_slow_or_silent_is_left_within_the_timeout(
+    hostile_server, tmp_path, kind, says
+):
+    """A body that trickles (20 bytes a second), headers that never end and a server
+    that accepts but never speaks are each one FileAccessError within about the timeout
+    (1 s here), and nothing stays in the cache."""
+    url, _ = hostile_server
+    start = time.monotonic()
+    with pytest.raises(FileAccessError, match="FOLLICLE_URL_TIMEOUT") as err:
+        input_file(f"{url}/{kind}.png", "image")
+    assert time.monotonic() - start < 6
+    assert str(err.value).startswith(f"{url}/{kind}.png: the server {says}")
+    time.sleep(0.3)  # the fetching thread, told to stop, removes what it began
+    assert _cached(tmp_path) == []
+
+
+def test_a_download_stops_at_the_readers_size_limit(hostile_server, tmp_path, monkeypatch):
+    """An endless body stops at the reader's limit (a scene's 1 MiB, a stroke log's
+    64 MiB) or at $FOLLICLE_MAX_DOWNLOAD, not at the disk's end; a declared size past
+    the limit is refused before the body is asked for."""
+    from follicle.groom.strokes import MAX_BYTES, load_strokes
+    from follicle.scene import MAX_SCENE_BYTES
+
+    url, gets = hostile_server
+    with pytest.raises(FormatError, match=f"more than the {MAX_SCENE_BYTES:,} bytes a scene"):
+        load_scene(f"{url}/endless.toml")
+    with pytest.raises(FormatError, match=f"more than the {MAX_BYTES:,} bytes a stroke log"):
+        load_strokes(f"{url}/endless.json")
+    monkeypatch.setenv("FOLLICLE_MAX_DOWNLOAD", "3e6")
+    with pytest.raises(FormatError, match=r"more than the 3,000,000 bytes .*FOLLICLE_MAX_DOWN"):
+        load_mesh(f"{url}/endless.obj")
+    with pytest.raises(
+        FormatError, match="liar.obj: 1,000,000,000,000 bytes, more than the 3,000,000"
+    ):
+        load_mesh(f"{url}/liar.obj")
+    assert "endless" in gets and "liar" not in gets  # the liar's body never asked for
+    assert _cached(tmp_path) == []
+    monkeypatch.setenv("FOLLICLE_MAX_DOWNLOAD", "lots")
+    with pytest.raises(ConfigError, match=r"\$FOLLICLE_MAX_DOWNLOAD='lots': give bytes"):
+        load_mesh(f"{url}/endless.obj")
+    monkeypatch.delenv("FOLLICLE_MAX_DOWNLOAD")
+    monkeypatch.setenv("FOLLICLE_URL_TIMEOUT", "-1")
+    with pytest.raises(ConfigError, match=r"\$FOLLICLE_URL_TIMEOUT='-1': give a number"):
+        load_mesh(f"{url}/endless.obj")
+
+
+@pytest.mark.parametrize("tty", [False, True])
+def test_the_cli_leaves_a_slow_server_in_one_line(hostile_server, tmp_path, tty):
+    """`follicle grow URL` from a server whose body trickles, under a pseudo-terminal
+    too: one line naming the URL and the setting, exit 2, nothing written."""
+    url, _ = hostile_server
+    env = {"FOLLICLE_URL_TIMEOUT": "1", "FOLLICLE_CACHE": str(tmp_path / "cache")}
+    out = run_cli("grow", f"{url}/trickle.toml", "-o", "h.npz", cwd=tmp_path, tty=tty, env=env)
+    assert_cli_refused(out, f"{url}/trickle.toml", "FOLLICLE_URL_TIMEOUT")
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name != "cache") == []
+
+
+def test_a_served_stroke_log_names_files_beside_it_only(served, tmp_path):
+    """A stroke log fetched from a server names guides and a mesh on its own server
+    (relative paths become URLs beside it), never a file of this machine."""
+    from follicle.errors import InputError
+    from follicle.groom.editor import replay_file
+
+    folder, url, sent = served
+    local = tmp_path / "mine.hair"
+    local.write_bytes((folder / "guides.hair").read_bytes())
+    log = '{{"follicle_strokes": 1, "guides": "{g}", "mesh": "head.obj", "strokes": []}}'
+    (folder / "near.json").write_text(log.format(g="guides.hair"))
+    (folder / "far.json").write_text(log.format(g=local))
+    editor = replay_file(f"{url}/near.json")
+    assert editor.guides.curves.curve_count > 0
+    assert "/guides.hair" in sent and "/head.obj" in sent
+    with pytest.raises(InputError, match=f"far.json: guides: {local} is a path of this machine"):
+        replay_file(f"{url}/far.json")

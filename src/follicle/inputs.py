@@ -8,7 +8,10 @@ An input may also be a URL (``https://…``, ``s3://…``, ``gs://…``, ``file:
 protocol fsspec knows), so that every worker of a cluster reads a scene's mesh, guides
 and textures from one place: :func:`input_file` fetches it once into a local cache
 (:func:`cache_folder`), keyed by the URL and the file's size and modification stamp,
-and hands the readers that copy.
+and hands the readers that copy. A fetch is watched: a server that sends less than
+16 KiB in any :func:`url_timeout` seconds (headers that never end, a body that trickles)
+is left with one error, and a download stops at the reader's size limit
+(:func:`max_download` for readers without one) instead of filling the disk.
 """
 
 from __future__ import annotations
@@ -18,8 +21,11 @@ import os
 import re
 import shutil
 import stat
-from collections.abc import Iterable
+import threading
+import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 from .atomic import atomic_path
 from .errors import ConfigError, FileAccessError, FormatError, InputError
@@ -34,13 +40,19 @@ __all__ = [
     "is_remote",
     "is_url",
     "local_file",
+    "max_download",
     "remote_reach",
+    "url_timeout",
 ]
 
 _URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]+://")
 # the package a protocol's fsspec backend needs, as the error says it
 _BACKENDS = {"http": "aiohttp", "https": "aiohttp", "s3": "s3fs", "gs": "gcsfs", "gcs": "gcsfs"}
 _BLOCK = 1 << 20
+_CHUNK = 1 << 16  # bytes a streamed read asks for; it returns what has arrived
+_MIN_BYTES = 16 << 10  # a fetch that gets less than this in url_timeout() seconds is left
+_DEFAULT_TIMEOUT = 30.0
+_DEFAULT_MAX_DOWNLOAD = 16 << 30
 
 
 def is_url(path: object) -> bool:
@@ -153,13 +165,14 @@ def cache_folder() -> Path:
     return Path(base) / "follicle" / "urls"
 
 
-def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
+def input_file(path: str | os.PathLike[str], what: str = "file", limit: int | None = None) -> Path:
     """``path`` if it names a regular file (symbolic links followed), else FormatError
     naming it and saying what it is instead; ``what`` says what was expected. A URL
-    gives the local copy :func:`fetched` keeps of it."""
+    gives the local copy :func:`fetched` keeps of it, fetching at most ``limit`` bytes
+    (the reader's own size limit; default :func:`max_download`)."""
     path = file_path(path, "path")
     if is_url(path):
-        return fetched(path, what)
+        return fetched(path, what, limit)
     p = Path(path)
     try:
         mode = p.stat().st_mode
@@ -178,14 +191,41 @@ def input_file(path: str | os.PathLike[str], what: str = "file") -> Path:
     return p
 
 
-def fetched(url: str, what: str = "file") -> Path:
+def url_timeout() -> float:
+    """Seconds a fetch waits for a server's next 16 KiB (its answer's headers included):
+    ``$FOLLICLE_URL_TIMEOUT``, default 30."""
+    return _positive_env("FOLLICLE_URL_TIMEOUT", _DEFAULT_TIMEOUT, "a number of seconds, e.g. 60")
+
+
+def max_download() -> int:
+    """The largest file fetched from a URL for a reader without a size limit of its own:
+    ``$FOLLICLE_MAX_DOWNLOAD`` bytes, default 16 GiB."""
+    return int(_positive_env("FOLLICLE_MAX_DOWNLOAD", _DEFAULT_MAX_DOWNLOAD, "bytes, e.g. 4e9"))
+
+
+def _positive_env(name: str, default: float, example: str) -> float:
+    text = os.environ.get(name, "").strip()
+    if not text:
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and value < float("inf")):
+        raise ConfigError(f"${name}={text[:40]!r}: give {example}")
+    return value
+
+
+def fetched(url: str, what: str = "file", limit: int | None = None) -> Path:
     """A local copy of the file at ``url``, fetched through fsspec into
     :func:`cache_folder` unless a copy of the same URL, size and modification stamp is
     there (written whole, under a temporary name, so that workers fetching at once each
     see a whole file); it keeps the URL's file name, so readers see its extension.
-    ``file://`` URLs are read in place. ConfigError when fsspec or the protocol's
-    package is missing; FormatError naming the URL when it is not there, is a folder or
-    cannot be read."""
+    ``file://`` URLs are read in place. At most ``limit`` bytes (default
+    :func:`max_download`) are fetched, and a server slower than 16 KiB in
+    :func:`url_timeout` seconds is left. ConfigError when fsspec or the protocol's
+    package is missing; FormatError or FileAccessError naming the URL when it is not
+    there, is a folder, is too large, too slow or cannot be read."""
     try:
         import fsspec
     except ImportError:
@@ -202,35 +242,130 @@ def fetched(url: str, what: str = "file") -> Path:
         raise FormatError(f"{url}: {exc}; give a path or a URL fsspec reads") from None
     if protocol == "file":
         return input_file(path, what)
+    cap = max_download() if limit is None else limit
+    window = url_timeout()
     try:
-        info = fs.info(path)
+        info = _watched(url, window, lambda got, stop: fs.info(path))
     except FileNotFoundError as exc:
         cause = exc.__cause__  # fsspec's HTTP says "not found" for a server that is down too
         if cause is None or isinstance(cause, FileNotFoundError) or _status(cause) in (404, 410):
             raise FileAccessError(f"{url}: no such file") from None
         raise FileAccessError(f"{url}: cannot be read ({_reason(cause)}); give a {what}") from None
+    except FileAccessError:
+        raise
     except Exception as exc:  # backends raise their own (aiohttp, botocore)
         raise FileAccessError(f"{url}: cannot be read ({_reason(exc)}); give a {what}") from None
     if info.get("type") == "directory":
         raise FormatError(f"{url}: is a folder, not a file; give a {what}")
+    size = info.get("size")
+    if isinstance(size, int) and size > cap:
+        raise FormatError(_too_large(url, size, cap, what))
     stamp = [info.get(k) for k in ("size", "mtime", "LastModified", "ETag", "etag", "md5Hash")]
     key = hashlib.sha256(repr((url, stamp)).encode()).hexdigest()[:32]
     name = os.path.basename(path.rstrip("/")) or "file"
     copy = cache_folder() / key / name
     if copy.is_file():
         return copy
+    if isinstance(size, int) and size > _free_bytes(copy.parent):
+        raise FileAccessError(
+            f"{url}: {size:,} bytes, more than the disk of {copy.parent} has free; free"
+            " space there, or set $FOLLICLE_CACHE to a folder on a larger disk"
+        )
+    # streamed over HTTP (a read returns what has arrived, so the watch sees a trickle)
+    options = {"block_size": 0} if protocol in ("http", "https") else {}
     try:
-        with atomic_path(copy) as tmp, fs.open(path, "rb") as src, open(tmp, "wb") as dst:
-            shutil.copyfileobj(src, dst, _BLOCK)
+        with atomic_path(copy) as tmp:
+            _watched(
+                url,
+                window,
+                lambda got, stop: _copy(fs.open(path, "rb", **options), tmp, cap, got, stop),
+            )
+    except _TooLarge:
+        raise FormatError(_too_large(url, None, cap, what)) from None
+    except FileAccessError:
+        raise
     except Exception as exc:  # as above, or the cache's disk is full
         raise FormatError(
             f"{url}: cannot be fetched into {copy.parent} ({_reason(exc)}); give a {what}"
         ) from None
-    size = info.get("size")
     if size is not None and copy.stat().st_size != size:
         copy.unlink(missing_ok=True)
         raise FormatError(f"{url}: the download stopped short of its {size:,} bytes; fetch again")
     return copy
+
+
+def _free_bytes(folder: Path) -> int:
+    """Free bytes on the disk of ``folder`` (or of its nearest existing parent)."""
+    for where in (folder, *folder.parents):
+        try:
+            return shutil.disk_usage(where).free
+        except OSError:
+            continue
+    return 0
+
+
+class _TooLarge(Exception):
+    """A download passed its size limit."""
+
+
+def _too_large(url: str, size: int | None, cap: int, what: str) -> str:
+    fix = "" if cap != max_download() else "; $FOLLICLE_MAX_DOWNLOAD raises the limit"
+    said = "" if size is None else f"{size:,} bytes, "
+    return f"{url}: {said}more than the {cap:,} bytes a {what} may be; give a smaller one{fix}"
+
+
+def _copy(
+    src: Any, tmp: str | os.PathLike[str], cap: int, got: list[int], stop: threading.Event
+) -> None:
+    """Copy the open remote file ``src`` into ``tmp``, counting bytes into ``got[0]``,
+    until its end, ``cap`` bytes (then _TooLarge) or ``stop`` (then ``tmp`` is removed:
+    the watcher has given up on it)."""
+    try:
+        with src, open(tmp, "wb") as dst:
+            while not stop.is_set():
+                chunk = src.read(_CHUNK)
+                if not chunk:
+                    return
+                got[0] += len(chunk)
+                if got[0] > cap:
+                    raise _TooLarge
+                dst.write(chunk)
+    finally:
+        if stop.is_set():
+            Path(tmp).unlink(missing_ok=True)
+
+
+def _watched(url: str, window: float, work: Callable[[list[int], threading.Event], Any]) -> Any:
+    """``work(got, stop)`` run in a thread while this one watches the bytes it counts in
+    ``got[0]``: FileAccessError when fewer than 16 KiB arrive in any ``window`` seconds
+    (the thread is told to stop and left to end)."""
+    got, stop, result = [0], threading.Event(), []
+
+    def run() -> None:
+        try:
+            result.append((True, work(got, stop)))
+        except BaseException as exc:  # handed to the caller below
+            result.append((False, exc))
+
+    thread = threading.Thread(target=run, name="follicle-fetch", daemon=True)
+    thread.start()
+    mark, seen = time.monotonic(), 0
+    while thread.is_alive():
+        thread.join(min(0.25, window / 4))
+        now = time.monotonic()
+        if thread.is_alive() and now - mark >= window:
+            if got[0] - seen < _MIN_BYTES:
+                stop.set()
+                sent = "nothing" if got[0] == seen else f"{got[0] - seen:,} bytes"
+                raise FileAccessError(
+                    f"{url}: the server sent {sent} in {window:g} s, too slow or not"
+                    " answering; try again, or set $FOLLICLE_URL_TIMEOUT (seconds)"
+                )
+            mark, seen = now, got[0]
+    done, value = result[0]
+    if done:
+        return value
+    raise value
 
 
 def _status(exc: BaseException) -> int | None:

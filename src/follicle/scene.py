@@ -285,7 +285,7 @@ def load_scene(path: str | os.PathLike[str] | None) -> Scene:
     p = Path(path)
     if not is_url(path) and not os.path.lexists(p):
         raise FileAccessError(f"{p}: no such scene file")
-    p = input_file(path, "scene file (TOML)")
+    p = input_file(path, "scene file (TOML)", MAX_SCENE_BYTES)
     try:
         with open(p, "rb") as fh:
             raw = fh.read(MAX_SCENE_BYTES + 1)

@@ -24,6 +24,7 @@ import numpy as np
 from ..arrays import frozen
 from ..curves import HairCurves
 from ..errors import InputError
+from ..inputs import is_remote, is_url, remote_reach
 from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
 from ..render.camera import Camera
@@ -679,10 +680,28 @@ def replay_file(
 
     name = os.fspath(file_path(path, "replay_file path"))
     doc = load_strokes(name)
-    source = guides or doc.get("guides")
+    source = guides or _beside(name, doc, "guides")
     if source is None:
         raise InputError(f"{name} names no guides; give them (follicle groom --guides)")
-    skin = load_mesh(mesh or doc.get("mesh") or "builtin:head")
+    skin = load_mesh(mesh or _beside(name, doc, "mesh") or "builtin:head")
     editor = GuideEditor(load_guides(source, skin))
     replay(editor, doc, name)
     return editor
+
+
+def _beside(log: str, doc: Mapping[str, object], key: str) -> str | None:
+    """The ``mesh`` or ``guides`` source a stroke log names, as read: a log fetched
+    from another machine (a URL) names files beside it on its own server (relative
+    paths become URLs there), never a file of this machine nor of another server."""
+    value = doc.get(key)
+    if not isinstance(value, str) or not is_remote(log):
+        return value if isinstance(value, str) else None
+    reason = remote_reach(log, value)
+    if reason is not None:
+        raise InputError(
+            f"{log}: {key}: {value} is {reason}; a stroke log from a URL names files"
+            " beside it (relative paths) or builtin: names"
+        )
+    if value.startswith("builtin:") or is_url(value):
+        return value
+    return f"{log.rsplit('/', 1)[0]}/{value}"

@@ -103,16 +103,17 @@ def load_strokes(path: str | os.PathLike[str]) -> dict[str, object]:
     with known keys, or an undo or redo); FormatError or InputError naming the file and
     the entry otherwise. The strokes' own values are checked when replayed."""
     path = file_path(path, "load_strokes path")
+    # a folder, FIFO or device refused by name; a URL fetched, at most MAX_BYTES of it
+    local = input_file(path, "stroke log (JSON)", MAX_BYTES)
     name = os.fspath(path)
-    input_file(name, "stroke log (JSON)")  # a folder, FIFO or device refused by name
     try:
-        size = os.path.getsize(name)
+        size = os.path.getsize(local)
     except OSError as exc:
         raise InputError(f"{name}: cannot read the stroke log ({exc.strerror})") from None
     if size > MAX_BYTES:
         raise InputError(f"{name}: {size:,} bytes; stroke logs are at most {MAX_BYTES:,}")
     try:
-        doc = json.loads(Path(name).read_bytes().decode("utf-8"))
+        doc = json.loads(local.read_bytes().decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise FormatError(f"{name}: not a JSON stroke log ({exc})") from None
     except ValueError:  # an integer of more digits than Python converts (4,300)
