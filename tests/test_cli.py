@@ -237,3 +237,20 @@ def test_an_output_that_is_an_input_is_refused_on_a_terminal_too(tmp_path):
         assert out.rc == 2 and "Traceback" not in out.stdout, out.stdout
         assert "would replace the scene's" in out.stdout and args[-1] in out.stdout
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before
+
+
+def test_python_dash_m_follicle_is_the_command(tmp_path):
+    """`python -m follicle` runs the `follicle` command, for where its script is not on
+    PATH: the same help, and a bad input the same one line and exit 2."""
+    helped = subprocess.run(
+        [sys.executable, "-m", "follicle", "--help"], capture_output=True, text=True, check=False
+    )
+    assert helped.returncode == 0 and helped.stdout.startswith("Usage: follicle ")
+    bad = subprocess.run(
+        [sys.executable, "-m", "follicle", "info", "nothing.abc"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        check=False,
+    )
+    assert (bad.returncode, bad.stderr) == (2, "error: nothing.abc: no such file\n")
