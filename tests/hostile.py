@@ -211,6 +211,30 @@ def files(folder: str | os.PathLike[str]) -> set[str]:
     return {str(p.relative_to(root)) for p in root.rglob("*")}
 
 
+def screen(text: str) -> list[str]:
+    """The lines a terminal shows once ``text`` is written to it: a carriage return goes
+    back to the line's start, ``ESC[nA`` up ``n`` lines, ``ESC[2K`` (``ESC[K``) erases
+    the line (the rest of it); other escapes (colours) show nothing. A progress bar
+    drawn over itself and erased at the end leaves nothing behind, as on the screen."""
+    lines, row, col = [""], 0, 0
+    for token in re.findall(r"\x1b\[[0-9;?]*[A-Za-z]|[\r\n]|[^\x1b\r\n]+|\x1b", text):
+        if token == "\n":
+            row, col = row + 1, 0
+            lines += [""] * (row + 1 - len(lines))
+        elif token == "\r":
+            col = 0
+        elif token.startswith("\x1b["):
+            if token[-1] == "A":
+                row = max(row - int(token[2:-1] or 1), 0)
+            elif token[-1] == "K":
+                lines[row] = "" if token[2:-1] == "2" else lines[row][:col]
+        elif token != "\x1b":
+            line = lines[row].ljust(col)
+            lines[row] = line[:col] + token + line[col + len(token) :]
+            col += len(token)
+    return lines
+
+
 def assert_cli_refused(out: Outcome, *names: str) -> str:
     """The promise for bad input on the command line: exit 2, one ``error:`` line that
     names each of ``names``, no traceback, within the limits. Returns the line."""
@@ -221,7 +245,7 @@ def assert_cli_refused(out: Outcome, *names: str) -> str:
     assert not out.timed_out, f"did not finish in {SECONDS} s\n{shown}"
     assert out.rc == 2, shown
     assert "Traceback" not in out.stderr + out.stdout, shown
-    said = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", out.stdout) if out.tty else out.stderr
+    said = "\n".join(screen(out.stdout)) if out.tty else out.stderr
     lines = [line.strip() for line in said.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: "), shown
     for name in names:
@@ -319,3 +343,60 @@ def byte_damage(draw, data: bytes) -> bytes:
     )
     out[at : at + 8] = struct.pack("<Q", value)
     return bytes(out)
+
+
+# values a hostile JSON document puts where any value goes
+HOSTILE_VALUES = [
+    None,
+    True,
+    -1,
+    0,
+    2**64,
+    10**30,
+    1e308,
+    -1e308,
+    float("nan"),
+    float("inf"),
+    "x",
+    "",
+    [],
+    {},
+    [1e308, 1e308, 1e308],
+    [[0, 0]] * 5000,
+    [[[[[]]]]],
+    {"zz": 1},
+]
+
+
+@st.composite
+def json_damage(draw, text: str) -> str:
+    """The JSON document ``text`` damaged as bytes (:func:`byte_damage`), or as a
+    document: one value anywhere replaced by a wrong type, an edge number, NaN or
+    infinity, a huge array or a deep nesting, or an unknown key added."""
+    how = draw(st.sampled_from(["bytes", "value", "huge", "deep", "unknown"]))
+    if how == "bytes":
+        return draw(byte_damage(text.encode())).decode("utf-8", "replace")
+    doc = json.loads(text)
+    slots = []  # (container, key) of every value
+    todo = [doc]
+    while todo:
+        node = todo.pop()
+        keys = node if isinstance(node, dict) else range(len(node))
+        for key in keys:
+            slots.append((node, key))
+            if isinstance(node[key], (dict, list)):
+                todo.append(node[key])
+    node, key = draw(st.sampled_from(slots))
+    if how == "value":
+        node[key] = draw(st.sampled_from(HOSTILE_VALUES))
+    elif how == "huge":
+        node[key] = [node[key]] * draw(st.sampled_from([10_000, 200_000]))
+    elif how == "deep":
+        node[key] = None
+        depth = draw(st.sampled_from([100, 3000]))
+        return json.dumps(doc).replace("null", "[" * depth + "]" * depth, 1)
+    elif isinstance(node, dict):
+        node["zz_unknown"] = 1
+    else:
+        node.append({"zz_unknown": 1})
+    return json.dumps(doc)

@@ -187,3 +187,34 @@ def test_a_stroke_of_tens_of_thousands_of_points_is_refused_at_once_on_a_termina
         assert not out.timed_out and out.rc == 2, out.stdout[-2000:]
         assert "Traceback" not in out.stdout and "50,000 points" in out.stdout, out.stdout
     assert not (tmp_path / "g.npz").exists()
+
+
+@pytest.mark.parametrize(
+    "key, value", [("guides", ""), ("guides", "buil\x7ft"), ("mesh", "cuiltin8head")]
+)
+def test_a_source_the_log_names_that_cannot_be_read_is_refused_naming_the_log(
+    made, tmp_path, key, value
+):
+    """A damaged log can name guides or a mesh that cannot be read, or an empty name:
+    the line names the log and what it names (it said ": cannot read 'no extension'
+    files", naming nothing)."""
+    folder, log, _ = made
+    doc = json.loads(log.read_text())
+    doc[key] = value
+    (tmp_path / "named.json").write_text(json.dumps(doc))
+    line = assert_cli_refused(
+        run_cli("groom", "named.json", "-o", "g.npz", cwd=tmp_path), "named.json"
+    )
+    assert f"named.json: the {key} it names, {value!r}: " in line, line
+    assert not (tmp_path / "g.npz").exists()
+
+
+def test_a_path_point_far_off_the_image_is_one_line(made, tmp_path):
+    """A path point at 1e308 pixels is finite, but the stroke's length overflows: numpy
+    warned on stderr before the refusal, two lines."""
+    folder, log, _ = made
+    doc = json.loads(log.read_text())
+    doc["strokes"][0]["path"] = [[0, 0], [1e308, 1e308]]
+    (tmp_path / "far.json").write_text(json.dumps(doc))
+    line = assert_cli_refused(run_cli("groom", "far.json", "-o", "g.npz", cwd=tmp_path), "far.json")
+    assert "strokes[0]: path: a point lies 1e+308 pixels out" in line, line

@@ -11,6 +11,7 @@ end in one line and leave no file behind.
 
 from __future__ import annotations
 
+import re
 import resource
 import signal
 import struct
@@ -19,10 +20,11 @@ import time
 
 import numpy as np
 import pytest
+from alembic3d import AbcGeom
 from hypothesis import HealthCheck, given, settings
 
 import follicle
-from abcfiles import add_curves, add_mesh, write, xforms
+from abcfiles import add_curves, add_mesh, values, write, xforms
 from follicle import FormatError, HairCurves, SkinMesh
 from follicle.io.alembic import load_abc, load_abc_mesh, save_abc
 from follicle.io.alembic_guard import check_archive
@@ -301,11 +303,55 @@ def test_objects_sharing_one_array_are_counted_as_the_parent_will_hold_them():
     """Alembic and USD store an array shared by many objects once: read, they are views
     of one buffer in the child, but a copy each once written out and joined. The child
     counts every copy against what the file's size allows before writing any."""
-    from follicle.io.guard_server import READER_OVERHEAD, Refused, _check_size
+    from follicle.io.guard_server import Refused, _within
 
     shared = np.zeros((1 << 20, 3), np.float32)  # 12 MiB, held once
     parts = [{"points": shared, "offsets": np.arange(0, 1 << 20, 8)} for _ in range(100)]
-    room = READER_OVERHEAD + (512 << 20)
-    with pytest.raises(Refused, match=r"x\.abc: its objects hold 1\.2\d GiB .* than the 0\.50 GiB"):
-        _check_size(parts, room, "x.abc", "Alembic")
-    _check_size(parts[:35], room, "x.abc", "Alembic")  # 0.45 GiB: within
+    room = 512 << 20
+    with pytest.raises(Refused, match=r"x\.abc: its objects hold more than the 512 MiB of arr"):
+        _within(parts, room, "x.abc", "Alembic")
+    assert len(_within(parts[:35], room, "x.abc", "Alembic")) == 35  # 0.45 GiB: within
+
+
+# ------------------------------------------------------------------ shared arrays, end to end
+@pytest.fixture(scope="module")
+def shared(tmp_path_factory):
+    """The archive issue 41 found: 1,300 curves objects whose points sample is one
+    200,000-point array, which Ogawa stores once (2.9 MB on disk), so that each object
+    read is 2.6 MB more: 3.4 GB in all. Beside it a scene taking it as ``[guides]``."""
+    folder = tmp_path_factory.mktemp("shared")
+    points = np.random.default_rng(3).random((200_000, 3), dtype=np.float32)
+    counts = np.full(25_000, 8, np.int32)
+
+    def build(top):
+        held = []
+        sample = AbcGeom.OCurvesSchemaSample()
+        sample.setPositions(values("v3f", points, held))
+        sample.setCurvesNumVertices(values("int", counts, held))
+        sample.setType(AbcGeom.CurveType.kLinear)
+        sample.setBasis(AbcGeom.BasisType.kNoBasis)
+        objects = [AbcGeom.OCurves(top, f"C{i:04d}") for i in range(1300)]
+        for obj in objects:
+            obj.getSchema().set(sample)
+        return objects, held
+
+    path = write(folder / "shared.abc", build)
+    assert path.stat().st_size < 4 << 20
+    (folder / "scene.toml").write_text('[guides]\npath = "shared.abc"\n')
+    return folder
+
+
+@pytest.mark.parametrize("tty", [False, True], ids=["piped", "tty"])
+@pytest.mark.parametrize(
+    "args", [["info", "shared.abc"], ["check", "shared.abc"], ["grow", "scene.toml", "-o", "h.npz"]]
+)
+def test_objects_sharing_one_array_are_one_line_under_the_readme_limits(shared, args, tty):
+    """Each object of ``shared`` is a copy in the parent once read: the child refuses
+    them past what 2.9 MB may give, as soon as they pass it (before the child, capped,
+    fills its own memory, and long before the parent, which is not, would hold 3.4 GB
+    and more joining them), naming the file and the fix; nothing is written."""
+    before = files(shared)
+    line = assert_cli_refused(run_cli(*args, cwd=shared, tty=tty), "shared.abc")
+    assert re.search(r"shared\.abc: its objects hold more than the \d\d MiB of arrays a file", line)
+    assert line.endswith("split it, or join its objects in the tool that made it"), line
+    assert files(shared) == before

@@ -180,6 +180,31 @@ def test_closest_points_exact():
     np.testing.assert_allclose(mesh.evaluate(tri2, bary2).position, on, atol=1e-12)
 
 
+def test_closest_points_far_from_the_skin_test_few_candidates_at_once(monkeypatch):
+    """A point far from the skin (guides in other units, a hostile file's roots) has
+    nearly every triangle as a candidate: 4,096 of them at once held gigabytes (a
+    2.5 MB guide file ran out of 2 GiB). Runs of at most MAX_CANDIDATES are tested
+    at once, with the same exact result."""
+    import tracemalloc
+
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.1)  # 1,280 triangles
+    mesh = SkinMesh(sphere.vertices, sphere.faces)
+    q = np.random.default_rng(2).normal(size=(4096, 3)) * 100.0
+    mesh.closest_points(q[:1])  # the trees, cached, and the kernel: not counted
+    monkeypatch.setattr("follicle.mesh.skin.MAX_CANDIDATES", 1 << 40)
+    whole = mesh.closest_points(q)
+    monkeypatch.setattr("follicle.mesh.skin.MAX_CANDIDATES", 20_000)
+    tracemalloc.start()
+    try:
+        runs = mesh.closest_points(q)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    for a, b in zip(whole, runs, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert peak < 16 << 20, f"{peak / 2**20:.0f} MiB for 4,096 points"  # 5.2 M candidates: 0.5 GB
+
+
 def test_degenerate_faces_reported():
     verts = np.vstack([TRI, [[2.0, 0.0, 0.0]]])
     mesh = SkinMesh(verts, [[0, 1, 2], [0, 1, 3]])  # second is collinear

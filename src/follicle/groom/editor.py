@@ -12,9 +12,10 @@ the head. The same strokes give the same bytes.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -23,7 +24,7 @@ import numpy as np
 
 from ..arrays import frozen
 from ..curves import HairCurves
-from ..errors import InputError
+from ..errors import FollicleError, InputError
 from ..inputs import is_remote, is_url, remote_reach
 from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
@@ -45,6 +46,9 @@ MAX_DABS = 100_000  # dabs in one stroke (a stroke log cannot ask for a hang)
 # segment (about 3.5 ms a point at 1,000 guides); a mouse drag is logged in pieces of a
 # few dozen (``join``), so this bounds one entry of a log to seconds
 MAX_PATH_POINTS = 4096
+# the largest |pixel coordinate| of a path point: off the image, as a drag may go, but
+# not so far that its length overflows (a log's 1e308 made numpy warn, a second line)
+MAX_PIXEL = 1e6
 PART_STEPS = 8  # a part brush's pushes, each followed by follow-the-leader
 GROUP_TEXELS = 256  # texels a side of a parting painted where there was no group texture
 _RANGES = {"length": (-1.0, 1.0)}  # strength; others 0..1
@@ -616,6 +620,11 @@ def _path(path: object) -> np.ndarray:
         )
     if not np.isfinite(line).all():
         raise InputError("path: holds NaN or inf; every point must be a finite pixel position")
+    if np.abs(line).max() > MAX_PIXEL:
+        raise InputError(
+            f"path: a point lies {np.abs(line).max():.3g} pixels out; every coordinate must"
+            f" be within ±{MAX_PIXEL:.0e} pixels"
+        )
     return line
 
 
@@ -683,10 +692,27 @@ def replay_file(
     source = guides or _beside(name, doc, "guides")
     if source is None:
         raise InputError(f"{name} names no guides; give them (follicle groom --guides)")
-    skin = load_mesh(mesh or _beside(name, doc, "mesh") or "builtin:head")
-    editor = GuideEditor(load_guides(source, skin))
+    where = mesh or _beside(name, doc, "mesh")
+    with _named_in(name, "mesh", where if mesh is None else None):
+        skin = load_mesh(where or "builtin:head")
+    with _named_in(name, "guides", source if guides is None else None):
+        editor = GuideEditor(load_guides(source, skin))
     replay(editor, doc, name)
     return editor
+
+
+@contextlib.contextmanager
+def _named_in(log: str, key: str, source: str | None) -> Iterator[None]:
+    """A FollicleError loading the ``key`` source the log names (``source``; None: one
+    the caller gave, or the default) names the log and its key too: a damaged log can
+    name a file that is not there, or an empty or garbled name that says nothing."""
+    try:
+        yield
+    except FollicleError as exc:
+        if source is None:
+            raise
+        why = str(exc).removeprefix(f"{source}: ")
+        raise type(exc)(f"{log}: the {key} it names, {source!r}: {why}") from None
 
 
 def _beside(log: str, doc: Mapping[str, object], key: str) -> str | None:

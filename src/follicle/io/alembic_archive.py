@@ -449,10 +449,11 @@ def _curves_part(
 
 def read_curves(
     path: str, source: str, time: float | None, guides: bool, stored: bool = False
-) -> list[dict]:
+) -> Iterator[dict]:
     """Every chosen curves object of the archive at ``path`` as a dict of arrays (see
-    the module): those outside /Groom/Guides, or those inside when ``guides`` or when
-    there are no others. Messages name it ``source``. ``stored``: parameters under the
+    the module), one at a time (the reading server counts their arrays as they come):
+    those outside /Groom/Guides, or those inside when ``guides`` or when there are no
+    others. Messages name it ``source``. ``stored``: parameters under the
     names the file gives them (for `follicle check`), no colour aliases taken as ours."""
     sel = _selector(time)
     archive = Abc.IArchive(path)
@@ -469,7 +470,8 @@ def read_curves(
     if not chosen:
         what = f"no {GUIDES_PATH} curves" if guides else "no curves objects"
         raise Refused(f"{source}: {what}; is this a hair file?")
-    return [_curves_part(o, m, sel, source, stored) for o, m in chosen]
+    for obj, world in chosen:
+        yield _curves_part(obj, world, sel, source, stored)
 
 
 # ------------------------------------------------------------------ meshes
@@ -605,20 +607,22 @@ def read_mesh(path: str, source: str, animated: bool = False) -> list[dict]:
     return [part]
 
 
-def read_request(request: dict) -> list[dict]:
+def read_request(request: dict) -> Iterator[dict]:
     """The reading server's entry (:mod:`follicle.io.guard_server`): curves
-    (``abc-curves``, with ``time`` and ``guides``) or the mesh (``abc-mesh``)."""
+    (``abc-curves``, with ``time`` and ``guides``, one object at a time) or the mesh
+    (``abc-mesh``)."""
     source = request["shown"]
     try:
         if request["kind"] == "abc-mesh":
-            return read_mesh(request["source"], source, request.get("animated", False))
-        return read_curves(
-            request["source"],
-            source,
-            request["time"],
-            request["guides"],
-            request.get("stored", False),
-        )
+            yield from read_mesh(request["source"], source, request.get("animated", False))
+        else:
+            yield from read_curves(
+                request["source"],
+                source,
+                request["time"],
+                request["guides"],
+                request.get("stored", False),
+            )
     except Refused as exc:
         raise guard_server.Refused(str(exc)) from None
     except ERRORS as exc:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FileAccessError, FormatError
-from .guard import read_guarded
+from .guard import array_room, read_guarded
 
 __all__ = ["check_archive", "read_curves", "read_mesh", "OGAWA_MAGIC"]
 
@@ -133,7 +133,8 @@ def read_curves(
     """The chosen curves objects of ``path`` (see :mod:`follicle.io.alembic_archive`;
     ``stored``: under the file's own names), read in a child process; FormatError
     naming the file on any failure."""
-    memory, seconds = limits(path.stat().st_size)
+    size = path.stat().st_size
+    memory, seconds = limits(size)
     return read_guarded(
         "abc-curves",
         path,
@@ -141,6 +142,7 @@ def read_curves(
         seconds,
         "Alembic",
         HINT,
+        arrays=array_room(size),
         time=time,
         guides=guides,
         stored=stored,
@@ -151,6 +153,16 @@ def read_mesh(path: Path, animated: bool = False) -> dict:
     """The first mesh of ``path`` as polygons (see :mod:`follicle.io.alembic_archive`;
     ``animated``: with its points at every sample), read as :func:`read_curves` reads
     curves."""
-    memory, seconds = limits(path.stat().st_size)
-    (part,) = read_guarded("abc-mesh", path, memory, seconds, "Alembic", HINT, animated=animated)
+    size = path.stat().st_size
+    memory, seconds = limits(size)
+    (part,) = read_guarded(
+        "abc-mesh",
+        path,
+        memory,
+        seconds,
+        "Alembic",
+        HINT,
+        arrays=array_room(size, animated),
+        animated=animated,
+    )
     return part

@@ -6,7 +6,8 @@ child process: :mod:`follicle.io.guard_server` runs as a script (``python -I``, 
 numpy, the binding and follicle's pure-numpy reader modules only) that stays up and
 forks a fresh child per file; the child caps its address space at the ``memory`` it is
 given and is killed after ``seconds`` of wall time. A refusal, a crash, the memory
-limit or the time limit becomes one FormatError naming the file. Each format checks
+limit or the time limit becomes one FormatError naming the file, and so do parts whose
+arrays pass what the file's size allows (:func:`array_room`). Each format checks
 its container in Python first (:mod:`follicle.io.usd_guard`,
 :mod:`follicle.io.alembic_guard`) and chooses the limits.
 
@@ -35,12 +36,22 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import FormatError, InputError
+from .guard_server import MAX_ANIMATION_POINTS
 
-__all__ = ["read_guarded", "died", "curves_from_parts"]
+__all__ = ["read_guarded", "array_room", "died", "curves_from_parts"]
 
 log = logging.getLogger("follicle")
 
 _SCRIPT = Path(__file__).with_name("guard_server.py")
+# The arrays a file may give, as this process will hold them (and then joins, copies
+# and grows from them, several times their size, beside the 1.3 GB follicle maps): a
+# file's objects may share one array on disk (Alembic and USD store it once), so
+# without a bound 2.5 MB asked for gigabytes and ran the README's 2 GiB out. Files
+# store their arrays whole (or nearly: USD's crate packs integers), and reading widens
+# little (a constant width and colour per point: under 3 ×), so 8 × the bytes read is
+# room to spare.
+ARRAYS_BASE = 32 << 20
+ARRAYS_PER_BYTE = 8
 
 
 def died(
@@ -143,13 +154,32 @@ def _decode(value: object, arrays: np.lib.npyio.NpzFile) -> object:
     return value
 
 
+def array_room(size: int, animated: bool = False) -> int:
+    """Bytes of arrays a file (or the layers a stage loads) of ``size`` bytes may give,
+    as the parent holds them: :data:`ARRAYS_BASE` + :data:`ARRAYS_PER_BYTE` × size; and
+    with ``animated`` (a skin animation, whose frames may be one rest pose moved by
+    Xforms: a few bytes each on disk) the float64 frames it may hold beside, at most
+    ``MAX_ANIMATION_POINTS``."""
+    frames = 3 * 8 * MAX_ANIMATION_POINTS if animated else 0
+    return ARRAYS_BASE + ARRAYS_PER_BYTE * size + frames
+
+
 def read_guarded(
-    kind: str, path: Path, memory: int, seconds: float, tool: str, hint: str, **options: object
+    kind: str,
+    path: Path,
+    memory: int,
+    seconds: float,
+    tool: str,
+    hint: str,
+    *,
+    arrays: int,
+    **options: object,
 ) -> list[dict]:
     """The parts the reader of ``kind`` (see :data:`follicle.io.guard_server.READERS`)
     makes of ``path``, read in a child process with ``memory`` bytes of address space
-    and ``seconds`` of wall time; ``options`` go to the reader. FormatError naming the
-    file (``tool`` could not read it; ``hint``) on any failure."""
+    and ``seconds`` of wall time, refused when their arrays pass ``arrays`` bytes
+    (:func:`array_room`); ``options`` go to the reader. FormatError naming the file
+    (``tool`` could not read it; ``hint``) on any failure."""
     with tempfile.TemporaryDirectory(prefix="follicle-read-") as folder:
         reply = _SERVER.ask(
             {
@@ -159,6 +189,7 @@ def read_guarded(
                 "out": folder,
                 "memory": memory,
                 "seconds": seconds,
+                "arrays": arrays,
                 "tool": tool,
                 "hint": hint,
                 **options,

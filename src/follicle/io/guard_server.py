@@ -7,11 +7,12 @@ renderer and numba: memory the children would carry for nothing), so a reader mo
 may import numpy, its C++ binding and follicle's pure-numpy modules, nothing heavier.
 
 Each request (one JSON line on stdin) names a ``kind``; :data:`READERS` maps it to a
-module whose ``read_request(request)`` returns a list of parts, dicts of arrays (nested
-dicts, lists, strings and numbers allowed), or raises :class:`Refused`. The server
-imports that module once (and calls its ``prepare()``, if any, so plugins load before
-any fork), then forks a child per request, which caps its address space at
-``request["memory"]`` bytes, reads, and writes ``OUT/arrays.npz`` plus
+module whose ``read_request(request)`` returns (or yields) parts, dicts of arrays
+(nested dicts, lists, strings and numbers allowed), or raises :class:`Refused`. The
+server imports that module once (and calls its ``prepare()``, if any, so plugins load
+before any fork), then forks a child per request, which caps its address space at
+``request["memory"]`` bytes, reads, refuses parts whose arrays pass
+``request["arrays"]`` bytes (:func:`_within`), and writes ``OUT/arrays.npz`` plus
 ``OUT/result.json``: ``{"parts": manifest}`` (the parts with every array replaced by
 ``{"@array": name in the npz}``) or ``{"refused": message}``. The server waits up to
 ``request["seconds"]`` for the child (then kills it) and answers one ``@@``-prefixed
@@ -35,7 +36,7 @@ import select
 import signal
 import sys
 import traceback
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -43,15 +44,11 @@ import numpy as np
 
 __all__ = ["READERS", "Refused", "serve", "MAX_ANIMATION_POINTS"]
 
-# Of a child's address-space cap, what Python, numpy and pxr take (about 1.1 GB with a
-# stage open); the rest bounds the arrays a file may give, as the parent holds them
-READER_OVERHEAD = 1 << 30
-
 # the most points (samples × points a sample) a skin animation read may hold: 480 MB as
 # float64 (follicle.io.skin_animation)
 MAX_ANIMATION_POINTS = 20_000_000
 
-# request kind -> module serving it with read_request(request) -> list[dict]
+# request kind -> module serving it with read_request(request) -> Iterable[dict]
 READERS = {
     "usd-curves": "follicle.io.usd_stage",
     "usd-mesh": "follicle.io.usd_mesh",
@@ -97,20 +94,24 @@ def _arrays(value: object) -> Iterator[np.ndarray]:
             yield from _arrays(item)
 
 
-def _check_size(parts: list[dict], cap: int, source: str, tool: str) -> None:
-    """Refused unless the parts' arrays, each counted whole as the parent will hold it,
-    fit the memory this file was given less :data:`READER_OVERHEAD`: a file whose
-    objects share one array on disk (Alembic and USD deduplicate) reads small here, as
-    views, but is a copy per object once written out and joined."""
-    total = sum(a.nbytes for a in _arrays(parts))
-    room = max(cap - READER_OVERHEAD, 0)
-    if total > room:
-        raise Refused(
-            f"{source}: its objects hold {total / 2**30:.2f} GiB of arrays once read, more than"
-            f" the {room / 2**30:.2f} GiB a file of its size may give ({tool} stores an array"
-            " that many objects share once); split it, or join its objects in the tool that"
-            " made it"
-        )
+def _within(parts: Iterable[dict], room: int, source: str, tool: str) -> list[dict]:
+    """The parts, taken one at a time, refused as soon as their arrays, each counted
+    whole as the parent will hold it, pass ``room`` bytes (what the file's size
+    allows): a file whose objects share one array on disk (Alembic and USD deduplicate)
+    reads small here, as views, but is a copy per object once written out and joined,
+    so a few megabytes could fill the parent's memory. A reader that yields its parts
+    is stopped at the first one past the room, before the child fills its own."""
+    kept, total = [], 0
+    for part in parts:
+        total += sum(a.nbytes for a in _arrays(part))
+        if total > room:
+            raise Refused(
+                f"{source}: its objects hold more than the {room / 2**20:,.0f} MiB of arrays"
+                f" a file of its size may give once read ({tool} stores an array that many"
+                " objects share once); split it, or join its objects in the tool that made it"
+            )
+        kept.append(part)
+    return kept
 
 
 def _read_request(request: dict, reader: ModuleType) -> None:
@@ -121,8 +122,7 @@ def _read_request(request: dict, reader: ModuleType) -> None:
     cap = request["memory"] if hard == resource.RLIM_INFINITY else min(request["memory"], hard)
     resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
     try:
-        parts = reader.read_request(request)
-        _check_size(parts, cap, source, request["tool"])
+        parts = _within(reader.read_request(request), request["arrays"], source, request["tool"])
         result = _save(parts, out)
     except Refused as exc:
         result = {"refused": str(exc)}

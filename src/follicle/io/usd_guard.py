@@ -33,7 +33,7 @@ from typing import BinaryIO
 import numpy as np
 
 from ..errors import FileAccessError, FormatError
-from .guard import read_guarded
+from .guard import array_room, read_guarded
 
 __all__ = ["check_container", "read_stage", "read_meshes", "payloads_folder", "stage_bytes"]
 
@@ -197,7 +197,8 @@ def read_stage(
     ``offsets``, ``point_data`` and ``curve_data`` arrays, read in a child process
     (see the module; ``stored``: under the file's own names); FormatError naming the
     file on any failure."""
-    memory, seconds = limits(stage_bytes(path))
+    size = stage_bytes(path)
+    memory, seconds = limits(size)
     return read_guarded(
         "usd-curves",
         path,
@@ -205,6 +206,7 @@ def read_stage(
         seconds,
         "usd-core",
         _HINT,
+        arrays=array_room(size),
         time=time,
         guides=guides,
         stored=stored,
@@ -215,5 +217,15 @@ def read_meshes(path: Path, animated: bool = False) -> list[dict]:
     """The Mesh prims of ``path`` (see :mod:`follicle.io.usd_mesh`; ``animated``: with
     the first one's points at every time sample), read as :func:`read_stage` reads
     curves."""
-    memory, seconds = limits(stage_bytes(path))
-    return read_guarded("usd-mesh", path, memory, seconds, "usd-core", _HINT, animated=animated)
+    size = stage_bytes(path)
+    memory, seconds = limits(size)
+    return read_guarded(
+        "usd-mesh",
+        path,
+        memory,
+        seconds,
+        "usd-core",
+        _HINT,
+        arrays=array_room(size, animated),
+        animated=animated,
+    )

@@ -13,6 +13,7 @@ either pose (Šik 2012 §2.2.3). Barycentrics follow Šik 2012: ``root = u·v0 +
 from __future__ import annotations
 
 import copy
+from collections.abc import Iterator
 from typing import NamedTuple
 
 import numpy as np
@@ -31,6 +32,8 @@ _POSES = ("rest", "current")
 # coordinates (areas, normals, distances squared) then stay far inside float32 and the
 # relative tolerances of float64; a mesh at 1e38 would overflow them to inf or NaN
 MAX_COORDINATE = 1e6
+# the most candidate triangles closest_points tests at once (about 100 bytes each)
+MAX_CANDIDATES = 1 << 20
 
 
 class SurfacePoints(NamedTuple):
@@ -404,21 +407,19 @@ class SkinMesh:
         tri_out = np.zeros(len(q), dtype=np.int64)
         bary_out = np.zeros((len(q), 2))
         dist_out = np.zeros(len(q))
-        chunk = 4096
-        for s in range(0, len(q), chunk):
-            qc = q[s : s + chunk]
-            dv, _ = vtree.query(qc)
-            reach = dv + radii[used].max() + 1e-12
-            lists = ctree.query_ball_point(qc, reach, return_sorted=True)
+        radius = radii[used].max()
+        for s, e, dv in _candidate_runs(q, vtree, ctree, radius):
+            qc = q[s:e]
+            lists = ctree.query_ball_point(qc, dv + radius + 1e-12, return_sorted=True)
             counts = np.array([len(c) for c in lists], dtype=np.int64)
             cand = used[np.concatenate(lists).astype(np.int64)]
             qi = np.repeat(np.arange(len(qc)), counts)
             gap = np.linalg.norm(qc[qi] - centres[cand], axis=1) - radii[cand]
             keep = gap <= dv[qi] * (1 + 1e-9) + 1e-12
             t, bu, bv, d2 = _closest_kernel(readonly(qc), verts, self.faces, qi[keep], cand[keep])
-            tri_out[s : s + chunk] = t
-            bary_out[s : s + chunk, 0], bary_out[s : s + chunk, 1] = bu, bv
-            dist_out[s : s + chunk] = np.sqrt(d2)
+            tri_out[s:e] = t
+            bary_out[s:e, 0], bary_out[s:e, 1] = bu, bv
+            dist_out[s:e] = np.sqrt(d2)
         return tri_out, bary_out, dist_out
 
     def _trees(self, pose: str) -> tuple:
@@ -561,3 +562,25 @@ def _evaluate_kernel(
         binormal[k, 0] = ty * nz - tz * ny
         binormal[k, 1] = tz * nx - tx * nz
         binormal[k, 2] = tx * ny - ty * nx
+
+
+def _candidate_runs(
+    q: np.ndarray, vtree: cKDTree, ctree: cKDTree, radius: float
+) -> Iterator[tuple[int, int, np.ndarray]]:
+    """(start, end, distance to the nearest vertex of each) runs of the query points
+    ``q`` whose candidate triangles (those whose bounding sphere, of at most ``radius``,
+    comes within that distance) number at most :data:`MAX_CANDIDATES` together, or one
+    point's when it alone has more: a point far from the skin (guides in other units, a
+    hostile file) has nearly every triangle as a candidate, and 4,096 such points at
+    once held gigabytes of them."""
+    for s in range(0, len(q), 4096):
+        dv, _ = vtree.query(q[s : s + 4096])
+        ends = np.cumsum(
+            ctree.query_ball_point(q[s : s + 4096], dv + radius + 1e-12, return_length=True)
+        )
+        start = 0
+        while start < len(dv):
+            before = ends[start - 1] if start else 0
+            end = max(int(np.searchsorted(ends, before + MAX_CANDIDATES, "right")), start + 1)
+            yield s + start, s + end, dv[start:end]
+            start = end
