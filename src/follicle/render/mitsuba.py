@@ -2,12 +2,13 @@
 
 The same camera (or the same automatic framing), the same lights, skin colour and
 background gradient as :func:`follicle.render.render`, so the two images can be laid
-side by side. The hair is Mitsuba's ``bsplinecurve`` shape, loaded from the curve file
+side by side. The hair is Mitsuba's ``bsplinecurve`` shape, loaded from curve files
 :func:`follicle.io.mitsuba.save_mitsuba` writes (round tubes through every vertex,
-radius = width / 2), with the ``hair`` BSDF (Chiang et al. 2016). Its absorption σ_a is
-derived from the hair colour per curve segment (:func:`absorption_from_color`) and
-handed to the BSDF as a texture over the shape's ``v`` coordinate, which runs over the
-segments of all curves in file order, so every hair keeps its own colour and its
+radius = width / 2; several shapes, each closed by a sentinel, see
+:func:`_hair_shapes`), with the ``hair`` BSDF (Chiang et al. 2016). Its absorption σ_a
+is derived from the hair colour per curve segment (:func:`absorption_from_color`) and
+handed to the BSDF as a texture over each shape's ``v`` coordinate, which runs over the
+segments of its curves in file order, so every hair keeps its own colour and its
 root-to-tip gradient. The skin is a two-sided diffuse mesh.
 
 Lights: a directional light of radiance L becomes a ``directional`` emitter of
@@ -303,8 +304,9 @@ _CHILD = [sys.executable, "-m", "follicle.render.mitsuba"]
 
 def _in_child(job: dict, progress: Callable[[int, int], None] | None) -> np.ndarray:
     """:func:`_path_trace` in a child process (this module run with the job's file), so
-    that Mitsuba crashing (a segfault in its curve shape on some grooms) is one
-    ResourceError, not this process gone without a word. The child prints its
+    that Mitsuba crashing (as its curve shape did at 100,000 hairs, before
+    :func:`_hair_shapes` kept hits inside its segment table) is one ResourceError, not
+    this process gone without a word. The child prints its
     progress, one number a line, or ``error: …``."""
     with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
         job_file, out = os.path.join(folder, "job.pickle"), os.path.join(folder, "rgba.npy")
