@@ -12,6 +12,7 @@ from scipy.ndimage import binary_dilation
 from follicle.cli import main
 from follicle.curves import HairCurves
 from follicle.errors import ConfigError, InputError, ResourceError
+from follicle.io.mitsuba import load_mitsuba
 from follicle.pipeline import groom_scene
 from follicle.render import Camera, Light, mitsuba, render, srgb_to_linear
 from follicle.render.mitsuba import absorption_from_color, render_mitsuba
@@ -162,6 +163,100 @@ def test_colour_follows_each_hair_and_its_length():
     assert left[..., 0].sum() > 1.2 * left[..., 2].sum()
     assert right[:40, :, 2].sum() > 1.2 * right[:40, :, 1].sum()  # root half, at the top
     assert right[56:, :, 1].sum() > 1.2 * right[56:, :, 2].sum()  # tip half
+
+
+def straight_hairs(count: int, vertices: int) -> HairCurves:
+    """``count`` straight hairs along +x, 1 cm apart in y, 1 cm per segment, 2 mm wide."""
+    x = np.arange(vertices, dtype=np.float32) * 0.01
+    points = np.zeros((count, vertices, 3), np.float32)
+    points[..., 0] = x
+    points[..., 1] = 0.01 * np.arange(count)[:, None]
+    width = {"width": np.full(count * vertices, 2e-3, np.float32)}
+    return HairCurves.from_array(points, point_data=width)
+
+
+def test_hair_is_split_into_shapes_each_closed_by_a_zero_width_sentinel(tmp_path, monkeypatch):
+    """What Mitsuba receives: whole hairs in shapes of at most MAX_SEGMENTS B-spline
+    segments, every file ending in a 2-vertex sentinel of width 0 along its last hair's
+    final segment, one absorption texel per segment, the sentinel's included."""
+    monkeypatch.setattr(mitsuba, "MAX_SEGMENTS", 50)
+    counts = [11] * 12 + [80] + [3] * 7  # 10-segment hairs, one longer than a shape
+    hair = HairCurves.from_polylines(
+        [
+            np.column_stack([np.arange(n), np.full(n, i), np.zeros(n)]) * 0.01
+            for i, n in enumerate(counts)
+        ]
+    )
+    shapes = mitsuba._hair_shapes(mitsuba._mitsuba(), hair, np.full(3, 0.3), 1e-3, tmp_path)
+    assert list(shapes) == [f"hair_{i}" for i in range(5)]
+    parts = []
+    for shape in shapes.values():
+        loaded = load_mitsuba(shape["filename"])
+        real, sentinel = loaded[:-1], loaded[-1:]
+        segments = real.point_count - real.curve_count
+        assert segments <= 50 or real.curve_count == 1
+        np.testing.assert_allclose(sentinel.points, real.points[-2:], atol=1e-6)
+        assert np.all(sentinel.point_data["width"] == 0)
+        assert np.all(real.point_data["width"] > 0)
+        texels = np.array(shape["bsdf"]["sigma_a"]["bitmap"])
+        assert texels.shape == (segments + 1, 1, 3)  # v = (segment + t) / S over S rows
+        parts.append(real)
+    joined = HairCurves.concatenate(parts)
+    assert joined.counts.tolist() == counts
+    np.testing.assert_allclose(joined.points, hair.points, atol=1e-6)
+
+
+def test_no_hit_reaches_past_a_shapes_segment_table(tmp_path, monkeypatch):
+    """Mitsuba's ``bsplinecurve`` partials() recomputes a hit's segment as
+    floor(v · S) from v = (v_local + segment) / S in float32, unclamped: a hit on the
+    end of a shape's last segment gave S, one past its table (the segfault at 100,000
+    hairs). Rays on the tip of every shape's last hair land on a real segment below
+    S − 1, never on the sentinel, and floor(v · S) stays below S."""
+    mi = mitsuba._mitsuba()
+    monkeypatch.setattr(mitsuba, "MAX_SEGMENTS", 40)
+    hair = straight_hairs(12, 11)  # 10 segments a hair: 3 shapes of 4 hairs
+    shapes = mitsuba._hair_shapes(mi, hair, np.full(3, 0.3), 2e-3, tmp_path)
+    scene = mi.load_dict({"type": "scene", **shapes})
+    f32 = np.float32
+    hits = 0
+    for last in (3, 7, 11):  # the last hair of each shape
+        tip = hair.curve(last)[-1]
+        for x in np.linspace(tip[0] - 0.002, tip[0] - 1e-6, 200):  # its last fifth
+            ray = mi.Ray3f(mi.Point3f(float(x), float(tip[1]), 0.5), mi.Vector3f(0, 0, -1))
+            hit = scene.ray_intersect_preliminary(ray)
+            assert hit.is_valid()
+            size = hit.shape.primitive_count()  # S, the sentinel included
+            assert size == 41 and hit.prim_index == size - 2
+            v = f32(f32(hit.prim_uv[0]) + f32(hit.prim_index)) / f32(size)
+            assert np.floor(f32(v) * f32(size)) < size
+            hits += 1
+    assert hits == 600
+
+
+def test_split_hair_renders_as_one_shape(head, tmp_path, monkeypatch):
+    """The same head, its 6,900 segments in one shape or in seven: the same picture
+    (colour texels follow their shape), rendered in this process."""
+    made = []
+
+    def in_process(job, progress):
+        out = str(tmp_path / "rgba.npy")
+        mitsuba._path_trace(job, out, lambda done: None)
+        return np.load(out)
+
+    def hair_shapes(*args):
+        made.append(hair_shapes.real(*args))
+        return made[-1]
+
+    hair_shapes.real = mitsuba._hair_shapes
+    monkeypatch.setattr(mitsuba, "_in_child", in_process)
+    monkeypatch.setattr(mitsuba, "_hair_shapes", hair_shapes)
+    mesh, hair = head
+    one = render_mitsuba(hair, mesh, size=SIZE, spp=4, seed=1)
+    monkeypatch.setattr(mitsuba, "MAX_SEGMENTS", 1000)
+    seven = render_mitsuba(hair, mesh, size=SIZE, spp=4, seed=1)
+    assert [len(shapes) for shapes in made] == [1, 7]
+    diff = np.abs(one.astype(int) - seven)
+    assert diff.mean() < 0.5 and diff.max() <= 8, (diff.mean(), diff.max())
 
 
 @pytest.mark.parametrize(

@@ -2,12 +2,13 @@
 
 The same camera (or the same automatic framing), the same lights, skin colour and
 background gradient as :func:`follicle.render.render`, so the two images can be laid
-side by side. The hair is Mitsuba's ``bsplinecurve`` shape, loaded from the curve file
+side by side. The hair is Mitsuba's ``bsplinecurve`` shape, loaded from curve files
 :func:`follicle.io.mitsuba.save_mitsuba` writes (round tubes through every vertex,
-radius = width / 2), with the ``hair`` BSDF (Chiang et al. 2016). Its absorption σ_a is
-derived from the hair colour per curve segment (:func:`absorption_from_color`) and
-handed to the BSDF as a texture over the shape's ``v`` coordinate, which runs over the
-segments of all curves in file order, so every hair keeps its own colour and its
+radius = width / 2; several shapes, each closed by a sentinel, see
+:func:`_hair_shapes`), with the ``hair`` BSDF (Chiang et al. 2016). Its absorption σ_a
+is derived from the hair colour per curve segment (:func:`absorption_from_color`) and
+handed to the BSDF as a texture over each shape's ``v`` coordinate, which runs over the
+segments of its curves in file order, so every hair keeps its own colour and its
 root-to-tip gradient. The skin is a two-sided diffuse mesh.
 
 Lights: a directional light of radiance L becomes a ``directional`` emitter of
@@ -58,6 +59,7 @@ VARIANT = "scalar_rgb"
 MAX_DEPTH = 24  # path length: light hair needs many bounces (Russian roulette after 5)
 MAX_SPP = 1 << 16
 AZIMUTHAL_ROUGHNESS = 0.3  # β_n, the hair plugin's default (as is longitudinal 0.3)
+MAX_SEGMENTS = 1 << 16  # B-spline segments per curve shape (see _hair_shapes)
 
 
 def absorption_from_color(color: object, beta_n: float = AZIMUTHAL_ROUGHNESS) -> np.ndarray:
@@ -129,29 +131,73 @@ def _segment_absorption(curves: HairCurves, hair_color: np.ndarray) -> np.ndarra
     return absorption_from_color(mean).astype(np.float32)
 
 
-def _hair_shape(mi, curves: HairCurves, hair_color, hair_width, folder: Path) -> dict:
+def _shape_ranges(counts: np.ndarray, limit: int) -> list[tuple[int, int]]:
+    """Runs [a, b) of consecutive whole curves (``counts`` vertices each, so
+    ``counts − 1`` B-spline segments) of at most ``limit`` segments each; a curve
+    longer than that is a run of its own."""
+    ends = np.cumsum(counts - 1)  # segments up to and including each curve
+    runs, a, done = [], 0, 0
+    while a < len(counts):
+        b = max(int(np.searchsorted(ends, done + limit, side="right")), a + 1)
+        runs.append((a, b))
+        a, done = b, int(ends[b - 1])
+    return runs
+
+
+def _hair_shapes(mi, curves: HairCurves, hair_color, hair_width, folder: Path) -> dict:
+    """The hair as ``bsplinecurve`` shapes of at most :data:`MAX_SEGMENTS` segments
+    each, every one closed by a zero-width sentinel curve, keyed ``hair_0``, ``hair_1``…
+
+    Why: Mitsuba 3.9's ``bsplinecurve`` (``src/shapes/bsplinecurve.cpp``) reports a
+    hit's ``v = (v_local + prim_index) / S`` over the shape's S segments, in float32
+    in the scalar variants, and ``partials()``, which the path tracer's surface
+    interaction calls on every hit, turns it back into a segment, ``floor(v · S)``,
+    without clamping it (``eval_parameterization`` clamps; upstream's pull request
+    1928 "Clamp the segment index in partials()" adds it). ``v_local + prim_index``
+    rounds to a multiple of the float32 spacing at S, so a hit on the last ~ulp(S)/2
+    of a shape's last segment gives segment S, one past the end: Mitsuba reads an
+    index from beyond its segment table and a control point from anywhere. With
+    all 100,000 default hairs in one shape (S = 2,300,000, spacing 0.25) that was
+    the last eighth of the last hair's tip, and the render died with SIGSEGV in
+    ``partials`` (seen in gdb); 50,000 hairs (spacing 0.125) merely missed it.
+
+    So each shape ends with a sentinel: a straight, zero-radius segment along its last
+    hair's final segment, inside that hair's tube (the bounds do not change). Having
+    no width, it is hit only by a ray through its very axis, and a ray from outside
+    the tube hits the tube first; every hit is then on a segment below S − 1, and
+    ``floor(v · S)`` at most S − 1. Splitting the hair into shapes of at most
+    :data:`MAX_SEGMENTS` (spacing 1/256) keeps ``v`` precise besides: at 2.3 million
+    segments the last eighth of every segment took its frame, and its absorption texel
+    (looked up by ``v``), from the next segment, on a hair's tip from the next hair.
+    """
     width = point_attr(curves.point_data, "width", (curves.point_count,), hair_width)
-    path = save_mitsuba(
-        iter([HairCurves(curves.points, curves.offsets, {"width": width})]),
-        folder / "hair.txt",
-    )
+    hair = HairCurves(curves.points, curves.offsets, {"width": width})
     sigma = _segment_absorption(curves, hair_color)
-    return {
-        "type": "bsplinecurve",
-        "filename": str(path),
-        "bsdf": {
-            "type": "hair",
-            "azimuthal_roughness": AZIMUTHAL_ROUGHNESS,
-            "sigma_a": {
-                "type": "bitmap",
-                # one texel per segment, down the image: v = (segment + t) / S picks row
-                "bitmap": mi.Bitmap(np.ascontiguousarray(sigma[:, None, :])),
-                "raw": True,
-                "filter_type": "nearest",
-                "wrap_mode": "clamp",
+    shapes = {}
+    for i, (a, b) in enumerate(_shape_ranges(curves.counts, MAX_SEGMENTS)):
+        part = hair[a:b]
+        sentinel = HairCurves(part.points[-2:], [0, 2], {"width": np.zeros(2, np.float32)})
+        path = save_mitsuba(iter([part, sentinel]), folder / f"hair_{i}.txt")
+        first = int(curves.offsets[a] - a)  # segments before curve a
+        rows = sigma[first : first + part.point_count - part.curve_count]
+        rows = np.concatenate([rows, rows[-1:]])  # the sentinel's texel: never looked up
+        shapes[f"hair_{i}"] = {
+            "type": "bsplinecurve",
+            "filename": str(path),
+            "bsdf": {
+                "type": "hair",
+                "azimuthal_roughness": AZIMUTHAL_ROUGHNESS,
+                "sigma_a": {
+                    "type": "bitmap",
+                    # one texel per segment, down the image: v = (segment + t) / S
+                    "bitmap": mi.Bitmap(np.ascontiguousarray(rows[:, None, :])),
+                    "raw": True,
+                    "filter_type": "nearest",
+                    "wrap_mode": "clamp",
+                },
             },
-        },
-    }
+        }
+    return shapes
 
 
 def _skin_shape(mi, arrays, skin_color: np.ndarray):
@@ -242,7 +288,7 @@ def _path_trace(job: dict, out: str, report: Callable[[int], None]) -> None:
     }
     with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
         if job["hair"] is not None:
-            scene["hair"] = _hair_shape(
+            scene |= _hair_shapes(
                 mi, job["hair"], job["hair_color"], job["hair_width"], Path(folder)
             )
         if job["skin"] is not None:
@@ -258,8 +304,9 @@ _CHILD = [sys.executable, "-m", "follicle.render.mitsuba"]
 
 def _in_child(job: dict, progress: Callable[[int, int], None] | None) -> np.ndarray:
     """:func:`_path_trace` in a child process (this module run with the job's file), so
-    that Mitsuba crashing (a segfault in its curve shape on some grooms) is one
-    ResourceError, not this process gone without a word. The child prints its
+    that Mitsuba crashing (as its curve shape did at 100,000 hairs, before
+    :func:`_hair_shapes` kept hits inside its segment table) is one ResourceError, not
+    this process gone without a word. The child prints its
     progress, one number a line, or ``error: …``."""
     with tempfile.TemporaryDirectory(prefix="follicle-mitsuba-") as folder:
         job_file, out = os.path.join(folder, "job.pickle"), os.path.join(folder, "rgba.npy")
