@@ -222,7 +222,7 @@ def test_importing_every_module_compiles_nothing_and_loads_no_numba():
     code = textwrap.dedent(
         """
         import importlib, pkgutil, follicle
-        skip = ("follicle.prebuild.__main__", "follicle.kernels.cache")  # numba's own cache
+        skip = ("follicle.__main__", "follicle.prebuild.__main__", "follicle.kernels.cache")
         for info in pkgutil.walk_packages(follicle.__path__, "follicle."):
             if info.name not in skip:
                 importlib.import_module(info.name)

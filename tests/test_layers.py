@@ -35,7 +35,7 @@ LAYERS = [
     {"groom", "sim", "render"},
     {"scene"},
     {"pipeline", "distributed", "distributed_sim", "distributed_export", "batch"},
-    {"cli", "view", "apps", "__init__"},
+    {"cli", "view", "apps", "__init__", "__main__"},
     {"prebuild"},  # runs the commands (cli) to compile every kernel; started as a process
 ]
 LAYER = {name: k for k, names in enumerate(LAYERS) for name in names}
