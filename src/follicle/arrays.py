@@ -1,7 +1,8 @@
 """Checks and conversions of array inputs shared by every stage.
 
 Read-only copies, finiteness scans without a boolean temporary, (N, 3) point sets, and
-rigid 4×4 transforms: each error names the argument and what it must be.
+rigid 4×4 transforms: each error names the argument and what it must be. Also
+:func:`budget_runs`, the cut of a sequence into runs under a budget.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ __all__ = [
     "point_bounds",
     "rigid",
     "empty_touched",
+    "budget_runs",
     "FMA",
 ]
 
@@ -161,3 +163,17 @@ def rigid(
     world = m.copy()
     world[3] = (0.0, 0.0, 0.0, 1.0)
     return frozen(world), frozen(inverse)
+
+
+def budget_runs(costs: np.ndarray, budget: int) -> list[tuple[int, int]]:
+    """Runs [a, b) of consecutive items whose ``costs`` sum to at most ``budget`` each,
+    in order and covering every item; an item that alone costs more is a run of its
+    own. What bounds a batch of work (a shape's segments, a query's candidates)
+    without cutting an item."""
+    ends = np.cumsum(costs, dtype=np.int64)
+    runs, a, done = [], 0, 0
+    while a < len(ends):
+        b = max(int(np.searchsorted(ends, done + budget, side="right")), a + 1)
+        runs.append((a, b))
+        a, done = b, int(ends[b - 1])
+    return runs

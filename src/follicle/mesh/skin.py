@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..arrays import as_array, frozen, readonly
+from ..arrays import as_array, budget_runs, frozen, readonly
 from ..errors import InputError
 from ..frames import normalize
 from ..kernels import kernel, prange
@@ -575,12 +575,6 @@ def _candidate_runs(
     once held gigabytes of them."""
     for s in range(0, len(q), 4096):
         dv, _ = vtree.query(q[s : s + 4096])
-        ends = np.cumsum(
-            ctree.query_ball_point(q[s : s + 4096], dv + radius + 1e-12, return_length=True)
-        )
-        start = 0
-        while start < len(dv):
-            before = ends[start - 1] if start else 0
-            end = max(int(np.searchsorted(ends, before + MAX_CANDIDATES, "right")), start + 1)
-            yield s + start, s + end, dv[start:end]
-            start = end
+        counts = ctree.query_ball_point(q[s : s + 4096], dv + radius + 1e-12, return_length=True)
+        for a, b in budget_runs(counts, MAX_CANDIDATES):
+            yield s + a, s + b, dv[a:b]

@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..arrays import budget_runs
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
 from ..io.mitsuba import save_mitsuba
@@ -131,19 +132,6 @@ def _segment_absorption(curves: HairCurves, hair_color: np.ndarray) -> np.ndarra
     return absorption_from_color(mean).astype(np.float32)
 
 
-def _shape_ranges(counts: np.ndarray, limit: int) -> list[tuple[int, int]]:
-    """Runs [a, b) of consecutive whole curves (``counts`` vertices each, so
-    ``counts − 1`` B-spline segments) of at most ``limit`` segments each; a curve
-    longer than that is a run of its own."""
-    ends = np.cumsum(counts - 1)  # segments up to and including each curve
-    runs, a, done = [], 0, 0
-    while a < len(counts):
-        b = max(int(np.searchsorted(ends, done + limit, side="right")), a + 1)
-        runs.append((a, b))
-        a, done = b, int(ends[b - 1])
-    return runs
-
-
 def _hair_shapes(mi, curves: HairCurves, hair_color, hair_width, folder: Path) -> dict:
     """The hair as ``bsplinecurve`` shapes of at most :data:`MAX_SEGMENTS` segments
     each, every one closed by a zero-width sentinel curve, keyed ``hair_0``, ``hair_1``…
@@ -174,7 +162,7 @@ def _hair_shapes(mi, curves: HairCurves, hair_color, hair_width, folder: Path) -
     hair = HairCurves(curves.points, curves.offsets, {"width": width})
     sigma = _segment_absorption(curves, hair_color)
     shapes = {}
-    for i, (a, b) in enumerate(_shape_ranges(curves.counts, MAX_SEGMENTS)):
+    for i, (a, b) in enumerate(budget_runs(curves.counts - 1, MAX_SEGMENTS)):
         part = hair[a:b]
         sentinel = HairCurves(part.points[-2:], [0, 2], {"width": np.zeros(2, np.float32)})
         path = save_mitsuba(iter([part, sentinel]), folder / f"hair_{i}.txt")
