@@ -394,3 +394,23 @@ def test_a_served_stroke_log_names_files_beside_it_only(served, tmp_path):
     assert "/guides.hair" in sent and "/head.obj" in sent
     with pytest.raises(InputError, match=f"far.json: guides: {local} is a path of this machine"):
         replay_file(f"{url}/far.json")
+
+
+def test_a_download_leaves_the_cache_disk_a_gibibyte_free(hostile_server, tmp_path, monkeypatch):
+    """An endless body under the size limit stops where the cache's disk would keep
+    less than 1 GiB free (here: made to leave 2 MB of room), and says where and how to
+    make room; nothing stays in the cache."""
+    import shutil
+
+    import follicle.inputs as inputs
+
+    url, _ = hostile_server
+    (tmp_path / "cache").mkdir()
+    free = shutil.disk_usage(tmp_path / "cache").free
+    monkeypatch.setattr(inputs, "_KEEP_FREE", free - (2 << 20))
+    with pytest.raises(FileAccessError) as err:
+        load_mesh(f"{url}/endless.obj")
+    line = str(err.value)
+    assert line.startswith(f"{url}/endless.obj: past ") and "would keep less than 1 GiB" in line
+    assert "$FOLLICLE_CACHE" in line and "\n" not in line
+    assert _cached(tmp_path) == []

@@ -52,7 +52,8 @@ _BLOCK = 1 << 20
 _CHUNK = 1 << 16  # bytes a streamed read asks for; it returns what has arrived
 _MIN_BYTES = 16 << 10  # a fetch that gets less than this in url_timeout() seconds is left
 _DEFAULT_TIMEOUT = 30.0
-_DEFAULT_MAX_DOWNLOAD = 16 << 30
+_DEFAULT_MAX_DOWNLOAD = 4 << 30
+_KEEP_FREE = 1 << 30  # a download never leaves less than this free on the cache's disk
 
 
 def is_url(path: object) -> bool:
@@ -180,14 +181,14 @@ def input_file(path: str | os.PathLike[str], what: str = "file", limit: int | No
         raise FileAccessError(f"{p}: no such file") from None
     except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
         reason = getattr(exc, "strerror", None) or exc
-        raise FileAccessError(f"{p!s:.200}: cannot be read ({reason}); give a {what}") from None
+        raise FileAccessError(f"{p!s:.200}: cannot be read ({reason}); give {_a(what)}") from None
     if stat.S_ISDIR(mode):
-        raise FormatError(f"{p}: is a folder, not a file; give a {what}")
+        raise FormatError(f"{p}: is a folder, not a file; give {_a(what)}")
     if not stat.S_ISREG(mode):
         kind = (
             "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
         )
-        raise FormatError(f"{p}: is {kind}, not a regular file; give a {what}")
+        raise FormatError(f"{p}: is {kind}, not a regular file; give {_a(what)}")
     return p
 
 
@@ -199,7 +200,7 @@ def url_timeout() -> float:
 
 def max_download() -> int:
     """The largest file fetched from a URL for a reader without a size limit of its own:
-    ``$FOLLICLE_MAX_DOWNLOAD`` bytes, default 16 GiB."""
+    ``$FOLLICLE_MAX_DOWNLOAD`` bytes, default 4 GiB."""
     return int(_positive_env("FOLLICLE_MAX_DOWNLOAD", _DEFAULT_MAX_DOWNLOAD, "bytes, e.g. 4e9"))
 
 
@@ -250,13 +251,15 @@ def fetched(url: str, what: str = "file", limit: int | None = None) -> Path:
         cause = exc.__cause__  # fsspec's HTTP says "not found" for a server that is down too
         if cause is None or isinstance(cause, FileNotFoundError) or _status(cause) in (404, 410):
             raise FileAccessError(f"{url}: no such file") from None
-        raise FileAccessError(f"{url}: cannot be read ({_reason(cause)}); give a {what}") from None
+        raise FileAccessError(
+            f"{url}: cannot be read ({_reason(cause)}); give {_a(what)}"
+        ) from None
     except FileAccessError:
         raise
     except Exception as exc:  # backends raise their own (aiohttp, botocore)
-        raise FileAccessError(f"{url}: cannot be read ({_reason(exc)}); give a {what}") from None
+        raise FileAccessError(f"{url}: cannot be read ({_reason(exc)}); give {_a(what)}") from None
     if info.get("type") == "directory":
-        raise FormatError(f"{url}: is a folder, not a file; give a {what}")
+        raise FormatError(f"{url}: is a folder, not a file; give {_a(what)}")
     size = info.get("size")
     if isinstance(size, int) and size > cap:
         raise FormatError(_too_large(url, size, cap, what))
@@ -266,11 +269,13 @@ def fetched(url: str, what: str = "file", limit: int | None = None) -> Path:
     copy = cache_folder() / key / name
     if copy.is_file():
         return copy
-    if isinstance(size, int) and size > _free_bytes(copy.parent):
-        raise FileAccessError(
-            f"{url}: {size:,} bytes, more than the disk of {copy.parent} has free; free"
-            " space there, or set $FOLLICLE_CACHE to a folder on a larger disk"
-        )
+    room = _free_bytes(copy.parent) - _KEEP_FREE  # what the cache's disk can take
+    full = (
+        f"{url}: {{}} the disk of {copy.parent} would keep less than 1 GiB free; free"
+        " space there, or set $FOLLICLE_CACHE to a folder on a larger disk"
+    )
+    if isinstance(size, int) and size > room:
+        raise FileAccessError(full.format(f"{size:,} bytes:"))
     # streamed over HTTP (a read returns what has arrived, so the watch sees a trickle)
     options = {"block_size": 0} if protocol in ("http", "https") else {}
     try:
@@ -278,15 +283,19 @@ def fetched(url: str, what: str = "file", limit: int | None = None) -> Path:
             _watched(
                 url,
                 window,
-                lambda got, stop: _copy(fs.open(path, "rb", **options), tmp, cap, got, stop),
+                lambda got, stop: _copy(
+                    fs.open(path, "rb", **options), tmp, min(cap, room), got, stop
+                ),
             )
     except _TooLarge:
-        raise FormatError(_too_large(url, None, cap, what)) from None
+        if cap <= room:
+            raise FormatError(_too_large(url, None, cap, what)) from None
+        raise FileAccessError(full.format(f"past {max(room, 0):,} bytes,")) from None
     except FileAccessError:
         raise
     except Exception as exc:  # as above, or the cache's disk is full
         raise FormatError(
-            f"{url}: cannot be fetched into {copy.parent} ({_reason(exc)}); give a {what}"
+            f"{url}: cannot be fetched into {copy.parent} ({_reason(exc)}); give {_a(what)}"
         ) from None
     if size is not None and copy.stat().st_size != size:
         copy.unlink(missing_ok=True)
@@ -311,14 +320,23 @@ class _TooLarge(Exception):
 def _too_large(url: str, size: int | None, cap: int, what: str) -> str:
     fix = "" if cap != max_download() else "; $FOLLICLE_MAX_DOWNLOAD raises the limit"
     said = "" if size is None else f"{size:,} bytes, "
-    return f"{url}: {said}more than the {cap:,} bytes a {what} may be; give a smaller one{fix}"
+    return f"{url}: {said}more than the {cap:,} bytes {_a(what)} may be; give a smaller one{fix}"
+
+
+def _a(what: str) -> str:
+    """``what`` with its indefinite article, by its sound: "a scene file", "an Alembic
+    file", "a USD file", "an STL file"."""
+    word = what.split(" ", 1)[0].strip(".,(")
+    acronym = len(word) > 1 and word.isupper()
+    vowel = word[:1].upper() in ("AEFHILMNORSX" if acronym else "AEIOU")
+    return f"{'an' if vowel else 'a'} {what}"
 
 
 def _copy(
     src: Any, tmp: str | os.PathLike[str], cap: int, got: list[int], stop: threading.Event
 ) -> None:
     """Copy the open remote file ``src`` into ``tmp``, counting bytes into ``got[0]``,
-    until its end, ``cap`` bytes (then _TooLarge) or ``stop`` (then ``tmp`` is removed:
+    until its end, past ``cap`` bytes (then _TooLarge) or ``stop`` (then ``tmp`` is removed:
     the watcher has given up on it)."""
     try:
         with src, open(tmp, "wb") as dst:
