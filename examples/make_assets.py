@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from follicle.groom.editor import replay_file
+from follicle.editing.editor import replay_file
 
 HERE = Path(__file__).resolve().parent / "assets"
 MAJOR, MINOR = 0.12, 0.05  # m

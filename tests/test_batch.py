@@ -11,8 +11,8 @@ import sys
 import pytest
 from click.testing import CliRunner
 
-from follicle.batch import Outputs, parse_seeds, parse_vary, run_batch, variants
 from follicle.cli import main
+from follicle.distributed.batch import Outputs, parse_seeds, parse_vary, run_batch, variants
 from follicle.errors import ConfigError, FollicleError
 from follicle.scene import Scene
 from hostile import assert_api_refused, run_api, run_cli
@@ -159,7 +159,7 @@ def test_a_batch_past_the_cap_is_refused_before_any_variant_is_made(tmp_path):
     child under the memory limit (built first, they were gigabytes: a scene each)."""
     res = run_api(
         """
-        from follicle.batch import parse_vary, variants
+        from follicle.distributed.batch import parse_vary, variants
         from follicle.scene import Scene
         sweeps = [parse_vary("groom.curl_radius=0.001:0.01:1000"),
                   parse_vary("groom.kink_tip=0.001:0.003:1000")]

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import pytest
 
-import follicle.distributed as distributed
+import follicle.distributed.cluster as dcluster
+import follicle.distributed.grow as dgrow
 from follicle.errors import ConfigError
 from follicle.io.dispatch import save
 from follicle.pipeline import groom_scene
@@ -86,7 +87,7 @@ def test_a_cluster_grow_is_the_single_process_output(tmp_path, workers, chunk, e
     else:
         want = _layout_bytes(_one_process_payloads(scene, tmp_path / f"one{ext}", target, chunk))
     seen = []
-    hairs, points = distributed.grow(
+    hairs, points = dgrow.grow(
         scene,
         tmp_path / f"two{ext}",
         f"local:{workers}",
@@ -113,22 +114,22 @@ def test_a_part_file_written_twice_is_one_whole_file(tmp_path):
     name, and no temporary file of either left."""
     path = tmp_path / "part_0000.usdc"
     call = (SCENE, str(tmp_path), 0, 200, "generic", str(path), True)
-    with distributed.cluster("local:1") as client:
-        assert client.submit(distributed._grow_part, *call, pure=False).result() > 200
+    with dcluster.cluster("local:1") as client:
+        assert client.submit(dgrow._grow_part, *call, pure=False).result() > 200
         first = path.read_bytes()
-        assert client.submit(distributed._grow_part, *call, pure=False).result() > 200
+        assert client.submit(dgrow._grow_part, *call, pure=False).result() > 200
     assert path.read_bytes() == first
     assert [p.name for p in tmp_path.iterdir()] == ["part_0000.usdc"]
 
 
 def test_bad_schedulers_are_refused_and_write_nothing(tmp_path, monkeypatch):
     scene = _scene(tmp_path)
-    monkeypatch.setattr(distributed, "CONNECT_SECONDS", 1)
+    monkeypatch.setattr(dcluster, "CONNECT_SECONDS", 1)
     with pytest.raises(ConfigError, match="tcp://127.0.0.1:9.*no Dask scheduler answered"):
-        distributed.grow(scene, tmp_path / "h.usdc", "tcp://127.0.0.1:9")
+        dgrow.grow(scene, tmp_path / "h.usdc", "tcp://127.0.0.1:9")
     for bad in ("local:0", "local:two", "local:"):
         with pytest.raises(ConfigError, match="whole number of workers"):
-            distributed.grow(scene, tmp_path / "h.usdc", bad)
+            dgrow.grow(scene, tmp_path / "h.usdc", bad)
     assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
 
 
@@ -145,7 +146,7 @@ def test_bad_schedulers_are_refused_and_write_nothing(tmp_path, monkeypatch):
 )
 def test_schedulers_it_cannot_use_are_refused_at_once(tmp_path, address, words):
     with pytest.raises(ConfigError, match=f"--scheduler .*{words}"):
-        distributed.connect(address)
+        dcluster.connect(address)
 
 
 def test_an_address_that_accepts_but_never_speaks_is_refused_in_time(monkeypatch):
@@ -159,11 +160,11 @@ def test_an_address_that_accepts_but_never_speaks_is_refused_in_time(monkeypatch
     server.listen(4)
     held = []
     threading.Thread(target=lambda: held.append(server.accept()), daemon=True).start()
-    monkeypatch.setattr(distributed, "CONNECT_SECONDS", 1)
+    monkeypatch.setattr(dcluster, "CONNECT_SECONDS", 1)
     address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
     try:
         with pytest.raises(ConfigError, match="accepted a connection but said nothing within 1 s"):
-            distributed.connect(address)
+            dcluster.connect(address)
     finally:
         server.close()
 
@@ -175,11 +176,11 @@ def test_a_running_scheduler_is_reached_by_its_address_with_or_without_tcp():
         n_workers=1, processes=False, protocol="tcp://", dashboard_address=":0"
     ) as cluster:
         for address in (cluster.scheduler_address, cluster.scheduler_address[len("tcp://") :]):
-            client = distributed.connect(address)
+            client = dcluster.connect(address)
             try:
                 assert client.submit(sum, [41, 1]).result() == 42
             finally:
-                distributed.close(client)
+                dcluster.close(client)
 
 
 def test_the_cli_refuses_bad_schedulers_in_one_line_on_a_terminal(tmp_path):
@@ -286,10 +287,10 @@ def test_a_worker_killed_mid_run_is_replaced_and_the_file_still_equals(tmp_path)
 def test_a_part_reads_back_equal_and_a_second_writer_keeps_the_first(tmp_path):
     """Parts carry every array; a task run twice over one part leaves that part whole."""
     scene = _scene(tmp_path)
-    curves = distributed.target_chunk(groom_scene(scene), groom_scene(scene).generate(50), "unreal")
-    distributed.write_part(curves, tmp_path / "p")
-    distributed.write_part(curves[:10], tmp_path / "p")  # a late duplicate of the task
-    back = distributed.read_part(tmp_path / "p")
+    curves = dgrow.target_chunk(groom_scene(scene), groom_scene(scene).generate(50), "unreal")
+    dcluster.write_part(curves, tmp_path / "p")
+    dcluster.write_part(curves[:10], tmp_path / "p")  # a late duplicate of the task
+    back = dcluster.read_part(tmp_path / "p")
     assert back.curve_count == 50 and (back.points == curves.points).all()
     assert sorted(back.point_data) == sorted(curves.point_data)
     assert sorted(back.curve_data) == sorted(curves.curve_data)
@@ -303,9 +304,9 @@ def test_streamed_results_come_in_order_with_a_bounded_window(tmp_path):
     ever submitted and not handed over: when result k is handed over, at most tasks
     0 … k + ahead have started."""
     calls = [(str(tmp_path), i, 0.05 * (i % 3)) for i in range(12)]
-    with distributed.cluster("local:2") as client:
+    with dcluster.cluster("local:2") as client:
         got, most = [], 0
-        for k, result in enumerate(distributed.streamed(client, _sleepy, calls, "t", ahead=3)):
+        for k, result in enumerate(dcluster.streamed(client, _sleepy, calls, "t", ahead=3)):
             started = {int(p.name) for p in tmp_path.iterdir()}
             assert max(started) <= k + 3, (k, sorted(started))
             most = max(most, len(started) - k)
@@ -326,7 +327,7 @@ def test_a_script_without_a_main_guard_is_told_so(tmp_path):
     "__main__":` they cannot start, and the ConfigError says what to write."""
     script = tmp_path / "job.py"
     script.write_text(
-        "import follicle.distributed as d\n"
+        "import follicle.distributed.cluster as d\n"
         "from follicle.errors import ConfigError\n"
         "try:\n"
         "    d.connect('local:1')\n"
@@ -347,9 +348,9 @@ def test_a_worker_that_lacks_a_file_says_so(tmp_path):
     from follicle.errors import FormatError
 
     text = "[groom]\ncount = 100\ndensity = 'density.png'\n"
-    with distributed.cluster("local:1") as client:
+    with dcluster.cluster("local:1") as client:
         future = client.submit(
-            distributed._grow_part,
+            dgrow._grow_part,
             text,
             str(tmp_path / "elsewhere"),
             0,
@@ -373,10 +374,10 @@ def test_a_worker_that_finds_a_bad_file_names_it_without_the_paths_hint(tmp_path
 
     (tmp_path / "density.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(40))  # cut short
     text = "[groom]\ncount = 100\ndensity = 'density.png'\n"
-    with distributed.cluster("local:1") as client:
+    with dcluster.cluster("local:1") as client:
         call = (text, str(tmp_path), 0, 100, "generic", str(tmp_path / "part"))
         with pytest.raises(FollicleError) as err:
-            client.submit(distributed._grow_part, *call).result()
+            client.submit(dgrow._grow_part, *call).result()
     message = str(err.value)
     assert "density.png" in message and "on Dask worker tcp://" in message
     assert "every worker must reach" not in message

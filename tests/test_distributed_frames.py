@@ -17,8 +17,9 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-import follicle.distributed as distributed
-import follicle.distributed_sim as dsim
+import follicle.distributed.cluster as dcluster
+import follicle.distributed.render as drender
+import follicle.distributed.simulate as dsim
 from follicle.errors import ConfigError, InputError
 from follicle.io.sim_cache import load_cache, write_cache
 from follicle.pipeline import render_cache, render_frames, simulate_scene
@@ -67,7 +68,7 @@ def test_a_cluster_renders_the_single_process_pngs(made, tmp_path, workers, per_
     """Any run of frames, in tasks of any size, is drawn through the whole sequence's
     camera: frames 3–10 alone are the bytes of the serial render's."""
     seen = []
-    paths = dsim.render_cache(
+    paths = drender.render_cache(
         load_cache(made / "sim.npz"),
         tmp_path / "out",
         f"local:{workers}",
@@ -78,7 +79,7 @@ def test_a_cluster_renders_the_single_process_pngs(made, tmp_path, workers, per_
     frames = frames or range(FRAMES)
     assert paths == [tmp_path / "out" / f"frame_{f:04d}.png" for f in frames]
     _same_frames(tmp_path / "out", made / "serial", frames)
-    per = per_task or dsim.default_frames_per_task(len(frames), workers)
+    per = per_task or drender.default_frames_per_task(len(frames), workers)
     assert seen[-1] == (len(frames), len(frames)) and len(seen) == -(-len(frames) // per)
 
 
@@ -86,7 +87,7 @@ def test_a_cluster_encodes_the_single_process_mp4(made, tmp_path):
     """Tasks of 5 frames on 2 workers, encoded in order: the serial video, byte for byte
     (libx264 is deterministic for the same frames on the same machine)."""
     seen = []
-    path = dsim.render_video(
+    path = drender.render_video(
         load_cache(made / "sim.npz"),
         tmp_path / "v.mp4",
         "local:2",
@@ -99,9 +100,9 @@ def test_a_cluster_encodes_the_single_process_mp4(made, tmp_path):
 
 
 def test_the_default_task_size_keeps_every_worker_busy():
-    assert dsim.default_frames_per_task(48, 2) == 6
-    assert dsim.default_frames_per_task(49, 2) == 7
-    assert dsim.default_frames_per_task(3, 4) == 1
+    assert drender.default_frames_per_task(48, 2) == 6
+    assert drender.default_frames_per_task(49, 2) == 7
+    assert drender.default_frames_per_task(3, 4) == 1
 
 
 def test_scenes_simulated_one_per_task_are_the_single_process_caches(made, tmp_path):
@@ -125,17 +126,17 @@ def test_scenes_simulated_one_per_task_are_the_single_process_caches(made, tmp_p
 def test_a_worker_that_cannot_reach_the_cache_or_the_folder_says_so(made, tmp_path):
     """The path is the client's; a worker on another disk reads nothing there."""
     cache = load_cache(made / "sim.npz")
-    job = dsim._FramesJob(cache, None, None, None)
+    job = drender._FramesJob(cache, None, None, None)
     missing = str(tmp_path / "elsewhere" / "sim.npz")
-    with distributed.cluster("local:1") as client:
+    with dcluster.cluster("local:1") as client:
         call = job.calls(client)[0]
         future = client.submit(
-            dsim._render_task, missing, *call[1:], str(tmp_path), str(tmp_path / "gone")
+            drender._render_task, missing, *call[1:], str(tmp_path), str(tmp_path / "gone")
         )
         with pytest.raises(InputError, match="every worker must reach it") as exc:
             future.result()
         assert missing in str(exc.value) and "cannot read this simulation cache" in str(exc.value)
-        future = client.submit(dsim._render_task, *call, str(tmp_path), str(tmp_path / "gone"))
+        future = client.submit(drender._render_task, *call, str(tmp_path), str(tmp_path / "gone"))
         with pytest.raises(InputError, match="cannot reach this output folder") as exc:
             future.result()
         assert str(tmp_path) in str(exc.value)
@@ -145,12 +146,12 @@ def test_a_worker_that_cannot_reach_the_cache_or_the_folder_says_so(made, tmp_pa
 def test_an_unreachable_scheduler_is_refused_before_anything_is_written(
     made, tmp_path, monkeypatch
 ):
-    monkeypatch.setattr(distributed, "CONNECT_SECONDS", 1)
+    monkeypatch.setattr(dcluster, "CONNECT_SECONDS", 1)
     cache = load_cache(made / "sim.npz")
     with pytest.raises(ConfigError, match="tcp://127.0.0.1:9.*no Dask scheduler answered"):
-        dsim.render_cache(cache, tmp_path / "f", "tcp://127.0.0.1:9")
+        drender.render_cache(cache, tmp_path / "f", "tcp://127.0.0.1:9")
     with pytest.raises(ConfigError, match="no Dask scheduler answered"):
-        dsim.render_video(cache, tmp_path / "v.mp4", "tcp://127.0.0.1:9")
+        drender.render_video(cache, tmp_path / "v.mp4", "tcp://127.0.0.1:9")
     scene = scene_from_toml(SCENE, "s.toml", made)
     with pytest.raises(ConfigError, match="no Dask scheduler answered"):
         dsim.simulate_scenes([scene], [tmp_path / "c.npz"], "tcp://127.0.0.1:9")

@@ -19,7 +19,7 @@ import pytest
 from click.testing import CliRunner
 
 from follicle.cli import main
-from follicle.distributed_export import export_files
+from follicle.distributed.export import export_files
 from follicle.errors import InputError
 from follicle.io.dispatch import load_curves, save
 from follicle.io.sim_cache import CACHE_FORMAT

@@ -125,7 +125,7 @@ def _write(folder, name: str, items: list) -> list[str]:
 
 
 _READ_ALL = """
-from follicle.groom.editor import replay_file
+from follicle.editing.editor import replay_file
 outcome = []
 for name in {names!r}:
     try:

@@ -303,7 +303,8 @@ def test_objects_sharing_one_array_are_counted_as_the_parent_will_hold_them():
     """Alembic and USD store an array shared by many objects once: read, they are views
     of one buffer in the child, but a copy each once written out and joined. The child
     counts every copy against what the file's size allows before writing any."""
-    from follicle.io.guard_server import Refused, _within
+    from follicle.io.guard_rules import Refused
+    from follicle.io.guard_server import _within
 
     shared = np.zeros((1 << 20, 3), np.float32)  # 12 MiB, held once
     parts = [{"points": shared, "offsets": np.arange(0, 1 << 20, 8)} for _ in range(100)]

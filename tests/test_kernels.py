@@ -20,6 +20,8 @@ from pathlib import Path
 
 import pytest
 
+from imports import modules_after
+
 MODULE = """
 import numpy as np
 from follicle.kernels import kernel, prange
@@ -188,33 +190,18 @@ def test_two_processes_compiling_at_once_leave_one_good_cache(module, tmp_path):
     assert not list(cache.rglob("*.tmp*")) and not [p for p in cache.rglob(".*.nbi.*")]
 
 
-HEAVY = ("numba", "llvmlite", "pxr", "alembic", "dask", "distributed", "mitsuba", "moderngl")
-
-
-def _modules_after(code: str, names: tuple[str, ...] = HEAVY) -> list[str]:
-    out = subprocess.run(
-        [sys.executable, "-c", f"{code}\nimport sys, json\nprint(json.dumps(sorted(sys.modules)))"],
-        capture_output=True,
-        text=True,
-        env={**os.environ, "COLUMNS": "100"},
-    )
-    assert out.returncode == 0, out.stderr
-    loaded = json.loads(out.stdout.strip().splitlines()[-1])
-    return sorted({name.split(".")[0] for name in loaded} & set(names))
-
-
 def test_import_follicle_and_help_load_no_heavy_library():
-    assert _modules_after("import follicle; follicle.HairCurves; follicle.render") == []
+    assert modules_after("import follicle; follicle.HairCurves; follicle.render") == []
     help_ = (
         "from follicle.cli import main\n"
         "try:\n    main.main(['--help'], prog_name='follicle')\nexcept SystemExit:\n    pass"
     )
-    assert _modules_after(help_) == []
+    assert modules_after(help_) == []
     # `follicle --help` lists the commands: no settings model, no array is needed for that
-    assert _modules_after(help_, ("numpy", "pydantic", "scipy", "trimesh")) == []
+    assert modules_after(help_, ("numpy", "pydantic", "scipy", "trimesh")) == []
     for command in ("grow", "render", "simulate", "view", "export", "warm"):
         sub = help_.replace("['--help']", f"[{command!r}, '--help']")
-        assert _modules_after(sub) == [], command
+        assert modules_after(sub) == [], command
 
 
 def test_importing_every_module_compiles_nothing_and_loads_no_numba():
@@ -232,5 +219,5 @@ def test_importing_every_module_compiles_nothing_and_loads_no_numba():
         assert not made, made
         """
     )
-    heavy = _modules_after(code)
+    heavy = modules_after(code)
     assert "numba" not in heavy and "llvmlite" not in heavy, heavy

@@ -5,6 +5,7 @@ packages import each other without cycles."""
 from __future__ import annotations
 
 import ast
+import re
 import sys
 from pathlib import Path
 
@@ -29,15 +30,19 @@ LAYERS = [
         "rng",
         "threads",
         "kernels",
+        "lazy",
     },
     {"mesh"},
     {"io"},
     {"groom", "sim", "render"},
-    {"scene"},
-    {"pipeline", "distributed", "distributed_sim", "distributed_export", "batch"},
+    {"scene", "editing"},  # editing: guides brushed through a camera (groom and render)
+    {"pipeline", "distributed", "export"},
     {"cli", "view", "apps", "__init__", "__main__"},
     {"prebuild"},  # runs the commands (cli) to compile every kernel; started as a process
 ]
+# a string naming a follicle module, alone or as "module:attribute" (the lazy tables of
+# follicle/__init__.py, follicle.render and the format and engine registries)
+LAZY_NAME = re.compile(r"(?P<module>follicle(\.[a-z_0-9]+)+)(:[A-Za-z_][A-Za-z_0-9]*)?")
 LAYER = {name: k for k, names in enumerate(LAYERS) for name in names}
 
 
@@ -47,13 +52,25 @@ def _unit(module: Path) -> str:
     return rel.parts[0] if len(rel.parts) > 1 else rel.stem
 
 
-def _imports(module: Path) -> list[tuple[list[str], list[str]]]:
-    """What ``module`` imports of follicle anywhere in its body (relative or absolute):
-    (the path under follicle/, the names imported from it) for each import."""
-    tree = ast.parse(module.read_text("utf-8"))
+def _imports(module: Path, stub: bool = True) -> list[tuple[list[str], list[str]]]:
+    """What ``module`` imports of follicle anywhere in its body (relative or absolute, or
+    a string naming a module, which importlib imports; with ``stub``, also the imports
+    of its ``.pyi`` stub, the names it imports lazily on first use): (the path under
+    follicle/, the names imported from it) for each import. A module a process is
+    started with (``[python, "-m", "follicle.prebuild"]``) is not imported."""
+    sources = [module, module.with_suffix(".pyi")] if stub else [module]
+    trees = [ast.parse(source.read_text("utf-8")) for source in sources if source.is_file()]
     package = list(module.relative_to(ROOT).parts[:-1])
+    started = {  # the string after "-m" in a command line
+        id(after)
+        for tree in trees
+        for node in ast.walk(tree)
+        if isinstance(node, ast.List)
+        for before, after in zip(node.elts, node.elts[1:], strict=False)
+        if isinstance(before, ast.Constant) and before.value == "-m"
+    }
     out = []
-    for node in ast.walk(tree):
+    for node in (node for tree in trees for node in ast.walk(tree)):
         if isinstance(node, ast.ImportFrom):
             if node.level:  # relative: resolve against the module's package
                 base = package[: len(package) - (node.level - 1)]
@@ -68,6 +85,10 @@ def _imports(module: Path) -> list[tuple[list[str], list[str]]]:
                 parts = alias.name.split(".")
                 if parts[0] == "follicle" and len(parts) > 1:
                     out.append((parts[1:], []))
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            named = LAZY_NAME.fullmatch(node.value)
+            if named and id(node) not in started:
+                out.append((named["module"].split(".")[1:], []))
     return out
 
 
@@ -95,7 +116,7 @@ def _imported_modules(module: Path) -> set[str]:
     """The modules ``module`` imports: `from .x import y` imports x, or x.y where y is
     a module."""
     out = set()
-    for parts, names in _imports(module):
+    for parts, names in _imports(module, stub=False):  # a stub's imports wait for use
         base = list(parts)
         while base and not _is_module(base):  # `from .x.f import g`: f is not a module
             base.pop()

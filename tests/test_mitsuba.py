@@ -14,7 +14,7 @@ from follicle.curves import HairCurves
 from follicle.errors import ConfigError, InputError, ResourceError
 from follicle.io.mitsuba import load_mitsuba
 from follicle.pipeline import groom_scene
-from follicle.render import Camera, Light, mitsuba, render, srgb_to_linear
+from follicle.render import Camera, Light, mitsuba, render_image, srgb_to_linear
 from follicle.render.mitsuba import absorption_from_color, render_mitsuba
 from follicle.scene import Scene
 from glmark import gl
@@ -81,7 +81,7 @@ def test_hair_where_the_gl_render_has_hair(head):
     coverage agrees within 3 %."""
     _, hair = head
     hair = thick(hair)
-    gl_cover = coverage(render, hair)
+    gl_cover = coverage(render_image, hair)
     mi_cover = coverage(render_mitsuba, hair, spp=4)
     solid = gl_cover > 0.5
     hit = mi_cover > 0.0
@@ -99,9 +99,9 @@ def test_same_camera_and_background_as_gl(head):
     tilted = Camera((0.3, 0.5, 0.4), (0.0, -0.05, 0.0), up=(1.0, 0.0, 0.0), fov_y=40.0)
     for camera in (None, tilted):
         kw = {"camera": camera, "size": (80, 48)}
-        gl_image = render(None, mesh, **kw)
+        gl_image = render_image(None, mesh, **kw)
         mi_image = render_mitsuba(None, mesh, spp=4, **kw)
-        black_gl = render(None, mesh, background=(0, 0, 0), **kw)[..., :3].max(axis=2) > 0
+        black_gl = render_image(None, mesh, background=(0, 0, 0), **kw)[..., :3].max(axis=2) > 0
         black_mi = render_mitsuba(None, mesh, spp=4, background=(0, 0, 0), **kw)
         black_mi = black_mi[..., :3].max(axis=2) > 0
         assert black_gl.sum() > 300

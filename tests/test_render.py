@@ -8,7 +8,7 @@ import trimesh
 
 from follicle.curves import HairCurves
 from follicle.errors import ConfigError, InputError
-from follicle.render import Camera, Light, Renderer, render, save_png
+from follicle.render import Camera, Light, Renderer, render_image, save_png
 from follicle.render.engines import make_renderer
 from follicle.render.image import encode_srgb8, linear_to_srgb, srgb_to_linear
 from follicle.render.settings import RenderParams
@@ -109,8 +109,8 @@ def test_thin_strands_accumulate_coverage():
         lights=[Light.ambient(intensity=1.0)],
     )
     row = int(px((0, -0.5 * FRONT.pixel_scale(size[1]), 0), size)[1])
-    lum_one = render(one, **kw)[row, 24, 0].astype(int)
-    lum_many = render(many, **kw)[row, 24, 0].astype(int)
+    lum_one = render_image(one, **kw)[row, 24, 0].astype(int)
+    lum_many = render_image(many, **kw)[row, 24, 0].astype(int)
     assert 0 < lum_one < 200
     assert lum_many > lum_one + 60
 
@@ -130,7 +130,7 @@ def test_nearer_strand_stays_on_top_whatever_the_input_order():
         lights=[Light.ambient(intensity=1.0)],
     )
     for parts in ([near, far], [far, near]):
-        img = render(HairCurves.concatenate(parts), **kw)
+        img = render_image(HairCurves.concatenate(parts), **kw)
         r, g = img[24, 24, 0], img[24, 24, 1]
         assert g > 200 and r < 30
 
@@ -150,7 +150,7 @@ def test_strand_covers_expected_row_band():
     size, width = (200, 200), 0.02
     y0 = 0.05
     curves = strand((-0.15, y0, 0.0), (0.15, y0, 0.0), width=width)
-    img = render(
+    img = render_image(
         curves,
         camera=FRONT,
         size=size,
@@ -188,7 +188,7 @@ def test_thin_hair_is_faded_not_aliased():
         lights=[Light.ambient(intensity=1.0)],
         shading_params=FLAT,
     )
-    img = render(thin, **kwargs)
+    img = render_image(thin, **kwargs)
     column = img[:, 100, 0]
     assert 0 < column.max() < 128  # visible, but with its low coverage
 
@@ -208,7 +208,7 @@ def test_kajiya_kay_diffuse_follows_tangent_light_angle():
         lights=light,
         shading_params=FLAT,
     )
-    img = render(curves, **kw).astype(int)
+    img = render_image(curves, **kw).astype(int)
     xa, ya = px((-0.085, 0.05, 0.0), size)
     xb, yb = px((0.08, 0.01, 0.0), size)
     a = img[int(ya), int(xa), 0]
@@ -216,7 +216,7 @@ def test_kajiya_kay_diffuse_follows_tangent_light_angle():
     assert a > b + 80, (a, b)
     # tilted 45°: sin = 0.71, in between
     tilted = strand((-0.1, -0.1, 0.0), (0.1, 0.1, 0.0), width=0.01)
-    img45 = render(tilted, **kw)
+    img45 = render_image(tilted, **kw)
     c = int(img45[100, 100, 0])
     assert b + 20 < c < a - 10, (a, b, c)
 
@@ -225,7 +225,7 @@ def test_kajiya_kay_diffuse_follows_tangent_light_angle():
 def test_mesh_sphere_disc_and_skin_colour():
     size = (160, 160)
     bg = (0.0, 0.0, 0.3)
-    img = render(None, sphere(0.1), camera=FRONT, size=size, background=bg)
+    img = render_image(None, sphere(0.1), camera=FRONT, size=size, background=bg)
     bg8 = encode_srgb8(np.array([*bg, 1.0]))[:3]
     yy, xx = np.mgrid[0:160, 0:160] + 0.5
     # apparent radius of a sphere seen from distance 1
@@ -243,8 +243,8 @@ def test_mesh_sphere_disc_and_skin_colour():
 def test_empty_curves_with_mesh_renders_mesh_only():
     mesh = sphere(0.1)
     empty = HairCurves(np.zeros((0, 3)), [0])
-    a = render(empty, mesh, size=(64, 64))
-    b = render(None, mesh, size=(64, 64))
+    a = render_image(empty, mesh, size=(64, 64))
+    b = render_image(None, mesh, size=(64, 64))
     np.testing.assert_array_equal(a, b)
 
 
@@ -253,10 +253,10 @@ def test_hair_in_front_of_mesh_is_visible():
     size = (160, 160)
     mesh = sphere(0.1)
     curves = strand((-0.05, 0.0, 0.15), (0.05, 0.0, 0.15), width=0.004)
-    with_hair = render(
+    with_hair = render_image(
         curves, mesh, camera=FRONT, size=size, hair_color=(0, 1, 0), shading_params=FLAT
     )
-    without = render(None, mesh, camera=FRONT, size=size)
+    without = render_image(None, mesh, camera=FRONT, size=size)
     # the hair moves the light's shadow-map grid: the skin's soft shadow edges (the
     # terminator) may change by a level
     diff = np.any(np.abs(with_hair.astype(int) - without) > 2, axis=2)
@@ -269,13 +269,13 @@ def test_hair_in_front_of_mesh_is_visible():
 def test_background_gradient_top_and_bottom():
     top, bottom = (0.8, 0.1, 0.1), (0.05, 0.1, 0.6)
     curves = strand((-0.01, 0.0, 0.0), (0.01, 0.0, 0.0))
-    img = render(curves, camera=FRONT, size=(64, 64), background=(top, bottom)).astype(int)
+    img = render_image(curves, camera=FRONT, size=(64, 64), background=(top, bottom)).astype(int)
     top8 = encode_srgb8(np.array([*top, 1.0]))[:3].astype(int)
     bottom8 = encode_srgb8(np.array([*bottom, 1.0]))[:3].astype(int)
     assert np.abs(img[0, 5, :3] - top8).max() <= 6
     assert np.abs(img[-1, 5, :3] - bottom8).max() <= 6
     assert img[0, 5, 0] > img[-1, 5, 0] and img[0, 5, 2] < img[-1, 5, 2]
-    flat = render(curves, camera=FRONT, size=(64, 64), background=top)
+    flat = render_image(curves, camera=FRONT, size=(64, 64), background=top)
     assert np.all(flat[0, :, :3] == flat[-1, :, :3])
 
 
@@ -289,8 +289,8 @@ def test_msaa_produces_intermediate_edge_values():
         skin_color=(1, 1, 1),
         lights=[Light.ambient(intensity=1.0)],
     )
-    aliased = render(None, mesh, msaa=0, **kwargs)[..., 0]
-    smooth = render(None, mesh, msaa=4, **kwargs)[..., 0]
+    aliased = render_image(None, mesh, msaa=0, **kwargs)[..., 0]
+    smooth = render_image(None, mesh, msaa=4, **kwargs)[..., 0]
     assert set(np.unique(aliased)) <= {0, 255}
     intermediate = (smooth > 10) & (smooth < 245)
     assert intermediate.sum() > 50
@@ -302,7 +302,7 @@ def test_png_matches_returned_array(tmp_path):
 
     out = tmp_path / "sub" / "hair.png"
     curves = strand((-0.1, 0.0, 0.0), (0.1, 0.05, 0.0), width=0.003)
-    img = render(curves, sphere(0.05, (0, 0, -0.1)), size=(80, 60), out=out)
+    img = render_image(curves, sphere(0.05, (0, 0, -0.1)), size=(80, 60), out=out)
     assert img.shape == (60, 80, 4) and img.dtype == np.uint8
     with Image.open(out) as png:
         assert png.mode == "RGBA"
@@ -322,8 +322,8 @@ def test_render_is_deterministic():
     )
     curves = HairCurves.from_array(pts, point_data={"width": np.full(1800, 2e-4)})
     mesh = sphere(0.08)
-    a = render(curves, mesh, size=(128, 128))
-    b = render(curves, mesh, size=(128, 128))
+    a = render_image(curves, mesh, size=(128, 128))
+    b = render_image(curves, mesh, size=(128, 128))
     assert a.tobytes() == b.tobytes()
 
 
@@ -372,38 +372,39 @@ def test_bad_settings_are_config_errors_naming_the_key(kwargs, message):
     scene file's [render] gets, before any framebuffer is made."""
     curves = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0))
     with pytest.raises(ConfigError, match=rf"^render: .*{message}"):
-        render(curves, **{"size": (32, 32), **kwargs})
+        render_image(curves, **{"size": (32, 32), **kwargs})
 
 
 @gl
 def test_settings_and_overrides_draw_as_one_object(each_engine):
-    """``render(settings=p, key=v)`` draws what ``render(settings=p.replace(key=v))`` does,
-    and what the settings' engine's renderer drawing those settings does."""
+    """``render_image(settings=p, key=v)`` draws what
+    ``render_image(settings=p.replace(key=v))`` does, and what the settings' engine's
+    renderer drawing those settings does."""
     curves = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0))
     base = RenderParams(
         engine=each_engine, size=(48, 32), msaa=0, hair_color=(0.05, 0.8, 0.05), hair_width=0.05
     )
-    given = render(curves, camera=FRONT, settings=base, shading="marschner", shadows=False)
+    given = render_image(curves, camera=FRONT, settings=base, shading="marschner", shadows=False)
     changed = base.replace(shading="marschner", shadows=False)
-    np.testing.assert_array_equal(given, render(curves, camera=FRONT, settings=changed))
+    np.testing.assert_array_equal(given, render_image(curves, camera=FRONT, settings=changed))
     with make_renderer(changed) as r:
         assert type(r).__name__ == ("Renderer" if each_engine == "opengl" else "CpuRenderer")
         np.testing.assert_array_equal(given, r.draw(curves, camera=FRONT, settings=changed))
     assert given[16, 24, 1] > given[16, 24, 0] + 40  # the settings' green hair
     with pytest.raises(InputError, match="settings: expected RenderParams"):
-        render(curves, settings={"size": (8, 8)})
+        render_image(curves, settings={"size": (8, 8)})
 
 
 @gl
 def test_nothing_to_draw_raises():
     with pytest.raises(InputError, match="nothing to draw"):
-        render(None)
+        render_image(None)
     with pytest.raises(InputError, match="nothing to draw"):
-        render(HairCurves(np.zeros((0, 3)), [0]))
+        render_image(HairCurves(np.zeros((0, 3)), [0]))
     with pytest.raises(ConfigError, match="should be 'kajiya-kay', 'scheuermann' or 'marschner'"):
-        render(None, sphere(), shading="phong")
+        render_image(None, sphere(), shading="phong")
     with pytest.raises(InputError):
-        render(np.zeros((4, 3)))  # not HairCurves
+        render_image(np.zeros((4, 3)))  # not HairCurves
 
 
 @gl

@@ -20,7 +20,7 @@ from follicle.render import (
     Light,
     engines,
     make_renderer,
-    render,
+    render_image,
     srgb_to_linear,
 )
 from follicle.render.cpu.steps import space_order
@@ -73,7 +73,7 @@ def test_same_bytes_for_any_thread_count(small_scene, oit):
     try:
         for threads in sorted({1, before}):
             numba.set_num_threads(threads)
-            images.append(render(curves, mesh, settings=settings))
+            images.append(render_image(curves, mesh, settings=settings))
     finally:
         numba.set_num_threads(before)
     assert images[0].std() > 5  # hair, skin and shadows, not a blank frame
@@ -170,7 +170,7 @@ def test_a_bad_engine_names_the_key():
     with pytest.raises(ConfigError, match=r"\[render\]\.engine"):
         RenderParams().replace("scene.toml", engine="vulkan")
     with pytest.raises(ConfigError, match="engine"):
-        render(None, None, engine="directx")
+        render_image(None, None, engine="directx")
     with pytest.raises(InputError, match="engine: expected one of auto, opengl, cpu"):
         engines.resolve_engine("metal")
 
@@ -191,7 +191,7 @@ def test_wide_hair_covers_the_ribbon_the_opengl_engine_draws():
         msaa=0,
         shadows=False,
     )
-    cover = [srgb_to_linear(render(curves, engine=e, **kw)[..., 0] / 255.0) for e in ENGINES]
+    cover = [srgb_to_linear(render_image(curves, engine=e, **kw)[..., 0] / 255.0) for e in ENGINES]
     gl, cpu = (c.sum() for c in cover)  # pixels' worth of ribbon
     assert gl > 600  # the ribbon: 6 px wide, about 165 px long
     assert abs(cpu - gl) < 0.02 * gl, (cpu, gl)
@@ -211,10 +211,13 @@ def test_render_lod_draws_a_share_of_the_hairs_and_keeps_the_look(small_scene):
     assert 0.05 <= frame.lod < 0.3
     assert abs(frame.curves.curve_count - frame.lod * curves.curve_count) < 0.05 * 3000
     assert prepare_frame(base, base.size, curves, mesh, None, 512).curves is curves
-    every, thinned = render(curves, mesh, settings=base), render(curves, mesh, settings=lod)
+    every, thinned = (
+        render_image(curves, mesh, settings=base),
+        render_image(curves, mesh, settings=lod),
+    )
     mean, _ = difference(thinned, every)
     assert 0.0 < mean < 4.0, mean  # the same brightness, other strands
-    assert render(curves, mesh, settings=lod.replace("test", lod=64.0)).shape == every.shape
+    assert render_image(curves, mesh, settings=lod.replace("test", lod=64.0)).shape == every.shape
 
 
 def test_hair_behind_the_skins_silhouette_is_anti_aliased_as_on_opengl():
@@ -228,7 +231,9 @@ def test_hair_behind_the_skins_silhouette_is_anti_aliased_as_on_opengl():
     curves = HairCurves(points, np.arange(0, n * m + 1, m))
     kw = dict(camera=FRONT, size=(160, 160), background=(0, 0, 0), msaa=4, shadows=False)
     kw.update(hair_color=(0, 0, 1), skin_color=(1, 0, 0), hair_width=0.004, shading_params=FLAT)
-    gl, cpu = (render(curves, sphere(0.1), engine=e, **kw)[..., :3].astype(int) for e in ENGINES)
+    gl, cpu = (
+        render_image(curves, sphere(0.1), engine=e, **kw)[..., :3].astype(int) for e in ENGINES
+    )
     edge = (gl[..., 0] > 20) & (gl[..., 2] > 20)  # OpenGL's pixels of hair and skin
     assert edge.sum() > 30
     assert ((cpu[..., 0] > 20) & (cpu[..., 2] > 20))[edge].mean() > 0.85

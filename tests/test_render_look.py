@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from follicle.pipeline import grow
-from follicle.render import render
+from follicle.render import render_image
 from follicle.render.camera import frame_scene
 from follicle.scene import Scene
 from glmark import gl
@@ -27,7 +27,7 @@ def default_groom():
 
 
 def draw(scene, curves, mesh, **changes) -> np.ndarray:
-    return render(curves, mesh, settings=scene.render.replace(size=SIZE, **changes))[..., :3]
+    return render_image(curves, mesh, settings=scene.render.replace(size=SIZE, **changes))[..., :3]
 
 
 def saturation(rgb: np.ndarray) -> np.ndarray:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from follicle.curves import HairCurves
-from follicle.render import Camera, Light, opengl, render
+from follicle.render import Camera, Light, opengl, render_image
 from follicle.render.cpu import engine as cpu_engine
 from follicle.render.image import srgb_to_linear
 from follicle.render.settings import RenderParams
@@ -54,8 +54,8 @@ def crossing_strands(count: int = 2000, seed: int = 1, width: float = 4e-3) -> H
 def order_difference(curves: HairCurves, **kw) -> tuple[float, int]:
     """(mean, max) |difference| in 8-bit levels between the curves in order and shuffled."""
     shuffled = curves[np.random.default_rng(2).permutation(curves.curve_count)]
-    a = render(curves, **kw).astype(int)[..., :3]
-    b = render(shuffled, **kw).astype(int)[..., :3]
+    a = render_image(curves, **kw).astype(int)[..., :3]
+    b = render_image(shuffled, **kw).astype(int)[..., :3]
     return float(np.abs(a - b).mean()), int(np.abs(a - b).max())
 
 
@@ -106,7 +106,7 @@ def region(spacing: float, rows: int = 12) -> tuple[slice, slice]:
 def test_wide_hair_covers_its_geometric_share_of_pixels():
     px = FRONT.pixel_scale(SIZE[1])  # metres per pixel at depth 1
     width, spacing = 3.3 * px, 10.0 * px
-    img = render(parallel_strands(width, spacing), **WHITE_FLAT)
+    img = render_image(parallel_strands(width, spacing), **WHITE_FLAT)
     rows, cols = region(spacing)
     covered = (img[rows, cols, 0] > 0).mean()
     # each strand lights its width in rows, give or take one row at its edges
@@ -121,7 +121,7 @@ def test_sub_pixel_hair_covers_by_opacity(width_px, msaa):
     mean linear value of a region is the share of it the hair covers."""
     px = FRONT.pixel_scale(SIZE[1])
     spacing = 4.0 * px
-    img = render(parallel_strands(width_px * px, spacing), **{**WHITE_FLAT, "msaa": msaa})
+    img = render_image(parallel_strands(width_px * px, spacing), **{**WHITE_FLAT, "msaa": msaa})
     rows, cols = region(spacing)
     mean = srgb_to_linear(img[rows, cols, 0] / 255.0).mean()
     assert mean == pytest.approx(width_px / 4.0, rel=0.08), mean
@@ -146,7 +146,7 @@ def test_sub_pixel_coverage_holds_at_any_angle(degrees, msaa):
         ]
     )
     curves = HairCurves.from_array(pts, point_data={"width": np.full(pts.shape[0] * 6, width)})
-    img = render(curves, **{**WHITE_FLAT, "msaa": msaa})
+    img = render_image(curves, **{**WHITE_FLAT, "msaa": msaa})
     box = srgb_to_linear(img[70:131, 70:131, 0] / 255.0)
     assert box.mean() == pytest.approx(0.3 / 4.0, rel=0.08), box.mean()
 

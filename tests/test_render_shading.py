@@ -8,7 +8,7 @@ import pytest
 
 from follicle.curves import HairCurves
 from follicle.errors import InputError
-from follicle.render import Camera, Light, render
+from follicle.render import Camera, Light, render_image
 from follicle.render.image import linear_to_srgb
 from follicle.render.options import SHADINGS, parse_shading
 from glmark import gl
@@ -121,7 +121,7 @@ def horizontal_strand(width: float) -> HairCurves:
 
 
 def centre_pixel(model: str, light_dir, width: float, params=None, shadows=True) -> np.ndarray:
-    img = render(
+    img = render_image(
         horizontal_strand(width),
         camera=FRONT,
         size=SIZE,
@@ -215,9 +215,9 @@ def test_scheuermann_noise_varies_the_highlight_along_the_strand():
         shading="scheuermann",
         shading_params=PLAIN,
     )
-    row = render(strand, **kw)[100, 60:141, :3].astype(int)
-    again = render(strand, **kw)[100, 60:141, :3].astype(int)
-    smooth = render(strand, **{**kw, "shading_params": {**PLAIN, **NO_NOISE["scheuermann"]}})
+    row = render_image(strand, **kw)[100, 60:141, :3].astype(int)
+    again = render_image(strand, **kw)[100, 60:141, :3].astype(int)
+    smooth = render_image(strand, **{**kw, "shading_params": {**PLAIN, **NO_NOISE["scheuermann"]}})
     np.testing.assert_array_equal(row, again)
 
     def turns(values):  # local extrema: how often the brightness changes direction
@@ -240,7 +240,9 @@ def test_every_model_renders_plausible_hair(model):
     pts = roots[:, None] + np.linspace(0, 1, 8)[None, :, None] * grow[:, None]
     curves = HairCurves.from_array(pts, point_data={"width": np.full(pts.shape[0] * 8, 4e-4)})
     bg = np.array([0.02, 0.02, 0.02])
-    img = render(curves, size=(96, 96), shading=model, background=bg, hair_color=(0.3, 0.15, 0.06))
+    img = render_image(
+        curves, size=(96, 96), shading=model, background=bg, hair_color=(0.3, 0.15, 0.06)
+    )
     rgb = img[..., :3].astype(int)
     hair = np.abs(rgb - rgb[0, 0]).sum(axis=2) > 12
     assert 0.1 < hair.mean() < 0.9

@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 from follicle.curves import HairCurves
-from follicle.render import Camera, Light, Renderer, render
+from follicle.render import Camera, Light, Renderer, render_image
 from follicle.render.image import srgb_to_linear
 from follicle.render.settings import RenderParams
 from follicle.render.shadows import automatic_layer, light_projection
@@ -77,7 +77,10 @@ def test_hair_behind_dense_hair_is_darker_with_shadows():
         lights=side_light((1.0, 0.0, 0.0)),
         shading_params=PLAIN,
     )
-    lit, shadowed = render(curves, shadows=False, **kw), render(curves, shadows=True, **kw)
+    lit, shadowed = (
+        render_image(curves, shadows=False, **kw),
+        render_image(curves, shadows=True, **kw),
+    )
     rows = slice(90, 111)
     behind = columns(-0.075, -0.035)
     assert brightness(shadowed, rows, behind) < 0.25 * brightness(lit, rows, behind)
@@ -102,8 +105,8 @@ def test_a_lone_strand_does_not_shadow_itself(model, width_px):
         lights=[Light((0.3, 0.6, 0.74))],
         hair_color=(0.5, 0.3, 0.15),
     )
-    a = render(curves, shadows=False, **kw).astype(int)
-    b = render(curves, shadows=True, **kw).astype(int)
+    a = render_image(curves, shadows=False, **kw).astype(int)
+    b = render_image(curves, shadows=True, **kw).astype(int)
     assert a.max() > 40
     assert np.abs(a - b).max() <= 2
 
@@ -127,7 +130,10 @@ def test_hair_shadows_the_skin_and_the_skin_shadows_hair():
         lights=side_light((0.0, 1.0, 0.0)),
         shading_params={**PLAIN, "skin_wrap": 0.0},
     )
-    lit, shadowed = render(cap, mesh, shadows=False, **kw), render(cap, mesh, shadows=True, **kw)
+    lit, shadowed = (
+        render_image(cap, mesh, shadows=False, **kw),
+        render_image(cap, mesh, shadows=True, **kw),
+    )
     xy, _ = FRONT.project([(0.0, 0.085, 0.05)], SIZE)  # on the sphere, under the patch
     r, c = int(xy[0, 1]), int(xy[0, 0])
     under = (slice(r - 2, r + 3), slice(c - 2, c + 3))
@@ -142,7 +148,10 @@ def test_hair_shadows_the_skin_and_the_skin_shadows_hair():
         [sheet(-0.16, -0.13, 60, 4, y=(-0.05, 0.05)), sheet(-0.16, -0.13, 60, 5, y=(0.15, 0.25))]
     )
     kw["lights"] = side_light((1.0, 0.0, 0.0))
-    lit, shadowed = render(strands, mesh, shadows=False, **kw), render(strands, mesh, **kw)
+    lit, shadowed = (
+        render_image(strands, mesh, shadows=False, **kw),
+        render_image(strands, mesh, **kw),
+    )
     cols = columns(-0.155, -0.135)
     level = slice(95, 106)
     above = slice(*sorted(int(FRONT.project([(0, y, 0)], SIZE)[0][0, 1]) for y in (0.22, 0.18)))
@@ -161,8 +170,8 @@ def test_the_lit_side_of_the_skin_has_no_shadow_acne():
         lights=[Light((0.4, 0.5, 0.77), space="world")],
         shading_params={"skin_wrap": 0.0},
     )
-    a = render(None, sphere(0.1), shadows=False, **kw).astype(int)
-    b = render(None, sphere(0.1), shadows=True, **kw).astype(int)
+    a = render_image(None, sphere(0.1), shadows=False, **kw).astype(int)
+    b = render_image(None, sphere(0.1), shadows=True, **kw).astype(int)
     lit = a[..., 0] > 60  # away from the terminator
     # and a pixel in from the silhouette, where two-sided shading flips grazing normals
     inner = lit[1:-1, 1:-1] & lit[:-2, 1:-1] & lit[2:, 1:-1] & lit[1:-1, :-2] & lit[1:-1, 2:]
@@ -182,20 +191,20 @@ def test_shadow_density_and_layer_parameters():
         lights=side_light((1.0, 0.0, 0.0)),
     )
     rows, behind = slice(90, 111), columns(-0.075, -0.035)
-    none = render(curves, shadows=False, **kw)
-    zero = render(curves, shading_params={**PLAIN, "shadow_density": 0.0}, **kw)
-    light = render(curves, shading_params={**PLAIN, "shadow_density": 0.05}, **kw)
-    dense = render(curves, shading_params={**PLAIN, "shadow_density": 2.0}, **kw)
+    none = render_image(curves, shadows=False, **kw)
+    zero = render_image(curves, shading_params={**PLAIN, "shadow_density": 0.0}, **kw)
+    light = render_image(curves, shading_params={**PLAIN, "shadow_density": 0.05}, **kw)
+    dense = render_image(curves, shading_params={**PLAIN, "shadow_density": 2.0}, **kw)
     np.testing.assert_array_equal(
-        render(curves, shadows=False, shading_params=PLAIN, **kw),
-        render(curves, shading_params={**PLAIN, "shadow_density": 0.0}, **kw),
+        render_image(curves, shadows=False, shading_params=PLAIN, **kw),
+        render_image(curves, shading_params={**PLAIN, "shadow_density": 0.0}, **kw),
     )
     values = [brightness(img, rows, behind) for img in (zero, light, dense)]
     assert values[0] > values[1] > values[2]
     assert none.shape == zero.shape
     # in one thick layer a strand sees only a sliver of the opacity in front of it
-    thin = render(curves, shading_params={**PLAIN, "shadow_layer": 0.002}, **kw)
-    thick = render(curves, shading_params={**PLAIN, "shadow_layer": 0.5}, **kw)
+    thin = render_image(curves, shading_params={**PLAIN, "shadow_layer": 0.002}, **kw)
+    thick = render_image(curves, shading_params={**PLAIN, "shadow_layer": 0.5}, **kw)
     assert brightness(thick, rows, behind) > 2 * brightness(thin, rows, behind)
 
 
@@ -245,7 +254,7 @@ def test_the_skin_shadow_edge_is_as_soft_as_skin_softness(softness):
         lights=[Light((-0.6, 0.0, 0.8), space="world")],
         shading_params={"skin_wrap": 0.0, "skin_softness": softness},
     )
-    img = render(None, plate_over_floor(), shadows=True, **kw)
+    img = render_image(None, plate_over_floor(), shadows=True, **kw)
     xs = np.linspace(-0.045, 0.04, 341)
     xy, _ = camera.project(np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)]), size)
     row = srgb_to_linear(img[200, :, 0] / 255.0)

@@ -157,7 +157,7 @@ def test_a_missing_served_file_is_one_line(served, tmp_path):
 def test_a_served_groom_exports_the_bytes_of_the_file_on_disk(served, tmp_path):
     """`follicle export URL -o …` and a folder of URLs (`export_files`): the bytes the
     files on disk give."""
-    from follicle.distributed_export import convert, export_files
+    from follicle.distributed.export import convert, export_files
 
     folder, url, _ = served
     convert(folder / "guides.hair", tmp_path / "disk.abc")
@@ -340,7 +340,7 @@ def test_a_download_stops_at_the_readers_size_limit(hostile_server, tmp_path, mo
     """An endless body stops at the reader's limit (a scene's 1 MiB, a stroke log's
     64 MiB) or at $FOLLICLE_MAX_DOWNLOAD, not at the disk's end; a declared size past
     the limit is refused before the body is asked for."""
-    from follicle.groom.strokes import MAX_BYTES, load_strokes
+    from follicle.editing.strokes import MAX_BYTES, load_strokes
     from follicle.scene import MAX_SCENE_BYTES
 
     url, gets = hostile_server
@@ -380,8 +380,8 @@ def test_the_cli_leaves_a_slow_server_in_one_line(hostile_server, tmp_path, tty)
 def test_a_served_stroke_log_names_files_beside_it_only(served, tmp_path):
     """A stroke log fetched from a server names guides and a mesh on its own server
     (relative paths become URLs beside it), never a file of this machine."""
+    from follicle.editing.editor import replay_file
     from follicle.errors import InputError
-    from follicle.groom.editor import replay_file
 
     folder, url, sent = served
     local = tmp_path / "mine.hair"

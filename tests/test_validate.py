@@ -124,8 +124,8 @@ def _public_calls(tmp_path):
         load_scene,
         save,
     )
-    from follicle.groom.editor import replay_file
-    from follicle.groom.strokes import load_strokes
+    from follicle.editing.editor import replay_file
+    from follicle.editing.strokes import load_strokes
     from follicle.io.mesh_save import save_mesh
     from follicle.io.sim_cache import load_cache
     from follicle.io.skin_animation import load_skin_animation

@@ -79,8 +79,15 @@ def readonly(arr: object, dtype: object = None) -> np.ndarray:
     return out
 
 
+SCAN_IN_PARALLEL = 1 << 20  # elements from which all_finite scans on every core
+
+
 def all_finite(arr: np.ndarray) -> bool:
-    """True when no element of the float array ``arr`` is NaN or inf (parallel scan)."""
+    """True when no element of the float array ``arr`` is NaN or inf: numpy for an array
+    under :data:`SCAN_IN_PARALLEL` elements (no numba to load for a small file), a
+    parallel scan for a larger one (no temporary as large as the array)."""
+    if arr.size < SCAN_IN_PARALLEL:
+        return bool(np.isfinite(arr).all())
     return _count_bad(readonly(arr).reshape(-1)) == 0
 
 

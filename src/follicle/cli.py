@@ -173,9 +173,6 @@ def _handle_signals() -> None:
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
 
-_MESH_ONLY = (".ply", ".glb", ".gltf", ".stl", ".off")  # written only as meshes
-
-
 class _LazyChoice(click.Choice):
     """A :class:`click.Choice` whose values are made when first needed (a command's
     ``--help``, or checking a value), so that ``follicle --help`` imports none of the
@@ -354,7 +351,9 @@ def grow(
 
     scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
     path = out or scene.output_path(scene.output.curves)
-    _check_writable_suffix(path, _curve_suffixes())
+    from .export import check_suffix, curve_suffixes
+
+    check_suffix(path, curve_suffixes())
     tool = target_name or scene.output.target
     _check_target(path, tool)
     layout = layout or scene.output.layout
@@ -373,7 +372,7 @@ def grow(
     else:
         _check_apart(path, scene_path, scene)
     if scheduler is not None:
-        from .distributed import grow as grow_distributed
+        from .distributed.grow import grow as grow_distributed
 
         with _step("grow on Dask"), _progress("growing hair on Dask") as progress:
             hairs, points = grow_distributed(
@@ -421,9 +420,10 @@ def groom(
 ) -> None:
     """Replay a stroke log (brushes on the guides, README: Grooming by hand) headless
     and save the guides it makes."""
-    from .groom.editor import replay_file
+    from .editing.editor import replay_file
+    from .export import check_suffix, curve_suffixes
 
-    _check_writable_suffix(out, _curve_suffixes())
+    check_suffix(out, curve_suffixes())
     given = (("the stroke log", strokes_path), ("--guides", guides), ("--mesh", mesh))
     _check_apart([out, *([groups_out] if groups_out else [])], None, more=given)
     with _step("groom"):
@@ -475,7 +475,7 @@ def _grown_chunks(
     progress and adding up (hairs, points) in ``tally``; one empty chunk for a count
     of 0, so the file is still written. For Unreal each hair also carries the three
     guides it blends most and their weights."""
-    from .distributed import part_ranges, target_chunk
+    from .distributed.grow import part_ranges, target_chunk
     from .groom.generator import CHUNK
 
     total = groom.params.count
@@ -535,7 +535,8 @@ def export(
     before it are converted: when a file fails, the files before it stay, and it and
     those after it are not written.
     """
-    from .distributed_export import convert
+    from .distributed.export import convert
+    from .export import check_suffix, curve_suffixes, export_cache, export_skin, mesh_only
     from .io.mesh_load import BUILTIN_MESHES
     from .io.sim_cache import is_cache
 
@@ -548,14 +549,25 @@ def export(
     if (
         source.startswith("builtin:")
         and source[len("builtin:") :] in BUILTIN_MESHES
-        or Path(out).suffix.lower() in _MESH_ONLY
+        or mesh_only(out)
     ):
-        _export_mesh(source, out, tool)
+        mesh = export_skin(source, out, tool)
+        click.echo(
+            f"mesh '{mesh.name}': {len(mesh.rest_vertices):,} vertices,"
+            f" {len(mesh.faces):,} triangles → {out}"
+        )
         return
-    _check_writable_suffix(out, _curve_suffixes())
+
+    check_suffix(out, curve_suffixes())
     _check_target(out, tool)
     if is_cache(source):
-        _export_cache(source, out, skin, tool)
+        with _step("export"), _progress("writing frames") as progress:
+            done = export_cache(source, out, skin, tool, progress)
+        moving = f" with the {done.skin} skin" if done.skin else ""
+        click.echo(
+            f"{done.frames} frames of {done.strands:,} guides × {done.vertices} vertices"
+            f" at {done.fps:g} fps{moving} → {out}"
+        )
         return
     hairs, points = convert(source, out, tool)
     click.echo(f"{hairs:,} hairs, {points:,} points → {out}")
@@ -566,9 +578,10 @@ def _export_files(
 ) -> None:
     """`follicle export IN... -o FOLDER --to SUFFIX`: the curves files converted, here or
     on the Dask cluster ``scheduler``, with a line for each."""
-    from .distributed_export import export_files
+    from .distributed.export import export_files
+    from .export import export_targets
 
-    targets = _export_targets(sources, out, suffix)
+    targets = export_targets(sources, out, suffix)
     _check_target(targets[0], target)
     where = " on Dask" if scheduler else ""
     with _step(f"export{where}"), _progress(f"converting files{where}") as progress:
@@ -602,121 +615,6 @@ def _finished(paths: list, noun: str = "files") -> Callable[[], str | None]:
     return note
 
 
-def _export_targets(sources: tuple[str, ...], out: str, suffix: str | None) -> list[str]:
-    """Where `follicle export` writes each IN: ``out`` itself for one IN without --to;
-    otherwise ``out`` is a folder and IN NAME.ext goes to OUT/NAME.SUFFIX. InputError for
-    what would be ambiguous: several IN or -o a folder without --to, -o a file for a
-    folder, two IN of one name."""
-    from .errors import InputError
-
-    if suffix is None:
-        if len(sources) == 1 and not Path(out).is_dir():
-            _check_writable_suffix(out, _curve_suffixes())
-            return [out]
-        what = f"{len(sources)} files convert into a folder" if len(sources) > 1 else "a folder"
-        raise InputError(
-            f"-o {out}: {what}; give --to SUFFIX for the format of the files in it (e.g."
-            " --to .usdc: FOLDER/NAME.usdc for each IN NAME.ext)"
-        )
-    suffix = suffix.lower() if suffix.startswith(".") else f".{suffix.lower()}"
-    _check_writable_suffix(f"--to {suffix}", _curve_suffixes())
-    folder = Path(out)
-    if (folder.exists() and not folder.is_dir()) or folder.suffix.lower() in _curve_suffixes():
-        raise InputError(
-            f"-o {out}: --to writes a file for each IN into a folder; give -o a folder"
-            f" (FOLDER/NAME{suffix} for each IN NAME.ext)"
-        )
-    targets: dict[str, str] = {}
-    for source in sources:
-        target = str(folder / f"{Path(source).stem}{suffix}")
-        if target in targets:
-            raise InputError(
-                f"-o {out}: {targets[target]} and {source} would both be converted to"
-                f" {target}; give the files different names, or convert them apart"
-            )
-        targets[target] = source
-    return list(targets)
-
-
-def _export_mesh(source: str, out: str, target: str) -> None:
-    """`follicle export builtin:head -o head.obj`: the skin alone, as a mesh file, or as
-    the /Groom/Skin of a USD or Alembic file with no hair."""
-    from .io.dispatch import save
-    from .io.mesh_load import load_mesh
-    from .io.mesh_save import MESH_WRITE_EXTENSIONS, save_mesh
-    from .io.targets import NAMED_FORMATS
-
-    mesh = load_mesh(source)
-    suffix = Path(out).suffix.lower()
-    if suffix in NAMED_FORMATS:
-        import numpy as np
-
-        from .curves import HairCurves
-
-        save(HairCurves.from_array(np.zeros((0, 2, 3), np.float32)), out, target=target, mesh=mesh)
-    else:
-        _check_writable_suffix(out, MESH_WRITE_EXTENSIONS)
-        save_mesh(mesh, out)
-    click.echo(
-        f"mesh '{mesh.name}': {len(mesh.rest_vertices):,} vertices,"
-        f" {len(mesh.faces):,} triangles → {out}"
-    )
-
-
-def _export_cache(source: str, out: str, skin: bool = True, target: str = "generic") -> None:
-    """`follicle export CACHE -o anim.usdc` (or `.abc`): the simulated guides of every
-    frame as one animated curves object (a time sample a frame, at the cache's fps), and
-    the skin mesh of the cache's scene moving with the head (its transform sampled per
-    frame), named, typed and scaled for ``target``."""
-    from .errors import FormatError
-    from .io.alembic import save_abc_cache
-    from .io.sim_cache import load_cache
-    from .io.usd import SUFFIXES, save_usd_cache
-
-    suffix = Path(out).suffix.lower()
-    if suffix not in (*SUFFIXES, ".abc"):
-        raise FormatError(
-            f"{source}: a simulation cache exports to animated USD or Alembic; give -o a"
-            f" {' / '.join(SUFFIXES)} or .abc file (`follicle render {source} -o frames/`"
-            " draws it)"
-        )
-    cache = load_cache(source)
-    mesh = None
-    if skin:
-        from .io.mesh_load import load_mesh
-        from .pipeline import cache_scene, check_cache_skin
-
-        scene = cache_scene(cache)
-        mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
-        check_cache_skin(cache, mesh)
-    deforms = skin and cache.skin_vertices is not None
-    write = save_abc_cache if suffix == ".abc" else save_usd_cache
-    with _step("export"), _progress("writing frames") as progress:
-
-        def frames() -> Iterator[HairCurves]:
-            from .curves import HairCurves
-
-            for f, strands in enumerate(cache.positions):
-                yield HairCurves.from_array(strands)
-                progress(f + 1, cache.frame_count)
-
-        write(
-            frames(),
-            out,
-            fps=cache.fps,
-            mesh=mesh,
-            role="guides",
-            target=target,
-            transforms=cache.transforms if skin and not deforms else None,
-            skin_vertices=cache.skin_vertices if deforms else None,
-        )
-    moving = " with the deforming skin" if deforms else " with the moving skin" if skin else ""
-    click.echo(
-        f"{cache.frame_count} frames of {cache.strand_count:,} guides ×"
-        f" {cache.vertex_count} vertices at {cache.fps:g} fps{moving} → {out}"
-    )
-
-
 @main.command("export-rib")
 @click.argument("scene_path", metavar="SCENE", type=click.Path())
 @click.option(
@@ -742,7 +640,9 @@ def export_rib(scene_path: str, out: str, voxels: int, count: int | None, seed: 
     from .scene import load_scene
 
     scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
-    _check_writable_suffix(out, (".rib",))
+    from .export import check_suffix
+
+    check_suffix(out, (".rib",))
     _check_apart([out, str(Path(out).with_suffix(".follicle.z"))], scene_path, scene)
     with _step("grow and bound"), _progress("bounding voxels") as progress:
         done = export(scene, out, voxels, progress=progress)
@@ -752,13 +652,6 @@ def export_rib(scene_path: str, out: str, voxels: int, count: int | None, seed: 
         f" ({'×'.join(map(str, done.grid.dims))} grid) → {done.rib} ({sizes[0]:,} bytes)"
         f" + {done.frame} ({sizes[1]:,} bytes)"
     )
-
-
-def _curve_suffixes() -> tuple[str, ...]:
-    """The extensions curves can be written to: .npz first, then the others sorted."""
-    from .io.dispatch import WRITERS
-
-    return (".npz", *sorted(set(WRITERS) - {".npz"}))
 
 
 @main.command()
@@ -829,7 +722,14 @@ def batch(
     scene × every combination of --vary values × each of --seeds, each into a folder of
     its own, with a manifest of parameters, files and SHA-256s. Run it again after a stop
     and it keeps the variants already made."""
-    from .batch import SCENE_SUFFIX, Outputs, parse_seeds, parse_vary, run_batch, variants
+    from .distributed.batch import (
+        SCENE_SUFFIX,
+        Outputs,
+        parse_seeds,
+        parse_vary,
+        run_batch,
+        variants,
+    )
     from .scene import load_scene
 
     render = {k: v for k, v in {"size": size, "engine": engine}.items() if v is not None}
@@ -931,7 +831,7 @@ def simulate(
     if len(targets) > 1:
         _keeping(_finished(targets, "caches"))
     if scheduler is not None:
-        from .distributed_sim import simulate_scenes
+        from .distributed.simulate import simulate_scenes
 
         with _step("simulate on Dask"), _progress("simulating scenes on Dask") as progress:
             runs = simulate_scenes(scenes, targets, scheduler, frames, fps, progress)
@@ -973,7 +873,9 @@ def _cache_targets(paths: tuple[str, ...], scenes: list[Scene], out: str | None)
 
     if len(paths) == 1:
         target = out or scenes[0].output_path("sim.npz")
-        _check_writable_suffix(target, (".npz",))
+        from .export import check_suffix
+
+        check_suffix(target, (".npz",))
         return [target]
     if out is None:
         raise InputError(
@@ -1125,7 +1027,9 @@ def render(
     if Path(source).suffix.lower() == ".toml":
         scene = _with_overrides(load_scene(source), count=count)
         target = out or scene.output_path(scene.output.image)
-        _check_writable_suffix(target, (".png",))
+        from .export import check_suffix
+
+        check_suffix(target, (".png",))
         _check_apart(target, source, scene, more=(("--mesh", mesh_path),))
         _not_for(source, "a scene", frames=frame_range, scheduler=scheduler)
         with _step("grow"), _progress("growing hair") as progress:
@@ -1144,7 +1048,9 @@ def render(
     else:
         scene = Scene()
         target = out or default_output(source, ".png")
-        _check_writable_suffix(target, (".png",))
+        from .export import check_suffix
+
+        check_suffix(target, (".png",))
         _check_apart(target, None, more=(("the curves file", source), ("--mesh", mesh_path)))
         _not_for(source, "a curves file", count=count, frames=frame_range, scheduler=scheduler)
         curves = load_curves(source)
@@ -1201,9 +1107,9 @@ def _render_cache(
         _keeping(_finished(written, "frames"))
     start = time.perf_counter()
     if scheduler is not None:
-        from . import distributed_sim
+        from .distributed import render as distributed_render
 
-        on_dask = distributed_sim.render_video if video else distributed_sim.render_cache
+        on_dask = distributed_render.render_video if video else distributed_render.render_cache
         with _step("render on Dask"), _progress("rendering frames on Dask") as progress:
             paths = on_dask(cache, target, scheduler, scene, frames, frames_per_task, progress)
     else:
@@ -1333,7 +1239,9 @@ def view(
     if offscreen and frames is None:
         raise InputError("--offscreen: give --frames N (there is no window to close)")
     if screenshot is not None:
-        _check_writable_suffix(screenshot, (".png",))
+        from .export import check_suffix
+
+        check_suffix(screenshot, (".png",))
     scene = _with_overrides(load_scene(scene_path), count=count)
     ctl = run_viewer(
         scene,
@@ -1470,13 +1378,6 @@ def _with_overrides(scene: Scene, **groom: object) -> Scene:
     if changes:
         scene = scene.replace(groom=scene.groom.replace("command line", **changes))
     return scene
-
-
-def _check_writable_suffix(path: str, allowed: tuple[str, ...]) -> None:
-    from .errors import FormatError
-
-    if Path(path).suffix.lower() not in allowed:
-        raise FormatError(f"{path}: output must end in {' or '.join(allowed)}")
 
 
 if __name__ == "__main__":  # pragma: no cover

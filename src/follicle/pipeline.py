@@ -19,7 +19,7 @@ from .groom.guides import Guides, load_guides
 from .inputs import base_folder
 from .io.mesh_load import load_mesh
 from .mesh.skin import SkinMesh
-from .render import Camera, fit_camera, make_renderer, render, save_png
+from .render import Camera, fit_camera, make_renderer, render_image, save_png
 from .scene import RenderParams, Scene, scene_from_toml, scene_to_toml
 from .validate import file_path, positive, whole
 
@@ -137,7 +137,7 @@ def render_scene(
     curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None
 ) -> np.ndarray:
     """Render hair and mesh with a scene's [render] settings; writes PNG when ``out``."""
-    return render(curves, mesh, settings=params, out=out)
+    return render_image(curves, mesh, settings=params, out=out)
 
 
 def render_scene_mitsuba(

@@ -66,7 +66,6 @@ import logging
 import os
 import signal
 import subprocess
-import sys
 import tempfile
 import threading
 from collections.abc import Callable, Iterable, Iterator
@@ -82,6 +81,7 @@ from ..inputs import input_file
 from ..io.polymesh import skin_from_part
 from ..mesh.skin import SkinMesh
 from ..validate import number
+from . import guard_server
 from .alembic_archive import COLOR_NAMES, GROOM_VERSION_KEYS
 from .alembic_guard import check_archive, read_curves, read_mesh
 from .alembic_sink import send
@@ -111,7 +111,6 @@ log = logging.getLogger("follicle")
 
 GROOM, GUIDES, SKIN, HEAD = "/Groom", "/Groom/Guides", "/Groom/Skin", "/Groom/Head"
 GROOM_VERSION = (1, 5)  # Unreal's Alembic groom schema: /Groom's user properties
-_SCRIPT = Path(__file__).with_name("guard_server.py")
 _INT32 = np.iinfo(np.int32)
 # (dtype, components) -> the geometry parameter kind the writer makes of it
 _KINDS = {
@@ -243,7 +242,7 @@ class _Sink:
     def __init__(self) -> None:
         self.stderr = tempfile.TemporaryFile()
         self.proc = subprocess.Popen(
-            [sys.executable, "-I", "-B", str(_SCRIPT), "abc-sink"],
+            guard_server.command("abc-sink"),
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self.stderr,

@@ -24,8 +24,9 @@ from collections.abc import Iterator
 import numpy as np
 from alembic3d import Abc, AbcGeom, Util
 
-from . import curve_basis, guard_server
+from . import curve_basis
 from .curve_space import SpaceError, to_world
+from .guard_rules import MAX_ANIMATION_POINTS, Refused
 
 GUIDES_PATH = "/Groom/Guides"  # as follicle.io.alembic writes them
 GROOM_VERSION_KEYS = ("groom_version_major", "groom_version_minor")  # Unreal's groom schema
@@ -82,10 +83,6 @@ _SCOPE = {
     "fvr": "faceVarying",
 }
 COLOR_NAMES = ("color", "cd", "displaycolor", "groom_color", "col")  # by priority, lower case
-
-
-class Refused(Exception):
-    """The archive is readable but not as hair or a mesh; the message says why."""
 
 
 # ------------------------------------------------------------------ values
@@ -543,10 +540,10 @@ def _animation(obj: Abc.IObject, schema: object, count: int, where: str, source:
             f"{where}: it and its Xforms have {len(times)} sample(s); a skin animation"
             " needs the mesh sampled at two times or more"
         )
-    if len(times) * count > guard_server.MAX_ANIMATION_POINTS:
+    if len(times) * count > MAX_ANIMATION_POINTS:
         raise Refused(
             f"{where}: {len(times):,} samples of {count:,} points is more than"
-            f" {guard_server.MAX_ANIMATION_POINTS:,} points in all; export fewer frames"
+            f" {MAX_ANIMATION_POINTS:,} points in all; export fewer frames"
         )
     frames = np.empty((len(times), count, 3))
     for k, t in enumerate(times):
@@ -623,8 +620,6 @@ def read_request(request: dict) -> Iterator[dict]:
                 request["guides"],
                 request.get("stored", False),
             )
-    except Refused as exc:
-        raise guard_server.Refused(str(exc)) from None
     except ERRORS as exc:
         why = " ".join(str(exc).split())[:300] or type(exc).__name__
-        raise guard_server.Refused(f"{source}: Alembic could not read it ({why}); {HINT}") from None
+        raise Refused(f"{source}: Alembic could not read it ({why}); {HINT}") from None

@@ -4,7 +4,8 @@ Ogawa writes through a C++ stream that throws on a full disk or a file-size limi
 the archive's destructors write again (its root group, its "finished" flag) and so
 throw once more, which ends the process (``std::terminate``). So
 :mod:`follicle.io.alembic` decides everything in Python and sends each object to
-write through a pipe to this module, run as ``python -I -B guard_server.py abc-sink``
+write through a pipe to this module, started by
+:func:`follicle.io.guard_server.command` (``"abc-sink"``)
 (numpy and alembic3d only): a failed write then ends this child, which reports it, and
 never the caller. After a failure the child leaves with ``os._exit``, so no destructor
 runs; after a finished archive it waits for the next one.

@@ -74,7 +74,7 @@ def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[Hair
     line each, without the file's name); FollicleError when the file cannot be read."""
     from .alembic import abc_parts
     from .dispatch import load_curves
-    from .usd import SUFFIXES as USD_SUFFIXES
+    from .suffixes import USD_SUFFIXES
     from .usd import usd_parts
 
     path = file_path(path, "check_file path")

@@ -25,7 +25,6 @@ import os
 import select
 import signal
 import subprocess
-import sys
 import tempfile
 import threading
 from collections.abc import Callable
@@ -36,13 +35,13 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import FormatError, InputError
-from .guard_server import MAX_ANIMATION_POINTS
+from . import guard_server
+from .guard_rules import MAX_ANIMATION_POINTS
 
 __all__ = ["read_guarded", "array_room", "died", "curves_from_parts"]
 
 log = logging.getLogger("follicle")
 
-_SCRIPT = Path(__file__).with_name("guard_server.py")
 # The arrays a file may give, as this process will hold them (and then joins, copies
 # and grows from them, several times their size, beside the 1.3 GB follicle maps): a
 # file's objects may share one array on disk (Alembic and USD store it once), so
@@ -96,7 +95,7 @@ class _Server:
             }  # one thread: fork-safe
             # unbuffered: select() then sees every reply line, none hides in a buffer
             self.proc = subprocess.Popen(
-                [sys.executable, "-I", "-B", str(_SCRIPT)],
+                guard_server.command(),
                 env=env,
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,

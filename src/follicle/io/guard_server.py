@@ -1,14 +1,14 @@
 """The guarded reading server: C++ file readers (usd-core, Alembic) run in forked children.
 
-:mod:`follicle.io.guard` runs this file as a script (``python -I -B guard_server.py``:
-isolated, and writing no bytecode into the install from a child under limits). It imports
-follicle's reader modules without ``follicle/__init__.py`` (which imports the
-renderer and numba: memory the children would carry for nothing), so a reader module
-may import numpy, its C++ binding and follicle's pure-numpy modules, nothing heavier.
+:mod:`follicle.io.guard` starts it as a process (:func:`command`). A reader
+module may import numpy, its C++ binding and follicle's pure-numpy modules, nothing
+heavier (numba, the renderer: memory the children would carry for nothing);
+``import follicle`` itself loads none of them (``tests/test_public_api.py``).
 
 Each request (one JSON line on stdin) names a ``kind``; :data:`READERS` maps it to a
 module whose ``read_request(request)`` returns (or yields) parts, dicts of arrays
-(nested dicts, lists, strings and numbers allowed), or raises :class:`Refused`. The
+(nested dicts, lists, strings and numbers allowed), or raises
+:class:`~follicle.io.guard_rules.Refused`. The
 server imports that module once (and calls its ``prepare()``, if any, so plugins load
 before any fork), then forks a child per request, which caps its address space at
 ``request["memory"]`` bytes, reads, refuses parts whose arrays pass
@@ -19,16 +19,14 @@ before any fork), then forks a child per request, which caps its address space a
 JSON line: the child's exit ``code`` (negative: the signal that ended it) and
 ``timed_out``.
 
-The same script, given a name of :data:`SCRIPTS` (``python -I -B guard_server.py
-abc-sink``), serves that module instead: :mod:`follicle.io.alembic_sink`, alembic3d
+The same command, given a name of :data:`SCRIPTS` (``command("abc-sink")``), serves that
+module instead: :mod:`follicle.io.alembic_sink`, alembic3d
 writing an archive.
 """
 
 from __future__ import annotations
 
 import importlib
-import importlib.machinery
-import importlib.util
 import json
 import os
 import resource
@@ -42,11 +40,9 @@ from types import ModuleType
 
 import numpy as np
 
-__all__ = ["READERS", "Refused", "serve", "MAX_ANIMATION_POINTS"]
+from .guard_rules import Refused
 
-# the most points (samples × points a sample) a skin animation read may hold: 480 MB as
-# float64 (follicle.io.skin_animation)
-MAX_ANIMATION_POINTS = 20_000_000
+__all__ = ["READERS", "serve"]
 
 # request kind -> module serving it with read_request(request) -> Iterable[dict]
 READERS = {
@@ -55,10 +51,6 @@ READERS = {
     "abc-curves": "follicle.io.alembic_archive",
     "abc-mesh": "follicle.io.alembic_archive",
 }
-
-
-class Refused(Exception):
-    """The file cannot be read as asked; the message, one line naming it, says why."""
 
 
 def _encode(value: object, arrays: dict[str, np.ndarray]) -> object:
@@ -216,21 +208,20 @@ def serve() -> None:
         sys.stdout.flush()
 
 
-# what ``python -I -B guard_server.py [NAME]`` serves: reading (no NAME), or writing Alembic
+# what command(NAME) serves: reading, or writing Alembic
 SCRIPTS = {"read": "follicle.io.guard_server", "abc-sink": "follicle.io.alembic_sink"}
 
 
-def _bootstrap(name: str) -> ModuleType:
-    """Make ``follicle`` an empty package over its folder, so that its modules import
-    without running ``follicle/__init__.py``; then the module serving ``name`` (this one
-    too is imported anew as ``follicle.io.…``: run as a script it is ``__main__``, whose
-    Refused the readers would not raise)."""
-    spec = importlib.machinery.ModuleSpec("follicle", None, is_package=True)
-    package = importlib.util.module_from_spec(spec)
-    package.__path__ = [str(Path(__file__).resolve().parents[1])]
-    sys.modules["follicle"] = package
-    return importlib.import_module(SCRIPTS[name])
-
-
-if __name__ == "__main__":
-    _bootstrap(sys.argv[1] if len(sys.argv) > 1 else "read").serve()
+def command(name: str = "read") -> list[str]:
+    """The command line of a server for ``name`` (:data:`SCRIPTS`): ``python -I -B -c``,
+    isolated from the environment and writing no bytecode into the install from a child
+    under limits, with the folder holding ``follicle/`` put first on the path (``-I``
+    leaves ``PYTHONPATH`` and the working folder off it), then the module's ``serve()``.
+    ``import follicle`` loads only its errors, so the children carry nothing heavier
+    than the readers."""
+    root = str(Path(__file__).resolve().parents[2])
+    code = (
+        f"import sys; sys.path.insert(0, {root!r}); import importlib;"
+        f" importlib.import_module({SCRIPTS[name]!r}).serve()"
+    )
+    return [sys.executable, "-I", "-B", "-c", code]

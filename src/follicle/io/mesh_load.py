@@ -15,11 +15,11 @@ from ..mesh.head import builtin_head
 from ..mesh.skin import SkinMesh
 from ..units import Units, units_for, warn_mesh_size
 from ..validate import file_path
+from .suffixes import MESH_FILE_SUFFIXES, SCENE_SUFFIXES
 
 __all__ = ["load_mesh", "MESH_EXTENSIONS", "BUILTIN_MESHES"]
 
-SCENE_EXTENSIONS = (".abc", ".usd", ".usda", ".usdc", ".usdz")  # read by follicle.io's readers
-MESH_EXTENSIONS = (".obj", ".ply", ".glb", ".gltf", ".stl", ".off", *SCENE_EXTENSIONS)
+MESH_EXTENSIONS = (*MESH_FILE_SUFFIXES, *SCENE_SUFFIXES)
 BUILTIN_MESHES: dict[str, Callable[[], SkinMesh]] = {"head": builtin_head}
 _BUILTIN_PREFIX = "builtin:"
 
@@ -62,7 +62,7 @@ def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
     if not is_url(text) and not os.path.lexists(p):
         raise FileAccessError(f"mesh file '{p}' does not exist; check the path")
     p = input_file(text, f"mesh file ({', '.join(MESH_EXTENSIONS)})")
-    if ext in SCENE_EXTENSIONS:
+    if ext in SCENE_SUFFIXES:
         return _plausible(_scene_mesh(p, ext, mpu), units, p)
 
     import trimesh

@@ -17,15 +17,18 @@ from ..atomic import atomic_path
 from ..errors import FormatError
 from ..mesh.skin import SkinMesh
 from ..validate import file_path
+from .suffixes import MESH_FILE_SUFFIXES
 
 __all__ = ["save_mesh", "MESH_WRITE_EXTENSIONS"]
 
-MESH_WRITE_EXTENSIONS = (".obj", ".ply", ".glb", ".gltf", ".stl", ".off")
+MESH_WRITE_EXTENSIONS = MESH_FILE_SUFFIXES
 
 
-def save_mesh(mesh: SkinMesh, path: str | os.PathLike[str]) -> Path:
+def save_mesh(mesh: SkinMesh, path: str | os.PathLike[str], target: str = "generic") -> Path:
     """Write ``mesh``'s rest vertices, triangles and per-vertex UVs to ``path``,
-    atomically, in the format its extension names; the same mesh gives the same bytes."""
+    atomically, in the format its extension names; the same mesh gives the same bytes.
+    ``target`` is the signature of :data:`follicle.io.dispatch.MESH_WRITERS`: a mesh
+    file carries no tool's names, so every target gets the same file."""
     path = file_path(path, "save_mesh path")
     import trimesh
 

@@ -64,6 +64,7 @@ from .attributes import column
 from .curve_bounds import catmull_rom_bounds
 from .guard import curves_from_parts
 from .stream import Curves, as_chunks
+from .suffixes import USD_SUFFIXES as SUFFIXES
 from .targets import Target, for_target, get_target
 from .usd_guard import check_container, read_stage
 from .usd_skin import define_head, define_skin, set_head, set_points
@@ -93,7 +94,6 @@ GUIDES_PATH = "/Groom/Guides"
 GROOM_GUIDES_PATH = "/Groom/Hair/Guides"  # Unreal's groom schema: the guides in the groom
 SKIN_PATH = "/Groom/Skin"  # the skin mesh, at rest
 HEAD_PATH = "/Groom/Head"  # an animation's head motion, the skin under it (Head/Skin)
-SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")  # ".usd" is written as crate
 
 # point_data / curve_data name -> USD attribute written by the schema, not as a primvar
 _SPECIAL = {

@@ -19,7 +19,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
 from .curve_space import to_world
-from .guard_server import MAX_ANIMATION_POINTS
+from .guard_rules import MAX_ANIMATION_POINTS
 from .usd_stage import Refused, _array, _Composition, _world, prepare, refusals
 
 __all__ = ["read_request", "prepare", "UV_NAMES"]

@@ -12,7 +12,7 @@ primvars, named and typed for the target tool). USD composes the parts into one 
 an application may open it with the payloads unloaded and load the parts it wants.
 
 Why: a part file depends only on its own hairs, so the parts of a groom can be written
-at the same time by different processes (:func:`follicle.distributed.grow` with
+at the same time by different processes (:func:`follicle.distributed.grow.grow` with
 ``layout="payloads"``: each Dask worker writes the parts it grows and the client only
 the small root layer), and one process writes the same bytes one part after another.
 

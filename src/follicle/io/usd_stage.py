@@ -19,8 +19,9 @@ from collections.abc import Iterator
 import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom
 
-from . import curve_basis, guard_server
+from . import curve_basis
 from .curve_space import SpaceError, to_world
+from .guard_rules import Refused
 
 GUIDES_PATH = "/Groom/Guides"  # as follicle.io.usd has it (the reading child skips the writer)
 GROOM_GUIDES_PATH = "/Groom/Hair/Guides"  # … and where it puts them for Unreal
@@ -35,10 +36,6 @@ USD_ERRORS = (
     np.linalg.LinAlgError,
 )
 MAX_PRIMS = 100_000  # prims a stage may compose, by _Composition's count
-
-
-class Refused(Exception):
-    """The file is readable USD but not hair follicle can read; the message says why."""
 
 
 # ------------------------------------------------------------------ composition
@@ -499,16 +496,12 @@ def prepare() -> None:
 
 @contextlib.contextmanager
 def refusals(source: str) -> Iterator[None]:
-    """Turn Refused and usd-core's errors into :class:`follicle.io.guard_server.Refused`,
-    one line naming ``source``."""
+    """Turn usd-core's errors into :class:`~follicle.io.guard_rules.Refused`, one line
+    naming ``source``."""
     try:
         yield
-    except Refused as exc:
-        raise guard_server.Refused(str(exc)) from None
     except USD_ERRORS as exc:
-        raise guard_server.Refused(
-            f"{source}: usd-core could not read it ({usd_error(exc)}); {HINT}"
-        ) from None
+        raise Refused(f"{source}: usd-core could not read it ({usd_error(exc)}); {HINT}") from None
 
 
 def read_request(request: dict) -> list[dict]:

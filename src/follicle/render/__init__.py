@@ -1,56 +1,39 @@
 """Rendering: camera and lights, the OpenGL and CPU hair engines, PNG output.
 
-``follicle.render`` is this package and, called, :func:`follicle.render.engines.render`
-(``follicle.render(curves, mesh=mesh, out="hair.png")``): one name for both, so that
-``import follicle.render`` does not hide the function and the function does not hide the
-package's names (``follicle.render.Renderer``). Its names are imported on first use,
-so importing follicle loads no renderer (no numba, no moderngl).
+:func:`render_image` (also ``follicle.render_image``) draws hair to an image with the
+engine a :class:`~follicle.render.settings.RenderParams` names. The package's names are
+imported on first use, so importing it loads no renderer (no numba, no moderngl).
+
+Calling the package itself (``follicle.render(curves, ...)``, the name of
+:func:`render_image` before 0.2) still works for this release, with a
+DeprecationWarning.
 """
 
 from __future__ import annotations
 
-import importlib
 import sys
 import types
+import warnings
 from typing import Any
 
-_LAZY = {
-    "render": "engines",
-    "make_renderer": "engines",
-    "Camera": "camera",
-    "Light": "camera",
-    "default_lights": "camera",
-    "fit_camera": "camera",
-    "frame_camera": "camera",
-    "Renderer": "opengl",
-    "CpuRenderer": "cpu",
-    "save_png": "image",
-    "linear_to_srgb": "image",
-    "srgb_to_linear": "image",
-}
+from ..lazy import attach_stub
 
-__all__ = list(_LAZY)
+__getattr__, __dir__, __all__ = attach_stub(__name__, __file__)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
-
-
-class _CallableModule(types.ModuleType):
-    """This package, callable as :func:`follicle.render.engines.render`."""
+class _DeprecatedCall(types.ModuleType):
+    """This package, callable for one more release as :func:`render_image` was named."""
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        from .engines import render
+        warnings.warn(
+            "follicle.render(...) is now follicle.render_image(...); follicle.render is"
+            " the rendering package, and calling it stops working in follicle 0.3",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        from .engines import render_image
 
-        return render(*args, **kwargs)
+        return render_image(*args, **kwargs)
 
 
-sys.modules[__name__].__class__ = _CallableModule
+sys.modules[__name__].__class__ = _DeprecatedCall

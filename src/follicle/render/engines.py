@@ -28,7 +28,7 @@ __all__ = [
     "SOFTWARE_GL",
     "resolve_engine",
     "make_renderer",
-    "render",
+    "render_image",
 ]
 
 SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "swr")  # GL_RENDERER of a CPU's GL
@@ -74,7 +74,7 @@ def make_renderer(settings: RenderParams | None = None) -> Renderer | CpuRendere
     return Renderer.from_settings(settings)
 
 
-def render(
+def render_image(
     curves: HairCurves | None,
     mesh: object | None = None,
     camera: Camera | None = None,

@@ -27,7 +27,8 @@ _cache: dict[tuple[int, str], object] = {}
 
 
 def _read(name: str) -> str:
-    return resources.files("follicle.render").joinpath("shaders", name).read_text("utf-8")
+    """The shader file ``name``, a data file of this package (``__package__``)."""
+    return resources.files(__package__).joinpath("shaders", name).read_text("utf-8")
 
 
 def _stage(defines: tuple[str, ...], files: list[str]) -> str:

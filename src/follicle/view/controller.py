@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from ..curves import HairCurves
+from ..editing.editor import GuideEditor
 from ..errors import FollicleError, InputError
 from ..groom.brushes import BRUSHES
-from ..groom.editor import GuideEditor
 from ..pipeline import framed_camera, groom_scene
 from ..render import Camera, CpuRenderer, Renderer, default_lights, make_renderer, save_png
 from ..render.options import parse_size

@@ -1,28 +1,13 @@
-"""Work on a Dask cluster, byte for byte as one process does it; first of all, growing.
+"""The cluster's plumbing that growing, simulating, rendering, exporting and batches share.
 
-Every hair is a pure function of the scene, its seed and its id, so a groom of any size
-splits into ranges of hair ids that any worker can grow alone. :func:`grow` sends one
-Dask task per range of ``chunk`` ids to the cluster (``"local:N"``: a LocalCluster of N
-worker processes on this machine; or a scheduler's address); each worker builds the
-groom once from the scene's TOML text (kept per process), grows its range and writes it
-as a part (:func:`write_part`: a folder of .npy files, renamed into place whole) in a
-folder every worker must reach: in memory (``/dev/shm``) for a local cluster, beside the
-output for a remote one, which needs a shared disk. Tasks are keyed by their range, so
-a retried or speculative task writes the same part under the same name and can neither
-corrupt nor duplicate one.
-
-The client writes the one output file while the workers grow (:func:`streamed`): it
-takes the parts in id order as they come (:func:`read_part`), cuts them into
-the writer's own chunks (:data:`follicle.groom.generator.CHUNK`) and streams them
-through the writer a single-process grow uses, so the file is the same, byte for byte,
-for any number of workers and any ``chunk``. Only ``AHEAD`` tasks per worker thread run
-ahead of the writing, so the parts held at once stay bounded whatever the groom's size,
-and each part is removed once written. Local workers get their share of the cores for
-numba (:func:`task_setup`). The parts folder is removed when the
-file is written or the grow fails (and on SIGINT/SIGTERM); the output is atomic.
-
-The pieces (:func:`cluster`, :func:`submit_all`, :func:`in_order`, :func:`streamed`,
-:func:`task_setup`) serve the other commands that run on a cluster.
+:func:`connect` makes a Dask client (``"local:N"``: a LocalCluster of N worker processes
+on this machine; or a scheduler's address), :func:`cluster` holds one for a job and
+stops local workers first on leaving; :func:`submit_all`, :func:`in_order` and
+:func:`streamed` send tasks and take their results in order with a bounded number run
+ahead; :func:`task_setup` gives local workers their share of the cores for numba and
+:func:`on_worker` names the worker in an error. A grow's parts travel as folders of
+.npy files (:func:`write_part`, :func:`read_part`) in a :func:`parts_folder`, and each
+worker process builds a scene's groom once (:func:`worker_groom`).
 """
 
 from __future__ import annotations
@@ -34,19 +19,16 @@ import shutil
 import sys
 import uuid
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TypeVar
 
-from .atomic import temporary_folder
-from .errors import ConfigError, FileAccessError, FollicleError
-from .groom.generator import CHUNK, Groom
-from .inputs import base_folder
-from .io.targets import writer_extras
-from .scene import Scene, scene_from_toml, scene_to_toml
-from .threads import threads_for
-from .validate import whole
+from ..atomic import temporary_folder
+from ..errors import ConfigError, FileAccessError, FollicleError
+from ..groom.generator import Groom
+from ..inputs import base_folder
+from ..scene import scene_from_toml
 
 __all__ = [
     "connect",
@@ -54,14 +36,14 @@ __all__ = [
     "cluster",
     "submit_all",
     "in_order",
+    "streamed",
+    "workers_of",
     "task_setup",
     "on_worker",
     "write_part",
     "read_part",
-    "grow",
-    "part_ranges",
-    "target_chunk",
-    "LAYOUTS",
+    "parts_folder",
+    "worker_groom",
 ]
 
 R = TypeVar("R")
@@ -71,7 +53,6 @@ log = logging.getLogger("follicle")
 _QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
 CONNECT_SECONDS = 10  # how long a scheduler's address may take to answer
 MAX_WORKERS_PER_CORE = 4  # local:N at most this many worker processes a core
-LAYOUTS = ("file", "payloads")  # how a grow's USD is laid out: one file, or a root and parts
 AHEAD = 3  # grow tasks in flight per worker thread, ahead of the client's writing
 _GROOMS: dict[tuple[str, str], Groom] = {}  # per worker process: the scenes it has built
 
@@ -316,7 +297,7 @@ def read_part(path: str | os.PathLike[str]) -> object:
     saves the copy but pays as much in page faults, measured)."""
     import numpy as np
 
-    from .curves import HairCurves
+    from ..curves import HairCurves
 
     arrays = {f.name[:-4]: np.load(f) for f in sorted(Path(path).glob("*.npy"))}
     pd = {k[2:]: v for k, v in arrays.items() if k.startswith("p.")}
@@ -335,184 +316,13 @@ def parts_folder(out: Path, local: bool) -> contextlib.AbstractContextManager[Pa
     return temporary_folder(out, "parts")
 
 
-def target_chunk(groom: Groom, chunk: object, target: str) -> object:
-    """``chunk`` as the ``target`` tool reads it: for one that reads the binding (Unreal)
-    each hair also carries the three guides it blends most and their weights."""
-    from .curves import HairCurves
-    from .io.targets import TARGETS
-
-    if "closest_guides" not in TARGETS[target].curve_names:
-        return chunk
-    index, weight = groom.guide_binding(chunk.curve_data["hair_id"])
-    return HairCurves(
-        chunk.points,
-        chunk.offsets,
-        chunk.point_data,
-        {**chunk.curve_data, "closest_guides": index, "guide_weights": weight},
-    )
-
-
-def _groom(text: str, base_dir: str) -> Groom:
+def worker_groom(text: str, base_dir: str) -> Groom:
     """The groom of the scene ``text`` (relative paths from ``base_dir``), built once per
     worker process."""
-    from .pipeline import groom_scene
+    from ..pipeline import groom_scene
 
     key = (text, base_dir)
     if key not in _GROOMS:
         _GROOMS.clear()  # one scene at a time: a worker keeps no more than one groom
         _GROOMS[key] = groom_scene(scene_from_toml(text, "scene", base_folder(base_dir)))
     return _GROOMS[key]
-
-
-def _grow_part(
-    text: str, base_dir: str, start: int, count: int, target: str, path: str, usd: bool = False
-) -> int:
-    """A worker's task: hairs ``start`` … ``start + count − 1`` written as the part
-    ``path`` (:func:`write_part`; with ``usd``, the USD part file of a payloads layout,
-    :func:`follicle.io.usd_payloads.save_usd_part`); returns their point count."""
-    task_setup()
-    with on_worker():
-        groom = _groom(text, base_dir)
-        part = target_chunk(groom, groom.generate(count, start), target)
-        if usd:
-            from .io.usd_payloads import save_usd_part
-
-            save_usd_part(part, path, target=target)
-        else:
-            write_part(part, path)
-    return part.point_count
-
-
-def _rechunked(parts: Iterable[object], size: int) -> Iterator[object]:
-    """``parts`` (HairCurves) in order, as chunks of ``size`` hairs (the last shorter)."""
-    from .curves import HairCurves
-
-    held: list[HairCurves] = []
-    count = 0
-    for part in parts:
-        held.append(part)
-        count += part.curve_count
-        while count >= size:
-            whole_ = HairCurves.concatenate(held) if len(held) > 1 else held[0]
-            if whole_.curve_count == size:
-                yield whole_
-                held, count = [], 0
-                break
-            yield whole_[:size]
-            rest = whole_[size:]
-            held, count = ([rest] if rest.curve_count else []), rest.curve_count
-    if held:
-        yield HairCurves.concatenate(held) if len(held) > 1 else held[0]
-
-
-def grow(
-    scene: Scene,
-    out: str | os.PathLike[str],
-    scheduler: str,
-    chunk: int | None = None,
-    target: str = "generic",
-    skin: bool = True,
-    progress: Callable[[int, int], None] | None = None,
-    layout: str | None = None,
-) -> tuple[int, int]:
-    """Grow ``scene``'s hair on the Dask cluster ``scheduler`` (see :func:`connect`) in
-    tasks of ``chunk`` hair ids and write it to ``out`` (any format ``follicle grow``
-    writes; USD and Alembic with the guides and, with ``skin``, the skin for
-    ``target``), the same bytes as a grow in one process (see the module). Returns
-    (hairs, points); ``progress(done, total)`` is called as parts are written.
-
-    ``layout`` (default the scene's ``[output].layout``) ``"payloads"`` (USD): each task
-    writes its hairs as one part file of the payloads layout
-    (:mod:`follicle.io.usd_payloads`; ``chunk`` hairs each, default
-    :data:`~follicle.io.usd_payloads.PART_HAIRS`) and the client only the root layer, the
-    same bytes as ``follicle grow --layout payloads`` in one process with that chunk."""
-    layout = layout or scene.output.layout
-    if layout not in LAYOUTS:
-        raise ConfigError(f"layout {layout!r}: give one of {', '.join(LAYOUTS)}")
-    if layout == "payloads":
-        return _grow_payloads(scene, out, scheduler, chunk, target, skin, progress)
-    from .curves import HairCurves
-    from .io.dispatch import save
-    from .pipeline import groom_scene
-
-    chunk = whole(CHUNK if chunk is None else chunk, "chunk", 1)
-    out = Path(out)
-    total = scene.groom.count
-    text = scene_to_toml(scene, comments=False)
-    local = scheduler.startswith("local:")
-    with cluster(scheduler) as client, parts_folder(out, local) as folder:
-        calls = [
-            (text, str(scene.base_dir), a, min(chunk, total - a), target, str(folder / f"{a:012d}"))
-            for a in range(0, total, chunk)
-        ]
-        done = streamed(client, _grow_part, calls, "grow", AHEAD * workers_of(client))
-        groom = groom_scene(scene)  # the guides and skin of the file, as the tasks run
-        tally = [0]
-
-        def written() -> Iterator[HairCurves]:
-            for (*_, a, n, _, path), points in zip(calls, done, strict=True):
-                part = read_part(path)
-                tally[0] += points
-                yield part
-                shutil.rmtree(path, ignore_errors=True)
-                if progress is not None:
-                    progress(a + n, total)
-
-        extras = writer_extras(out, target, groom.guides.curves, groom.mesh if skin else None)
-        chunks = _rechunked(written(), CHUNK) if total else iter([groom.generate(count=0)])
-        # a local cluster's workers hold the other cores: the client's own kernels (the
-        # parts' checks, the bounds) on its one, where a parallel kernel's join would
-        # wait for threads the workers hold (3× the time of the checks here)
-        with threads_for(1, 1) if local else contextlib.nullcontext():
-            if out.suffix.lower() == ".npz":
-                save(HairCurves.concatenate(list(chunks)), out)
-            else:
-                save(chunks, out, **extras)
-    return total, tally[0]
-
-
-def part_ranges(total: int, chunk: int) -> list[tuple[int, int]]:
-    """(start, count) of each part of ``total`` hairs in parts of ``chunk``: one empty
-    part for none, so that a groom of 0 hairs is still a file."""
-    return [(a, min(chunk, total - a)) for a in range(0, total, chunk)] or [(0, 0)]
-
-
-def _grow_payloads(
-    scene: Scene,
-    out: str | os.PathLike[str],
-    scheduler: str,
-    chunk: int | None,
-    target: str,
-    skin: bool,
-    progress: Callable[[int, int], None] | None,
-) -> tuple[int, int]:
-    """:func:`grow` in the payloads layout: one task per part file, written by the worker
-    into a folder beside ``out`` that every worker must reach; the client writes the
-    root layer when all are in (the cluster's progress as they come, in any order)."""
-    from distributed import as_completed
-
-    from .io.usd_payloads import PART_HAIRS, check_payloads_target, finish_payloads, part_file
-    from .pipeline import groom_scene
-
-    chunk = whole(PART_HAIRS if chunk is None else chunk, "chunk", 1)
-    out = check_payloads_target(out)
-    total = scene.groom.count
-    text = scene_to_toml(scene, comments=False)
-    ranges = part_ranges(total, chunk)
-    with cluster(scheduler) as client, temporary_folder(out, "payloads") as staged:
-        calls = [
-            (text, str(scene.base_dir), a, n, target, str(part_file(staged, i)), True)
-            for i, (a, n) in enumerate(ranges)
-        ]
-        futures = submit_all(client, _grow_part, calls, "grow")
-        groom = groom_scene(scene)  # the guides and skin of the root, as the tasks run
-        sizes = {future.key: n for future, (_, n) in zip(futures, ranges, strict=True)}
-        points = done = 0
-        for future in as_completed(futures):
-            points += future.result()
-            done += sizes[future.key]
-            if progress is not None:
-                progress(done, total)
-        mesh = groom.mesh if skin else None
-        finish_payloads(out, staged, len(ranges), groom.guides.curves, mesh=mesh, target=target)
-    return total, points

@@ -25,15 +25,15 @@ import numpy as np
 from ..arrays import frozen
 from ..curves import HairCurves
 from ..errors import FollicleError, InputError
+from ..groom import brushes
+from ..groom.groups import InterpolationGroups, color_label
+from ..groom.guides import Guides, load_guides
 from ..inputs import is_remote, is_url, remote_reach
 from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
 from ..render.camera import Camera
 from ..render.options import parse_size
 from ..validate import file_path, number, positive
-from . import brushes
-from .groups import InterpolationGroups, color_label
-from .guides import Guides, load_guides
 from .strokes import load_strokes, save_strokes, stroke_camera, stroke_entry
 
 __all__ = ["GuideEditor", "replay", "replay_file"]
@@ -232,7 +232,7 @@ class GuideEditor:
     def save_strokes(
         self, path: str | os.PathLike[str], mesh: str | None = None, guides: str | None = None
     ) -> Path:
-        """Write :attr:`log` as a stroke log (:mod:`follicle.groom.strokes`) naming the
+        """Write :attr:`log` as a stroke log (:mod:`follicle.editing.strokes`) naming the
         ``mesh`` and ``guides`` it started from, for ``follicle groom`` to replay."""
         return save_strokes(self.log, path, mesh, guides)
 

@@ -1,4 +1,4 @@
-"""Stroke logs (follicle.groom.strokes) and ``follicle groom``: a hand-made groom
+"""Stroke logs (follicle.editing.strokes) and ``follicle groom``: a hand-made groom
 replayed headless gives the same bytes, opens in usd-core, and a hostile log is one
 line and exit 2 — never a crash, a hang or a silent acceptance."""
 
@@ -11,8 +11,8 @@ import pytest
 from pxr import Usd, UsdGeom
 
 import follicle
+from follicle.editing.strokes import load_strokes
 from follicle.errors import FormatError, InputError
-from follicle.groom.strokes import load_strokes
 from hostile import assert_cli_refused, run_api, run_cli, warm
 
 SIZE = (480, 360)
@@ -111,8 +111,8 @@ def test_damaged_logs_are_refused_in_a_child_under_limits(made):
         names.append(name)
     res = run_api(
         f"""
-        from follicle.groom.editor import replay
-        from follicle.groom.strokes import load_strokes
+        from follicle.editing.editor import replay
+        from follicle.editing.strokes import load_strokes
         head = follicle.load_mesh("builtin:head")
         outcome = []
         for k in range({len(names)}):

@@ -50,10 +50,10 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .atomic import atomic_path, deliver, pending_folders
-from .errors import ConfigError, FollicleError
-from .inputs import base_folder, check_apart
-from .scene import Scene, holds_paths, scene_files, scene_from_toml, scene_to_toml
+from ..atomic import atomic_path, deliver, pending_folders
+from ..errors import ConfigError, FollicleError
+from ..inputs import base_folder, check_apart
+from ..scene import Scene, holds_paths, scene_files, scene_from_toml, scene_to_toml
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -276,7 +276,7 @@ def _made(calls: list[tuple], scheduler: str | None) -> Iterator[dict]:
         for call in calls:
             yield _make(*call)
         return
-    from .distributed import cluster, in_order, submit_all
+    from .cluster import cluster, in_order, submit_all
 
     with cluster(scheduler) as client:
         yield from in_order(submit_all(client, _variant_task, calls, "batch"))
@@ -313,8 +313,8 @@ def _job(variant: Variant, out: Path, outputs: Outputs) -> tuple:
 def _check_curves(variant: Variant, suffix: str, target: str) -> None:
     """The hair file's suffix writable and ``target`` meant for it (as `follicle grow`
     checks them), before anything is grown."""
-    from .io.dispatch import WRITERS
-    from .io.targets import check_named
+    from ..io.dispatch import WRITERS
+    from ..io.targets import check_named
 
     if suffix not in WRITERS:
         raise ConfigError(
@@ -357,7 +357,7 @@ def _kept(folder: Path, job: tuple) -> dict | None:
 
 def _variant_task(*call: object) -> dict:
     """A Dask worker's task: one variant made (:func:`_make`)."""
-    from .distributed import on_worker, task_setup
+    from .cluster import on_worker, task_setup
 
     task_setup()
     with on_worker():
@@ -396,10 +396,10 @@ def _made_into(
     pending: str,
 ) -> dict:
     """:func:`_make`'s work, its errors not yet naming the variant."""
-    from .distributed import target_chunk
-    from .io.dispatch import save
-    from .io.targets import writer_extras
-    from .pipeline import groom_inputs, groom_scene, render_scene
+    from ..io.dispatch import save
+    from ..io.targets import writer_extras
+    from ..pipeline import groom_inputs, groom_scene, render_scene
+    from .grow import target_chunk
 
     scene = scene_from_toml(text, f"{name}/scene.toml", base_folder(base_dir))
     inputs = groom_inputs(scene, _INPUTS.get(pending))

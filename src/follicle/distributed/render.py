@@ -1,7 +1,7 @@
-"""Simulations on a Dask cluster, byte for byte as one process makes them: a cache's
-frames rendered in runs of consecutive frames, and scenes simulated one per task.
+"""A simulation cache's frames rendered on a Dask cluster, byte for byte as one process
+renders them.
 
-**Frames.** :func:`render_cache` and :func:`render_video` split a cache's frames into
+:func:`render_cache` and :func:`render_video` split a cache's frames into
 runs of ``frames_per_task`` (default :func:`default_frames_per_task`: four tasks per
 worker, so a worker that finishes early takes another and the job ends within about a
 quarter of a worker's share). The client computes the sequence's one camera
@@ -12,11 +12,8 @@ per process and draws its frames through :func:`follicle.pipeline.draw_frames`, 
 single-process render does, so each image is the same bytes. For a folder, each worker
 writes its frames' PNGs; for an MP4, tasks return their images and the client hands
 them to the encoder in frame order as they arrive, with at most
-:data:`~follicle.distributed.AHEAD` tasks per worker thread run ahead of it.
+:data:`~follicle.distributed.cluster.AHEAD` tasks per worker thread run ahead of it.
 
-**Scenes.** :func:`simulate_scenes` runs one task per scene: the worker simulates it
-(:func:`follicle.pipeline.timed_simulation`) and writes its cache, the same bytes as
-`follicle simulate` of that scene writes.
 
 **Files.** Every path a worker is given is absolute, and every worker must reach it: the
 cache, the output folder (a local disk for ``local:N``, a shared one for a cluster). A
@@ -32,27 +29,16 @@ from __future__ import annotations
 import math
 import os
 import socket
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 
-from .atomic import deliver, pending_folders
-from .distributed import (
-    AHEAD,
-    _groom,
-    cluster,
-    in_order,
-    streamed,
-    submit_all,
-    task_setup,
-    workers_of,
-)
-from .errors import InputError
-from .inputs import base_folder
-from .io.sim_cache import SimCache, load_cache, write_cache
-from .pipeline import (
-    SimRun,
+from ..atomic import deliver, pending_folders
+from ..errors import InputError
+from ..inputs import base_folder
+from ..io.sim_cache import SimCache, load_cache
+from ..pipeline import (
     cache_scene,
     check_cache_skin,
     check_frames,
@@ -60,20 +46,22 @@ from .pipeline import (
     frame_name,
     groom_scene,
     sequence_camera,
-    timed_simulation,
 )
-from .render import Camera, save_png
-from .render.video import Mp4Writer
-from .scene import Scene, scene_from_toml, scene_to_toml
-from .validate import positive, whole
+from ..render import Camera, save_png
+from ..render.video import Mp4Writer
+from ..scene import Scene, scene_from_toml, scene_to_toml
+from ..validate import whole
+from .cluster import (
+    AHEAD,
+    cluster,
+    streamed,
+    submit_all,
+    task_setup,
+    worker_groom,
+    workers_of,
+)
 
-__all__ = [
-    "TASKS_PER_WORKER",
-    "default_frames_per_task",
-    "render_cache",
-    "render_video",
-    "simulate_scenes",
-]
+__all__ = ["TASKS_PER_WORKER", "default_frames_per_task", "render_cache", "render_video"]
 
 Progress = Callable[[int, int], None]
 
@@ -148,45 +136,6 @@ def render_video(
     return video.path
 
 
-def simulate_scenes(
-    scenes: Sequence[Scene],
-    outs: Sequence[str | os.PathLike[str]],
-    scheduler: str,
-    frames: int = 48,
-    fps: float = 24.0,
-    progress: Progress | None = None,
-) -> list[SimRun]:
-    """Simulate each of ``scenes`` (:func:`follicle.pipeline.simulate_scene`) as one task
-    on the Dask cluster ``scheduler``, ``frames`` frames at ``fps``, and write its cache
-    to the matching entry of ``outs`` (.npz, each its own, in folders every worker
-    reaches): the same bytes as one process writes. Returns each scene's
-    :class:`~follicle.pipeline.SimRun`, in order; ``progress(done, total)`` counts
-    scenes."""
-    frames, fps = whole(frames, "frames", 1), positive(fps, "fps")
-    targets = [Path(out).resolve() for out in outs]
-    if len(targets) != len(scenes) or len(set(targets)) != len(targets):
-        raise InputError(
-            f"outs: expected one cache file per scene, each its own ({len(scenes)} scenes,"
-            f" {len(set(targets))} distinct files)"
-        )
-    for target in targets:
-        if target.suffix.lower() != ".npz":
-            raise InputError(f"{target}: a simulation cache must end in .npz")
-    texts = [scene_to_toml(scene, comments=False) for scene in scenes]  # fails now if at all
-    runs = []
-    folders = list(dict.fromkeys(target.parent for target in targets))
-    with pending_folders(folders) as pending, cluster(scheduler) as client:  # workers stop first
-        calls = [
-            (text, str(scene.base_dir), frames, fps, str(target), pending[target.parent])
-            for text, scene, target in zip(texts, scenes, targets, strict=True)
-        ]
-        for run in in_order(submit_all(client, _simulate_task, calls, "simulate")):
-            runs.append(run)
-            if progress is not None:
-                progress(len(runs), len(calls))
-    return runs
-
-
 class _FramesJob:
     """What the client works out once for a render on a cluster: the frames checked, the
     cache's file as workers read it, the scene as TOML, and the sequence's camera."""
@@ -249,7 +198,7 @@ def _drawn(
     task_setup()
     cache = _worker_cache(source)
     scene = scene_from_toml(text, "scene", base_folder(base_dir))
-    groom = _groom(text, base_dir)  # per worker process, shared with distributed grow
+    groom = worker_groom(text, base_dir)  # per worker process, shared with distributed grow
     return cache, draw_frames(cache, groom, scene.render, range(start, stop), camera)
 
 
@@ -277,16 +226,3 @@ def _video_task(
     """A worker's task: its frames' images, (frames, H, W, 4) uint8 sRGB."""
     _, drawn = _drawn(source, text, base_dir, start, stop, camera)
     return np.stack([image for _, image in drawn])
-
-
-def _simulate_task(
-    text: str, base_dir: str, frames: int, fps: float, target: str, pending: str
-) -> SimRun:
-    """A worker's task: the scene ``text`` simulated and its cache written to ``target``
-    (through the job's ``pending`` folder)."""
-    task_setup()
-    cache, run = timed_simulation(
-        scene_from_toml(text, "scene", base_folder(base_dir)), frames, fps
-    )
-    deliver(pending, Path(target), lambda p: write_cache(cache, p))
-    return run

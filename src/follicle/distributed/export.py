@@ -28,12 +28,12 @@ import os
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
-from .atomic import deliver, pending_folders
-from .errors import FollicleError, FormatError, InputError
-from .inputs import is_url
-from .io.dispatch import WRITERS, load_curves, save
-from .io.sim_cache import is_cache
-from .io.targets import NAMED_FORMATS, check_named, get_target
+from ..atomic import deliver, pending_folders
+from ..errors import FollicleError, FormatError, InputError
+from ..inputs import is_url
+from ..io.dispatch import WRITERS, load_curves, save
+from ..io.sim_cache import is_cache
+from ..io.targets import NAMED_FORMATS, check_named, get_target
 
 __all__ = ["convert", "export_files"]
 
@@ -147,7 +147,7 @@ def _runner(scheduler: str | None) -> Iterator[Callable[[list[Call]], Iterator[t
     if scheduler is None:
         yield lambda calls: (_stage(*call) for call in calls)
         return
-    from .distributed import cluster, in_order, submit_all
+    from .cluster import cluster, in_order, submit_all
 
     with cluster(scheduler) as client:
         yield lambda calls: in_order(submit_all(client, _export_task, calls, "export"))
@@ -170,7 +170,7 @@ def _stage(source: str, out: str, target: str, pending: str) -> tuple[int, int]:
 
 def _export_task(source: str, out: str, target: str, pending: str) -> tuple[int, int]:
     """A Dask worker's task: :func:`_stage`, its errors naming the worker."""
-    from .distributed import on_worker, task_setup
+    from .cluster import on_worker, task_setup
 
     task_setup()
     with on_worker():

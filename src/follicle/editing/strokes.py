@@ -2,7 +2,7 @@
 
 A :class:`~follicle.GuideEditor` records every stroke, undo and redo it is given
 (:attr:`~follicle.GuideEditor.log`); :func:`save_strokes` writes that list with the
-mesh and guides it started from, and :func:`~follicle.groom.editor.replay` (``follicle
+mesh and guides it started from, and :func:`~follicle.editing.editor.replay` (``follicle
 groom strokes.json``) applies it again headless, byte for byte — so a hand-made groom
 is reproducible, reviewable as text and testable::
 

@@ -66,7 +66,7 @@ def inside(ed, points) -> np.ndarray:
 
 
 def test_a_dab_falls_off_smoothly_to_zero_at_the_radius(camera):
-    from follicle.groom.editor import _View
+    from follicle.editing.editor import _View
 
     view = _View(camera, SIZE)
     centre = np.array([320.0, 240.0])

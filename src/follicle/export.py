@@ -1,0 +1,164 @@
+"""``follicle export`` as library calls: where each input goes, a skin alone, a
+simulation cache as animated USD or Alembic. The command parses, calls one of these and
+prints what it returns; Python calls them the same way.
+
+Curves files themselves convert through :func:`follicle.distributed.export.convert`
+(one file) and :func:`follicle.distributed.export.export_files` (many, here or on Dask).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from .curves import HairCurves
+from .errors import FormatError, InputError
+from .io.dispatch import CACHE_WRITERS, MESH_WRITERS, WRITERS
+from .io.suffixes import MESH_FILE_SUFFIXES, SCENE_SUFFIXES, USD_SUFFIXES
+from .mesh.skin import SkinMesh
+
+__all__ = [
+    "curve_suffixes",
+    "mesh_only",
+    "check_suffix",
+    "export_targets",
+    "export_skin",
+    "export_cache",
+    "CacheExport",
+]
+
+Progress = Callable[[int, int], None]
+
+
+def curve_suffixes() -> tuple[str, ...]:
+    """The extensions curves can be written to: .npz first, then the others sorted."""
+    return (".npz", *sorted(set(WRITERS) - {".npz"}))
+
+
+def mesh_only(path: str | os.PathLike[str]) -> bool:
+    """True when ``path``'s extension is written only as a mesh (.ply, .glb, …; .obj is a
+    curves format too)."""
+    return Path(path).suffix.lower() in set(MESH_WRITERS) - set(WRITERS)
+
+
+def check_suffix(path: str | os.PathLike[str], allowed: Sequence[str]) -> None:
+    """FormatError naming ``path`` unless its extension is one of ``allowed``."""
+    if Path(path).suffix.lower() not in allowed:
+        raise FormatError(f"{path}: output must end in {' or '.join(allowed)}")
+
+
+def export_targets(
+    sources: Sequence[str], out: str | os.PathLike[str], suffix: str | None
+) -> list[str]:
+    """Where each of ``sources`` is written: ``out`` itself for one source without
+    ``suffix``; otherwise ``out`` is a folder and NAME.ext goes to OUT/NAME.SUFFIX.
+    InputError for what would be ambiguous: several sources or ``out`` a folder without
+    ``suffix``, ``out`` a file for a folder, two sources of one name."""
+    out = os.fspath(out)
+    if suffix is None:
+        if len(sources) == 1 and not Path(out).is_dir():
+            check_suffix(out, curve_suffixes())
+            return [out]
+        what = f"{len(sources)} files convert into a folder" if len(sources) > 1 else "a folder"
+        raise InputError(
+            f"-o {out}: {what}; give --to SUFFIX for the format of the files in it (e.g."
+            " --to .usdc: FOLDER/NAME.usdc for each IN NAME.ext)"
+        )
+    suffix = suffix.lower() if suffix.startswith(".") else f".{suffix.lower()}"
+    check_suffix(f"--to {suffix}", curve_suffixes())
+    folder = Path(out)
+    if (folder.exists() and not folder.is_dir()) or folder.suffix.lower() in curve_suffixes():
+        raise InputError(
+            f"-o {out}: --to writes a file for each IN into a folder; give -o a folder"
+            f" (FOLDER/NAME{suffix} for each IN NAME.ext)"
+        )
+    targets: dict[str, str] = {}
+    for source in sources:
+        target = str(folder / f"{Path(source).stem}{suffix}")
+        if target in targets:
+            raise InputError(
+                f"-o {out}: {targets[target]} and {source} would both be converted to"
+                f" {target}; give the files different names, or convert them apart"
+            )
+        targets[target] = source
+    return list(targets)
+
+
+def export_skin(source: str, out: str | os.PathLike[str], target: str = "generic") -> SkinMesh:
+    """The mesh ``source`` (a file or ``builtin:head``) alone: as a mesh file (.obj, .ply,
+    .glb, …) or as the ``/Groom/Skin`` of a USD or Alembic file with no hair, named and
+    scaled for ``target``. Returns the mesh written."""
+    from .io.mesh_load import load_mesh
+
+    if Path(out).suffix.lower() not in SCENE_SUFFIXES:  # checked before the mesh is read
+        check_suffix(out, MESH_FILE_SUFFIXES)
+    write = MESH_WRITERS.for_path(out)
+    mesh = load_mesh(source)
+    write(mesh, out, target=target)
+    return mesh
+
+
+@dataclass(frozen=True)
+class CacheExport:
+    """What :func:`export_cache` wrote: frames, guides, vertices a guide, fps, and the
+    skin: ``"deforming"``, ``"moving"`` or None."""
+
+    frames: int
+    strands: int
+    vertices: int
+    fps: float
+    skin: str | None
+
+
+def export_cache(
+    source: str,
+    out: str | os.PathLike[str],
+    skin: bool = True,
+    target: str = "generic",
+    progress: Progress | None = None,
+) -> CacheExport:
+    """The simulation cache ``source`` as animated USD or Alembic at ``out``: the
+    simulated guides of every frame as one curves object (a time sample a frame, at the
+    cache's fps) and, with ``skin``, the skin mesh of the cache's scene moving with the
+    head (its transform sampled per frame, or its vertices where the skin deforms), named,
+    typed and scaled for ``target``. ``progress(done, total)`` counts frames."""
+    from .io.sim_cache import load_cache
+
+    if Path(out).suffix.lower() not in CACHE_WRITERS:
+        raise FormatError(
+            f"{source}: a simulation cache exports to animated USD or Alembic; give -o a"
+            f" {' / '.join(USD_SUFFIXES)} or .abc file (`follicle render {source} -o frames/`"
+            " draws it)"
+        )
+    write = CACHE_WRITERS.for_path(out)
+    cache = load_cache(source)
+    mesh = None
+    if skin:
+        from .io.mesh_load import load_mesh
+        from .pipeline import cache_scene, check_cache_skin
+
+        scene = cache_scene(cache)
+        mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
+        check_cache_skin(cache, mesh)
+    deforms = skin and cache.skin_vertices is not None
+
+    def frames() -> Iterator[HairCurves]:
+        for f, strands in enumerate(cache.positions):
+            yield HairCurves.from_array(strands)
+            if progress is not None:
+                progress(f + 1, cache.frame_count)
+
+    write(
+        frames(),
+        out,
+        fps=cache.fps,
+        mesh=mesh,
+        role="guides",
+        target=target,
+        transforms=cache.transforms if skin and not deforms else None,
+        skin_vertices=cache.skin_vertices if deforms else None,
+    )
+    moving = "deforming" if deforms else "moving" if skin else None
+    return CacheExport(cache.frame_count, cache.strand_count, cache.vertex_count, cache.fps, moving)
