@@ -235,8 +235,8 @@ def test_alembic_out_of_memory_or_time_is_a_format_error(
     """The child's limits, made tiny: one line naming the file, not a crash or a hang."""
     path = tmp_path / "ok.abc"
     path.write_bytes(valid)
-    monkeypatch.setattr(f"follicle.io.alembic_guard.{limit}", 64 << 20 if "MEMORY" in limit else 0)
-    monkeypatch.setattr("follicle.io.alembic_guard.BYTES_PER_SECOND", 2**60)
+    monkeypatch.setattr(f"follicle.io.guard.{limit}", 64 << 20 if "MEMORY" in limit else 0)
+    monkeypatch.setattr("follicle.io.guard.BYTES_PER_SECOND", 2**60)
     with pytest.raises(FormatError, match=f"ok.abc: Alembic could not read it \\(.*({message})"):
         load_abc(path)
 

@@ -377,8 +377,8 @@ def test_usdz_whose_crate_toc_is_corrupt_is_refused(tmp_path, valid):
 def test_usd_core_out_of_memory_or_time_is_a_format_error(tmp_path, monkeypatch, limit, message):
     """The child's limits, made tiny: one line naming the file, not a crash or a hang."""
     path = follicle.save(HairCurves.from_array(np.zeros((2, 3, 3))), tmp_path / "ok.usdc")
-    monkeypatch.setattr(f"follicle.io.usd_guard.{limit}", 64 << 20 if "MEMORY" in limit else 0)
-    monkeypatch.setattr("follicle.io.usd_guard.BYTES_PER_SECOND", 2**60)
+    monkeypatch.setattr(f"follicle.io.guard.{limit}", 64 << 20 if "MEMORY" in limit else 0)
+    monkeypatch.setattr("follicle.io.guard.BYTES_PER_SECOND", 2**60)
     with pytest.raises(FormatError, match=f"ok.usdc: usd-core could not read it \\(.*({message})"):
         load_usd(path)
 

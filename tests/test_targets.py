@@ -353,6 +353,25 @@ def test_a_cache_is_written_for_unreal(tmp_path, groom, ext):
     np.testing.assert_allclose(matrix[3, :3], (0.0, 1.0, 2.0), atol=1e-9)  # cm, row vectors
 
 
+def test_the_cache_writers_share_one_signature():
+    """A table of cache writers (suffix → writer) calls any of them the same way; each
+    keeps its own name and says how its format lays the animation out."""
+    import inspect
+
+    from follicle.io.alembic import save_abc_cache
+    from follicle.io.usd import save_usd_cache
+
+    assert inspect.signature(save_abc_cache) == inspect.signature(save_usd_cache)
+    assert list(inspect.signature(save_abc_cache).parameters) == [
+        *("frames", "path", "fps", "start", "mesh", "transforms"),
+        *("target", "role", "skin_vertices"),
+    ]
+    assert save_abc_cache.__name__ == "save_abc_cache" and "OCurves" in save_abc_cache.__doc__
+    assert (
+        save_usd_cache.__module__ == "follicle.io.usd" and "BasisCurves" in save_usd_cache.__doc__
+    )
+
+
 def test_a_cache_says_what_its_frames_are(tmp_path, hair):
     from follicle.io.alembic import save_abc_cache
 

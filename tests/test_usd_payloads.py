@@ -241,22 +241,22 @@ def test_the_reading_limits_follow_the_parts_the_stage_loads(tmp_path, groom, mo
     """The root of a payloads layout is a few kilobytes; the child reading it is given
     memory and time for the root and its part files (sized from the root alone, a 1 M
     hair groom failed: out of memory, or a healthy part called corrupt)."""
-    from follicle.io import usd_guard
+    from follicle.io import guard
 
     root = save_usd_payloads(_parts(groom, 1000), tmp_path / "fox.usdc", guides=groom.guides)
     parts = sum(p.stat().st_size for p in payloads_folder(root).iterdir())
     assert parts > 20 * root.stat().st_size
     asked = []
-    real = usd_guard.read_guarded
+    real = guard.read_guarded
 
-    def spy(kind, path, memory, seconds, *args, **options):
-        asked.append((memory, seconds))
-        return real(kind, path, memory, seconds, *args, **options)
+    def spy(kind, path, size, *args, **options):
+        asked.append(size)
+        return real(kind, path, size, *args, **options)
 
-    monkeypatch.setattr(usd_guard, "read_guarded", spy)
+    monkeypatch.setattr(guard, "read_guarded", spy)
     back = load_usd(root)
     assert back.curve_count == HAIRS
-    assert asked == [usd_guard.limits(root.stat().st_size + parts)]
+    assert asked == [root.stat().st_size + parts]
 
 
 def _snapshot(folder):

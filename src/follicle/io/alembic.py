@@ -68,9 +68,8 @@ import signal
 import subprocess
 import tempfile
 import threading
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -85,15 +84,13 @@ from . import guard_server
 from .alembic_archive import COLOR_NAMES, GROOM_VERSION_KEYS
 from .alembic_guard import check_archive, read_curves, read_mesh
 from .alembic_sink import send
-from .animation import Animation, animation, target_guides
+from .animation import Animation, target_guides
 from .attributes import column
+from .cache_writer import cache_writer
 from .curve_bounds import vertex_bounds
 from .guard import curves_from_parts
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
-
-if TYPE_CHECKING:
-    from .sim_cache import SimCache
 
 __all__ = [
     "save_abc",
@@ -453,44 +450,26 @@ def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None
     _send_frame(sink, path, previous, first, velocities, timing if count == 1 else None)
 
 
-def save_abc_cache(
-    frames: Iterable[HairCurves] | SimCache,
-    path: str | os.PathLike[str],
-    fps: float | None = None,
-    start: int = 0,
-    mesh: SkinMesh | None = None,
-    transforms: object | None = None,
-    target: Target | str = "generic",
-    role: str | None = None,
-    skin_vertices: object | None = None,
-) -> Path:
-    """Write an animation: frame ``f`` of ``frames`` is sample ``f`` of one OCurves
-    ``/Groom/Hair_0000/Hair_0000Shape``, at ``(start + f) / fps`` seconds (a uniform time sampling),
-    whose topology, widths, uv and arbGeomParams come from frame 0 and whose ``P``,
-    ``.velocities`` (metres per second, from each frame to the next; the last frame
-    keeps the one into it), bounds and normals are sampled per frame; as ``target``
-    reads them (see :func:`save_abc`; Unreal: centimetres, so are the head's motion and
-    the velocities).
-
-    ``fps`` defaults to 24, or a SimCache's own; a SimCache writes its guide strands, as
-    guides (``role``: "hair" or "guides" says what the frames are; by default guides
-    for a SimCache, hair otherwise; for hair, write ``groom.follow(cache.positions[f],
-    pose=groom.mesh.posed(transform=cache.transforms[f]))`` for each frame f). ``mesh``
-    (a SkinMesh) is written at rest as ``/Groom/Skin``; with ``transforms`` (F, 4, 4),
-    one head transform per frame acting on column vectors as a SimCache keeps them (a
-    SimCache's own by default), it is ``/Groom/Head/Skin`` under the Xform
-    ``/Groom/Head`` sampled per frame, so the skin moves with the (world-space) hair. A
-    SimCache of an animated skin (``skin_vertices``) writes ``/Groom/Skin`` with its
-    ``P`` sampled per frame instead.
-    """
-    out = _check_suffix(path)
-    tool = get_target(target)
-    anim = animation(
-        frames, fps, start, mesh, transforms, tool, role=role, skin_vertices=skin_vertices
-    )
+def _write_cache(out: Path, anim: Animation, mesh: SkinMesh | None, tool: Target) -> None:
+    """The animation as one archive (see :func:`save_abc_cache`)."""
     skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
     _write(out, lambda sink: _send_cache(sink, anim, skin), tool.groom_schema)
-    return out
+
+
+save_abc_cache = cache_writer(
+    "save_abc_cache",
+    _check_suffix,
+    _write_cache,
+    in_units=True,
+    doc="""Write an animation: frame ``f`` of ``frames`` is sample ``f`` of one OCurves
+    ``/Groom/Hair_0000/Hair_0000Shape``, at ``(start + f) / fps`` seconds (a uniform
+    time sampling), whose topology, widths, uv and arbGeomParams come from frame 0 and
+    whose ``P``, ``.velocities`` (metres per second, from each frame to the next; the
+    last frame keeps the one into it), bounds and normals are sampled per frame; as
+    ``target`` reads them (see :func:`save_abc`; Unreal: centimetres, so are the head's
+    motion and the velocities).
+    """,
+)
 
 
 # ------------------------------------------------------------------ reading

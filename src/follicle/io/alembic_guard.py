@@ -10,13 +10,10 @@ past the end of the file, allocate without end or crash. So the readers here
    sizes) lie inside the file, and the groups do not overlap (their child tables fit
    the file once). An HDF5 archive (Alembic before 1.5) is refused by name: alembic3d
    is built without HDF5;
-2. read it with alembic3d in a child process (:func:`follicle.io.guard.read_guarded`,
-   :mod:`follicle.io.alembic_archive`) that caps its address space at ``MEMORY_BASE +
-   MEMORY_PER_BYTE × file size`` (1.5 GiB + 16 × size: the reading server may hold
-   pxr too) and is killed after ``SECONDS_BASE + size / BYTES_PER_SECOND`` of wall
-   time (6 s + 1 s per 16 MB);
-3. turn a refusal, a crash, the memory limit or the time limit into one FormatError
-   naming the file.
+2. read it with alembic3d in a child process (:mod:`follicle.io.alembic_archive`)
+   under the limits of a read of the file's size, which turns a refusal, a crash, the
+   memory limit or the time limit into one FormatError naming the file
+   (:func:`follicle.io.guard.read_guarded`).
 """
 
 from __future__ import annotations
@@ -26,19 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FileAccessError, FormatError
-from .guard import array_room, read_guarded
+from ..errors import FormatError
+from .guard import GuardedReader, checking
 
 __all__ = ["check_archive", "read_curves", "read_mesh", "OGAWA_MAGIC"]
 
-MEMORY_BASE = 3 << 29  # bytes of address space: the server may have pxr mapped (1.1 GB)
-MEMORY_PER_BYTE = 16  # and this many bytes per byte of the file
-SECONDS_BASE = 6.0  # wall time for the child to start and read a small file
-BYTES_PER_SECOND = 16 << 20  # and one more second per this many bytes of the file
 OGAWA_MAGIC = b"Ogawa"
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _DATA = np.uint64(1 << 63)  # the high bit of a child's position marks a data block
-HINT = "is it a valid Alembic file?"
+_HINT = "is it a valid Alembic file?"
 
 
 def _u64(mm: mmap.mmap, at: np.ndarray) -> np.ndarray:
@@ -59,7 +52,7 @@ def _check_ogawa(path: Path, mm: mmap.mmap, size: int) -> None:
         )
     if head[6:8] != b"\x00\x01":
         raise FormatError(
-            f"{path}: Ogawa version {int.from_bytes(head[6:8], 'big')} is not 1; {HINT}"
+            f"{path}: Ogawa version {int.from_bytes(head[6:8], 'big')} is not 1; {_HINT}"
         )
     groups, seen, entries = [int.from_bytes(head[8:16], "little")], set(), 0
     while groups:
@@ -70,14 +63,14 @@ def _check_ogawa(path: Path, mm: mmap.mmap, size: int) -> None:
         if not 16 <= at <= size - 8:
             raise FormatError(
                 f"{path}: an Ogawa group at byte {at} lies outside the {size}-byte"
-                f" file (truncated or corrupt); {HINT}"
+                f" file (truncated or corrupt); {_HINT}"
             )
         count = int(_u64(mm, np.array([at]))[0])
         entries += count
         if count > (size - at - 8) // 8 or entries > size // 8:
             raise FormatError(
                 f"{path}: an Ogawa group at byte {at} lists {count} children,"
-                f" more than fit in the file (corrupt); {HINT}"
+                f" more than fit in the file (corrupt); {_HINT}"
             )
         children = _u64(mm, at + 8 + 8 * np.arange(count))
         data = (children & _DATA) != 0
@@ -86,12 +79,12 @@ def _check_ogawa(path: Path, mm: mmap.mmap, size: int) -> None:
         if np.any((blocks < 16) | (blocks > size - 8)):
             raise FormatError(
                 f"{path}: an Ogawa data block lies outside the {size}-byte file"
-                f" (truncated or corrupt); {HINT}"
+                f" (truncated or corrupt); {_HINT}"
             )
         if np.any(_u64(mm, blocks) > (size - 8 - blocks).astype(np.uint64)):
             raise FormatError(
                 f"{path}: an Ogawa data block runs past the end of the file"
-                f" (truncated or corrupt); {HINT}"
+                f" (truncated or corrupt); {_HINT}"
             )
         groups.extend(int(g) for g in children[~data])
 
@@ -99,70 +92,33 @@ def _check_ogawa(path: Path, mm: mmap.mmap, size: int) -> None:
 def check_archive(path: Path) -> None:
     """FormatError unless ``path`` is an Ogawa Alembic archive whose structure lies in
     the file, checked without alembic3d, reading only headers and group tables."""
-    try:
+    with checking(path), open(path, "rb") as f:
         size = path.stat().st_size
-        with open(path, "rb") as f:
-            head = f.read(16)
-            if head.startswith(HDF5_MAGIC):
-                raise FormatError(
-                    f"{path}: an HDF5 Alembic archive (Alembic before 1.5); only"
-                    " Ogawa archives are read: export it again from a current"
-                    " application, or convert it with 'abcconvert -toOgawa'"
-                )
-            if len(head) < 16 or not head.startswith(OGAWA_MAGIC):
-                raise FormatError(
-                    f"{path}: not an Alembic archive (no {OGAWA_MAGIC.decode()} header); {HINT}"
-                )
-            with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-                _check_ogawa(path, mm, size)
-    except OSError as exc:
-        raise FileAccessError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        head = f.read(16)
+        if head.startswith(HDF5_MAGIC):
+            raise FormatError(
+                f"{path}: an HDF5 Alembic archive (Alembic before 1.5); only"
+                " Ogawa archives are read: export it again from a current"
+                " application, or convert it with 'abcconvert -toOgawa'"
+            )
+        if len(head) < 16 or not head.startswith(OGAWA_MAGIC):
+            raise FormatError(
+                f"{path}: not an Alembic archive (no {OGAWA_MAGIC.decode()} header); {_HINT}"
+            )
+        with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+            _check_ogawa(path, mm, size)
 
 
-def limits(size: int) -> tuple[int, float]:
-    """(bytes of address space, seconds) the child may use for a file of ``size`` bytes."""
-    return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
-
-
-def read_curves(
-    path: Path,
-    time: float | None,
-    guides: bool,
-    stored: bool = False,
-) -> list[dict]:
-    """The chosen curves objects of ``path`` (see :mod:`follicle.io.alembic_archive`;
-    ``stored``: under the file's own names), read in a child process; FormatError
-    naming the file on any failure."""
-    size = path.stat().st_size
-    memory, seconds = limits(size)
-    return read_guarded(
-        "abc-curves",
-        path,
-        memory,
-        seconds,
-        "Alembic",
-        HINT,
-        arrays=array_room(size),
-        time=time,
-        guides=guides,
-        stored=stored,
-    )
+_READER = GuardedReader(
+    "abc-curves", "abc-mesh", "Alembic", _HINT, lambda path: path.stat().st_size
+)
+# the chosen curves objects of a path (see :mod:`follicle.io.alembic_archive`)
+read_curves = _READER.curves
 
 
 def read_mesh(path: Path, animated: bool = False) -> dict:
     """The first mesh of ``path`` as polygons (see :mod:`follicle.io.alembic_archive`;
     ``animated``: with its points at every sample), read as :func:`read_curves` reads
     curves."""
-    size = path.stat().st_size
-    memory, seconds = limits(size)
-    (part,) = read_guarded(
-        "abc-mesh",
-        path,
-        memory,
-        seconds,
-        "Alembic",
-        HINT,
-        arrays=array_room(size, animated),
-        animated=animated,
-    )
+    (part,) = _READER.meshes(path, animated)
     return part

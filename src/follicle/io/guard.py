@@ -2,14 +2,18 @@
 
 usd-core and Alembic are C++: a corrupt or hostile file can make them crash
 (segfault), map gigabytes or loop for ever. :func:`read_guarded` therefore reads in a
-child process: :mod:`follicle.io.guard_server` runs as a script (``python -I``, with
+child process: :mod:`follicle.io.guard_server` runs as a process (``python -I``, with
 numpy, the binding and follicle's pure-numpy reader modules only) that stays up and
-forks a fresh child per file; the child caps its address space at the ``memory`` it is
-given and is killed after ``seconds`` of wall time. A refusal, a crash, the memory
-limit or the time limit becomes one FormatError naming the file, and so do parts whose
-arrays pass what the file's size allows (:func:`array_room`). Each format checks
-its container in Python first (:mod:`follicle.io.usd_guard`,
-:mod:`follicle.io.alembic_guard`) and chooses the limits.
+forks a fresh child per file. The limits are the same for every format
+(:func:`limits`): the child caps its address space at ``MEMORY_BASE + MEMORY_PER_BYTE
+× size`` (1.5 GiB + 16 × size; the server may have pxr mapped, and Python and pxr
+alone take 1.1 GB opening a stage) and is killed after ``SECONDS_BASE + size /
+BYTES_PER_SECOND`` of wall time (6 s + 1 s per 16 MB), the size being what the read
+loads. A refusal, a crash, the memory limit or the time limit becomes one FormatError
+naming the file, and so do parts whose arrays pass what the file's size allows
+(:func:`array_room`). Each format checks its container in Python first
+(:mod:`follicle.io.usd_guard`, :mod:`follicle.io.alembic_guard`, through
+:func:`checking`) and says what it reads.
 
 Cost: the first read of a kind in a process imports its binding in the server (pxr:
 0.5-1.5 s, alembic3d: 0.2 s); each read then takes a fork and the read itself, about
@@ -19,6 +23,7 @@ folder, loaded without pickle.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
@@ -27,20 +32,34 @@ import signal
 import subprocess
 import tempfile
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from time import monotonic
 
 import numpy as np
 
 from ..curves import HairCurves
-from ..errors import FormatError, InputError
+from ..errors import FileAccessError, FormatError, InputError
 from . import guard_server
 from .guard_rules import MAX_ANIMATION_POINTS
 
-__all__ = ["read_guarded", "array_room", "died", "curves_from_parts"]
+__all__ = [
+    "GuardedReader",
+    "checking",
+    "read_guarded",
+    "limits",
+    "array_room",
+    "died",
+    "curves_from_parts",
+]
 
 log = logging.getLogger("follicle")
+
+MEMORY_BASE = 3 << 29  # bytes of address space: the server may have pxr mapped (1.1 GB)
+MEMORY_PER_BYTE = 16  # and this many bytes per byte the read loads
+SECONDS_BASE = 6.0  # wall time for the child to start and read a small file
+BYTES_PER_SECOND = 16 << 20  # and one more second per this many bytes it loads
 
 # The arrays a file may give, as this process will hold them (and then joins, copies
 # and grows from them, several times their size, beside the 1.3 GB follicle maps): a
@@ -76,7 +95,7 @@ def died(
 
 
 class _Server:
-    """The long-lived ``guard_server.py`` process that forks one child per read (started
+    """The long-lived :mod:`~follicle.io.guard_server` process that forks one child per read (started
     on first use). It exits when this process closes its stdin, i.e. when this process
     ends."""
 
@@ -163,22 +182,38 @@ def array_room(size: int, animated: bool = False) -> int:
     return ARRAYS_BASE + ARRAYS_PER_BYTE * size + frames
 
 
+def limits(size: int) -> tuple[int, float]:
+    """(bytes of address space, seconds) the child may use reading ``size`` bytes."""
+    return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
+
+
+@contextlib.contextmanager
+def checking(path: Path) -> Iterator[None]:
+    """A format's checks of ``path``'s container, an OSError while they read it becoming
+    one FileAccessError naming the file."""
+    try:
+        yield
+    except OSError as exc:
+        raise FileAccessError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+
+
 def read_guarded(
     kind: str,
     path: Path,
-    memory: int,
-    seconds: float,
+    size: int,
     tool: str,
     hint: str,
     *,
-    arrays: int,
+    animated: bool = False,
     **options: object,
 ) -> list[dict]:
     """The parts the reader of ``kind`` (see :data:`follicle.io.guard_server.READERS`)
-    makes of ``path``, read in a child process with ``memory`` bytes of address space
-    and ``seconds`` of wall time, refused when their arrays pass ``arrays`` bytes
-    (:func:`array_room`); ``options`` go to the reader. FormatError naming the file
-    (``tool`` could not read it; ``hint``) on any failure."""
+    makes of ``path``, read in a child process under the :func:`limits` of ``size``
+    bytes (what the read loads: the file, or the layers a stage loads), refused when
+    their arrays pass :func:`array_room` (``animated``: a skin animation's frames
+    allowed beside); ``animated`` and ``options`` go to the reader. FormatError naming
+    the file (``tool`` could not read it; ``hint``) on any failure."""
+    memory, seconds = limits(size)
     with tempfile.TemporaryDirectory(prefix="follicle-read-") as folder:
         reply = _SERVER.ask(
             {
@@ -188,9 +223,10 @@ def read_guarded(
                 "out": folder,
                 "memory": memory,
                 "seconds": seconds,
-                "arrays": arrays,
+                "arrays": array_room(size, animated),
                 "tool": tool,
                 "hint": hint,
+                "animated": animated,
                 **options,
             }
         )
@@ -202,6 +238,44 @@ def read_guarded(
             raise FormatError(result["refused"])
         with np.load(Path(folder, "arrays.npz"), allow_pickle=False) as arrays:
             return _decode(result["parts"], arrays)
+
+
+@dataclass(frozen=True)
+class GuardedReader:
+    """A format's reads in the guarded child: its reader kinds for curves and meshes
+    (:data:`follicle.io.guard_server.READERS`), the library its errors name (``tool``),
+    the ``hint`` they end with, and ``size``: the bytes a read of a path loads (what
+    the limits follow)."""
+
+    curves_kind: str
+    mesh_kind: str
+    tool: str
+    hint: str
+    size: Callable[[Path], int]
+
+    def curves(
+        self, path: Path, time: float | None, guides: bool, stored: bool = False
+    ) -> list[dict]:
+        """The chosen curves parts of ``path`` (dicts of ``where``, ``points``,
+        ``offsets``, ``point_data`` and ``curve_data`` arrays; ``time``, ``guides`` and
+        ``stored``, the file's own names, as the format's reader takes them), read in a
+        child process; FormatError naming the file on any failure."""
+        return read_guarded(
+            self.curves_kind,
+            path,
+            self.size(path),
+            self.tool,
+            self.hint,
+            time=time,
+            guides=guides,
+            stored=stored,
+        )
+
+    def meshes(self, path: Path, animated: bool = False) -> list[dict]:
+        """The mesh parts of ``path`` (``animated``: the points of the first at every
+        sample), read as :meth:`curves` reads curves."""
+        size = self.size(path)
+        return read_guarded(self.mesh_kind, path, size, self.tool, self.hint, animated=animated)
 
 
 # ------------------------------------------------------------------ curves from parts

@@ -48,7 +48,7 @@ import os
 import struct
 import tempfile
 import zlib
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -59,8 +59,9 @@ from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FileAccessError, FormatError
 from ..inputs import input_file
-from .animation import Animation, animation, target_guides
+from .animation import Animation, target_guides
 from .attributes import column
+from .cache_writer import cache_writer
 from .curve_bounds import catmull_rom_bounds
 from .guard import curves_from_parts
 from .stream import Curves, as_chunks
@@ -72,7 +73,6 @@ from .usd_stage import usd_error
 
 if TYPE_CHECKING:
     from ..mesh.skin import SkinMesh
-    from .sim_cache import SimCache
 
 __all__ = [
     "save_usd",
@@ -403,51 +403,25 @@ def _write_cache(anim: Animation, crate: Path, mesh: SkinMesh | None, groom_sche
     layer.Save()
 
 
-def save_usd_cache(
-    frames: Iterable[HairCurves] | SimCache,
-    path: str | os.PathLike[str],
-    fps: float | None = None,
-    start: int = 0,
-    mesh: SkinMesh | None = None,
-    transforms: object | None = None,
-    target: Target | str = "generic",
-    role: str | None = None,
-    skin_vertices: object | None = None,
-) -> Path:
-    """Write an animation: frame ``f`` of ``frames`` is time code ``start + f`` of one
-    BasisCurves prim ``/Groom/Hair/chunk_0000``, whose topology and primvars come from
-    frame 0 and whose ``points`` and ``extent`` are sampled per frame; named and typed
-    as ``target`` reads them (see :func:`save_usd`).
-
-    ``fps`` (default 24, or a SimCache's own) sets ``timeCodesPerSecond``. A SimCache
-    writes its guide strands, as guides (``role``: "hair" or "guides" says what the
-    frames are; by default guides for a SimCache, hair otherwise); for hair, write
-    ``groom.follow(cache.positions[f], pose=groom.mesh.posed(transform=cache.transforms[f]))``
-    for each frame f.
-
-    ``mesh`` (a SkinMesh) is written at rest as ``/Groom/Skin``; with ``transforms``
-    (F, 4, 4), one head transform per frame acting on column vectors as a SimCache
-    keeps them (a SimCache's own by default), it is ``/Groom/Head/Skin`` under the Xform
-    ``/Groom/Head`` whose ``xformOp:transform`` is sampled per frame, so the skin moves
-    with the (world-space) hair. A SimCache of an animated skin (``skin_vertices``)
-    writes ``/Groom/Skin`` with its ``points`` and ``extent`` sampled per frame instead.
-    """
-    out = _check_suffix(path)
-    tool = get_target(target)
-    anim = animation(
-        frames,
-        fps,
-        start,
-        mesh,
-        transforms,
-        tool,
-        in_units=False,
-        role=role,
-        skin_vertices=skin_vertices,
-    )
+def _save_cache(out: Path, anim: Animation, mesh: SkinMesh | None, tool: Target) -> None:
+    """The animation as one stage in ``out``'s format (see :func:`save_usd_cache`)."""
     with _writing(out), atomic_path(out) as tmp:
         _finish(out, tmp, lambda crate: _write_cache(anim, crate, mesh, tool.groom_schema))
-    return out
+
+
+save_usd_cache = cache_writer(
+    "save_usd_cache",
+    _check_suffix,
+    _save_cache,
+    in_units=False,
+    doc="""Write an animation: frame ``f`` of ``frames`` is time code ``start + f`` of one
+    BasisCurves prim ``/Groom/Hair/chunk_0000``, whose topology and primvars come from
+    frame 0 and whose ``points`` and ``extent`` are sampled per frame; named and typed
+    as ``target`` reads them (see :func:`save_usd`). ``fps`` sets
+    ``timeCodesPerSecond``; the head's ``xformOp:transform`` is sampled per frame, and
+    so are an animated skin's ``points`` and ``extent``.
+    """,
+)
 
 
 # ------------------------------------------------------------------ reading

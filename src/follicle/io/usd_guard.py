@@ -9,17 +9,14 @@ reference each other many times over compose for ever. So :func:`read_stage`
    and is UTF-8; a crate starts with ``PXR-USDC`` and its table of contents and every
    section lie inside the file; a ``.usdz`` is a zip whose members are stored
    uncompressed, 64-byte aligned, the first one a USD layer (checked the same way);
-2. reads it with usd-core in a child process (:func:`follicle.io.guard.read_guarded`:
-   :mod:`follicle.io.usd_stage` for curves, :mod:`follicle.io.usd_mesh` for meshes,
-   one usd-core thread); the child caps its address space at ``MEMORY_BASE +
-   MEMORY_PER_BYTE × size`` (1.5 GiB + 16 × size; Python and pxr alone map 1.1 GB)
-   and is killed after ``SECONDS_BASE + size / BYTES_PER_SECOND`` of wall time (6 s +
-   1 s per 16 MB), the size being that of what the stage loads (:func:`stage_bytes`:
-   the file and, in follicle's payloads layout, its part files). Before composing
-   anything it counts the prims composition would make through references, payloads
-   and sublayers (at most 100,000, repeats counted) and refuses cycles;
-3. turns a refusal, a crash, the memory limit or the time limit into one FormatError
-   naming the file.
+2. reads it with usd-core in a child process (:mod:`follicle.io.usd_stage` for curves,
+   :mod:`follicle.io.usd_mesh` for meshes, one usd-core thread) under the limits of a
+   read of what the stage loads (:func:`stage_bytes`: the file and, in follicle's
+   payloads layout, its part files), which turns a refusal, a crash, the memory limit
+   or the time limit into one FormatError naming the file
+   (:func:`follicle.io.guard.read_guarded`). Before composing anything the child
+   counts the prims composition would make through references, payloads and
+   sublayers (at most 100,000, repeats counted) and refuses cycles.
 """
 
 from __future__ import annotations
@@ -32,15 +29,11 @@ from typing import BinaryIO
 
 import numpy as np
 
-from ..errors import FileAccessError, FormatError
-from .guard import array_room, read_guarded
+from ..errors import FormatError
+from .guard import GuardedReader, checking
 
 __all__ = ["check_container", "read_stage", "read_meshes", "payloads_folder", "stage_bytes"]
 
-MEMORY_BASE = 3 << 29  # bytes of address space: Python and pxr take 1.1 GB opening a stage
-MEMORY_PER_BYTE = 16  # and this many bytes per byte of the file
-SECONDS_BASE = 6.0  # wall time for the child to start and read a small file
-BYTES_PER_SECOND = 16 << 20  # and one more second per this many bytes of the file
 CRATE_MAGIC = b"PXR-USDC"
 _HINT = "is it a valid USD file?"
 
@@ -137,29 +130,23 @@ def _data_start(f: BinaryIO, member: zipfile.ZipInfo) -> int:
 def check_container(path: Path) -> None:
     """FormatError unless ``path`` looks like the USD its extension (or content) says,
     checked without usd-core, reading only headers (and a .usda's bytes, for UTF-8)."""
-    try:
-        _check_container(path)
-    except OSError as exc:
-        raise FileAccessError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-
-
-def _check_container(path: Path) -> None:
-    size = path.stat().st_size
-    suffix = path.suffix.lower()
-    if suffix == ".usdz":
-        _check_usdz(path, size)
-        return
-    with open(path, "rb") as f:
-        head = f.read(8)
-        if head == CRATE_MAGIC and suffix != ".usda":
-            _check_crate(path, f, 0, size)
-        elif suffix == ".usda" or suffix == ".usd" and head.startswith(b"#usda"):
-            _check_text(path, head, size)
-        else:
-            text = " nor USD text (#usda)" if suffix == ".usd" else ""
-            raise FormatError(
-                f"{path}: not a USD crate (no {CRATE_MAGIC.decode()} header){text}; {_HINT}"
-            )
+    with checking(path):
+        size = path.stat().st_size
+        suffix = path.suffix.lower()
+        if suffix == ".usdz":
+            _check_usdz(path, size)
+            return
+        with open(path, "rb") as f:
+            head = f.read(8)
+            if head == CRATE_MAGIC and suffix != ".usda":
+                _check_crate(path, f, 0, size)
+            elif suffix == ".usda" or suffix == ".usd" and head.startswith(b"#usda"):
+                _check_text(path, head, size)
+            else:
+                text = " nor USD text (#usda)" if suffix == ".usd" else ""
+                raise FormatError(
+                    f"{path}: not a USD crate (no {CRATE_MAGIC.decode()} header){text}; {_HINT}"
+                )
 
 
 # ------------------------------------------------------------------ the child
@@ -182,50 +169,8 @@ def stage_bytes(path: Path) -> int:
     return size
 
 
-def limits(size: int) -> tuple[int, float]:
-    """(bytes of address space, seconds) the child may use for a file of ``size`` bytes."""
-    return MEMORY_BASE + MEMORY_PER_BYTE * size, SECONDS_BASE + size / BYTES_PER_SECOND
-
-
-def read_stage(
-    path: Path,
-    time: float | None,
-    guides: bool,
-    stored: bool = False,
-) -> list[dict]:
-    """The chosen BasisCurves prims of ``path``: dicts of ``where``, ``points``,
-    ``offsets``, ``point_data`` and ``curve_data`` arrays, read in a child process
-    (see the module; ``stored``: under the file's own names); FormatError naming the
-    file on any failure."""
-    size = stage_bytes(path)
-    memory, seconds = limits(size)
-    return read_guarded(
-        "usd-curves",
-        path,
-        memory,
-        seconds,
-        "usd-core",
-        _HINT,
-        arrays=array_room(size),
-        time=time,
-        guides=guides,
-        stored=stored,
-    )
-
-
-def read_meshes(path: Path, animated: bool = False) -> list[dict]:
-    """The Mesh prims of ``path`` (see :mod:`follicle.io.usd_mesh`; ``animated``: with
-    the first one's points at every time sample), read as :func:`read_stage` reads
-    curves."""
-    size = stage_bytes(path)
-    memory, seconds = limits(size)
-    return read_guarded(
-        "usd-mesh",
-        path,
-        memory,
-        seconds,
-        "usd-core",
-        _HINT,
-        arrays=array_room(size, animated),
-        animated=animated,
-    )
+_READER = GuardedReader("usd-curves", "usd-mesh", "usd-core", _HINT, stage_bytes)
+# the chosen BasisCurves prims of a path (see the module and :mod:`follicle.io.usd_stage`)
+read_stage = _READER.curves
+# the Mesh prims of a path (see :mod:`follicle.io.usd_mesh`)
+read_meshes = _READER.meshes
