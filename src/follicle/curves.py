@@ -78,7 +78,7 @@ class HairCurves:
     ) -> HairCurves:
         """Build from a sequence of (n_i, 3) vertex arrays, one per curve."""
         try:
-            each = iter(polylines)  # type: ignore[call-overload]
+            each = iter(polylines)
         except TypeError:
             raise InputError(
                 f"polylines: expected a sequence of (n, 3) arrays, got {type(polylines).__name__}"
@@ -280,7 +280,7 @@ class HairCurves:
             and _dicts_equal(self.curve_data, other.curve_data)
         )
 
-    __hash__ = None  # mutable arrays
+    __hash__ = None  # type: ignore[assignment]  # mutable arrays: unhashable
 
     def __repr__(self) -> str:
         counts = self.counts

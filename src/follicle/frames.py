@@ -45,7 +45,9 @@ def root_frames(
 
 # ------------------------------------------------------------------ rotation minimizing frames
 @kernel(inline="always")
-def _perpendicular(tx, ty, tz, rx, ry, rz):
+def _perpendicular(
+    tx: float, ty: float, tz: float, rx: float, ry: float, rz: float
+) -> tuple[float, float, float]:
     """r made orthogonal to unit t and normalised; if r ∥ t, the axis least aligned with t."""
     d = rx * tx + ry * ty + rz * tz
     x = rx - d * tx
@@ -65,7 +67,9 @@ def _perpendicular(tx, ty, tz, rx, ry, rz):
 
 
 @kernel(nogil=True)
-def polyline_frames(p, first, tan, nor, bi):
+def polyline_frames(
+    p: np.ndarray, first: np.ndarray, tan: np.ndarray, nor: np.ndarray, bi: np.ndarray
+) -> None:
     """Rotation-minimising frame of one polyline ``p`` (N, 3) into ``tan``, ``nor``, ``bi``.
 
     The one kernel behind every curve frame (Šik 2012 §2.2.8): Catmull-Rom vertex tangents
@@ -148,7 +152,9 @@ def polyline_frames(p, first, tan, nor, bi):
 
 
 @kernel(nogil=True)
-def _rmf_kernel(pts, offs, first):
+def _rmf_kernel(
+    pts: np.ndarray, offs: np.ndarray, first: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     tan = np.empty_like(pts)
     nor = np.empty_like(pts)
     bi = np.empty_like(pts)

@@ -25,7 +25,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 from .atomic import atomic_path
 from .errors import ConfigError, FileAccessError, FormatError, InputError
@@ -56,7 +56,7 @@ _DEFAULT_MAX_DOWNLOAD = 4 << 30
 _KEEP_FREE = 1 << 30  # a download never leaves less than this free on the cache's disk
 
 
-def is_url(path: object) -> bool:
+def is_url(path: object) -> TypeGuard[str]:
     """Whether ``path`` is a URL (``protocol://…``), not a file name."""
     return isinstance(path, str) and _URL.match(path) is not None
 

@@ -100,7 +100,7 @@ def units_for(path: str | os.PathLike[str], units: object, key: str | None = "un
         return mpu
     text = os.fsdecode(path)
     prefix = f"{key}: " if key else ""
-    got = f"(got {_shown(units)})"
+    got = f"(got {_shown(units if isinstance(units, str) else mpu)})"
     if text.startswith("builtin:"):
         raise InputError(f"{prefix}{text} is in metres; units apply to files only: remove it {got}")
     suffix = os.path.splitext(text)[1].lower()
@@ -155,7 +155,8 @@ def _likely_factor(size: float, bounds: tuple[float, float], units: Units) -> fl
     factors = _factors(size, bounds)
     inside = [f for f in factors if bounds[0] <= size * f <= bounds[1]]
     mpu = metres_per_unit(units)
-    return next((f for f in inside if _named(mpu * f)), (inside or factors or [None])[0])
+    first = inside[0] if inside else factors[0] if factors else None
+    return next((f for f in inside if _named(mpu * f)), first)
 
 
 def mesh_factors(diagonal: float) -> tuple[float, ...]:

@@ -23,9 +23,12 @@ from __future__ import annotations
 import math
 import os
 from numbers import Integral, Real
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, TypeGuard, overload
 
 from .errors import InputError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["file_path", "number", "positive", "whole", "is_whole"]
 
@@ -54,7 +57,7 @@ def _range(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool) -> 
     return ""
 
 
-def is_whole(value: object) -> bool:
+def is_whole(value: object) -> TypeGuard[int | np.integer]:
     """True for an int or NumPy integer (not a bool)."""
     return isinstance(value, Integral) and not isinstance(value, bool)
 

@@ -4,10 +4,11 @@ its textured properties (read by :mod:`follicle.groom.properties`)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Annotated, Any, ClassVar, Literal
+from dataclasses import dataclass, field
+from typing import Annotated, Any, ClassVar, Literal, TypeAlias
 
-from pydantic import Field, PlainValidator
+from pydantic import Field, GetCoreSchemaHandler, PlainValidator
+from pydantic_core import core_schema
 
 from ..settings import StrictSection, Vec3, shown
 
@@ -51,11 +52,19 @@ class PropertyTag:
     low: float | None = None
 
 
-def _prop(color: bool = False, **bounds: float) -> Any:
-    """A property (Šik 2012 §2.2.2): a number (or [r, g, b]), a texture path, or a table
-    ``{value, texture, wrap}``; the value at a root is value × texture(uv)."""
+@dataclass(frozen=True)
+class _Property(PropertyTag):
+    """A property's Annotated metadata (Šik 2012 §2.2.2): its PropertyTag, and the check
+    of a number (or [r, g, b]) within ``bounds``, a texture path, or a table
+    ``{value, texture, wrap}``; the value at a root is value × texture(uv).
 
-    def check(v: object) -> object:
+    One object is both the tag and the validator, so each property is a plain
+    ``Annotated[Any, _prop(...)]`` alias that a type checker reads as what it holds."""
+
+    bounds: tuple[tuple[str, float], ...] = field(default=(), compare=False)
+
+    def check(self, v: object) -> object:
+        bounds = dict(self.bounds)
         if isinstance(v, str):
             if not v:
                 raise ValueError("empty texture path")
@@ -71,18 +80,29 @@ def _prop(color: bool = False, **bounds: float) -> Any:
             if v.get("wrap") not in (None, "repeat", "clamp"):
                 raise ValueError(f'wrap must be "repeat" or "clamp" (got {shown(v["wrap"])})')
             out = dict(v)
-            out["value"] = _prop_value(v.get("value", (1.0,) * 3 if color else 1.0), color, bounds)
+            default = (1.0,) * 3 if self.color else 1.0
+            out["value"] = _prop_value(v.get("value", default), self.color, bounds)
             return out
-        return _prop_value(v, color, bounds)
+        return _prop_value(v, self.color, bounds)
 
+    def __get_pydantic_core_schema__(
+        self, source: Any, handler: GetCoreSchemaHandler
+    ) -> core_schema.CoreSchema:
+        validator = PlainValidator(self.check, json_schema_input_type=Any)
+        return validator.__get_pydantic_core_schema__(source, handler)
+
+
+def _prop(color: bool = False, **bounds: float) -> _Property:
+    """The metadata of a "(map)" property: ``Annotated[Any, _prop(ge=0.0, le=10.0)]``."""
     fraction = not color and bounds == {"ge": 0.0, "le": 1.0}
-    tag = PropertyTag(color, fraction, None if color or fraction else bounds.get("ge"))
-    return Annotated[Any, PlainValidator(check, json_schema_input_type=Any), tag]
+    low = None if color or fraction else bounds.get("ge")
+    return _Property(color, fraction, low, tuple(bounds.items()))
 
 
-Length = _prop(ge=0.0, le=10.0)
-Fraction = _prop(ge=0.0, le=1.0)
-Color = _prop(color=True)
+# A property holds a number (or [r, g, b]), a texture path or a table, hence Any.
+Length: TypeAlias = Annotated[Any, _prop(ge=0.0, le=10.0)]
+Fraction: TypeAlias = Annotated[Any, _prop(ge=0.0, le=1.0)]
+Color: TypeAlias = Annotated[Any, _prop(color=True)]
 
 
 class GroomParams(StrictSection):
@@ -135,12 +155,14 @@ class GroomParams(StrictSection):
         None, ge=2, le=256, description="vertices per hair; unset = as many as the guides have"
     )
     cut: Fraction = Field(1.0, description="(map) where hairs end: 1 whole, 0.5 half, 0 none")
-    scale: _prop(gt=0.0, le=100.0) = Field(1.0, description="(map) length scale of hairs")
+    scale: Annotated[Any, _prop(gt=0.0, le=100.0)] = Field(
+        1.0, description="(map) length scale of hairs"
+    )
     random_scale: Fraction = Field(
         0.0, description="(map) random shortening: scale × (1 − random_scale·ξ)"
     )
     curl_radius: Length = Field(0.0, description="(map) curl helix radius, m (0: no curl)")
-    curl_frequency: _prop(ge=-10000.0, le=10000.0) = Field(
+    curl_frequency: Annotated[Any, _prop(ge=-10000.0, le=10000.0)] = Field(
         40.0, description="(map) curl turns per metre of hair at the root"
     )
     curl_frequency_tip: float | None = Field(
@@ -162,13 +184,15 @@ class GroomParams(StrictSection):
     kink_root: Length = Field(0.0, description="(map) kink amplitude at the root, m")
     kink_tip: Length = Field(0.0, description="(map) kink amplitude at the tip, m")
     kink_frequency: Vec3 = Field((60.0, 60.0, 60.0), description="kink noise frequency, 1/m")
-    root_width: _prop(gt=0.0, le=0.1) = Field(
+    root_width: Annotated[Any, _prop(gt=0.0, le=0.1)] = Field(
         240e-6, description="(map) diameter at root, m (3× a real hair: README, Rendering)"
     )
-    tip_width: _prop(gt=0.0, le=0.1) = Field(90e-6, description="(map) diameter at tip, m")
+    tip_width: Annotated[Any, _prop(gt=0.0, le=0.1)] = Field(
+        90e-6, description="(map) diameter at tip, m"
+    )
     root_color: Color = Field((0.03, 0.017, 0.009), description="(map) linear RGB at the root")
     tip_color: Color = Field((0.085, 0.05, 0.025), description="(map) linear RGB at the tip")
-    hue_variation: _prop(ge=0.0, le=180.0) = Field(
+    hue_variation: Annotated[Any, _prop(ge=0.0, le=180.0)] = Field(
         0.0, description="(map) per-hair hue shift, ± degrees"
     )
     saturation_variation: Fraction = Field(0.0, description="(map) per-hair saturation shift, ±")
@@ -181,13 +205,13 @@ class GroomParams(StrictSection):
     strand_splay_root: Length = Field(0.0, description="(map) strand radius at the root, m")
     strand_splay_centre: Length = Field(0.002, description="(map) strand radius mid-way, m")
     strand_splay_tip: Length = Field(0.001, description="(map) strand radius at the tip, m")
-    strand_twist: _prop(ge=-36000.0, le=36000.0) = Field(
+    strand_twist: Annotated[Any, _prop(ge=-36000.0, le=36000.0)] = Field(
         0.0, description="(map) strand twist from root to tip, degrees"
     )
-    strand_aspect: _prop(ge=0.0, le=100.0) = Field(
+    strand_aspect: Annotated[Any, _prop(ge=0.0, le=100.0)] = Field(
         1.0, description="(map) strand cross-section: binormal / normal radius"
     )
-    strand_offset: _prop(ge=-10.0, le=10.0) = Field(
+    strand_offset: Annotated[Any, _prop(ge=-10.0, le=10.0)] = Field(
         0.0, description="(map) strand tips pushed along the curve normal (t³), m"
     )
     strand_randomize: Fraction = Field(0.0, description="(map) random shortening of fibres")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -75,7 +76,8 @@ def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
         raise FormatError(f"mesh file '{p}' cannot be read ({type(exc).__name__}: {exc})") from exc
     if isinstance(loaded, trimesh.Scene) or not hasattr(loaded, "faces"):
         raise FormatError(f"mesh file '{p}' holds no triangle mesh")
-    vertices = np.asarray(loaded.vertices, dtype=np.float64)
+    # a geometry with faces is a Trimesh (hasattr narrows to the faces alone)
+    vertices = np.asarray(cast("trimesh.Trimesh", loaded).vertices, dtype=np.float64)
     if len(vertices) == 0:
         if _is_point_cloud(p):
             raise InputError(f"{p}: mesh '{p.stem}' has no faces (only points); give triangles")

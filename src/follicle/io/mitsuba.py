@@ -132,7 +132,9 @@ def load_mitsuba(path: str | os.PathLike[str]) -> HairCurves:
 
 
 @kernel
-def _scan(buf, fill, control, counts):
+def _scan(
+    buf: np.ndarray, fill: bool, control: np.ndarray, counts: np.ndarray
+) -> tuple[int, int, int, int]:
     """Count (``fill`` False) or store the control points and curve sizes of ``buf``:
     (error code, byte position, control points, curves)."""
     n = buf.shape[0]

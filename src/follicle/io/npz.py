@@ -24,6 +24,7 @@ a lying directory cannot make a read allocate more than that. Anything else wron
 
 from __future__ import annotations
 
+import io
 import os
 import struct
 import tokenize
@@ -31,7 +32,7 @@ import zipfile
 import zlib
 from collections.abc import Collection
 from pathlib import Path
-from typing import IO
+from typing import IO, cast
 
 import numpy as np
 
@@ -205,10 +206,10 @@ def _read_member(p: Path, zf: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndar
                 f" ({nbytes:,} bytes) but holds {info.file_size - header:,}; {_DAMAGED}"
             )
         buf = np.empty(nbytes, np.uint8)
-        view = memoryview(buf)
+        view = buf.data  # a writable memoryview of buf
         done = 0
         while done < nbytes:
-            got = fh.readinto(view[done : done + CHUNK])
+            got = cast(io.BufferedIOBase, fh).readinto(view[done : done + CHUNK])  # ZipExtFile
             if not got:
                 raise FormatError(
                     f"{p}: member {info.filename!r} ends after {done:,} of {nbytes:,} data"

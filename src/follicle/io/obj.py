@@ -94,7 +94,14 @@ def load_obj(path: str | os.PathLike[str]) -> HairCurves:
 
 
 @kernel
-def _scan(buf, fill, verts, index, counts, total):
+def _scan(
+    buf: np.ndarray,
+    fill: bool,
+    verts: np.ndarray,
+    index: np.ndarray,
+    counts: np.ndarray,
+    total: int,
+) -> tuple[int, int, int, int, int]:
     """Count (``fill`` False: a quick pass over records and ``l`` entries) or parse,
     check and store (``fill`` True) the ``v`` and ``l`` records of ``buf`` (lines).
 
@@ -151,7 +158,7 @@ def _scan(buf, fill, verts, index, counts, total):
 
 
 @kernel
-def _index(buf, i, n, nv, total):
+def _index(buf: np.ndarray, i: int, n: int, nv: int, total: int) -> int:
     """The 1-based vertex index of the ``l`` entry at ``i`` (``v`` or ``v/vt``; negative:
     relative to the ``nv`` vertices read so far), or minus an error code."""
     value, i, ok = parse_number(buf, i, n)

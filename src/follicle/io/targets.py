@@ -55,7 +55,7 @@ def check_named(name: str, suffix: str, target: str, option: str = "target") -> 
         )
 
 
-def writer_extras(path: object, target: str, guides: object, mesh: object) -> dict:
+def writer_extras(path: str | os.PathLike[str], target: str, guides: object, mesh: object) -> dict:
     """The writer options for a grown groom's file ``path``: for USD and Alembic
     (:data:`NAMED_FORMATS`) the ``target`` tool, the ``guides`` and the skin ``mesh``
     (None for none); for other formats, which hold the hair alone, none."""

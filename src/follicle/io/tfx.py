@@ -99,7 +99,9 @@ def save_tfx(
 
 
 def _write_chunk(spool: Spool, chunk: HairCurves, n: int, present: set[str]) -> None:
-    attrs = {k: chunk.point_data[k] for k in ("color", "opacity") if k in chunk.point_data}
+    attrs: dict[str, np.ndarray] = {
+        k: chunk.point_data[k] for k in ("color", "opacity") if k in chunk.point_data
+    }
     pos, attrs = resample_fixed(chunk, n, attrs)
     c = chunk.curve_count
     xyzw = np.ones((c, n, 4), dtype="<f4")
@@ -108,6 +110,7 @@ def _write_chunk(spool: Spool, chunk: HairCurves, n: int, present: set[str]) -> 
     spool.write("positions", xyzw)
     uv = chunk.curve_data.get("root_uv")
     if "strand_uv" in present:
+        assert uv is not None  # present has strand_uv where the hair has root_uv
         spool.write("strand_uv", uv.astype("<f4"))
     vertex_uv = np.zeros((c, n, 2), dtype="<f4")
     vertex_uv[..., 0] = 0.0 if uv is None else uv[:, None, 0]

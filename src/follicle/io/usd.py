@@ -386,9 +386,9 @@ def _write_cache(anim: Animation, crate: Path, mesh: SkinMesh | None, groom_sche
             for attr in sampled:
                 attr.Clear()
         time = Usd.TimeCode(anim.start + f)
-        if head is not None:
+        if head is not None and anim.head is not None:
             set_head(head, anim.head[f], time)
-        if skin is not None:
+        if skin is not None and anim.skin is not None:
             set_points(skin, anim.skin[f], time)
         sampled[0].Set(Vt.Vec3fArray.FromNumpy(frame.points), time)
         if frame.point_count:

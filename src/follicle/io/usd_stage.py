@@ -177,7 +177,7 @@ class _Prim:
             counts, points, self.where, "curveVertexCounts", "points"
         )
         if prim.IsA(UsdGeom.NurbsCurves):
-            self.stencil = self._nurbs(UsdGeom.NurbsCurves(prim))
+            self.stencil: curve_basis.NurbsStencil | None = self._nurbs(UsdGeom.NurbsCurves(prim))
             self.out, varying = self.stencil.counts, self.stencil.varying_counts
             self.points = self.stencil.vertex(points.astype(np.float32))
         else:
@@ -452,7 +452,7 @@ def read(
             raise Refused(str(exc)) from None
         points = _transform(part.points, point_data, _world(prim, when, part.where), part.where)
         offsets = np.concatenate([[0], np.cumsum(part.out)])
-        found = {
+        found: dict[str, object] = {
             "where": part.where,
             "points": points,
             "offsets": offsets,

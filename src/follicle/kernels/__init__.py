@@ -22,7 +22,7 @@ import platform
 import sys
 import types
 from collections.abc import Callable, Iterator
-from typing import Any
+from typing import Any, overload
 
 __all__ = [
     "kernel",
@@ -109,7 +109,13 @@ def _bind(func: Callable[..., Any]) -> None:
             space[name] = numba.prange
 
 
-def kernel(fn: Callable[..., Any] | None = None, /, **options: Any) -> Any:
+@overload
+def kernel(fn: Callable[..., Any], /) -> Kernel: ...
+@overload
+def kernel(fn: None = None, /, **options: Any) -> Callable[[Callable[..., Any]], Kernel]: ...
+def kernel(
+    fn: Callable[..., Any] | None = None, /, **options: Any
+) -> Kernel | Callable[[Callable[..., Any]], Kernel]:
     """``numba.njit(**options)`` with follicle's cache, made on first use: ``@kernel`` or
     ``@kernel(parallel=True, nogil=True)``."""
 
@@ -148,7 +154,7 @@ def _reason() -> str:
             f" numba {numba.__version__} on {platform.machine()}"
         )
     if shipped_level() is None:
-        from numba.core import config
+        from .cache import config
 
         levels = ", ".join(str(lv) for lv in manifest.get("levels", []) if lv in LEVEL_FEATURES)
         if config.CPU_NAME is not None:

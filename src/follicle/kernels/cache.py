@@ -39,10 +39,10 @@ import sys
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, cast
 
 import numba
-from numba.core import config
+from numba.core import config as _numba_config
 from numba.core.caching import CompileResultCacheImpl, _Cache, _CacheLocator
 from numba.core.serialize import dumps
 from numba.misc.appdirs import AppDirs
@@ -58,6 +58,17 @@ __all__ = [
 ]
 
 log = logging.getLogger("follicle")
+
+
+class NumbaConfig(Protocol):
+    """The settings of ``numba.core.config`` that follicle reads: numba makes them at run
+    time from its NUMBA_* variables, so its module declares none of them."""
+
+    CPU_NAME: str | None
+    CACHE_DIR: str
+
+
+config = cast(NumbaConfig, _numba_config)  # the module itself, typed
 
 PACKAGE = Path(__file__).resolve().parent.parent  # src/follicle, or site-packages/follicle
 SHIPPED = PACKAGE / "_kernels"  # <level>/<folder of the source>/<kernel>.nbi + .nbc

@@ -101,4 +101,5 @@ def _normal_uv_derivatives(
     w = np.stack([bary[:, 0], bary[:, 1], 1.0 - bary[:, 0] - bary[:, 1]], axis=1)
     size = np.linalg.norm(np.sum(vn[f] * w[:, :, None], axis=1), axis=1, keepdims=True)
     inv_size = np.where(size > 0, 1.0 / np.where(size > 0, size, 1.0), 0.0)
-    return tuple(_tangential(g[tri], normal) * inv_size for g in (raw_du, raw_dv))
+    du, dv = (_tangential(g[tri], normal) * inv_size for g in (raw_du, raw_dv))
+    return du, dv
