@@ -95,8 +95,8 @@ def died(
 
 
 class _Server:
-    """The long-lived :mod:`~follicle.io.guard_server` process that forks one child per read (started
-    on first use). It exits when this process closes its stdin, i.e. when this process
+    """The long-lived :mod:`~follicle.io.guard_server` process that forks one child per
+    read (started on first use). It exits when this process closes its stdin, i.e. when this process
     ends."""
 
     def __init__(self) -> None:
