@@ -121,7 +121,7 @@ def test_the_python_quick_start_grows_the_default_scenes_groom(tmp_path):
 
 
 def test_the_python_quick_start_renders_the_scenes_picture(tmp_path):
-    """`follicle.render(hair, mesh=mesh, size=…)` with every other setting at its default
+    """`follicle.render_image(hair, mesh=mesh, size=…)` with every other setting at its default
     draws what `follicle render` of the same scene draws: one field of view, one
     background, one light rig (it framed at 35° on a darker background before)."""
     from click.testing import CliRunner
@@ -136,6 +136,6 @@ def test_the_python_quick_start_renders_the_scenes_picture(tmp_path):
     assert run.exit_code == 0, run.output
     mesh = follicle.load_mesh("builtin:head")
     hair = follicle.Groom(mesh, follicle.load_guides("builtin:long", mesh)).generate(2000)
-    image = follicle.render(hair, mesh=mesh, size=(160, 120), out=tmp_path / "python.png")
+    image = follicle.render_image(hair, mesh=mesh, size=(160, 120), out=tmp_path / "python.png")
     assert image.shape == (120, 160, 4)
     assert (tmp_path / "python.png").read_bytes() == (tmp_path / "cli.png").read_bytes()

@@ -408,9 +408,9 @@ def test_nothing_to_draw_raises():
 
 
 @gl
-def test_follicle_render_is_callable_after_submodule_import():
+def test_follicle_render_image_works_after_a_submodule_import():
     import follicle
     import follicle.render.camera  # noqa: F401  binds the package to follicle.render
 
-    img = follicle.render(strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0)), size=(16, 16))
-    assert img.shape == (16, 16, 4)
+    img = follicle.render_image(strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0)), size=(16, 16))
+    assert img.shape == (16, 16, 4) and follicle.render.render_image is follicle.render_image
