@@ -24,6 +24,7 @@ __all__ = [
     "mesh_only",
     "check_suffix",
     "export_targets",
+    "files_in_folder",
     "export_skin",
     "export_cache",
     "CacheExport",
@@ -74,14 +75,30 @@ def export_targets(
             f"-o {out}: --to writes a file for each IN into a folder; give -o a folder"
             f" (FOLDER/NAME{suffix} for each IN NAME.ext)"
         )
+    return files_in_folder(
+        sources,
+        folder,
+        suffix,
+        lambda a, b, target: (
+            f"-o {out}: {a} and {b} would both be converted to {target};"
+            " give the files different names, or convert them apart"
+        ),
+    )
+
+
+def files_in_folder(
+    sources: Sequence[str],
+    folder: str | os.PathLike[str],
+    suffix: str,
+    clash: Callable[[str, str, str], str],
+) -> list[str]:
+    """FOLDER/NAME.SUFFIX for each source NAME.ext, in order; InputError with
+    ``clash(first, second, target)`` when two sources would write one file."""
     targets: dict[str, str] = {}
     for source in sources:
-        target = str(folder / f"{Path(source).stem}{suffix}")
+        target = str(Path(folder) / f"{Path(source).stem}{suffix}")
         if target in targets:
-            raise InputError(
-                f"-o {out}: {targets[target]} and {source} would both be converted to"
-                f" {target}; give the files different names, or convert them apart"
-            )
+            raise InputError(clash(targets[target], source, target))
         targets[target] = source
     return list(targets)
 

@@ -5,13 +5,10 @@ simulates them.
 (:func:`follicle.pipeline.timed_simulation`) and writes its cache, the same bytes as
 `follicle simulate` of that scene writes.
 
-**Files.** Every path a worker is given is absolute, and every worker must reach it: the
-scenes' files, the output folders (a local disk for ``local:N``, a shared one for a cluster). A
-worker writes an output into a hidden job folder beside it (created by the client)
-and renames it into place, so an output is whole or absent. The job folder goes when
-the job ends, fails or is stopped (SIGINT/SIGTERM: local workers are stopped first),
-and with it any output not yet renamed; a task still running on a remote worker then
-finds the folder gone and writes nothing. Finished outputs stay, as in one process.
+**Files.** The scenes' files and the output folders must be reached by every worker at
+the paths given (a shared disk for a cluster); each cache is written into the job's
+hidden folder and renamed into place, as :mod:`follicle.distributed.render` writes its
+frames.
 """
 
 from __future__ import annotations
