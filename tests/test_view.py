@@ -45,8 +45,10 @@ def small_scene():
     )
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def ctl():
+    """A fresh viewer for each test: the tests change its parameters, camera, layers and
+    size, and one releases it, so that none starts from what another left."""
     c = Controller(small_scene(), size=(160, 90), fps=30.0)
     yield c
     c.release()
