@@ -401,7 +401,13 @@ def test_a_child_killed_by_a_signal_is_named_as_a_crash(tmp_path):
 def test_the_same_file_gives_the_same_answer(tmp_path, valid):
     path = tmp_path / "v.usdc"
     path.write_bytes(valid["usdc"])
-    assert load_usd(path) == load_usd(path)
+    first = load_usd(path)
+    assert first == load_usd(path)
+    # and it is the right answer, not merely the same one: the fixture's curves
+    points = np.random.default_rng(7).random((3, 4, 3), dtype=np.float32).reshape(-1, 3)
+    np.testing.assert_array_equal(first.points, points)
+    np.testing.assert_array_equal(first.offsets, [0, 4, 8, 12])
+    np.testing.assert_array_equal(first.point_data["width"], np.full(12, 0.01, np.float32))
     bad = tmp_path / "bad.usda"
     bad.write_text(BAD["scale 0 with normals"][0])
     messages = set()
