@@ -11,6 +11,8 @@ import pytest
 
 from hostile import FOLLICLE, assert_cli_refused, files, run_cli, warm
 
+pytestmark = pytest.mark.slow  # signalled subprocesses
+
 
 @pytest.fixture(scope="module", autouse=True)
 def _warm():

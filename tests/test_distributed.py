@@ -21,6 +21,8 @@ from follicle.pipeline import groom_scene
 from follicle.scene import scene_from_toml
 from hostile import assert_cli_refused, run_cli, session, session_workers, wait_session_ends, warm
 
+pytestmark = pytest.mark.slow  # local Dask clusters and signalled subprocesses
+
 SCENE = "[groom]\ncount = 3000\n"
 
 

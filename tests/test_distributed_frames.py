@@ -26,6 +26,8 @@ from follicle.render.video import write_mp4
 from follicle.scene import scene_from_toml
 from hostile import assert_cli_refused, run_cli, session, session_workers, wait_session_ends, warm
 
+pytestmark = pytest.mark.slow  # local Dask clusters and signalled subprocesses
+
 SCENE = """[groom]
 count = 1500
 [sim]
