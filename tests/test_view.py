@@ -407,6 +407,7 @@ windowed = pytest.mark.skipif(
 
 
 @windowed
+@pytest.mark.slow  # a window (under Xvfb) in a subprocess
 def test_window_runs_frames_and_exits(tmp_path):
     (tmp_path / "scene.toml").write_text(SCENE)
     out = tmp_path / "window.png"
@@ -474,6 +475,7 @@ def windowed_script(script: str, folder: Path) -> str:
 
 
 @windowed
+@pytest.mark.slow  # a window (under Xvfb) in a subprocess
 def test_window_is_resizable_and_the_render_follows(tmp_path):
     assert windowed_script(RESIZE, tmp_path) == "1 (120, 200, 4)"
 
@@ -595,6 +597,7 @@ win.close()
 
 
 @windowed
+@pytest.mark.slow  # a window (under Xvfb) in a subprocess
 def test_dragging_the_mouse_with_a_brush_combs_the_guides_in_the_window(tmp_path):
     words = windowed_script(DRAG, tmp_path).split()
     assert words[0] == "moved" and float(words[1]) > 0.005, words
