@@ -48,9 +48,11 @@ class Outcome:
     tty: bool = False
 
 
-def _limits(memory: int) -> None:  # runs in the child, before exec
+def _limits(memory: int, file_size: int | None = None) -> None:  # in the child, before exec
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    if file_size is not None:  # a full disk: writes past it fail (SIGXFSZ left as it is)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (file_size, file_size))
     os.setsid()  # its own process group, so a time-out kills every process it started
 
 
@@ -75,9 +77,13 @@ def run(
     memory: int = MEMORY,
     stdin: bytes | None = None,
     env: dict[str, str] | None = None,
+    file_size: int | None = None,
 ) -> Outcome:
     """Run ``argv`` under the limits. With ``tty`` its stdin, stdout and stderr are one
-    pseudo-terminal (what a person's terminal is) and ``stdout`` holds all it printed."""
+    pseudo-terminal (what a person's terminal is) and ``stdout`` holds all it printed.
+    ``file_size`` (bytes) is a file-size limit (RLIMIT_FSIZE), a disk that fills there:
+    SIGXFSZ keeps its default action, so a command that does not set it aside dies of
+    it rather than reporting the failed write."""
     start = time.perf_counter()
     if not tty:
         proc = subprocess.Popen(
@@ -87,7 +93,7 @@ def run(
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
-            preexec_fn=lambda: _limits(memory),
+            preexec_fn=lambda: _limits(memory, file_size),
         )
         try:
             out, err = proc.communicate(stdin or b"", timeout=timeout)
@@ -116,7 +122,7 @@ def run(
         stdin=slave,
         stdout=slave,
         stderr=slave,
-        preexec_fn=lambda: _limits(memory),
+        preexec_fn=lambda: _limits(memory, file_size),
         close_fds=True,
     )
     os.close(slave)
@@ -152,9 +158,11 @@ def run_cli(
     timeout: float = SECONDS,
     memory: int = MEMORY,
     env: dict[str, str] | None = None,
+    file_size: int | None = None,
 ) -> Outcome:
-    """``follicle ARGS`` in a child process under the limits."""
-    return run([*FOLLICLE, *map(str, args)], cwd, tty=tty, timeout=timeout, memory=memory, env=env)
+    """``follicle ARGS`` in a child process under the limits (``file_size``: see :func:`run`)."""
+    argv = [*FOLLICLE, *map(str, args)]
+    return run(argv, cwd, tty=tty, timeout=timeout, memory=memory, env=env, file_size=file_size)
 
 
 _API = """
@@ -209,6 +217,51 @@ def files(folder: str | os.PathLike[str]) -> set[str]:
     """Every path under ``folder`` (relative), hidden ones included."""
     root = Path(folder)
     return {str(p.relative_to(root)) for p in root.rglob("*")}
+
+
+def session(sid: int) -> list:
+    """The live processes (psutil) of session ``sid``: a child started with
+    ``start_new_session=True`` (``sid`` its pid) and every process it started, however
+    deep, orphaned or not, that did not leave the session itself. Zombies are dead."""
+    import psutil
+
+    alive = []
+    for proc in psutil.process_iter():
+        try:
+            if os.getsid(proc.pid) == sid and proc.status() != psutil.STATUS_ZOMBIE:
+                alive.append(proc)
+        except (OSError, psutil.Error):  # gone meanwhile
+            continue
+    return alive
+
+
+def session_workers(sid: int) -> list:
+    """The worker processes (multiprocessing's spawned children: Dask's local workers)
+    of session ``sid``."""
+    import psutil
+
+    found = []
+    for proc in session(sid):
+        with contextlib.suppress(psutil.Error):
+            if "spawn_main" in " ".join(proc.cmdline()):
+                found.append(proc)
+    return found
+
+
+def wait_session_ends(sid: int, timeout: float = 60.0) -> None:
+    """Return once no process of session ``sid`` is alive, so nothing it started can
+    still write; fail naming the ones left after ``timeout`` seconds. What a check that
+    a stopped command left nothing behind waits on, instead of a fixed sleep that a slow
+    machine outlasts."""
+    deadline = time.monotonic() + timeout
+    while left := session(sid):
+        if time.monotonic() > deadline:
+            names = []
+            for proc in left:
+                with contextlib.suppress(Exception):
+                    names.append(" ".join(proc.cmdline())[:200])
+            raise AssertionError(f"{len(left)} processes still running: {names}")
+        time.sleep(0.05)
 
 
 def screen(text: str) -> list[str]:

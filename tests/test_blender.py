@@ -42,6 +42,8 @@ from follicle.io.usd_payloads import save_usd_payloads
 from follicle.pipeline import groom_scene
 from follicle.scene import Scene
 
+pytestmark = pytest.mark.slow  # Blender (bpy) in its own venv, in subprocesses
+
 HAIRS = 300
 AXES = "xyz"
 _EPS32 = float(np.finfo(np.float32).eps)

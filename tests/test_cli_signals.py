@@ -3,14 +3,15 @@ removed, the exit code is 128 + the signal), and a file-size limit or a full dis
 exit 2, not a killed process, with nothing left behind."""
 
 import os
-import resource
 import signal
 import subprocess
 import time
 
 import pytest
 
-from hostile import FOLLICLE, Outcome, assert_cli_refused, files, warm
+from hostile import FOLLICLE, assert_cli_refused, files, run_cli, warm
+
+pytestmark = pytest.mark.slow  # signalled subprocesses
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -41,26 +42,11 @@ def test_a_stopped_grow_leaves_no_file(tmp_path, signum, suffix):
     assert files(tmp_path) == {"s.toml"}
 
 
-def _file_size_limit(limit):
-    def set_limit():
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-
-    return set_limit
-
-
 @pytest.mark.parametrize("suffix", [".npz", ".hair", ".tfx", ".usdc", ".usda", ".usdz"])
 def test_a_file_size_limit_is_one_line_and_exit_2(tmp_path, suffix):
     (tmp_path / "s.toml").write_text("[groom]\ncount = 3000\n")
-    start = time.perf_counter()
-    proc = subprocess.run(
-        [*FOLLICLE, "grow", "s.toml", "-o", f"h{suffix}"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        preexec_fn=_file_size_limit(200_000),
-    )
-    out = Outcome(proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - start, False)
+    args = ("grow", "s.toml", "-o", f"h{suffix}")
+    out = run_cli(*args, cwd=tmp_path, timeout=120, file_size=200_000)
     assert_cli_refused(out, f"h{suffix}")
     assert files(tmp_path) == {"s.toml"}
 

@@ -9,7 +9,7 @@ from follicle import cli
 from follicle.cli import main
 from follicle.io.sim_cache import is_cache, load_cache
 from follicle.pipeline import cache_scene
-from follicle.sim.motion import MOTIONS, head_motion
+from follicle.sim.motion import MOTIONS
 from glmark import gl
 
 SCENE = """\
@@ -66,8 +66,15 @@ def test_simulate_writes_a_cache_beside_the_scene(sim):
     assert str(scene.base_dir) == str(folder.resolve())
     lo = np.array([-0.09538657, -0.232, -0.11098265])
     hi = np.array([0.09538657, 0.11997434, 0.11623616])
-    pivot = [0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])]  # the built-in head's neck
-    expected = head_motion("turn", 2 / 12, 50, 0.5, pivot)
+    pivot = np.array([0.5 * (lo[0] + hi[0]), lo[1], 0.5 * (lo[2] + hi[2])])  # the head's neck
+    # frame 2 at 12 fps is t = 1/6 s, a third of the 0.5 s turn: 5/6 of the way out (the
+    # first 0.4 of the period) on the minimum-jerk curve s³(10 − 15s + 6s²) = 625/648 at
+    # s = 5/6, so a yaw of 50° × 625/648 = 48.225° about +y through the pivot
+    yaw = np.radians(50.0 * 625 / 648)
+    c, s = np.cos(yaw), np.sin(yaw)
+    rot = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    expected = np.eye(4)
+    expected[:3, :3], expected[:3, 3] = rot, pivot - rot @ pivot
     assert np.allclose(cache.transforms[2], expected, atol=1e-6)
     # the hair moved with the head: guides at frame 2 are off the rest pose
     moved = np.linalg.norm(cache.positions[2] - cache.positions[0], axis=2)

@@ -6,6 +6,8 @@ import pytest
 import follicle
 from hostile import run_cli, warm
 
+pytestmark = pytest.mark.slow  # every command in a subprocess on a pseudo-terminal
+
 SCENE = '[groom]\ncount = 300\n[guides]\npath = "builtin:short"\n[render]\nsize = [96, 72]\n'
 
 

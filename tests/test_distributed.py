@@ -20,7 +20,9 @@ from follicle.errors import ConfigError
 from follicle.io.dispatch import save
 from follicle.pipeline import groom_scene
 from follicle.scene import scene_from_toml
-from hostile import assert_cli_refused, run_cli, warm
+from hostile import assert_cli_refused, run_cli, session, session_workers, wait_session_ends, warm
+
+pytestmark = pytest.mark.slow  # local Dask clusters and signalled subprocesses
 
 SCENE = "[groom]\ncount = 3000\n"
 
@@ -243,6 +245,7 @@ def _grow_until_parts(tmp_path, count: int, out: str) -> subprocess.Popen:
         cwd=tmp_path,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        start_new_session=True,  # its session: every process it starts, to wait on
     )
     deadline = time.monotonic() + 120
     while not any(list(folder.iterdir()) for folder in _parts_folders(out) - before):
@@ -256,12 +259,13 @@ def test_ctrl_c_stops_the_workers_and_leaves_no_parts(tmp_path):
     folder and any temporary output go; exit 130."""
     before = _parts_folders("h.usdc")
     proc = _grow_until_parts(tmp_path, 2_000_000, "h.usdc")
+    assert session_workers(proc.pid), session(proc.pid)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     # one line: no warning of the killed workers' semaphores from multiprocessing
     assert err.decode().split() == "error: stopped by SIGINT; no output was written".split(), err
-    time.sleep(2)  # a worker still running would write again by now
+    wait_session_ends(proc.pid)  # no worker is left that could still write
     assert [p.name for p in tmp_path.iterdir()] == ["s.toml"]
     assert _parts_folders("h.usdc") == before
 

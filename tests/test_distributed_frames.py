@@ -25,7 +25,9 @@ from follicle.io.sim_cache import load_cache, write_cache
 from follicle.pipeline import render_cache, render_frames, simulate_scene
 from follicle.render.video import write_mp4
 from follicle.scene import scene_from_toml
-from hostile import assert_cli_refused, run_cli, warm
+from hostile import assert_cli_refused, run_cli, session, session_workers, wait_session_ends, warm
+
+pytestmark = pytest.mark.slow  # local Dask clusters and signalled subprocesses
 
 SCENE = """[groom]
 count = 1500
@@ -231,6 +233,7 @@ def _started(tmp_path: Path, made: Path, out: str, ready: str) -> subprocess.Pop
         cwd=tmp_path,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        start_new_session=True,  # its session: every process it starts, to wait on
     )
     deadline = time.monotonic() + 120
     while not list(tmp_path.glob(ready)):
@@ -244,10 +247,11 @@ def test_ctrl_c_stops_the_workers_and_leaves_only_whole_frames(made, tmp_path, o
     """SIGINT mid-render: the workers are stopped, then the job's folder (frames not yet
     renamed) or the unfinished video goes; the frames already written stay, whole."""
     proc = _started(tmp_path, made, out, ready)
+    assert session_workers(proc.pid), session(proc.pid)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    time.sleep(2)  # a worker still running would write again by now
+    wait_session_ends(proc.pid)  # no worker is left that could still write
     if out == "v.mp4":
         assert sorted(p.name for p in tmp_path.iterdir()) == ["sim.npz"]
         return

@@ -24,7 +24,7 @@ from follicle.errors import InputError
 from follicle.io.dispatch import load_curves, save
 from follicle.io.sim_cache import CACHE_FORMAT
 from hairfiles import hair
-from hostile import FOLLICLE, files
+from hostile import FOLLICLE, files, session, session_workers, wait_session_ends
 
 # name: (segments + 1 per hair, seed); each groom saved in its own format
 GROOMS = {
@@ -185,15 +185,18 @@ def test_a_stopped_export_leaves_only_whole_files(tmp_path, signum, scheduler):
         cwd=tmp_path,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        start_new_session=True,  # its session: every process it starts, to wait on
     )
     deadline = time.monotonic() + 120
     while not list((tmp_path / "out").glob("*.abc")):
         assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
         time.sleep(0.05)
+    if scheduler:  # the workers are there to be stopped
+        assert session_workers(proc.pid), session(proc.pid)
     proc.send_signal(signum)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 128 + signum, err.decode()
-    time.sleep(1)  # a worker still running would write by now
+    wait_session_ends(proc.pid)  # no worker is left that could still write
     written = sorted(files(tmp_path / "out"))
     assert 1 <= len(written) < len(names), written
     assert set(written) <= {f"{Path(n).stem}.abc" for n in names}, written

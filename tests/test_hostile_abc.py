@@ -12,11 +12,7 @@ end in one line and leave no file behind.
 from __future__ import annotations
 
 import re
-import resource
-import signal
 import struct
-import subprocess
-import time
 
 import numpy as np
 import pytest
@@ -29,7 +25,6 @@ from follicle import FormatError, HairCurves, SkinMesh
 from follicle.io.alembic import load_abc, load_abc_mesh, save_abc
 from follicle.io.alembic_guard import check_archive
 from hostile import (
-    FOLLICLE,
     Outcome,
     assert_api_refused,
     assert_cli_refused,
@@ -264,23 +259,9 @@ def test_damaged_archives_give_results_or_one_format_error(tmp_path, valid, read
 
 # ------------------------------------------------------------------ writing
 def _write_limited(folder, limit: int) -> Outcome:
-    """``follicle export`` to ``out.abc`` under a file-size limit of ``limit`` bytes,
-    SIGXFSZ ignored (as the CLI should), so writes fail with EFBIG."""
-
-    def preexec() -> None:
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-
-    start = time.perf_counter()
-    proc = subprocess.run(
-        [*FOLLICLE, "export", "in.hair", "-o", "out.abc"],
-        cwd=folder,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        preexec_fn=preexec,
-    )
-    return Outcome(proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - start, False)
+    """``follicle export`` to ``out.abc`` under a file-size limit of ``limit`` bytes; the
+    CLI sets SIGXFSZ aside itself, so writes fail with EFBIG."""
+    return run_cli("export", "in.hair", "-o", "out.abc", cwd=folder, timeout=120, file_size=limit)
 
 
 @pytest.mark.parametrize("room", [0.3, 0.999])  # a chunk's samples; the archive's last bytes

@@ -86,7 +86,6 @@ def test_strand_seeds_are_constant_per_curve_and_spread():
     assert len(set(seeds.tolist())) == 3 and np.all((seeds >= 0) & (seeds < 1))
 
 
-@gl
 def test_thin_strands_accumulate_coverage():
     """Sub-pixel strands add up: 8 stacked ones cover far more than one. Each lies along
     the middle of a pixel row (an engine with area coverage splits a strand on a row
@@ -115,7 +114,6 @@ def test_thin_strands_accumulate_coverage():
     assert lum_many > lum_one + 60
 
 
-@gl
 def test_nearer_strand_stays_on_top_whatever_the_input_order():
     size = (48, 48)
     near = strand((-0.1, 0.0, 0.05), (0.1, 0.0, 0.05), width=0.02)
@@ -145,7 +143,6 @@ def test_srgb_round_trip_and_encoding():
 
 
 # ---------------------------------------------------------------------------- GL
-@gl
 def test_strand_covers_expected_row_band():
     size, width = (200, 200), 0.02
     y0 = 0.05
@@ -176,7 +173,6 @@ def test_strand_covers_expected_row_band():
     assert img[int(py), mid, 0] == 255
 
 
-@gl
 def test_thin_hair_is_faded_not_aliased():
     size = (200, 200)
     thin = strand((-0.15, 0.0, 0.0), (0.15, 0.0, 0.0), width=1e-5)  # ~0.003 px wide
@@ -193,7 +189,6 @@ def test_thin_hair_is_faded_not_aliased():
     assert 0 < column.max() < 128  # visible, but with its low coverage
 
 
-@gl
 def test_kajiya_kay_diffuse_follows_tangent_light_angle():
     size = (200, 200)
     light = [Light((0.0, 1.0, 0.0))]
@@ -221,7 +216,6 @@ def test_kajiya_kay_diffuse_follows_tangent_light_angle():
     assert b + 20 < c < a - 10, (a, b, c)
 
 
-@gl
 def test_mesh_sphere_disc_and_skin_colour():
     size = (160, 160)
     bg = (0.0, 0.0, 0.3)
@@ -239,7 +233,6 @@ def test_mesh_sphere_disc_and_skin_colour():
     assert np.all(img[..., 3] == 255)
 
 
-@gl
 def test_empty_curves_with_mesh_renders_mesh_only():
     mesh = sphere(0.1)
     empty = HairCurves(np.zeros((0, 3)), [0])
@@ -248,7 +241,6 @@ def test_empty_curves_with_mesh_renders_mesh_only():
     np.testing.assert_array_equal(a, b)
 
 
-@gl
 def test_hair_in_front_of_mesh_is_visible():
     size = (160, 160)
     mesh = sphere(0.1)
@@ -265,7 +257,6 @@ def test_hair_in_front_of_mesh_is_visible():
     assert with_hair[80, 80, 1] > with_hair[80, 80, 0]  # green hair over the skin
 
 
-@gl
 def test_background_gradient_top_and_bottom():
     top, bottom = (0.8, 0.1, 0.1), (0.05, 0.1, 0.6)
     curves = strand((-0.01, 0.0, 0.0), (0.01, 0.0, 0.0))
@@ -279,7 +270,6 @@ def test_background_gradient_top_and_bottom():
     assert np.all(flat[0, :, :3] == flat[-1, :, :3])
 
 
-@gl
 def test_msaa_produces_intermediate_edge_values():
     mesh = sphere(0.1)
     kwargs = dict(
@@ -296,7 +286,6 @@ def test_msaa_produces_intermediate_edge_values():
     assert intermediate.sum() > 50
 
 
-@gl
 def test_png_matches_returned_array(tmp_path):
     from PIL import Image
 
@@ -313,7 +302,6 @@ def test_png_matches_returned_array(tmp_path):
         np.testing.assert_array_equal(np.asarray(png), img[..., :3])
 
 
-@gl
 def test_render_is_deterministic():
     rng = np.random.default_rng(7)
     roots = rng.uniform(-0.1, 0.1, size=(300, 3))
@@ -327,7 +315,7 @@ def test_render_is_deterministic():
     assert a.tobytes() == b.tobytes()
 
 
-@gl
+@gl  # an OpenGL Renderer of its own, whatever the engine
 def test_renderer_reuse_and_per_vertex_attributes():
     curves = strand((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0), n=4)
     red = HairCurves(
@@ -347,7 +335,6 @@ def test_renderer_reuse_and_per_vertex_attributes():
     np.testing.assert_array_equal(a, b)  # a straight strand does not change with smoothing
 
 
-@gl
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
@@ -375,7 +362,6 @@ def test_bad_settings_are_config_errors_naming_the_key(kwargs, message):
         render_image(curves, **{"size": (32, 32), **kwargs})
 
 
-@gl
 def test_settings_and_overrides_draw_as_one_object(each_engine):
     """``render_image(settings=p, key=v)`` draws what
     ``render_image(settings=p.replace(key=v))`` does, and what the settings' engine's
@@ -395,7 +381,6 @@ def test_settings_and_overrides_draw_as_one_object(each_engine):
         render_image(curves, settings={"size": (8, 8)})
 
 
-@gl
 def test_nothing_to_draw_raises():
     with pytest.raises(InputError, match="nothing to draw"):
         render_image(None)
@@ -407,7 +392,6 @@ def test_nothing_to_draw_raises():
         render_image(np.zeros((4, 3)))  # not HairCurves
 
 
-@gl
 def test_follicle_render_image_works_after_a_submodule_import():
     import follicle
     import follicle.render.camera  # noqa: F401  binds the package to follicle.render

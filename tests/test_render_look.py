@@ -11,9 +11,8 @@ from follicle.pipeline import grow
 from follicle.render import render_image
 from follicle.render.camera import frame_scene
 from follicle.scene import Scene
-from glmark import gl
 
-pytestmark = [pytest.mark.usefixtures("each_engine"), gl]
+pytestmark = pytest.mark.usefixtures("each_engine")  # each test on both engines
 
 SIZE = (240, 240)
 TOP = dict(eye=(0.0, 0.6, 0.25), target=(0.0, 0.05, 0.0))  # above the crown, a little forward

@@ -59,7 +59,6 @@ def order_difference(curves: HairCurves, **kw) -> tuple[float, int]:
     return float(np.abs(a - b).mean()), int(np.abs(a - b).max())
 
 
-@gl
 @pytest.mark.parametrize("msaa", [0, 4])
 def test_curve_order_does_not_change_the_image(msaa, monkeypatch):
     curves = crossing_strands()
@@ -78,7 +77,6 @@ def test_curve_order_does_not_change_the_image(msaa, monkeypatch):
     assert mean > 10 * MEAN_LIMIT and biggest > 10 * MAX_LIMIT, (mean, biggest)
 
 
-@gl
 def test_oit_off_sorts_back_to_front():
     """The foundation's path stays available: sorted "over" blending is order-free too."""
     mean, biggest = order_difference(crossing_strands(500), size=(96, 96), msaa=0, oit=False)
@@ -102,7 +100,6 @@ def region(spacing: float, rows: int = 12) -> tuple[slice, slice]:
     )
 
 
-@gl
 def test_wide_hair_covers_its_geometric_share_of_pixels():
     px = FRONT.pixel_scale(SIZE[1])  # metres per pixel at depth 1
     width, spacing = 3.3 * px, 10.0 * px
@@ -113,7 +110,6 @@ def test_wide_hair_covers_its_geometric_share_of_pixels():
     assert (3.3 - 1) / 10 <= covered <= (3.3 + 1) / 10, covered
 
 
-@gl
 @pytest.mark.parametrize("msaa", [0, 4])
 @pytest.mark.parametrize("width_px", [0.1, 0.25, 0.6])
 def test_sub_pixel_hair_covers_by_opacity(width_px, msaa):
@@ -129,7 +125,6 @@ def test_sub_pixel_hair_covers_by_opacity(width_px, msaa):
     assert srgb_to_linear(img[rows, cols, 0] / 255.0).max() <= width_px * 1.05 + 0.01
 
 
-@gl
 @pytest.mark.parametrize("msaa", [0, 4])
 @pytest.mark.parametrize("degrees", [20.0, 45.0, 70.0])
 def test_sub_pixel_coverage_holds_at_any_angle(degrees, msaa):
@@ -180,7 +175,7 @@ def test_vertex_tangents_are_the_geometry_shaders_step_tangents():
     assert got.dtype == np.float32
 
 
-@gl
+@gl  # an OpenGL Renderer of its own, whatever the engine
 @pytest.mark.parametrize("shading", ["kajiya-kay", "marschner"])
 def test_one_step_lines_without_a_geometry_shader_draw_its_picture(shading, monkeypatch):
     """At subdivisions 1 thin hair skips the geometry shader: the same primitives, and

@@ -11,7 +11,6 @@ from follicle.errors import InputError
 from follicle.render import Camera, Light, render_image
 from follicle.render.image import linear_to_srgb
 from follicle.render.options import SHADINGS, parse_shading
-from glmark import gl
 
 pytestmark = pytest.mark.usefixtures("each_engine")  # each test on both engines
 
@@ -167,7 +166,6 @@ def test_bad_shading_params_name_the_field(model, params, message):
 
 
 # ---------------------------------------------------------------- GL
-@gl
 @pytest.mark.parametrize("model", SHADINGS)
 @pytest.mark.parametrize("light_dir", [(0.0, 0.6, 0.8), (0.3, 0.5, 0.81), (0.0, 0.3, -1.0)])
 @pytest.mark.parametrize("width_px", [6.0, 0.3])  # per fragment / per step (and faded)
@@ -183,7 +181,6 @@ def test_single_strand_matches_the_formula(model, light_dir, width_px):
     assert got.max() > 20  # the light reaches the strand: a real comparison
 
 
-@gl
 def test_marschner_tt_lobe_brightens_a_back_lit_strand():
     back, front = (0.0, 0.25, -1.0), (0.0, 0.25, 1.0)  # behind the hair / behind the camera
     width = 6.0 * FRONT.pixel_scale(SIZE[1])
@@ -201,7 +198,6 @@ def test_marschner_tt_lobe_brightens_a_back_lit_strand():
     )
 
 
-@gl
 def test_scheuermann_noise_varies_the_highlight_along_the_strand():
     """Shift noise and the sparkle mask vary along the strand, the same way every time."""
     strand = horizontal_strand(6.0 * FRONT.pixel_scale(SIZE[1]))
@@ -228,7 +224,6 @@ def test_scheuermann_noise_varies_the_highlight_along_the_strand():
     assert turns(row) >= 4 and turns(smooth[100, 60:141, :3].astype(int)) <= 1
 
 
-@gl
 @pytest.mark.parametrize("model", SHADINGS)
 def test_every_model_renders_plausible_hair(model):
     """A small brown groom: hair pixels differ from the background, are brown-tinted,

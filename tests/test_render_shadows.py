@@ -64,7 +64,6 @@ def test_light_projection_fits_the_box_with_linear_depth():
 
 
 # ---------------------------------------------------------------- GL
-@gl
 def test_hair_behind_dense_hair_is_darker_with_shadows():
     """The light comes from +x through a dense sheet onto a second sheet at -x."""
     curves = HairCurves.concatenate([sheet(0.03, 0.08, 400, 1), sheet(-0.08, -0.03, 400, 2)])
@@ -89,7 +88,6 @@ def test_hair_behind_dense_hair_is_darker_with_shadows():
     assert brightness(shadowed, rows, front) > 0.5 * brightness(lit, rows, front)
 
 
-@gl
 @pytest.mark.parametrize("model", ["kajiya-kay", "scheuermann", "marschner"])
 @pytest.mark.parametrize("width_px", [6.0, 0.5])
 def test_a_lone_strand_does_not_shadow_itself(model, width_px):
@@ -111,7 +109,6 @@ def test_a_lone_strand_does_not_shadow_itself(model, width_px):
     assert np.abs(a - b).max() <= 2
 
 
-@gl
 def test_hair_shadows_the_skin_and_the_skin_shadows_hair():
     mesh = sphere(0.1)
     # a dense patch lying flat above the sphere (strands along z), lit from straight above
@@ -159,7 +156,6 @@ def test_hair_shadows_the_skin_and_the_skin_shadows_hair():
     assert brightness(shadowed, above, cols) > 0.8 * brightness(lit, above, cols)
 
 
-@gl
 def test_the_lit_side_of_the_skin_has_no_shadow_acne():
     kw = dict(
         camera=FRONT,
@@ -179,7 +175,6 @@ def test_the_lit_side_of_the_skin_has_no_shadow_acne():
     assert np.abs(a - b)[1:-1, 1:-1][inner].max() <= 2
 
 
-@gl
 def test_shadow_density_and_layer_parameters():
     curves = HairCurves.concatenate([sheet(0.03, 0.08, 400, 1), sheet(-0.08, -0.03, 400, 2)])
     kw = dict(
@@ -208,7 +203,7 @@ def test_shadow_density_and_layer_parameters():
     assert brightness(thick, rows, behind) > 2 * brightness(thin, rows, behind)
 
 
-@gl
+@gl  # an OpenGL Renderer of its own, whatever the engine
 @pytest.mark.parametrize("size", [(48, 40), (700, 600)])  # smaller / larger than the maps
 def test_a_reused_renderer_draws_what_a_fresh_one_does(size):
     """Nothing of one frame (viewports, maps) leaks into the next, nor does a viewport
@@ -236,7 +231,6 @@ def plate_over_floor() -> StandInMesh:
     return StandInMesh(trimesh.util.concatenate([floor, plate]))
 
 
-@gl
 @pytest.mark.parametrize("softness", [0.0, 0.01])
 def test_the_skin_shadow_edge_is_as_soft_as_skin_softness(softness):
     """The plate's shadow falls on the floor 3 cm past its edge (light from −x, 37° off

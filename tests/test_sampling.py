@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -269,10 +271,29 @@ def test_pdf_region_probability_and_memory():
     assert p0 == pytest.approx(0.5, abs=0.01)  # the checkerboard is symmetric about y = x
     tri, _ = sampler.sample(200_000, seed=2)
     assert np.mean(tri == 0) == pytest.approx(p0, abs=4 * np.sqrt(0.25 / 200_000))
-    expected = 12 * sampler.sub_triangle_count + sampler.grid.nbytes + sampler.table.nbytes
-    assert sampler.memory_bytes == expected
+    # what it keeps, counted by hand: 32 texels a triangle give depth 3 (4³ ≥ 32), so
+    # 2 × 64 sub-triangles of 12 bytes (CDF, parent, index); 4 grid cells a sub-triangle
+    # and one more, int32; the position table of depths 0 … 3, (4⁴ − 1) / 3 = 85 rows of
+    # 3 float32
+    assert sampler.sub_triangle_count == 128
+    assert sampler.memory_bytes == 128 * 12 + (4 * 128 + 1) * 4 + 85 * 3 * 4 == 4608
     # total weight (getDensity): ∫ density dA; the tiled checkerboard averages (0.1 + 1) / 2
     assert sampler.total_weight == pytest.approx(0.55, rel=1e-6)
+
+
+def test_memory_bytes_is_what_building_a_sampler_leaves_allocated():
+    """Measured, not the formula restated: tracemalloc's count of what is still allocated
+    once the sampler is built (its arrays, its depths and a few small objects)."""
+    mesh, tex = _plane(), Texture(_checkerboard(64))
+    DensitySampler(mesh, tex)  # the kernels loaded and the mesh's caches filled first
+    tracemalloc.start()
+    try:
+        sampler = DensitySampler(mesh, tex)
+        kept = tracemalloc.get_traced_memory()[0]
+    finally:
+        tracemalloc.stop()
+    assert sampler.sub_triangle_count == 2 * 4**6  # 2048 texels a triangle: depth 6
+    assert sampler.memory_bytes <= kept <= sampler.memory_bytes + 4096, (kept, sampler.memory_bytes)
 
 
 def test_uniform_and_constant_densities():

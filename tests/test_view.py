@@ -45,8 +45,10 @@ def small_scene():
     )
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def ctl():
+    """A fresh viewer for each test: the tests change its parameters, camera, layers and
+    size, and one releases it, so that none starts from what another left."""
     c = Controller(small_scene(), size=(160, 90), fps=30.0)
     yield c
     c.release()
@@ -405,6 +407,7 @@ windowed = pytest.mark.skipif(
 
 
 @windowed
+@pytest.mark.slow  # a window (under Xvfb) in a subprocess
 def test_window_runs_frames_and_exits(tmp_path):
     (tmp_path / "scene.toml").write_text(SCENE)
     out = tmp_path / "window.png"
@@ -472,6 +475,7 @@ def windowed_script(script: str, folder: Path) -> str:
 
 
 @windowed
+@pytest.mark.slow  # a window (under Xvfb) in a subprocess
 def test_window_is_resizable_and_the_render_follows(tmp_path):
     assert windowed_script(RESIZE, tmp_path) == "1 (120, 200, 4)"
 
@@ -593,6 +597,7 @@ win.close()
 
 
 @windowed
+@pytest.mark.slow  # a window (under Xvfb) in a subprocess
 def test_dragging_the_mouse_with_a_brush_combs_the_guides_in_the_window(tmp_path):
     words = windowed_script(DRAG, tmp_path).split()
     assert words[0] == "moved" and float(words[1]) > 0.005, words

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow  # builds a wheel and installs it in a new venv
+
 ROOT = Path(__file__).resolve().parents[1]
 STROKES = {
     "follicle_strokes": 1,
