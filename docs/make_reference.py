@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from follicle.pipeline import grow, render_scene, render_scene_mitsuba
+from follicle.pipeline import grow, render_scene
 from follicle.render import save_png
 from follicle.scene import Scene
 
@@ -33,9 +33,8 @@ def main() -> None:
     start = time.perf_counter()
     gl = render_scene(curves, mesh, params, out=str(OUT / "default_opengl.png"))
     middle = time.perf_counter()
-    mi = render_scene_mitsuba(
-        curves, mesh, params, out=str(OUT / "default_mitsuba.png"), spp=args.spp
-    )
+    mitsuba = params.replace(engine="mitsuba", spp=args.spp)
+    mi = render_scene(curves, mesh, mitsuba, out=str(OUT / "default_mitsuba.png"))
     end = time.perf_counter()
     save_png(np.concatenate([gl, mi], axis=1), OUT / "default_side_by_side.png")
     print(

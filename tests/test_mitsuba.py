@@ -345,9 +345,28 @@ def test_cli_engine_mitsuba(tmp_path):
     assert Image.open(out).size == (40, 30)
     for args, words in (
         (["--engine", "mitsuba", "--msaa", "4"], "--msaa does not apply to --engine mitsuba"),
-        (["--spp", "4"], "--spp does not apply to --engine opengl"),
-        (["--engine", "mitsuba", "--spp", "0"], "spp: expected a whole number"),
+        (["--spp", "4"], "--spp does not apply to --engine auto"),
+        (["--engine", "mitsuba", "--spp", "0"], "[render].spp: Input should be greater than"),
     ):
         result = run(*args, "-o", str(tmp_path / "bad.png"))
         assert result.exit_code == 2 and words in result.output, result.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml", "still.png"]
+
+
+def test_mitsuba_is_an_engine_of_the_registry(head):
+    """``render_image(engine="mitsuba")`` path-traces through the engine registry: the
+    same image as render_mitsuba at the settings' spp, [render].spp from a scene; a
+    raster renderer (the viewer, a cache's frames) refuses the stills-only engine."""
+    from follicle.render import make_renderer
+    from follicle.render.backends import ENGINES
+    from follicle.scene import scene_from_toml
+
+    mesh, hair = head
+    direct = render_mitsuba(hair, mesh, size=SIZE, spp=4, seed=0)
+    through = render_image(hair, mesh, size=SIZE, engine="mitsuba", spp=4)
+    assert np.array_equal(direct, through)
+    scene = scene_from_toml('[render]\nengine = "mitsuba"\nspp = 4\n', "s.toml")
+    assert (scene.render.engine, scene.render.spp) == ("mitsuba", 4)
+    assert ENGINES["mitsuba"].spp and not ENGINES["mitsuba"].sequences
+    with pytest.raises(ConfigError, match="'mitsuba' draws stills only; .*auto, opengl, cpu"):
+        make_renderer(scene.render)

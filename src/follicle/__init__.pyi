@@ -22,9 +22,9 @@ from .mesh.sampling import DensitySampler as DensitySampler
 from .mesh.skin import SkinMesh as SkinMesh
 from .mesh.texture import Texture as Texture
 from .pipeline import grow as grow
+from .render.backends import render_image as render_image
 from .render.camera import Camera as Camera
 from .render.camera import Light as Light
-from .render.engines import render_image as render_image
 from .scene import Scene as Scene
 from .scene import load_scene as load_scene
 from .sim.simulator import Simulator as Simulator

@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from .groom.generator import Groom
     from .io.sim_cache import SimCache
     from .pipeline import SimRun
+    from .render.backends import Engine
     from .scene import Scene
 
 log = logging.getLogger("follicle")
@@ -935,10 +936,11 @@ def _simulated(scene: Scene, run: SimRun, target: str) -> str:
 @click.option("--size", type=(int, int), default=None, help="Image width and height.")
 @click.option(
     "--engine",
-    type=_choices("RenderParams", "engine", "mitsuba"),
+    type=_choices("RenderParams", "engine"),
     default=None,
     help="auto (default: opengl on a GPU, else cpu), opengl, cpu (follicle's strand"
-    " rasterizer) or mitsuba: a path-traced reference still (pbr extra).",
+    " rasterizer) or mitsuba: a path-traced reference still (pbr extra)"
+    " [default: [render].engine].",
 )
 @click.option(
     "--shading",
@@ -952,7 +954,9 @@ def _simulated(scene: Scene, run: SimRun, target: str) -> str:
     default=None,
     help="Multisample anti-aliasing samples (opengl).",
 )
-@click.option("--spp", type=int, default=None, help="Samples per pixel (mitsuba; default 64).")
+@click.option(
+    "--spp", type=int, default=None, help="Samples per pixel (mitsuba; default [render].spp, 64)."
+)
 @click.option(
     "--count", type=int, default=None, help="Override [groom].count (a scene or a cache)."
 )
@@ -993,13 +997,12 @@ def render(
     """Render a scene (grown on the fly) or a saved curves file to PNG, or each frame of a
     simulation cache (`follicle simulate`) to a PNG sequence or an MP4, seen through one
     camera. `--engine mitsuba` path-traces a still with Mitsuba 3 instead."""
-    from .errors import InputError
     from .inputs import default_output
     from .io.dispatch import load_curves
     from .io.mesh_load import load_mesh
     from .io.sim_cache import is_cache
     from .pipeline import grow as grow_scene
-    from .pipeline import render_scene, render_scene_mitsuba
+    from .pipeline import render_scene
     from .scene import Scene, load_scene
 
     overrides = {
@@ -1008,7 +1011,8 @@ def render(
             "size": size,
             "shading": shading,
             "msaa": None if msaa is None else int(msaa),
-            "engine": None if engine in (None, "mitsuba") else engine,
+            "spp": spp,
+            "engine": engine,
         }.items()
         if v is not None
     }
@@ -1020,15 +1024,20 @@ def render(
                 "--frames-per-task: sizes the Dask tasks of --scheduler; give --scheduler"
             )
         whole(frames_per_task, "--frames-per-task", 1)
-    if engine == "mitsuba":
-        _not_for(source, "--engine mitsuba", shading=shading, msaa=msaa)
-    else:
-        _not_for(source, f"--engine {engine}" if engine else "--engine opengl or cpu", spp=spp)
+    if is_cache(source):
+        _not_for(source, "a simulation cache", mesh=mesh_path)
+        _engine_takes(source, engine or "auto", shading, msaa, spp, cache=True)
+        _render_cache(source, out, overrides, count, frame_range, scheduler, frames_per_task)
+        return
+    from .export import check_suffix
+
+    scene = Scene()
     if Path(source).suffix.lower() == ".toml":
         scene = _with_overrides(load_scene(source), count=count)
+    params = scene.render.replace("command line", **overrides)
+    chosen = _engine_takes(source, params.engine, shading, msaa, spp)
+    if Path(source).suffix.lower() == ".toml":
         target = out or scene.output_path(scene.output.image)
-        from .export import check_suffix
-
         check_suffix(target, (".png",))
         _check_apart(target, source, scene, more=(("--mesh", mesh_path),))
         _not_for(source, "a scene", frames=frame_range, scheduler=scheduler)
@@ -1036,41 +1045,45 @@ def render(
             mesh, curves = grow_scene(scene, progress)
         if mesh_path is not None:
             mesh = load_mesh(mesh_path)
-    elif is_cache(source):
-        _not_for(source, "a simulation cache", mesh=mesh_path)
-        if engine == "mitsuba":
-            raise InputError(
-                f"{source}: --engine mitsuba renders stills; render a simulation cache with"
-                " --engine opengl or cpu"
-            )
-        _render_cache(source, out, overrides, count, frame_range, scheduler, frames_per_task)
-        return
     else:
-        scene = Scene()
         target = out or default_output(source, ".png")
-        from .export import check_suffix
-
         check_suffix(target, (".png",))
         _check_apart(target, None, more=(("the curves file", source), ("--mesh", mesh_path)))
         _not_for(source, "a curves file", count=count, frames=frame_range, scheduler=scheduler)
         curves = load_curves(source)
         mesh = load_mesh(mesh_path) if mesh_path else None
-    params = scene.render.replace("command line", **overrides)
-    with _step("render"):
-        if engine == "mitsuba":
-            with _progress("path tracing (%)") as progress:
-                render_scene_mitsuba(
-                    curves,
-                    mesh,
-                    params,
-                    out=target,
-                    spp=64 if spp is None else spp,
-                    progress=progress,
-                )
-        else:
-            with _progress("rendering"):
-                render_scene(curves, mesh, params, out=target)
+    with _step("render"), _progress("path tracing (%)" if chosen.spp else "rendering") as progress:
+        render_scene(curves, mesh, params, out=target, progress=progress)
     click.echo(f"→ {target}")
+
+
+def _engine_takes(
+    source: str,
+    name: str,
+    shading: str | None,
+    msaa: str | None,
+    spp: int | None,
+    cache: bool = False,
+) -> Engine:
+    """The engine ``name``, after an InputError for an option it does not take, or for a
+    simulation cache (``cache``) when it draws stills only: its capability flags in the
+    engine registry (:mod:`follicle.render.backends`)."""
+    from .errors import InputError
+    from .render.backends import ENGINES, get_engine
+
+    engine = get_engine(name)
+    given = {"shading": shading, "msaa": msaa, "spp": spp}
+    takes = {"shading": engine.shading, "msaa": engine.msaa, "spp": engine.spp}
+    for option, value in given.items():
+        if value is not None and not takes[option]:
+            raise InputError(f"{source}: --{option} does not apply to --engine {engine.name}")
+    if cache and not engine.sequences:
+        raster = ", ".join(e.name for e in ENGINES.values() if e.sequences)
+        raise InputError(
+            f"{source}: --engine {engine.name} renders stills; render a simulation cache"
+            f" with --engine {raster}"
+        )
+    return engine
 
 
 def _render_cache(

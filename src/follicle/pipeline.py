@@ -32,7 +32,6 @@ __all__ = [
     "groom_scene",
     "grow",
     "render_scene",
-    "render_scene_mitsuba",
     "simulate_scene",
     "SimRun",
     "timed_simulation",
@@ -134,29 +133,16 @@ def framed_camera(points: np.ndarray, fov: float, aspect: float) -> Camera:
 
 
 def render_scene(
-    curves: HairCurves | None, mesh: SkinMesh | None, params: RenderParams, out: str | None = None
-) -> np.ndarray:
-    """Render hair and mesh with a scene's [render] settings; writes PNG when ``out``."""
-    return render_image(curves, mesh, settings=params, out=out)
-
-
-def render_scene_mitsuba(
     curves: HairCurves | None,
     mesh: SkinMesh | None,
     params: RenderParams,
     out: str | None = None,
-    spp: int = 64,
-    seed: int = 0,
     progress: Progress | None = None,
 ) -> np.ndarray:
-    """Path-trace hair and mesh with Mitsuba 3 (the pbr extra) under a scene's [render]
-    size, camera, lights and background; writes PNG when ``out``; ``progress(done, 100)``
-    hears the render's progress."""
-    from .render.mitsuba import render_mitsuba
-
-    return render_mitsuba(
-        curves, mesh, settings=params, spp=spp, seed=seed, out=out, progress=progress
-    )
+    """Render hair and mesh with a scene's [render] settings, by its engine (a raster
+    engine, or Mitsuba's path tracer: ``spp``); writes PNG when ``out``;
+    ``progress(done, total)`` hears the engine's progress."""
+    return render_image(curves, mesh, settings=params, out=out, progress=progress)
 
 
 def simulate_scene(

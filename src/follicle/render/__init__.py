@@ -31,7 +31,7 @@ class _DeprecatedCall(types.ModuleType):
             DeprecationWarning,
             stacklevel=2,
         )
-        from .engines import render_image
+        from .backends import render_image
 
         return render_image(*args, **kwargs)
 

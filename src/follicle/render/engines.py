@@ -8,13 +8,14 @@ context can be made at all — so a machine without Mesa still renders.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import FollicleError, InputError
+from ..errors import ConfigError, FollicleError
 from .image import save_png
-from .options import ENGINES
+from .options import RASTER_ENGINES
 
 if TYPE_CHECKING:
     from ..curves import HairCurves
@@ -24,11 +25,10 @@ if TYPE_CHECKING:
     from .settings import RenderParams
 
 __all__ = [
-    "ENGINES",
     "SOFTWARE_GL",
     "resolve_engine",
     "make_renderer",
-    "render_image",
+    "draw_raster",
 ]
 
 SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "swr")  # GL_RENDERER of a CPU's GL
@@ -47,10 +47,14 @@ def _choose() -> str:
 
 
 def resolve_engine(engine: str) -> str:
-    """``opengl`` or ``cpu``: the engine itself, or what ``auto`` picks on this machine
-    (decided once per process)."""
-    if engine not in ENGINES:
-        raise InputError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
+    """``opengl`` or ``cpu``: the raster engine itself, or what ``auto`` picks on this
+    machine (decided once per process); a ConfigError for an engine that draws stills
+    only (:mod:`follicle.render.backends`: Mitsuba's path tracer)."""
+    if engine not in RASTER_ENGINES:
+        raise ConfigError(
+            f"[render].engine = {engine!r}: the viewer, a simulation cache's frames and"
+            f" videos are drawn by a raster engine: {', '.join(RASTER_ENGINES)}"
+        )
     if engine != "auto":
         return engine
     pid = os.getpid()
@@ -60,8 +64,9 @@ def resolve_engine(engine: str) -> str:
 
 
 def make_renderer(settings: RenderParams | None = None) -> Renderer | CpuRenderer:
-    """A renderer of the ``engine`` (resolved by :func:`resolve_engine`), ``size``,
-    ``msaa``, background and ``shadow_size`` of ``settings`` (None: defaults)."""
+    """A raster renderer of the ``engine`` (resolved by :func:`resolve_engine`), ``size``,
+    ``msaa``, background and ``shadow_size`` of ``settings`` (None: defaults): what the
+    viewer and a cache's frames draw with, so a stills-only engine is a ConfigError."""
     from .settings import with_overrides
 
     settings = with_overrides(settings, {})
@@ -74,32 +79,20 @@ def make_renderer(settings: RenderParams | None = None) -> Renderer | CpuRendere
     return Renderer.from_settings(settings)
 
 
-def render_image(
+def draw_raster(
     curves: HairCurves | None,
     mesh: object | None = None,
     camera: Camera | None = None,
     settings: RenderParams | None = None,
     out: str | os.PathLike[str] | None = None,
-    **overrides: object,
+    progress: Callable[[int, int], None] | None = None,
 ) -> np.ndarray:
-    """Render hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
-
-    ``settings`` is a :class:`~follicle.render.settings.RenderParams` (a scene's
-    ``[render]``; None: its defaults); keyword ``overrides`` change its keys (``size=(800,
-    600)``, ``shading="marschner"``, ``engine="cpu"``, ``shadows=False``, ...) through
-    ``settings.replace``, so a bad value is a ConfigError naming ``[render].key``;
-    ``background`` also takes one colour or (top, bottom), and ``lights``
-    :class:`~follicle.render.Light` objects. ``camera`` None takes the settings' eye and
-    target, else frames the union of hair and mesh bounds at ``fov`` degrees
-    (vertical). When ``out`` is given the image is also written there as PNG
-    (atomically). The engine is ``settings.engine`` (:func:`resolve_engine`); see
-    :meth:`follicle.render.Renderer.draw` for the rest.
-    """
-    from .settings import with_overrides
-
-    settings = with_overrides(settings, overrides)
+    """A still drawn by the raster engine ``settings.engine`` names
+    (:func:`make_renderer`): the raster engines' entry in the registry."""
     with make_renderer(settings) as r:
         image = r.draw(curves, mesh, camera=camera, settings=settings)
     if out is not None:
         save_png(image, out)
+    if progress is not None:
+        progress(1, 1)
     return image

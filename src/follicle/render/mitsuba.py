@@ -49,7 +49,7 @@ from ..validate import whole
 from .camera import Camera, Light, default_lights, frame_scene
 from .frame import drawable
 from .image import encode_srgb8, save_png
-from .options import background_rows, color3, parse_background, parse_size, point_attr
+from .options import MAX_SPP, background_rows, color3, parse_background, parse_size, point_attr
 
 if TYPE_CHECKING:
     from .settings import RenderParams
@@ -58,7 +58,6 @@ __all__ = ["render_mitsuba", "absorption_from_color", "VARIANT", "MAX_DEPTH"]
 
 VARIANT = "scalar_rgb"
 MAX_DEPTH = 24  # path length: light hair needs many bounces (Russian roulette after 5)
-MAX_SPP = 1 << 16
 AZIMUTHAL_ROUGHNESS = 0.3  # β_n, the hair plugin's default (as is longitudinal 0.3)
 MAX_SEGMENTS = 1 << 16  # B-spline segments per curve shape (see _hair_shapes)
 
@@ -341,7 +340,7 @@ def render_mitsuba(
     mesh: object | None = None,
     camera: Camera | None = None,
     settings: RenderParams | None = None,
-    spp: int = 64,
+    spp: int | None = None,
     seed: int = 0,
     out: str | os.PathLike[str] | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -350,20 +349,20 @@ def render_mitsuba(
     """Path-trace hair (and an optional skin mesh) to an (H, W, 4) uint8 sRGB image.
 
     ``settings`` and keyword ``overrides`` mean what they mean for
-    :func:`follicle.render.render`; of them the path tracer uses ``size``, ``lights``
+    :func:`follicle.render.render_image`; of them the path tracer uses ``size``, ``lights``
     (none: :func:`default_lights`), the background, ``fov``, ``eye`` and ``target``
     (``camera`` None takes them, else frames hair and mesh at ``fov`` degrees),
     ``hair_color`` and ``hair_width`` (per-vertex ``color``/``width`` win over them)
     and ``skin_color``; per-vertex opacity is not used (fibres are opaque, light passes
-    through them as the BSDF says). ``spp`` samples per pixel; the same ``seed`` gives
-    the same image. ``out``: also write PNG there. ``progress(done, 100)`` hears
-    Mitsuba's own render progress, in per cent.
+    through them as the BSDF says). ``spp`` samples per pixel (None: the settings'
+    ``spp``); the same ``seed`` gives the same image. ``out``: also write PNG there.
+    ``progress(done, 100)`` hears Mitsuba's own render progress, in per cent.
     """
     from .settings import with_overrides
 
     settings = with_overrides(settings, overrides)
     w, h = parse_size(settings.size)
-    spp = whole(spp, "spp", 1, MAX_SPP)
+    spp = settings.spp if spp is None else whole(spp, "spp", 1, MAX_SPP)
     seed = whole(seed, "seed", 0, 2**32 - 1)
     hair, skin = drawable(curves, mesh)
     hair_color = color3(settings.hair_color, "hair_color")

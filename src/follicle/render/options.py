@@ -10,7 +10,6 @@ from ..errors import InputError
 from ..validate import number, whole
 
 __all__ = [
-    "ENGINES",
     "SHADINGS",
     "MAX_SUBDIVISIONS",
     "MAX_LIGHTS",
@@ -33,10 +32,15 @@ __all__ = [
     "parse_size",
     "parse_shading",
     "check_mesh",
+    "RASTER_ENGINES",
+    "ENGINE_NAMES",
+    "MAX_SPP",
     "point_attr",
 ]
 
-ENGINES = ("auto", "opengl", "cpu")  # the raster engines (follicle.render.engines)
+RASTER_ENGINES = ("auto", "opengl", "cpu")  # follicle.render.engines: stills, frames, the viewer
+ENGINE_NAMES = (*RASTER_ENGINES, "mitsuba")  # every engine (follicle.render.backends.ENGINES)
+MAX_SPP = 1 << 16  # samples per pixel a path tracer may take
 SHADINGS = ("kajiya-kay", "scheuermann", "marschner")
 MAX_SUBDIVISIONS = 16
 MAX_LIGHTS = 8

@@ -23,9 +23,10 @@ from .options import (
     DEFAULT_HAIR_WIDTH,
     DEFAULT_SHADOW_SIZE,
     DEFAULT_SKIN_COLOR,
-    ENGINES,
+    ENGINE_NAMES,
     MAX_SHADOW_SIZE,
     MAX_SIZE,
+    MAX_SPP,
     MAX_SUBDIVISIONS,
     SHADINGS,
     parse_shading,
@@ -87,7 +88,7 @@ class LightParams(StrictSection):
 class RenderParams(StrictSection):
     """How a picture is rendered: the image, the camera, the lights, the shading and the
     colours of hair, skin and background. The renderers take it whole; a changed copy
-    comes from ``replace`` (``follicle.render(..., size=...)`` makes one)."""
+    comes from ``replace`` (``follicle.render_image(..., size=...)`` makes one)."""
 
     _section: ClassVar[str] = "render"
 
@@ -95,10 +96,11 @@ class RenderParams(StrictSection):
         tuple[Annotated[int, Field(ge=1, le=MAX_SIZE)], Annotated[int, Field(ge=1, le=MAX_SIZE)]],
         Field(strict=False),
     ] = Field((960, 960), description="image width and height, pixels")
-    engine: Literal[ENGINES] = Field(  # type: ignore[valid-type]
+    engine: Literal[ENGINE_NAMES] = Field(  # type: ignore[valid-type]
         "auto",
-        description="raster engine: auto (OpenGL on a GPU, follicle's CPU strand"
-        " rasterizer on a software GL or without EGL), opengl or cpu",
+        description="engine: auto (OpenGL on a GPU, follicle's CPU strand rasterizer on a"
+        " software GL or without EGL), opengl, cpu, or mitsuba (a path-traced still, the"
+        " pbr extra)",
     )
     shading: Literal[SHADINGS] = Field(  # type: ignore[valid-type]
         "kajiya-kay", description="hair shading model"
@@ -121,6 +123,9 @@ class RenderParams(StrictSection):
     )
     msaa: Annotated[Literal[0, 1, 2, 4, 8, 16], BeforeValidator(not_bool)] = Field(
         4, description="multisample anti-aliasing samples"
+    )
+    spp: Annotated[int, BeforeValidator(not_bool)] = Field(
+        64, ge=1, le=MAX_SPP, description="samples per pixel of a path tracer (mitsuba)"
     )
     oit: bool = Field(
         True,
