@@ -368,5 +368,6 @@ def test_mitsuba_is_an_engine_of_the_registry(head):
     scene = scene_from_toml('[render]\nengine = "mitsuba"\nspp = 4\n', "s.toml")
     assert (scene.render.engine, scene.render.spp) == ("mitsuba", 4)
     assert ENGINES["mitsuba"].spp and not ENGINES["mitsuba"].sequences
-    with pytest.raises(ConfigError, match="'mitsuba' draws stills only; .*auto, opengl, cpu"):
+    raster = "'mitsuba': the viewer, .* raster engine: auto, opengl, cpu"
+    with pytest.raises(ConfigError, match=raster):
         make_renderer(scene.render)

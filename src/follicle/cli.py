@@ -33,8 +33,6 @@ from rich.text import Text
 from .errors import FollicleError
 
 if TYPE_CHECKING:
-    from .curves import HairCurves
-    from .groom.generator import Groom
     from .io.sim_cache import SimCache
     from .pipeline import SimRun
     from .render.backends import Engine
@@ -344,10 +342,6 @@ def grow(
     memory stays bounded whatever the count. USD and Alembic files also get the guides
     and the skin mesh, named and typed for the --target tool.
     """
-    from .io.dispatch import save
-    from .io.targets import writer_extras
-    from .pipeline import groom_scene
-    from .pipeline import grow as grow_scene
     from .scene import load_scene
 
     scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
@@ -372,31 +366,11 @@ def grow(
         _check_apart(path, scene_path, scene, folders=[payloads_folder(path)])
     else:
         _check_apart(path, scene_path, scene)
-    if scheduler is not None:
-        from .distributed.grow import grow as grow_distributed
+    from .export import grow_file
 
-        with _step("grow on Dask"), _progress("growing hair on Dask") as progress:
-            hairs, points = grow_distributed(
-                scene, path, scheduler, chunk, tool, skin, progress, layout
-            )
-    elif Path(path).suffix.lower() == ".npz":
-        with _step("grow"), _progress("growing hair") as progress:
-            _, curves = grow_scene(scene, progress)
-        save(curves, path)
-        hairs, points = curves.curve_count, curves.point_count
-    else:
-        tally = [0, 0]
-        groom = groom_scene(scene)
-        extras = writer_extras(path, tool, groom.guides.curves, groom.mesh if skin else None)
-        with _step("grow and save"), _progress("growing hair") as progress:
-            if layout == "payloads":
-                from .io.usd_payloads import PART_HAIRS, save_usd_payloads
-
-                chunks = _grown_chunks(groom, progress, tally, tool, chunk or PART_HAIRS)
-                save_usd_payloads(chunks, path, **extras)
-            else:
-                save(_grown_chunks(groom, progress, tally, tool), path, **extras)
-        hairs, points = tally
+    where = " on Dask" if scheduler is not None else ""
+    with _step(f"grow{where}"), _progress(f"growing hair{where}") as progress:
+        hairs, points = grow_file(scene, path, tool, skin, scheduler, chunk, layout, progress)
     click.echo(f"{hairs:,} hairs, {points:,} points → {path}")
 
 
@@ -463,29 +437,6 @@ def _check_apart(
     inputs += [(label, path) for label, path in more if path]
     outs = [outputs] if isinstance(outputs, (str, os.PathLike)) else outputs
     check_apart(outs, inputs, folders)
-
-
-def _grown_chunks(
-    groom: Groom,
-    progress: Callable[[int, int], None],
-    tally: list[int],
-    target: str = "generic",
-    size: int | None = None,
-) -> Iterator[HairCurves]:
-    """The groom's hairs in chunks of ``size`` (default the writers' CHUNK), reporting
-    progress and adding up (hairs, points) in ``tally``; one empty chunk for a count
-    of 0, so the file is still written. For Unreal each hair also carries the three
-    guides it blends most and their weights."""
-    from .distributed.grow import part_ranges, target_chunk
-    from .groom.generator import CHUNK
-
-    total = groom.params.count
-    for start, count in part_ranges(total, size or CHUNK):
-        chunk = target_chunk(groom, groom.generate(count, start), target)
-        tally[0] += chunk.curve_count
-        tally[1] += chunk.point_count
-        yield chunk
-        progress(start + count, total)
 
 
 @main.command()

@@ -1,5 +1,7 @@
-"""``follicle export`` as library calls: where each input goes, a skin alone, a
-simulation cache as animated USD or Alembic. The command parses, calls one of these and
+"""Grooms, skins and caches written to files as the commands write them: ``follicle
+grow``'s file (:func:`grow_file`: one process or a Dask cluster, one file or a payloads
+layout), and ``follicle export``'s calls: where each input goes, a skin alone, a
+simulation cache as animated USD or Alembic. A command parses, calls one of these and
 prints what it returns; Python calls them the same way.
 
 Curves files themselves convert through :func:`follicle.distributed.export.convert`
@@ -12,6 +14,7 @@ import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .curves import HairCurves
 from .errors import FormatError, InputError
@@ -19,7 +22,13 @@ from .io.dispatch import CACHE_WRITERS, MESH_WRITERS, WRITERS
 from .io.suffixes import MESH_FILE_SUFFIXES, SCENE_SUFFIXES, USD_SUFFIXES
 from .mesh.skin import SkinMesh
 
+if TYPE_CHECKING:
+    from .groom.generator import Groom
+    from .scene import Scene
+
 __all__ = [
+    "grow_file",
+    "grown_chunks",
     "curve_suffixes",
     "mesh_only",
     "check_suffix",
@@ -31,6 +40,73 @@ __all__ = [
 ]
 
 Progress = Callable[[int, int], None]
+
+
+def grown_chunks(
+    groom: Groom,
+    tally: list[int],
+    target: str = "generic",
+    size: int | None = None,
+    progress: Progress | None = None,
+) -> Iterator[HairCurves]:
+    """The groom's hairs in chunks of ``size`` (default the writers' CHUNK), reporting
+    progress and adding up (hairs, points) in ``tally``; one empty chunk for a count
+    of 0, so the file is still written. For a tool that reads the binding (Unreal) each
+    hair also carries the three guides it blends most and their weights."""
+    from .distributed.grow import part_ranges, target_chunk
+    from .groom.generator import CHUNK
+
+    total = groom.params.count
+    for start, count in part_ranges(total, size or CHUNK):
+        chunk = target_chunk(groom, groom.generate(count, start), target)
+        tally[0] += chunk.curve_count
+        tally[1] += chunk.point_count
+        yield chunk
+        if progress is not None:
+            progress(start + count, total)
+
+
+def grow_file(
+    scene: Scene,
+    path: str | os.PathLike[str],
+    target: str = "generic",
+    skin: bool = True,
+    scheduler: str | None = None,
+    chunk: int | None = None,
+    layout: str = "file",
+    progress: Progress | None = None,
+) -> tuple[int, int]:
+    """Grow ``scene``'s hair into ``path`` as ``follicle grow`` does; returns (hairs,
+    points). On the Dask cluster ``scheduler`` in tasks of ``chunk`` hairs
+    (:func:`follicle.distributed.grow.grow`), else here: a .npz whole, any other format
+    streamed chunk by chunk (memory bounded whatever the count), USD and Alembic with the
+    guides and, with ``skin``, the skin, named and typed for ``target``; ``layout``
+    ``"payloads"`` writes a USD root and part files of ``chunk`` hairs
+    (:func:`follicle.io.usd_payloads.save_usd_payloads`)."""
+    from .io.dispatch import save
+    from .io.targets import writer_extras
+    from .pipeline import groom_scene
+    from .pipeline import grow as grow_scene
+
+    if scheduler is not None:
+        from .distributed.grow import grow as grow_distributed
+
+        return grow_distributed(scene, path, scheduler, chunk, target, skin, progress, layout)
+    if Path(path).suffix.lower() == ".npz":
+        _, curves = grow_scene(scene, progress)
+        save(curves, path)
+        return curves.curve_count, curves.point_count
+    tally = [0, 0]
+    groom = groom_scene(scene)
+    extras = writer_extras(path, target, groom.guides.curves, groom.mesh if skin else None)
+    if layout == "payloads":
+        from .io.usd_payloads import PART_HAIRS, save_usd_payloads
+
+        chunks = grown_chunks(groom, tally, target, chunk or PART_HAIRS, progress)
+        save_usd_payloads(chunks, path, **extras)
+    else:
+        save(grown_chunks(groom, tally, target, progress=progress), path, **extras)
+    return tally[0], tally[1]
 
 
 def curve_suffixes() -> tuple[str, ...]:
