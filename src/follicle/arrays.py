@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import DTypeLike
 
 from .errors import InputError
 from .kernels import kernel, prange
@@ -35,7 +36,9 @@ PAGE = 4096  # bytes per memory page (the smallest on the platforms we run on)
 FMA = {"contract"}
 
 
-def as_array(value: object, name: str, dtype: object = None, numbers: bool = True) -> np.ndarray:
+def as_array(
+    value: object, name: str, dtype: DTypeLike | None = None, numbers: bool = True
+) -> np.ndarray:
     """``value`` as a NumPy array (of ``dtype`` when given; no copy when it already is
     one), or InputError naming the argument ``name`` when NumPy cannot make one of it
     (lists of different lengths) or, with ``numbers``, when it does not hold real numbers
@@ -61,7 +64,7 @@ def frozen(arr: np.ndarray) -> np.ndarray:
 
 
 @kernel(parallel=True, nogil=True)
-def _count_bad(flat):
+def _count_bad(flat: np.ndarray) -> int:
     bad = 0
     for i in prange(flat.shape[0]):
         if not math.isfinite(flat[i]):
@@ -69,7 +72,7 @@ def _count_bad(flat):
     return bad
 
 
-def readonly(arr: object, dtype: object = None) -> np.ndarray:
+def readonly(arr: object, dtype: DTypeLike | None = None) -> np.ndarray:
     """``arr`` as a C-contiguous read-only view (a copy only when it is not contiguous or
     not of ``dtype``), the caller's array unchanged: what a kernel only reads, passed in
     one layout and one flag whatever the caller holds, so that numba compiles the kernel
@@ -92,12 +95,12 @@ def all_finite(arr: np.ndarray) -> bool:
 
 
 @kernel(parallel=True, nogil=True)
-def _touch(flat, step):
+def _touch(flat: np.ndarray, step: int) -> None:
     for i in prange((flat.shape[0] + step - 1) // step):
         flat[i * step] = 0
 
 
-def empty_touched(shape: tuple[int, ...], dtype: object) -> np.ndarray:
+def empty_touched(shape: tuple[int, ...], dtype: DTypeLike) -> np.ndarray:
     """``np.empty(shape, dtype)`` with every memory page written once, on all threads.
 
     Faulting hundreds of MiB in at once costs a fraction of what the same faults cost
@@ -111,7 +114,7 @@ def empty_touched(shape: tuple[int, ...], dtype: object) -> np.ndarray:
 
 
 @kernel(nogil=True)
-def _point_bounds(pts, lo, hi):
+def _point_bounds(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
     for i in range(pts.shape[0]):
         for k in range(3):
             v = pts[i, k]

@@ -28,7 +28,7 @@ __all__ = [
 
 
 @kernel(inline="always")
-def _wrap_hue(h):
+def _wrap_hue(h: float) -> float:
     # the hues met per vertex lie within a turn of [0, 360): there the result is exact
     # without the modulo (a library call that would be half of the colour's cost)
     if 0.0 <= h < 360.0:
@@ -103,7 +103,7 @@ def lerp_hsv1(
 
 # ------------------------------------------------------------------ array kernels
 @kernel
-def _rgb_to_hsv_kernel(c):
+def _rgb_to_hsv_kernel(c: np.ndarray) -> np.ndarray:
     out = np.empty_like(c)
     for i in range(c.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = rgb_to_hsv1(c[i, 0], c[i, 1], c[i, 2])
@@ -111,7 +111,7 @@ def _rgb_to_hsv_kernel(c):
 
 
 @kernel
-def _hsv_to_rgb_kernel(c):
+def _hsv_to_rgb_kernel(c: np.ndarray) -> np.ndarray:
     out = np.empty_like(c)
     for i in range(c.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = hsv_to_rgb1(c[i, 0], c[i, 1], c[i, 2])
@@ -119,7 +119,7 @@ def _hsv_to_rgb_kernel(c):
 
 
 @kernel
-def _hue_distance_kernel(a, b):
+def _hue_distance_kernel(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out = np.empty_like(a)
     for i in range(a.shape[0]):
         out[i] = hue_distance1(a[i], b[i])
@@ -127,7 +127,7 @@ def _hue_distance_kernel(a, b):
 
 
 @kernel
-def _lerp_hsv_kernel(a, b, t):
+def _lerp_hsv_kernel(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     out = np.empty_like(a)
     for i in range(a.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = lerp_hsv1(

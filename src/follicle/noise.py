@@ -46,12 +46,12 @@ _CELLS = np.array([[12, 41, 7], [-24, 5, 31], [3, -18, -30]], dtype=np.int64)
 
 
 @kernel(inline="always")
-def _fade(t):
+def _fade(t: float) -> float:
     return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
 
 
 @kernel(inline="always")
-def _lerp(t, a, b):
+def _lerp(t: float, a: float, b: float) -> float:
     return a + t * (b - a)
 
 
@@ -63,13 +63,24 @@ _GZ = np.array([0, 0, 0, 0, 1, 1, -1, -1, 1, 1, -1, -1, 0, 1, 0, -1], dtype=np.f
 
 
 @kernel(inline="always")
-def _grad(h, x, y, z):
+def _grad(h: int, x: float, y: float, z: float) -> float:
     h = h & 15
     return _GX[h] * x + _GY[h] * y + _GZ[h] * z
 
 
 @kernel(inline="always")
-def _corners(p, xi, yi, zi, x, y, z, u, v, w):
+def _corners(
+    p: np.ndarray,
+    xi: int,
+    yi: int,
+    zi: int,
+    x: float,
+    y: float,
+    z: float,
+    u: float,
+    v: float,
+    w: float,
+) -> float:
     """Perlin's blend of the 8 corner gradients of lattice cell (xi, yi, zi) (each in
     0..255) at fractional position (x, y, z) with fade weights (u, v, w)."""
     a = p[xi] + yi
@@ -112,7 +123,7 @@ def perlin(x: float, y: float, z: float) -> float:
 
 
 @kernel(inline="always")
-def _clamp1(v):
+def _clamp1(v: float) -> float:
     return min(1.0, max(-1.0, v))
 
 
@@ -149,7 +160,7 @@ def noise3(x: float, y: float, z: float) -> tuple[float, float, float]:
 
 
 @kernel(nogil=True)
-def _perlin_kernel(p):
+def _perlin_kernel(p: np.ndarray) -> np.ndarray:
     out = np.empty(p.shape[0], dtype=np.float64)
     for i in range(p.shape[0]):
         out[i] = perlin(p[i, 0], p[i, 1], p[i, 2])
@@ -157,7 +168,7 @@ def _perlin_kernel(p):
 
 
 @kernel(nogil=True)
-def _noise3_kernel(p):
+def _noise3_kernel(p: np.ndarray) -> np.ndarray:
     out = np.empty((p.shape[0], 3), dtype=np.float64)
     for i in range(p.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = noise3(p[i, 0], p[i, 1], p[i, 2])

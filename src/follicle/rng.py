@@ -60,7 +60,7 @@ def halton(index: object, base: int) -> np.ndarray:
 
 
 @kernel(nogil=True)
-def _radical_inverse1(i, base):
+def _radical_inverse1(i: int, base: int) -> float:
     inv = 1.0 / base
     f = inv
     r = 0.0
@@ -72,7 +72,7 @@ def _radical_inverse1(i, base):
 
 
 @kernel(nogil=True)
-def _radical_inverse(idx, base):
+def _radical_inverse(idx: np.ndarray, base: int) -> np.ndarray:
     out = np.empty(idx.shape[0], dtype=np.float64)
     for n in range(idx.shape[0]):
         out[n] = _radical_inverse1(idx[n], base)
@@ -80,7 +80,7 @@ def _radical_inverse(idx, base):
 
 
 @kernel(nogil=True)
-def halton_point(k, shift0, shift1):
+def halton_point(k: int, shift0: float, shift1: float) -> tuple[float, float]:
     """Halton point k in bases (2, 3), toroidally shifted (Cranley–Patterson) by a seed.
 
     The shift keeps the low discrepancy while letting a seed pick another point set.
@@ -92,7 +92,7 @@ def halton_point(k, shift0, shift1):
 
 # ------------------------------------------------------------ counter-based streams
 @kernel(nogil=True)
-def mix64(x):
+def mix64(x: int | np.uint64) -> np.uint64:
     """splitmix64 finaliser: a bijective avalanche of 64 bits (uint64 -> uint64)."""
     z = np.uint64(x)
     z = (z ^ (z >> _S30)) * _M1
@@ -101,7 +101,7 @@ def mix64(x):
 
 
 @kernel(nogil=True)
-def stream_key(seed, id, purpose):
+def stream_key(seed: int, id: int, purpose: int) -> np.uint64:
     """Key of the stream for (seed, object id, purpose id); integers, wrapped to 64 bits."""
     h = mix64(np.uint64(seed) + _GOLDEN)
     h = mix64(h ^ (np.uint64(purpose) * _K_PURPOSE + _GOLDEN))
@@ -109,14 +109,16 @@ def stream_key(seed, id, purpose):
 
 
 @kernel(nogil=True)
-def uniform(key, k):
+def uniform(key: np.uint64, k: int) -> float:
     """The k-th number in [0, 1) of the stream ``key`` (splitmix64 at counter k, 53 bits)."""
     state = np.uint64(key) + (np.uint64(k) + np.uint64(1)) * _GOLDEN
     return np.float64(mix64(state) >> _S11) * _INV53
 
 
 @kernel(nogil=True)
-def _uniforms_kernel(seed, ids, purpose, start, count):
+def _uniforms_kernel(
+    seed: int, ids: np.ndarray, purpose: int, start: int, count: int
+) -> np.ndarray:
     out = np.empty((ids.shape[0], count), dtype=np.float64)
     for n in range(ids.shape[0]):
         key = stream_key(seed, ids[n], purpose)

@@ -83,7 +83,7 @@ def _check_params(t: object, name: str, low_open: bool = False, scalar: bool = F
 
 # ------------------------------------------------------------------ scalar kernels
 @kernel(inline="always")
-def _locate(t, nseg):
+def _locate(t: float, nseg: int) -> tuple[int, float]:
     """Segment index s and local parameter in [0, 1] of global t; snaps t at a vertex."""
     u = t * nseg
     r = np.floor(u + 0.5)
@@ -94,7 +94,7 @@ def _locate(t, nseg):
 
 
 @kernel(inline="always")
-def basis(u):
+def basis(u: float) -> tuple[float, float, float, float]:
     """Catmull-Rom weights of P_{s-1}, P_s, P_{s+1}, P_{s+2} at u in [0, 1] (Šik 2012 §2.2.8).
 
     The rows of [u³, u², u, 1] · CATMULL_ROM written out; exact at u = 0 and u = 1.
@@ -110,7 +110,7 @@ def basis(u):
 
 
 @kernel(inline="always")
-def _dweights(u):
+def _dweights(u: float) -> tuple[float, float, float, float]:
     u2 = u * u
     return (
         0.5 * (-3.0 * u2 + 4.0 * u - 1.0),
@@ -121,13 +121,13 @@ def _dweights(u):
 
 
 @kernel(inline="always")
-def control_points(start, n, s):
+def control_points(start: int, n: int, s: int) -> tuple[int, int, int, int]:
     """Indices of the 4 control points of segment s, end points duplicated (seed Fig. 2.8)."""
     return start + max(s - 1, 0), start + s, start + s + 1, start + min(s + 2, n - 1)
 
 
 @kernel
-def _eval_kernel(v, ts, deriv):
+def _eval_kernel(v: np.ndarray, ts: np.ndarray, deriv: bool) -> np.ndarray:
     n = v.shape[0]
     nseg = n - 1
     out = np.empty((ts.shape[0], 3), dtype=np.float64)
@@ -164,7 +164,7 @@ def derivative(vertices: object, t: object) -> np.ndarray:
 
 # ------------------------------------------------------------------ all-curve kernels
 @kernel
-def _tangents_kernel(pts, offs):
+def _tangents_kernel(pts: np.ndarray, offs: np.ndarray) -> np.ndarray:
     out = np.empty_like(pts)
     for c in range(offs.shape[0] - 1):
         a, b = offs[c], offs[c + 1]
@@ -187,7 +187,7 @@ def vertex_tangents(points: object, offsets: object) -> np.ndarray:
 
 
 @kernel
-def _resample_kernel(pts, offs, offs2, k):
+def _resample_kernel(pts: np.ndarray, offs: np.ndarray, offs2: np.ndarray, k: int) -> np.ndarray:
     out = np.empty((offs2[-1], 3), dtype=np.float32)
     for c in range(offs.shape[0] - 1):
         a = offs[c]
@@ -223,7 +223,7 @@ def resample(points: object, offsets: object, k: int) -> tuple[np.ndarray, np.nd
 
 # ------------------------------------------------------------------ cutting
 @kernel
-def cut_locate(t, nseg):
+def cut_locate(t: float, nseg: int) -> tuple[int, float]:
     """(s, u) of a cut: u == 0 when t_cut falls on vertex s (then no new vertex is made)."""
     x = t * nseg
     r = np.floor(x + 0.5)
@@ -234,7 +234,9 @@ def cut_locate(t, nseg):
 
 
 @kernel
-def _cut_kernel(pts, offs, nverts, tcut, offs2):
+def _cut_kernel(
+    pts: np.ndarray, offs: np.ndarray, nverts: np.ndarray, tcut: np.ndarray, offs2: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     out = np.empty((offs2[-1], 3), dtype=np.float64)
     tpar = np.empty(offs2[-1], dtype=np.float64)
     for c in range(offs.shape[0] - 1):
@@ -258,7 +260,7 @@ def _cut_kernel(pts, offs, nverts, tcut, offs2):
 
 
 @kernel
-def _cut_counts(nverts, tcut):
+def _cut_counts(nverts: np.ndarray, tcut: np.ndarray) -> np.ndarray:
     out = np.empty(nverts.shape[0], dtype=np.int64)
     for c in range(nverts.shape[0]):
         s, u = cut_locate(tcut[c], nverts[c] - 1)
@@ -326,7 +328,7 @@ def cut_curves(
 
 # ------------------------------------------------------------------ Bezier form and bounds
 @kernel
-def _bezier_kernel(pts, offs):
+def _bezier_kernel(pts: np.ndarray, offs: np.ndarray) -> np.ndarray:
     nseg = pts.shape[0] - (offs.shape[0] - 1)
     out = np.empty((nseg, 4, 3), dtype=np.float64)
     m = 0
@@ -352,12 +354,12 @@ def to_bezier(points: object, offsets: object) -> np.ndarray:
 
 
 @kernel(inline="always")
-def _cubic_at(c3, c2, c1, c0, u):
+def _cubic_at(c3: float, c2: float, c1: float, c0: float, u: float) -> float:
     return ((c3 * u + c2) * u + c1) * u + c0
 
 
 @kernel
-def _bounds_kernel(pts, offs):
+def _bounds_kernel(pts: np.ndarray, offs: np.ndarray) -> np.ndarray:
     out = np.empty((offs.shape[0] - 1, 2, 3), dtype=np.float64)
     for c in range(offs.shape[0] - 1):
         a = offs[c]

@@ -31,13 +31,34 @@ from __future__ import annotations
 import json
 import os
 import sys
-from typing import BinaryIO
+from typing import BinaryIO, Protocol
 
 import imath
 import numpy as np
 from alembic3d import Abc, AbcCoreAbstract, AbcGeom
 
 __all__ = ["send", "receive", "serve"]
+
+
+# alembic3d ships no type information: what this module calls on its handles
+class _OSchema(Protocol):
+    """The schema of an alembic3d output object (``getSchema()``): takes samples."""
+
+    def set(self, sample: object, /) -> None: ...
+
+
+class _OObject(Protocol):
+    """An alembic3d output object kept for later samples: OXform, OCurves, OPolyMesh."""
+
+    def getSchema(self) -> _OSchema: ...
+
+
+class _OCurvesSample(Protocol):
+    """``AbcGeom.OCurvesSchemaSample``: the setters :meth:`_Writer.curves` adds."""
+
+    def setCurvesNumVertices(self, counts: object, /) -> None: ...
+    def setWidths(self, widths: object, /) -> None: ...
+    def setUVs(self, uvs: object, /) -> None: ...
 
 
 def send(stream: BinaryIO, op: dict, arrays: dict[str, np.ndarray] | None = None) -> None:
@@ -47,7 +68,7 @@ def send(stream: BinaryIO, op: dict, arrays: dict[str, np.ndarray] | None = None
     stream.write(json.dumps({**op, "arrays": listed}).encode() + b"\n")
     for arr in arrays.values():
         if arr.size:  # (a view of no bytes cannot be cast)
-            stream.write(memoryview(arr).cast("B"))
+            stream.write(arr.data.cast("B"))
 
 
 def receive(stream: BinaryIO) -> tuple[dict | None, dict[str, np.ndarray]]:
@@ -73,14 +94,17 @@ class _Writer:
 
     def __init__(self) -> None:
         self.archive: Abc.OArchive | None = None
-        self.objects: dict[str, object] = {}
+        self.objects: dict[str, _OObject] = {}
         self.samplings: dict[tuple[float, float], int] = {}
         self.held: list[object] = []
 
     # -------------------------------------------------------------- helpers
     def _parent(self, path: str) -> tuple[object, str]:
         parent, _, name = path.rpartition("/")
-        return self.objects[parent] if parent else self.archive.getTop(), name
+        if parent:
+            return self.objects[parent], name
+        assert self.archive is not None  # follicle.io.alembic sends "open" first
+        return self.archive.getTop(), name
 
     def _args(self, op: dict) -> list:
         """The time sampling argument of a sampled object (``fps``, ``start`` seconds)."""
@@ -89,6 +113,7 @@ class _Writer:
         key = (op["fps"], op["start"])
         if key not in self.samplings:
             sampling = AbcCoreAbstract.TimeSampling(1.0 / key[0], key[1])
+            assert self.archive is not None  # follicle.io.alembic sends "open" first
             self.samplings[key] = self.archive.addTimeSampling(sampling)
         return [Abc.Argument(self.samplings[key])]
 
@@ -117,7 +142,7 @@ class _Writer:
             return sample(values, scope)
         return sample(values, self._values("uint", index), scope)
 
-    def _linear(self, arrays: dict[str, np.ndarray]) -> object:
+    def _linear(self, arrays: dict[str, np.ndarray]) -> _OCurvesSample:
         """A sample of linear, nonperiodic curves (said in every sample: a sample that
         does not say it is cubic Bézier) with its points, bounds and optional normals
         and velocities."""

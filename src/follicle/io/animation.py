@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol, TypeGuard
 
 import numpy as np
 
@@ -114,6 +114,26 @@ def _checked(
         raise InputError(f"{name}: {len(given)} {what} for {f + 1} frames; give one per frame")
 
 
+class _CacheFrames(Protocol):
+    """What :func:`animation` reads of a SimCache (or of anything holding its arrays):
+    guide ``positions`` (F, S, N, 3), head ``transforms``, ``fps``, ``skin_vertices``."""
+
+    @property
+    def positions(self) -> np.ndarray: ...
+    @property
+    def transforms(self) -> np.ndarray: ...
+    @property
+    def fps(self) -> float: ...
+    @property
+    def skin_vertices(self) -> np.ndarray | None: ...
+
+
+def _is_cache(frames: object) -> TypeGuard[_CacheFrames]:
+    """Whether ``frames`` is a simulation cache: its ``positions`` are (F, S, N, 3)."""
+    positions = getattr(frames, "positions", None)
+    return isinstance(positions, np.ndarray) and positions.ndim == 4
+
+
 def animation(
     frames: Iterable[HairCurves] | SimCache,
     fps: float | None,
@@ -135,18 +155,20 @@ def animation(
     tool = get_target(target)
     if role not in (None, "hair", "guides"):
         raise InputError(f"role: expected 'hair', 'guides' or None, got {role!r}")
-    positions = getattr(frames, "positions", None)
-    cache_fps = cache_transforms = cache_skin = None
-    is_cache = isinstance(positions, np.ndarray) and positions.ndim == 4
-    role = role if role is not None else "guides" if is_cache else "hair"
-    if is_cache:
+    cache_fps: float | None = None
+    cache_transforms: np.ndarray | None = None
+    cache_skin: np.ndarray | None = None
+    if _is_cache(frames):
+        role = role if role is not None else "guides"
         cache_fps, cache_transforms = float(frames.fps), frames.transforms
         cache_skin = frames.skin_vertices
-        frames = (HairCurves.from_array(p) for p in positions)
+        frames = (HairCurves.from_array(p) for p in frames.positions)
     elif isinstance(frames, HairCurves) or not isinstance(frames, Iterable):
         raise InputError(
             f"frames: expected an iterable of HairCurves or a SimCache, got {type(frames).__name__}"
         )
+    else:
+        role = role if role is not None else "hair"
     for name, given in (("transforms", transforms), ("skin_vertices", skin_vertices)):
         if given is not None and mesh is None:
             raise InputError(
@@ -167,6 +189,7 @@ def animation(
             head[:, :3, 3] *= scale
         poses = ("transforms", "matrices", head)
     if skin_vertices is not None:
+        assert mesh is not None  # refused above without one; a cache's skin is used with one
         skin = _skin_frames(skin_vertices, mesh) * np.float32(scale)
         poses = ("skin_vertices", "skins", skin)
     rate = positive(fps if fps is not None else cache_fps if cache_fps is not None else 24.0, "fps")

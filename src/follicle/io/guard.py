@@ -36,6 +36,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from time import monotonic
+from typing import cast
 
 import numpy as np
 
@@ -101,9 +102,9 @@ class _Server:
 
     def __init__(self) -> None:
         self.lock = threading.Lock()
-        self.proc: subprocess.Popen | None = None
+        self.proc: subprocess.Popen[bytes] | None = None
 
-    def _start(self) -> subprocess.Popen:
+    def _start(self) -> subprocess.Popen[bytes]:
         if self.proc is None or self.proc.poll() is not None:
             env = {
                 **os.environ,
@@ -129,8 +130,9 @@ class _Server:
             self.proc.wait()
             self.proc = None
 
-    def _reply(self, proc: subprocess.Popen, seconds: float) -> dict | None:
+    def _reply(self, proc: subprocess.Popen[bytes], seconds: float) -> dict | None:
         """The server's next ``@@`` line, or None if it ends or goes quiet."""
+        assert proc.stdout is not None  # _start opens it with stdout=PIPE
         deadline = monotonic() + seconds
         while (left := deadline - monotonic()) > 0:
             ready, _, _ = select.select([proc.stdout], [], [], left)
@@ -147,6 +149,7 @@ class _Server:
         with self.lock:
             for _ in range(2):
                 proc = self._start()
+                assert proc.stdin is not None  # _start opens it with stdin=PIPE
                 try:
                     proc.stdin.write(json.dumps(request).encode() + b"\n")
                     reply = self._reply(proc, request["seconds"] + 60)
@@ -237,7 +240,8 @@ def read_guarded(
         if "refused" in result:
             raise FormatError(result["refused"])
         with np.load(Path(folder, "arrays.npz"), allow_pickle=False) as arrays:
-            return _decode(result["parts"], arrays)
+            # the child writes "parts" as a list of dicts; _decode keeps that shape
+            return cast("list[dict]", _decode(result["parts"], arrays))
 
 
 @dataclass(frozen=True)

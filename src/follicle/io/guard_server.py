@@ -70,7 +70,7 @@ def _save(parts: list[dict], out: Path) -> dict:
     """Write the parts' arrays to ``out/arrays.npz``; the result naming them."""
     arrays: dict[str, np.ndarray] = {}
     manifest = _encode(parts, arrays)
-    np.savez(out / "arrays.npz", **arrays)
+    np.savez(out / "arrays.npz", allow_pickle=True, **arrays)  # numpy's default, named for mypy
     return {"parts": manifest}
 
 

@@ -56,8 +56,8 @@ class VoxelGrid:
         voxels = cls.check(voxels)
         lo, hi = mesh.bounds("rest")
         cell = float((hi - lo).max()) / voxels
-        dims = [min(voxels, max(1, math.ceil(float(e) / cell))) for e in hi - lo]
-        return cls(tuple(float(x) for x in lo), cell, tuple(dims))
+        nx, ny, nz = (min(voxels, max(1, math.ceil(float(e) / cell))) for e in hi - lo)
+        return cls((float(lo[0]), float(lo[1]), float(lo[2])), cell, (nx, ny, nz))
 
     @property
     def size(self) -> int:
@@ -65,7 +65,8 @@ class VoxelGrid:
 
     def cell_of(self, index: int) -> tuple[int, int, int]:
         """(i, j, k) of cell ``index``."""
-        return tuple(int(x) for x in np.unravel_index(index, self.dims))
+        i, j, k = np.unravel_index(index, self.dims)
+        return int(i), int(j), int(k)
 
     def triangle_voxels(self, mesh: SkinMesh) -> np.ndarray:
         """The cell of every triangle's rest-pose barycentre, int64 (F,)."""

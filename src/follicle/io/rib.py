@@ -56,7 +56,7 @@ _LOG10_2 = math.log10(2.0)
 
 # ------------------------------------------------------------------ number formatting
 @kernel
-def _put_float(x, out, pos, digits):
+def _put_float(x: float, out: np.ndarray, pos: int, digits: np.ndarray) -> int:
     """Write ``x`` as C's %.7g would into ``out`` at ``pos`` (``digits``: 7 bytes of
     scratch); return the new position. Unsigned multiply-shift digits: no divisions."""
     if x == 0.0:
@@ -124,7 +124,7 @@ def _put_float(x, out, pos, digits):
 
 
 @kernel(parallel=True)
-def _format_parts(values, per_line, parts, out):
+def _format_parts(values: np.ndarray, per_line: int, parts: int, out: np.ndarray) -> np.ndarray:
     """Format ``values`` in ``parts`` runs of whole lines, run p into ``out`` from
     16 · (its first index); return each run's byte count."""
     n = values.size
@@ -160,7 +160,7 @@ def _write_floats(fh: BinaryIO, values: np.ndarray, per_line: int) -> None:
             start = 16 * min(run.size, (lines * p // parts) * per_line)
             if length:
                 fh.write(b"\n" if a or start else b"")
-                fh.write(out[start : start + length])
+                fh.write(out.data[start : start + length])  # out: 1-D uint8
 
 
 def format_floats(values: np.ndarray, per_line: int = 12) -> bytes:
@@ -233,15 +233,15 @@ def _curves(fh: BinaryIO, curves: HairCurves, first_index: int, normals: bool) -
         fh.write(f']\n    "{token}" ['.encode())
         _write_floats(fh, values, 12)
     uv = cd.get("root_uv")
-    for name, values in (("hair_uv", uv), ("strand_uv", cd.get("strand_uv", uv))):
-        if values is None:
+    for name, uvs in (("hair_uv", uv), ("strand_uv", cd.get("strand_uv", uv))):
+        if uvs is None:
             continue
-        if values.shape != (c, 2):
+        if uvs.shape != (c, 2):
             raise InputError(
-                f'curve_data uv for "{name}": expected shape ({c}, 2), got {values.shape}'
+                f'curve_data uv for "{name}": expected shape ({c}, 2), got {uvs.shape}'
             )
         fh.write(f']\n    "uniform float[2] {name}" ['.encode())
-        _write_floats(fh, values, 12)
+        _write_floats(fh, uvs, 12)
     for name, values in (("hair_index", hair_index), ("strand_index", strand_index)):
         fh.write(f']\n    "uniform int {name}" ['.encode())
         _write_ints(fh, values)

@@ -255,9 +255,9 @@ def load_cache(path: str | os.PathLike[str]) -> SimCache:
         return SimCache(
             data["positions"],
             data["transforms"],
-            fps,
-            data["scene_toml"],
-            data["base_dir"],
+            float(fps),  # a float scalar (checked above); SimCache checks it is > 0
+            _text("scene_toml", data["scene_toml"]),  # stored as 0-d str arrays
+            _text("base_dir", data["base_dir"]),
             source=str(p),
             skin_vertices=data.get("skin_vertices"),
         )

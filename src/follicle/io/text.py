@@ -31,7 +31,7 @@ _BLOCK = 1 << 20  # values formatted per kernel call, so the buffer stays small
 
 
 @kernel
-def _ndigits(v):
+def _ndigits(v: int) -> int:
     n = 1
     while v >= 10:
         v //= 10
@@ -40,7 +40,7 @@ def _ndigits(v):
 
 
 @kernel
-def _shortest(x, bits):
+def _shortest(x: float, bits: int) -> tuple[int, int]:
     """(m, k) with x ≈ m · 10^-k: the fewest digits (≤ 9) that read back as the float32
     ``x`` (> 0, finite; ``bits`` its IEEE-754 bits), m without trailing zeros."""
     # half the float32 spacing at x (the smaller side's at a power of two): a decimal
@@ -68,7 +68,13 @@ def _shortest(x, bits):
 
 
 @kernel
-def _format_floats(values, ends, table, table_offsets, buf):
+def _format_floats(
+    values: np.ndarray,
+    ends: np.ndarray,
+    table: np.ndarray,
+    table_offsets: np.ndarray,
+    buf: np.ndarray,
+) -> int:
     pos = 0
     bits = values.view(np.uint32)
     for i in range(values.shape[0]):
@@ -119,7 +125,13 @@ def _format_floats(values, ends, table, table_offsets, buf):
 
 
 @kernel
-def _format_ints(values, ends, table, table_offsets, buf):
+def _format_ints(
+    values: np.ndarray,
+    ends: np.ndarray,
+    table: np.ndarray,
+    table_offsets: np.ndarray,
+    buf: np.ndarray,
+) -> int:
     pos = 0
     for i in range(values.shape[0]):
         v = values[i]
@@ -154,12 +166,12 @@ def write_values(
     buf = np.empty(min(len(values), _BLOCK) * width, dtype=np.uint8)
     for a in range(0, len(values), _BLOCK):
         n = kernel(values[a : a + _BLOCK], ends[a : a + _BLOCK], literals, offsets, buf)
-        fh.write(memoryview(buf)[:n])
+        fh.write(buf.data[:n])  # buf: 1-D uint8
 
 
 # ------------------------------------------------------------------ reading
 @kernel
-def parse_number(buf, i, n):
+def parse_number(buf: np.ndarray, i: int, n: int) -> tuple[float, int, bool]:
     """The decimal number at ``buf[i:]``: (value float64, next index, ok)."""
     neg = False
     if i < n and (buf[i] == 45 or buf[i] == 43):

@@ -76,7 +76,7 @@ def subtriangle_table(depth: int) -> np.ndarray:
 
 
 @kernel(nogil=True)
-def _level(g):
+def _level(g: int) -> int:
     """Subdivision depth of sub-triangle index g (0 for the whole triangle)."""
     level = 0
     while g > 0:
@@ -105,7 +105,9 @@ _RULE_WEIGHTS = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0]) / 12.0
 
 
 @kernel(nogil=True)
-def _leaf_value(data, repeat, uvs, t, table, g):
+def _leaf_value(
+    data: np.ndarray, repeat: bool, uvs: np.ndarray, t: int, table: np.ndarray, g: int
+) -> float:
     """Mean bilinear density over sub-triangle g of triangle t.
 
     The paper samples the texture at the barycentre. The bilinear reconstruction
@@ -127,7 +129,18 @@ def _leaf_value(data, repeat, uvs, t, table, g):
 
 
 @kernel(nogil=True)
-def _merged_leaves(data, repeat, uvs, t, depth, table, scratch, out_sub, out_val, at):
+def _merged_leaves(
+    data: np.ndarray,
+    repeat: bool,
+    uvs: np.ndarray,
+    t: int,
+    depth: int,
+    table: np.ndarray,
+    scratch: np.ndarray,
+    out_sub: np.ndarray,
+    out_val: np.ndarray,
+    at: int,
+) -> int:
     """Subdivide triangle t to ``depth``, merge equal siblings (Fig. 2.3), emit leaves.
 
     ``scratch[g]`` holds the value of sub-triangle g, NaN where its children differ.
@@ -168,19 +181,19 @@ def _merged_leaves(data, repeat, uvs, t, depth, table, scratch, out_sub, out_val
 
 @kernel(parallel=True, nogil=True)
 def _subdivide(
-    data,
-    repeat,
-    uvs,
-    depths,
-    areas,
-    table,
-    counts,
-    offsets,
-    out_sub,
-    out_val,
-    out_parent,
-    out_weight,
-):
+    data: np.ndarray,
+    repeat: bool,
+    uvs: np.ndarray,
+    depths: np.ndarray,
+    areas: np.ndarray,
+    table: np.ndarray,
+    counts: np.ndarray,
+    offsets: np.ndarray,
+    out_sub: np.ndarray,
+    out_val: np.ndarray,
+    out_parent: np.ndarray,
+    out_weight: np.ndarray,
+) -> None:
     """Count (``out_sub`` empty) or emit the merged leaves of every triangle."""
     nf = depths.shape[0]
     blocks = min(nf, 256)
@@ -221,7 +234,7 @@ def _subdivide(
 
 
 @kernel(nogil=True)
-def _build_grid(cdf, cells):
+def _build_grid(cdf: np.ndarray, cells: int) -> np.ndarray:
     """lo[k] = first i with cdf[i] > ceil(k·2³²/cells), k = 0 … cells (§2.1.6)."""
     lo = np.empty(cells + 1, dtype=np.int32)
     n = cdf.shape[0]
@@ -235,7 +248,14 @@ def _build_grid(cdf, cells):
 
 
 @kernel(nogil=True)
-def _sub_values(data, repeat, uvs, parents, subs, table):
+def _sub_values(
+    data: np.ndarray,
+    repeat: bool,
+    uvs: np.ndarray,
+    parents: np.ndarray,
+    subs: np.ndarray,
+    table: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """Density value and depth of every stored sub-triangle (recomputed, not stored)."""
     values = np.empty(parents.shape[0], dtype=np.float64)
     levels = np.empty(parents.shape[0], dtype=np.int64)
@@ -250,7 +270,17 @@ _BATCH = 512  # samples per batch: the grid loads of a batch overlap in memory
 
 
 @kernel(parallel=True, nogil=True)
-def _sample_kernel(records, grid, table, seed, halton, start, tri, bary, index):
+def _sample_kernel(
+    records: np.ndarray,
+    grid: np.ndarray,
+    table: np.ndarray,
+    seed: np.uint64,
+    halton: bool,
+    start: np.uint64,
+    tri: np.ndarray,
+    bary: np.ndarray,
+    index: np.ndarray,
+) -> None:
     """Samples start … start+n−1 into ``tri``, ``bary`` (and ``index`` when it is long).
 
     ``records`` rows are (fixed-point CDF, parent triangle, sub-triangle index). Work
@@ -453,6 +483,7 @@ class DensitySampler:
             n = self.sub_triangle_count
             return np.full(n, constant), np.zeros(n, dtype=np.int64)
         tex, mesh = self.density, self.mesh
+        assert mesh.uvs is not None  # _subdivide refused a density texture without UVs
         return _sub_values(
             tex.data,
             tex.wrap == "repeat",

@@ -340,7 +340,15 @@ def _pseudo_normals(
 
 # ------------------------------------------------------------------- lookup
 @kernel(inline="always")
-def _grid_place(values, origin, inv_voxel, m, px, py, pz):
+def _grid_place(
+    values: np.ndarray,
+    origin: np.ndarray,
+    inv_voxel: float,
+    m: np.ndarray,
+    px: float,
+    py: float,
+    pz: float,
+) -> tuple[float, float, float, float, float, float, int, int, int]:
     """A world point in grid units (u), the nearest point of the grid box (c) and the
     cell (i) holding that."""
     ux = (m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3] - origin[0]) * inv_voxel
@@ -354,7 +362,15 @@ def _grid_place(values, origin, inv_voxel, m, px, py, pz):
 
 
 @kernel(inline="always")
-def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
+def sdf_sample(
+    values: np.ndarray,
+    origin: np.ndarray,
+    inv_voxel: float,
+    local_from_world: np.ndarray,
+    px: float,
+    py: float,
+    pz: float,
+) -> tuple[float, float, float, float]:
     """Signed distance and unit outward normal at the world point (px, py, pz).
 
     Arguments (:attr:`SDF.sample_args` gives the first four): ``values`` the (nx, ny,
@@ -371,7 +387,16 @@ def sdf_sample(values, origin, inv_voxel, local_from_world, px, py, pz):
 
 
 @kernel(inline="always")
-def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz, below):
+def sdf_lookup(
+    values: np.ndarray,
+    origin: np.ndarray,
+    inv_voxel: float,
+    local_from_world: np.ndarray,
+    px: float,
+    py: float,
+    pz: float,
+    below: float,
+) -> tuple[float, float, float, float, float]:
     """:func:`sdf_sample` plus a bound b such that (b − m)/√3 is how far the point may
     move before the sampled distance can fall to m ≥ 0 (inside the box d itself, whose
     trilinear interpolant falls at most √3 per unit moved; outside a scaled-down d), so
@@ -431,7 +456,15 @@ def sdf_lookup(values, origin, inv_voxel, local_from_world, px, py, pz, below):
 
 
 @kernel(parallel=True)
-def _sample_kernel(values, origin, inv_voxel, local_from_world, points, dist, normal):
+def _sample_kernel(
+    values: np.ndarray,
+    origin: np.ndarray,
+    inv_voxel: float,
+    local_from_world: np.ndarray,
+    points: np.ndarray,
+    dist: np.ndarray,
+    normal: np.ndarray,
+) -> None:
     for i in prange(points.shape[0]):
         d, x, y, z = sdf_sample(
             values, origin, inv_voxel, local_from_world, points[i, 0], points[i, 1], points[i, 2]
@@ -444,7 +477,14 @@ def _sample_kernel(values, origin, inv_voxel, local_from_world, points, dist, no
 
 # -------------------------------------------------------------------- build
 @kernel(inline="always")
-def _distance2(px, py, pz, verts, faces, t):
+def _distance2(
+    px: float,
+    py: float,
+    pz: float,
+    verts: np.ndarray,
+    faces: np.ndarray,
+    t: int,
+) -> tuple[float, float, float, float]:
     """(squared distance, wa, wb, wc): p to triangle t, and its closest point's weights."""
     i, j, k = faces[t, 0], faces[t, 1], faces[t, 2]
     wa, wb, wc = closest_weights(
@@ -468,7 +508,13 @@ def _distance2(px, py, pz, verts, faces, t):
 
 
 @kernel
-def _block_pairs(tri_lo, tri_hi, blocks, size, count):
+def _block_pairs(
+    tri_lo: np.ndarray,
+    tri_hi: np.ndarray,
+    blocks: np.ndarray,
+    size: int,
+    count: int,
+) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` (block, triangle) pairs where triangle t's vertex box (tri_lo …
     tri_hi, inclusive) meets a block of size³ vertices, in ascending triangle order."""
     nby, nbz = blocks[1], blocks[2]
@@ -487,22 +533,22 @@ def _block_pairs(tri_lo, tri_hi, blocks, size, count):
 
 @kernel(parallel=True)
 def _band_kernel(
-    verts,
-    faces,
-    face_normal,
-    origin,
-    voxel,
-    dims,
-    tri_lo,
-    tri_hi,
-    blocks,
-    block_start,
-    block_tris,
-    size,
-    reach2,
-    closest,
-    dist2,
-):
+    verts: np.ndarray,
+    faces: np.ndarray,
+    face_normal: np.ndarray,
+    origin: np.ndarray,
+    voxel: float,
+    dims: np.ndarray,
+    tri_lo: np.ndarray,
+    tri_hi: np.ndarray,
+    blocks: np.ndarray,
+    block_start: np.ndarray,
+    block_tris: np.ndarray,
+    size: int,
+    reach2: float,
+    closest: np.ndarray,
+    dist2: np.ndarray,
+) -> None:
     """Exact squared distance and closest triangle for every vertex nearer than
     sqrt(reach2) to the mesh; the others keep (-1, inf).
 
@@ -547,7 +593,16 @@ def _band_kernel(
 
 
 @kernel(parallel=True)
-def _sweep_kernel(verts, faces, origin, voxel, dims, reach2, closest, dist2):
+def _sweep_kernel(
+    verts: np.ndarray,
+    faces: np.ndarray,
+    origin: np.ndarray,
+    voxel: float,
+    dims: np.ndarray,
+    reach2: float,
+    closest: np.ndarray,
+    dist2: np.ndarray,
+) -> None:
     """Give every vertex beyond the band a closest triangle: sweeps along ±x, then ±y,
     then ±z. The + sweep (in place) and the − sweep (on a copy) of an axis run as two
     parallel tasks from the same start and are merged per vertex (the nearer wins, the
@@ -569,7 +624,18 @@ def _sweep_kernel(verts, faces, origin, voxel, dims, reach2, closest, dist2):
 
 
 @kernel
-def _sweep(verts, faces, origin, voxel, dims, reach2, axis, step, closest, dist2):
+def _sweep(
+    verts: np.ndarray,
+    faces: np.ndarray,
+    origin: np.ndarray,
+    voxel: float,
+    dims: np.ndarray,
+    reach2: float,
+    axis: int,
+    step: int,
+    closest: np.ndarray,
+    dist2: np.ndarray,
+) -> None:
     """One sweep along ``axis`` in direction ``step`` (±1), slab by slab.
 
     Every vertex of a slab not already exact (dist2 < reach2) tries the triangles of its
@@ -608,19 +674,19 @@ def _sweep(verts, faces, origin, voxel, dims, reach2, axis, step, closest, dist2
 
 @kernel(parallel=True)
 def _sign_kernel(
-    verts,
-    faces,
-    origin,
-    voxel,
-    dims,
-    closest,
-    dist2,
-    face_normal,
-    face_edge,
-    edge_normal,
-    vertex_normal,
-    values,
-):
+    verts: np.ndarray,
+    faces: np.ndarray,
+    origin: np.ndarray,
+    voxel: float,
+    dims: np.ndarray,
+    closest: np.ndarray,
+    dist2: np.ndarray,
+    face_normal: np.ndarray,
+    face_edge: np.ndarray,
+    edge_normal: np.ndarray,
+    vertex_normal: np.ndarray,
+    values: np.ndarray,
+) -> None:
     """±sqrt(dist2) per vertex: negative where (p − closest point) · pseudo-normal < 0.
 
     The closest feature follows from the zero weights of the closest point: two zeros a

@@ -13,8 +13,8 @@ either pose (Šik 2012 §2.2.3). Barycentrics follow Šik 2012: ``root = u·v0 +
 from __future__ import annotations
 
 import copy
-from collections.abc import Iterator
-from typing import NamedTuple
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING, NamedTuple, TypeVar, cast
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -25,9 +25,15 @@ from ..frames import normalize
 from ..kernels import kernel, prange
 from .texture import Texture
 
+if TYPE_CHECKING:
+    import trimesh
+
 __all__ = ["SkinMesh", "SurfacePoints", "closest_weights", "MAX_COORDINATE"]
 
 _POSES = ("rest", "current")
+_T = TypeVar("_T")
+# SkinMesh._trees: (used-vertex tree, triangle-centre tree, centres, radii, used faces)
+_Trees = tuple[cKDTree, cKDTree, np.ndarray, np.ndarray, np.ndarray]
 # the largest |coordinate| of a mesh vertex, metres (a planet is 6.4e6 m): products of
 # coordinates (areas, normals, distances squared) then stay far inside float32 and the
 # relative tolerances of float64; a mesh at 1e38 would overflow them to inf or NaN
@@ -185,14 +191,15 @@ class SkinMesh:
             return self.vertices
         raise InputError(f"pose={pose!r}; use one of {list(_POSES)}")
 
-    def _cached(self, what: str, pose: str, make) -> np.ndarray:
+    def _cached(self, what: str, pose: str, make: Callable[[np.ndarray], _T]) -> _T:
         self._verts(pose)  # validates pose
         if self.at_rest:
             pose = "rest"  # not posed: the current pose shares the rest pose's data
         key = (what, pose)
         if key not in self._cache:
             self._cache[key] = make(self._verts(pose))
-        return self._cache[key]
+        # each ``what`` is made by one ``make``: the value is what that returns
+        return cast(_T, self._cache[key])
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -279,10 +286,11 @@ class SkinMesh:
         return acc
 
     def _weld_groups(self) -> np.ndarray:
-        if ("weld", "rest") not in self._cache:
-            _, inverse = np.unique(self.rest_vertices, axis=0, return_inverse=True)
-            self._cache[("weld", "rest")] = frozen(inverse.reshape(-1).astype(np.int64))
-        return self._cache[("weld", "rest")]
+        def make(rest: np.ndarray) -> np.ndarray:
+            _, inverse = np.unique(rest, axis=0, return_inverse=True)
+            return frozen(inverse.reshape(-1).astype(np.int64))
+
+        return self._cached("weld", "rest", make)
 
     def face_uv_gradient(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per-face (∂X/∂u, ∂X/∂v, ok) of per-vertex ``values`` (V, k) linear on each face.
@@ -374,7 +382,7 @@ class SkinMesh:
         """
         tri, b = self._check_samples(triangles, bary)
         n = len(tri)
-        out = [np.empty((n, 3)) for _ in range(4)]
+        position, normal, tangent, binormal = (np.empty((n, 3)) for _ in range(4))
         uv = np.zeros((n, 2))
         uvs = readonly(self.uvs if self.uvs is not None else np.zeros((0, 2)))
         _evaluate_kernel(
@@ -385,10 +393,13 @@ class SkinMesh:
             self.faces,
             tri,
             b,
-            *out,
+            position,
+            normal,
+            tangent,
+            binormal,
             uv,
         )
-        return SurfacePoints(*out, uv)
+        return SurfacePoints(position, normal, tangent, binormal, uv)
 
     def closest_points(
         self, points: object, pose: str = "rest"
@@ -422,10 +433,10 @@ class SkinMesh:
             dist_out[s:e] = np.sqrt(d2)
         return tri_out, bary_out, dist_out
 
-    def _trees(self, pose: str) -> tuple:
+    def _trees(self, pose: str) -> _Trees:
         """KD-trees over used vertices and triangle centres, plus bounding-sphere radii."""
 
-        def make(v: np.ndarray) -> tuple:
+        def make(v: np.ndarray) -> _Trees:
             used = np.flatnonzero(~self.degenerate_faces)
             tri = v[self.faces]
             centres = tri.mean(axis=1)
@@ -436,7 +447,7 @@ class SkinMesh:
         return self._cached("trees", pose, make)
 
     # ------------------------------------------------------------------ export
-    def to_trimesh(self, pose: str = "rest"):
+    def to_trimesh(self, pose: str = "rest") -> trimesh.Trimesh:
         """A trimesh.Trimesh of the given pose (vertices not merged), with UVs if any."""
         import trimesh
 
@@ -452,7 +463,20 @@ class SkinMesh:
 
 
 @kernel(inline="always")
-def closest_weights(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
+def closest_weights(
+    px: float,
+    py: float,
+    pz: float,
+    ax: float,
+    ay: float,
+    az: float,
+    bx: float,
+    by: float,
+    bz: float,
+    cx: float,
+    cy: float,
+    cz: float,
+) -> tuple[float, float, float]:
     """Weights (wa, wb, wc) of the point of triangle abc closest to p, by Voronoi region
     (Ericson, RTCD §5.1.5). A vertex region gives two exact zeros, an edge region one.
 
@@ -493,7 +517,9 @@ def closest_weights(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
 
 
 @kernel(nogil=True)
-def _closest_kernel(q, verts, faces, qi, ti):
+def _closest_kernel(
+    q: np.ndarray, verts: np.ndarray, faces: np.ndarray, qi: np.ndarray, ti: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Best (triangle, u, v, squared distance) per query over candidate pairs (qi, ti).
 
     Ties keep the first candidate, so the answer does not depend on chunking.
@@ -526,8 +552,19 @@ def _closest_kernel(q, verts, faces, qi, ti):
 
 @kernel(parallel=True, nogil=True)
 def _evaluate_kernel(
-    verts, normals, tangents, uvs, faces, tri, bary, position, normal, tangent, binormal, uv
-):
+    verts: np.ndarray,
+    normals: np.ndarray,
+    tangents: np.ndarray,
+    uvs: np.ndarray,
+    faces: np.ndarray,
+    tri: np.ndarray,
+    bary: np.ndarray,
+    position: np.ndarray,
+    normal: np.ndarray,
+    tangent: np.ndarray,
+    binormal: np.ndarray,
+    uv: np.ndarray,
+) -> None:
     """Barycentric interpolation plus the root frame of Šik 2012 §2.2.3 for every sample."""
     for k in prange(tri.shape[0]):
         f0, f1, f2 = faces[tri[k], 0], faces[tri[k], 1], faces[tri[k], 2]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -18,6 +19,9 @@ from ..errors import FileAccessError, FollicleError, FormatError, InputError
 from ..inputs import input_file, is_url
 from ..kernels import kernel
 from ..validate import file_path
+
+if TYPE_CHECKING:
+    from PIL import Image, TiffImagePlugin
 
 __all__ = ["Texture", "WRAP_MODES", "MAX_TEXTURE_PIXELS"]
 
@@ -66,12 +70,13 @@ class Texture:
 
     def __init__(self, data: object, wrap: str = "repeat", name: str = "texture") -> None:
         arr = as_array(data, f"texture {name!r}: data")
+        given = arr.shape
         if arr.ndim == 2:
             arr = arr[:, :, None]
         if arr.ndim != 3 or arr.shape[0] < 1 or arr.shape[1] < 1 or arr.shape[2] < 1:
             raise InputError(
                 f"texture '{name}': expected an (H, W) or (H, W, C) array with H, W, C >= 1,"
-                f" got shape {np.shape(data)}"
+                f" got shape {given}"
             )
         out = np.ascontiguousarray(_to_float(arr, name))
         if not np.all(np.isfinite(out)):
@@ -166,14 +171,14 @@ def checked_uv(uv: object, what: str) -> np.ndarray:
 
 
 @kernel(inline="always")
-def _wrap(i, n, repeat):
+def _wrap(i: int, n: int, repeat: bool) -> int:
     if repeat:
         return i % n  # Python semantics in numba: never negative
     return min(max(i, 0), n - 1)
 
 
 @kernel(nogil=True)
-def bilinear(data, repeat, u, v, c):
+def bilinear(data: np.ndarray, repeat: bool, u: float, v: float, c: int) -> float:
     """Channel ``c`` of (H, W, C) ``data`` at (u, v), bilinear; for use inside kernels."""
     h, w = data.shape[0], data.shape[1]
     x = u * w - 0.5  # continuous column, texel centres at integers
@@ -191,7 +196,7 @@ def bilinear(data, repeat, u, v, c):
 
 
 @kernel(nogil=True)
-def _sample_kernel(data, repeat, uv):
+def _sample_kernel(data: np.ndarray, repeat: bool, uv: np.ndarray) -> np.ndarray:
     out = np.empty((uv.shape[0], data.shape[2]), dtype=np.float64)
     for n in range(uv.shape[0]):
         for c in range(data.shape[2]):
@@ -212,7 +217,7 @@ def _check_size(size: tuple[int, int], path: Path) -> None:
         raise FormatError(f"texture file '{path}' is {width} × {height} pixels; {_TOO_LARGE}")
 
 
-def _check_layout(img: object, path: Path) -> None:
+def _check_layout(img: Image.Image, path: Path) -> None:
     """Refuse PNG/TIFF sample layouts that pillow opens but narrows to 8 bits or misreads."""
     if img.format == "PNG":
         with open(path, "rb") as f:
@@ -225,7 +230,7 @@ def _check_layout(img: object, path: Path) -> None:
                 f" bit depth 16, colour type {colour}); {_CONVERT}"
             )
     elif img.format == "TIFF":
-        tags = img.tag_v2
+        tags = cast("TiffImagePlugin.TiffImageFile", img).tag_v2  # what opens as "TIFF"
         bits = tuple(tags.get(258, (1,)))
         sample_format = tuple(tags.get(339, (1,)))
         if 2 in sample_format:
@@ -243,7 +248,7 @@ def _check_layout(img: object, path: Path) -> None:
         )
 
 
-def _image_array(img: object, path: Path) -> np.ndarray:
+def _image_array(img: Image.Image, path: Path) -> np.ndarray:
     """Pixels of a checked pillow image as uint8/uint16/float32, keeping the bit depth."""
     mode = img.mode
     if mode in ("I;16", "I;16B", "I;16L", "I;16N"):
