@@ -33,6 +33,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from ..atomic import temporary_folder
+from ..curves import HairCurves
 from ..errors import ConfigError
 from ..groom.generator import CHUNK, Groom
 from ..io.targets import writer_extras
@@ -58,10 +59,9 @@ __all__ = ["grow", "part_ranges", "target_chunk", "LAYOUTS"]
 LAYOUTS = ("file", "payloads")  # how a grow's USD is laid out: one file, or a root and parts
 
 
-def target_chunk(groom: Groom, chunk: object, target: str) -> object:
+def target_chunk(groom: Groom, chunk: HairCurves, target: str) -> HairCurves:
     """``chunk`` as the ``target`` tool reads it: for one that reads the binding (Unreal)
     each hair also carries the three guides it blends most and their weights."""
-    from ..curves import HairCurves
     from ..io.targets import TARGETS
 
     if "closest_guides" not in TARGETS[target].curve_names:
@@ -96,7 +96,6 @@ def _grow_part(
 
 def _rechunked(parts: Iterable[object], size: int) -> Iterator[object]:
     """``parts`` (HairCurves) in order, as chunks of ``size`` hairs (the last shorter)."""
-    from ..curves import HairCurves
 
     held: list[HairCurves] = []
     count = 0
@@ -142,7 +141,6 @@ def grow(
         raise ConfigError(f"layout {layout!r}: give one of {', '.join(LAYOUTS)}")
     if layout == "payloads":
         return _grow_payloads(scene, out, scheduler, chunk, target, skin, progress)
-    from ..curves import HairCurves
     from ..io.dispatch import save
     from ..pipeline import groom_scene
 

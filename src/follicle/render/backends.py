@@ -50,7 +50,7 @@ class Engine:
     def drawer(self) -> Callable[..., Any]:
         """The function that draws a still, imported on first use."""
         module, _, name = self.draw.partition(":")
-        return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+        return getattr(importlib.import_module(module), name)
 
 
 _RASTER = "follicle.render.engines:draw_raster"
@@ -142,4 +142,4 @@ def render_image(
 
     settings = with_overrides(settings, overrides)
     draw = get_engine(settings.engine).drawer()
-    return draw(curves, mesh, camera=camera, settings=settings, out=out, progress=progress)  # type: ignore[no-any-return]
+    return draw(curves, mesh, camera=camera, settings=settings, out=out, progress=progress)

@@ -13,9 +13,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import ConfigError, FollicleError
+from ..errors import ConfigError, FollicleError, InputError
 from .image import save_png
-from .options import RASTER_ENGINES
+from .options import ENGINE_NAMES, RASTER_ENGINES
 
 if TYPE_CHECKING:
     from ..curves import HairCurves
@@ -50,6 +50,8 @@ def resolve_engine(engine: str) -> str:
     """``opengl`` or ``cpu``: the raster engine itself, or what ``auto`` picks on this
     machine (decided once per process); a ConfigError for an engine that draws stills
     only (:mod:`follicle.render.backends`: Mitsuba's path tracer)."""
+    if engine not in ENGINE_NAMES:
+        raise InputError(f"engine: expected one of {', '.join(RASTER_ENGINES)}, got {engine!r}")
     if engine not in RASTER_ENGINES:
         raise ConfigError(
             f"[render].engine = {engine!r}: the viewer, a simulation cache's frames and"
