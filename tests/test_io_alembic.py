@@ -80,6 +80,7 @@ def test_an_empty_groom_round_trips(tmp_path):
     assert back == empty and back.curve_count == 0
 
 
+@pytest.mark.slow
 def test_the_built_in_groom_round_trips_with_every_attribute(tmp_path, grown):
     path = save_abc(grown, tmp_path / "groom.abc")
     back = load_abc(path)

@@ -25,6 +25,7 @@ def hair(groom):
     return groom.generate(count=60)
 
 
+@pytest.mark.slow
 def test_structure_counts_and_values(tmp_path, hair):
     path = follicle.save(hair, tmp_path / "hair.rib")
     text = path.read_text()
@@ -162,6 +163,7 @@ def test_numbers_print_like_c_percent_7g():
 
 @settings(max_examples=300, deadline=None)
 @given(st.floats(width=32, allow_nan=False, allow_infinity=False))
+@pytest.mark.slow
 def test_printed_numbers_are_seven_correct_digits(x):
     text = format_floats(np.float32([x])).decode()
     if x == 0:

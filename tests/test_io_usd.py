@@ -33,6 +33,7 @@ def _curves_prims(path):
 
 
 @pytest.mark.parametrize("ext", EXTS)
+@pytest.mark.slow
 def test_round_trip_is_exact(tmp_path, hair, ext):
     path = follicle.save(hair, tmp_path / f"hair.{ext}")
     back = follicle.load_curves(path)
@@ -175,6 +176,7 @@ def test_guides_prim_is_skipped_unless_asked_or_alone(tmp_path, hair, groom):
         save_usd(hair, tmp_path / "x.usda", guides="builtin:long")
 
 
+@pytest.mark.slow
 def test_load_guides_reads_a_usd_of_guides(tmp_path):
     mesh = follicle.load_mesh("builtin:head")
     guides = follicle.load_guides("builtin:long", mesh)

@@ -35,6 +35,7 @@ def test_the_scene_key_offers_every_target():
 
 
 @pytest.mark.parametrize("name", TARGET_NAMES)
+@pytest.mark.slow
 def test_what_a_target_writes_is_what_it_reads(hair, name):
     out = for_target(hair, name)
     assert problems(out, name) == []

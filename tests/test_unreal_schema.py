@@ -291,6 +291,7 @@ def _compare(theirs: Abc.ICompoundProperty, ours: Compound) -> int:
 
 
 # ------------------------------------------------------------------ the decoder
+@pytest.mark.slow
 def test_the_decoder_reads_the_archive_header(grown):
     archive = Archive(grown)
     assert (archive.ogawa_version, archive.archive_version) == (1, 0)
@@ -304,6 +305,7 @@ def test_the_decoder_reads_the_archive_header(grown):
 
 
 @pytest.mark.parametrize("which", ["grown", "chunked", "long_file", "animated"])
+@pytest.mark.slow
 def test_the_decoder_agrees_with_alembic3d_on_every_property(which, request):
     path = request.getfixturevalue(which)
     path = path[0] if isinstance(path, tuple) else path

@@ -58,6 +58,7 @@ def tips_y(c: Controller) -> float:
     return float(c.sim.positions[:, -1, 1].mean())
 
 
+@pytest.mark.slow
 def test_hair_moves_between_frames(ctl):
     ctl.reset()
     before = ctl.sim.positions.copy()
@@ -80,6 +81,7 @@ def test_pause_holds_and_step_advances(ctl):
     assert ctl.playing
 
 
+@pytest.mark.slow
 def test_gravity_changes_tip_height(ctl):
     heights = {}
     for g in (0.0, 9.8):
@@ -149,6 +151,7 @@ def test_orbit_and_zoom_move_the_camera_about_its_target(ctl):
     ctl.camera = before
 
 
+@pytest.mark.slow
 def test_save_scene_reads_back_with_paths_for_the_new_folder(tmp_path):
     src = tmp_path / "src"
     src.mkdir()
@@ -178,6 +181,7 @@ def test_save_scene_reads_back_with_paths_for_the_new_folder(tmp_path):
 
 
 @gl
+@pytest.mark.slow
 def test_recording_writes_each_frame(ctl, tmp_path):
     imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")  # the test extra installs it
     ctl.reset()
@@ -350,6 +354,7 @@ def test_bad_parameters_name_the_field(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_view_offscreen_runs_frames(tmp_path):
     ctl = view(small_scene(), frames=3, screenshot=tmp_path / "o.png", size=(96, 54), window=False)
     assert ctl.frame == 3 and ctl.loop_fps > 0
@@ -367,6 +372,7 @@ def test_cli_bad_input_exits_2(tmp_path):
 
 
 @gl
+@pytest.mark.slow
 def test_cli_offscreen(tmp_path):
     (tmp_path / "scene.toml").write_text(SCENE)
     out = tmp_path / "shot.png"
@@ -480,6 +486,7 @@ def test_window_is_resizable_and_the_render_follows(tmp_path):
     assert windowed_script(RESIZE, tmp_path) == "1 (120, 200, 4)"
 
 
+@pytest.mark.slow
 def test_hold_fps_draws_fewer_wider_hairs_and_comes_back():
     c = Controller(small_scene(), size=(160, 90), hold_fps=15.0)
     try:
@@ -513,6 +520,7 @@ def test_hold_fps_draws_fewer_wider_hairs_and_comes_back():
     assert Controller(small_scene(), size=(16, 9), hold_fps=0).hold_fps is None
 
 
+@pytest.mark.slow
 def test_a_brush_drag_edits_the_guides_and_one_undo_takes_it_back(tmp_path):
     c = Controller(small_scene(), size=(320, 180), fps=30.0)
     try:
