@@ -38,6 +38,7 @@ def test_counts_and_attributes(guides):
     assert cd["guide_id"].dtype == np.int64
 
 
+@pytest.mark.slow
 def test_roots_are_bound_to_the_scalp(guides, head):
     _, g = guides
     cd = g.curve_data

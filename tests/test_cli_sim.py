@@ -214,6 +214,7 @@ def test_render_defaults_and_hair_count(sim, tmp_path):
         (["--size", 0, 10], "[render].size"),
     ],
 )
+@pytest.mark.slow
 def test_bad_render_input_is_exit_2_and_no_file(sim, tmp_path, args, message):
     _, path, _ = sim
     args = [str(a).format(dir=tmp_path) for a in args]

@@ -118,12 +118,14 @@ def test_render_script_renders_every_scene():
 
 
 # ------------------------------------------------------------------ what each one shows
+@pytest.mark.slow
 def test_long_straight_is_straight():
     scene, _, hair = grown("long_straight")
     assert scene.guides.path == "builtin:long"
     assert np.median(arc_over_chord(hair)) < 1.02
 
 
+@pytest.mark.slow
 def test_wavy_waves_but_does_not_curl():
     scene, _, hair = grown("wavy")
     _, _, straight = grown("long_straight")
@@ -135,6 +137,7 @@ def test_wavy_waves_but_does_not_curl():
     assert 1.01 < np.median(arc_over_chord(hair)) < 1.2
 
 
+@pytest.mark.slow
 def test_curly_forms_clumped_ringlets():
     scene, groom, hair = grown("curly")
     g = scene.groom

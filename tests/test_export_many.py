@@ -138,6 +138,7 @@ def test_a_bad_file_keeps_those_before_it_and_writes_no_more(grooms, tmp_path, s
     assert (tmp_path / "out" / "a.usdc").read_bytes() == (grooms / "single" / "a.usdc").read_bytes()
 
 
+@pytest.mark.slow
 def test_ambiguous_or_bad_input_is_one_line_and_writes_nothing(grooms, tmp_path):
     _inputs(grooms, tmp_path)
     shutil.copy(grooms / "a.npz", tmp_path / "a.hair")

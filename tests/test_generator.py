@@ -100,6 +100,7 @@ def test_rigidly_moved_mesh_moves_hair_rigidly(head_groom):
     )
 
 
+@pytest.mark.slow
 def test_new_pose_and_property_changes_do_not_resample_roots(head_groom, monkeypatch):
     head_groom.generate(2000)
     calls = []

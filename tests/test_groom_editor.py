@@ -417,6 +417,7 @@ def test_joined_pieces_are_one_stroke_to_undo_and_replay(guides, camera, tmp_pat
 
 
 @pytest.mark.parametrize("skip", [None, 0.9999])
+@pytest.mark.slow
 def test_regrowing_only_the_hairs_on_changed_guides_equals_growing_all(head, guides, camera, skip):
     """Groom.regrow after comb, cut and length strokes: the same bytes as Groom.follow of
     every hair (clumps on: a hair also hangs on its clump centre's guides), and the

@@ -204,6 +204,7 @@ def test_a_rotation_and_a_far_but_sane_translation_are_taken():
 
 @settings(max_examples=80, deadline=None)
 @given(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=16, max_size=16))
+@pytest.mark.slow
 def test_any_4x4_is_a_rigid_motion_or_an_input_error(entries):
     sim = Simulator(_strands(1, 4))
     m = np.array(entries).reshape(4, 4)

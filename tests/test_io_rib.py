@@ -48,6 +48,7 @@ def test_structure_counts_and_values(tmp_path, hair):
     assert np.array_equal(params["uniform int strand_index"], cd["strand_id"])
 
 
+@pytest.mark.slow
 def test_chunks_becomecurves_requests(tmp_path, groom):
     chunks = list(groom.chunks(20, count=60))
     path = save_rib(iter(chunks), tmp_path / "hair.rib")
@@ -83,6 +84,7 @@ def test_normals_can_be_left_out_and_bad_ids_are_refused(tmp_path, hair):
         follicle.load_curves(path)
 
 
+@pytest.mark.slow
 def test_same_curves_give_same_bytes(tmp_path, groom):
     a = save_rib(groom.chunks(25, count=60), tmp_path / "a.rib")
     b = save_rib(groom.chunks(25, count=60), tmp_path / "b.rib")

@@ -43,6 +43,7 @@ def test_round_trip_is_exact(tmp_path, hair, ext):
 
 
 @pytest.mark.parametrize("ext", EXTS)
+@pytest.mark.slow
 def test_prims_attributes_and_stage_metadata(tmp_path, hair, ext):
     path = save_usd(hair, tmp_path / f"hair.{ext}")
     stage, prims = _curves_prims(path)
@@ -153,6 +154,7 @@ def test_chunks_become_prims_in_order(tmp_path, groom):
 
 
 @pytest.mark.parametrize("ext", ["usda", "usdc", "usdz"])
+@pytest.mark.slow
 def test_same_curves_give_same_bytes(tmp_path, groom, ext):
     digests = set()
     for k in range(2):

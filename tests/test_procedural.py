@@ -90,6 +90,7 @@ def test_replies_are_the_rib_of_the_whole_groom(exported, procedural, tmp_path):
     assert np.array_equal(np.sort(np.concatenate(ids)), whole.curve_data["hair_id"])
 
 
+@pytest.mark.slow
 def test_rib_names_each_voxel_its_box_and_counts(exported):
     done, whole = exported
     text = done.rib.read_text()

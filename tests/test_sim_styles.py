@@ -68,6 +68,7 @@ def test_spikes_hold_within_a_centimetre_after_five_seconds_at_rest(figures):
     assert figures["spiky"]["rest"] <= HOLD, figures["spiky"]
 
 
+@pytest.mark.slow
 def test_spikes_are_back_within_two_seconds_of_a_head_shake(figures):
     """After the built-in ±40° shake the RMS deviation is ≤ 1 cm again within 2 s of
     the head stopping and stays there (measured: it never left 1 cm)."""

@@ -195,6 +195,7 @@ def test_the_roots_ride_the_deforming_skin(simulated, files):
     assert stats["max_stretch"] <= 1e-3 and stats["max_penetration"] <= 2e-3
 
 
+@pytest.mark.slow
 def test_the_cache_keeps_the_skin_and_says_so(simulated, tmp_path):
     from follicle.io.sim_cache import write_cache
     from follicle.pipeline import describe_cache

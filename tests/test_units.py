@@ -256,6 +256,7 @@ def test_a_centimetre_scene_with_units_grows_the_metre_scene_hair(twins, caplog)
     assert 89e-6 < cm.point_data["width"].min() < cm.point_data["width"].max() < 241e-6
 
 
+@pytest.mark.slow
 def test_the_python_loaders_take_units(twins):
     mesh_m = load_mesh(twins / "head_m.obj")
     for units in ("cm", 0.01):

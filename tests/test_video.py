@@ -132,6 +132,7 @@ def test_render_cache_to_a_folder_named_mp4_fails_cleanly(cache_path, tmp_path):
     assert not any((tmp_path / "taken.mp4").iterdir())
 
 
+@pytest.mark.slow
 def test_render_cache_to_png_is_refused(cache_path, tmp_path):
     result = render(cache_path, "-o", tmp_path / "a.png")
     assert result.exit_code == 2

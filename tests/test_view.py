@@ -68,6 +68,7 @@ def test_hair_moves_between_frames(ctl):
     assert ctl.frame == 2 and ctl.time == pytest.approx(2 / 30)
 
 
+@pytest.mark.slow
 def test_pause_holds_and_step_advances(ctl):
     ctl.reset()
     ctl.playing = False
@@ -94,6 +95,7 @@ def test_gravity_changes_tip_height(ctl):
     assert heights[9.8] < heights[0.0] - 1e-3
 
 
+@pytest.mark.slow
 def test_groom_change_regenerates(ctl):
     ctl.reset()
     first = ctl.hair()
@@ -106,6 +108,7 @@ def test_groom_change_regenerates(ctl):
     ctl.set_param("groom", "count", 1500)
 
 
+@pytest.mark.slow
 def test_head_motion_moves_roots(ctl):
     ctl.reset()
     ctl.set_param("sim", "motion", "turn")
@@ -118,6 +121,7 @@ def test_head_motion_moves_roots(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_screenshot_has_hair_pixels(ctl, tmp_path):
     ctl.reset()
     ctl.set_param("groom", "count", 0)
@@ -132,6 +136,7 @@ def test_screenshot_has_hair_pixels(ctl, tmp_path):
     assert ctl.stats()["render_ms"] > 0 and ctl.stats()["hairs"] == 1500
 
 
+@pytest.mark.slow
 def test_orbit_and_zoom_move_the_camera_about_its_target(ctl):
     before = ctl.camera
     target = np.asarray(before.target)
@@ -211,6 +216,7 @@ def orange(image):
 
 
 @gl
+@pytest.mark.slow
 def test_show_toggles_hairs_mesh_and_guides(ctl):
     ctl.reset()
     ctl.step()
@@ -238,6 +244,7 @@ def test_show_toggles_hairs_mesh_and_guides(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_volume_overlay_tints_the_hair(ctl):
     ctl.reset()
     ctl.step()
@@ -257,6 +264,7 @@ def test_volume_overlay_tints_the_hair(ctl):
     assert (heat[tinted, 0] >= plain[tinted, 0]).all()  # a warm tint
 
 
+@pytest.mark.slow
 def test_gust_blows_the_hair_and_passes(ctl):
     ctl.set_param("sim", "wind", (0.0, 0.0, 0.0))
     moved = {}
@@ -277,6 +285,7 @@ def test_gust_blows_the_hair_and_passes(ctl):
         ctl.gust(duration=0.0)
 
 
+@pytest.mark.slow
 def test_hair_limit_grows_the_first_hairs(ctl):
     ctl.reset()
     every = ctl.hair()
@@ -292,6 +301,7 @@ def test_hair_limit_grows_the_first_hairs(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_resize_renders_at_the_new_size(ctl):
     before = ctl.camera
     try:
@@ -310,6 +320,7 @@ def test_resize_renders_at_the_new_size(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_fast_quality_and_lights(ctl):
     ctl.reset()
     full = ctl.draw().copy()
@@ -343,6 +354,7 @@ def test_fast_quality_and_lights(ctl):
         ctl.set_param("render", "lights", [])
 
 
+@pytest.mark.slow
 def test_bad_parameters_name_the_field(ctl):
     with pytest.raises(ConfigError, match=r"\[sim\]\.gravty: unknown parameter"):
         ctl.set_param("sim", "gravty", (0, 0, 0))
