@@ -59,6 +59,7 @@ def test_a_value_its_section_refuses_is_named_before_anything_grows(tmp_path) ->
         parse_seeds("5:2")
 
 
+@pytest.mark.slow
 def test_serial_and_cluster_batches_are_the_same_bytes_and_a_rerun_keeps_them(tmp_path) -> None:
     batch = variants([("a", _scene())], [parse_vary("groom.curl_radius=0.002,0.008")], range(2))
     one = run_batch(batch, tmp_path / "one", Outputs(".usdc"))
@@ -83,6 +84,7 @@ def test_serial_and_cluster_batches_are_the_same_bytes_and_a_rerun_keeps_them(tm
     assert not [p for p in tmp_path.rglob(".*pending*")]
 
 
+@pytest.mark.slow
 def test_the_cli_writes_the_manifest_and_refuses_a_bad_sweep_in_one_line(tmp_path) -> None:
     runner = CliRunner()
     args = ["batch", "-o", str(tmp_path / "b"), "--count", "200", "--size", "48", "32"]
@@ -94,6 +96,7 @@ def test_the_cli_writes_the_manifest_and_refuses_a_bad_sweep_in_one_line(tmp_pat
     assert bad.exit_code == 2 and "no key nope" in bad.output
 
 
+@pytest.mark.slow
 def test_a_parquet_manifest_keeps_the_types_and_is_the_same_bytes_again(tmp_path) -> None:
     """`--manifest parquet`: the rows of the CSV manifest, with integer, float and text
     columns (a sweep mixing numbers and words is text), and the same bytes when written
@@ -171,6 +174,7 @@ def test_a_batch_past_the_cap_is_refused_before_any_variant_is_made(tmp_path):
     assert_api_refused(res, "1,000,000 variants", "more than 100,000", error="ConfigError")
 
 
+@pytest.mark.slow
 def test_the_cli_refuses_huge_seeds_and_sweeps_in_one_line_on_a_terminal(tmp_path):
     for args in (
         ("--seeds", "0:100000000000000000000"),
@@ -194,6 +198,7 @@ def test_a_url_sweep_is_values_not_a_range() -> None:
 
 
 @pytest.mark.parametrize("tty", [False, True])
+@pytest.mark.slow
 def test_the_manifest_never_replaces_an_input_in_the_batch_folder(tmp_path, tty) -> None:
     """A scene (or a file it reads) in the batch folder under the manifest's name is one
     line naming it, before any variant is made; the folder stays as it was."""
@@ -225,6 +230,7 @@ def test_the_manifest_never_replaces_an_input_in_the_batch_folder(tmp_path, tty)
     assert {p.name: p.read_bytes() for p in ds.iterdir()} == before
 
 
+@pytest.mark.slow
 def test_a_stopped_batch_says_which_variants_it_kept(tmp_path) -> None:
     """SIGTERM after a variant is made: exit 143, and the line says the finished variants
     are kept in the folder (not "no output was written"); they are there, whole."""

@@ -25,6 +25,7 @@ def guides(request):
     return request.param, builtin_guides(request.param)
 
 
+@pytest.mark.slow
 def test_counts_and_attributes(guides):
     name, g = guides
     n, _ = EXPECTED[name]
@@ -37,6 +38,7 @@ def test_counts_and_attributes(guides):
     assert cd["guide_id"].dtype == np.int64
 
 
+@pytest.mark.slow
 def test_roots_are_bound_to_the_scalp(guides, head):
     _, g = guides
     cd = g.curve_data
@@ -62,6 +64,7 @@ def test_outside_head_and_equal_segments(guides):
         assert np.mean(seg.sum(axis=1)) == pytest.approx(length, rel=0.05)
 
 
+@pytest.mark.slow
 def test_long_hangs_down(head):
     g = builtin_guides("long").as_array()
     roots, tips = g[:, 0], g[:, -1]
@@ -71,11 +74,13 @@ def test_long_hangs_down(head):
     assert (np.abs(tips[:, 0]) < 0.3).all()  # hangs, does not stick out
 
 
+@pytest.mark.slow
 def test_short_lies_close(head):
     g = builtin_guides("short")
     assert head_signed_distance(g.points).max() < 0.03
 
 
+@pytest.mark.slow
 def test_curly_curls():
     g = builtin_guides("curly").as_array().astype(np.float64)
     chord = np.linalg.norm(g[:, -1] - g[:, 0], axis=1)
@@ -89,6 +94,7 @@ def test_curly_curls():
     assert np.median(np.degrees(np.arccos(np.clip(turn, -1, 1))).sum(axis=1)) > 3 * 360 * 0.8
 
 
+@pytest.mark.slow
 def test_deterministic():
     a, b = builtin_guides("curly"), builtin_guides("curly")
     assert a.points.tobytes() == b.points.tobytes()
@@ -100,6 +106,7 @@ def test_unknown_name():
         builtin_guides("wavy")
 
 
+@pytest.mark.slow
 def test_other_mesh_uses_closest_points():
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.1)
     mesh = SkinMesh(sphere.vertices, sphere.faces, name="ball")

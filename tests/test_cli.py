@@ -31,6 +31,7 @@ def demo_dir(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_demo_writes_20000_hairs_and_a_picture_of_hair(demo_dir):
     curves = follicle.load_curves(demo_dir / "demo.npz")
     assert curves.curve_count == 20000
@@ -41,6 +42,7 @@ def test_demo_writes_20000_hairs_and_a_picture_of_hair(demo_dir):
     assert sorted(p.name for p in demo_dir.iterdir()) == ["demo.npz", "demo.png"]
 
 
+@pytest.mark.slow
 def test_grow_render_info_from_a_scene(tmp_path):
     scene = tmp_path / "scene.toml"
     scene.write_text(
@@ -72,6 +74,7 @@ def test_grow_render_info_from_a_scene(tmp_path):
     assert "1500 curves" in result.output
 
 
+@pytest.mark.slow
 def test_default_output_paths_come_from_the_scene(tmp_path):
     scene = tmp_path / "scene.toml"
     scene.write_text('[groom]\ncount = 50\n[output]\ncurves = "out/h.npz"\n')
@@ -97,6 +100,7 @@ def test_default_output_paths_come_from_the_scene(tmp_path):
         ("[mesh]\ndensity = 2\n", "[mesh].density: unknown key"),
     ],
 )
+@pytest.mark.slow
 def test_bad_input_is_one_line_exit_2_and_no_output(tmp_path, scene_text, message):
     (tmp_path / "head.xyz").write_text("nothing")
     (tmp_path / "empty.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
@@ -142,6 +146,7 @@ def test_help_everywhere(command):
     assert result.exit_code == 0 and "Usage:" in result.output
 
 
+@pytest.mark.slow
 def test_piped_output_has_no_progress_bar(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text("[groom]\ncount = 100\n")
@@ -170,6 +175,7 @@ def test_piped_output_has_no_progress_bar(tmp_path):
 
 
 @pytest.mark.parametrize("suffix", [".npz", ".hair"])
+@pytest.mark.slow
 def test_an_output_path_the_system_refuses_is_one_line_exit_2(tmp_path, suffix):
     scene = tmp_path / "s.toml"
     scene.write_text("[groom]\ncount = 20\n")
@@ -214,6 +220,7 @@ def _inputs_folder(tmp_path):
         (["export", "head.obj", "-o", "link.obj"], ["link.obj", "its own input"]),
     ],
 )
+@pytest.mark.slow
 def test_an_output_never_replaces_an_input_of_the_same_run(tmp_path, args, names):
     """`-o` naming the scene's mesh, guides or a texture, or a link to one, is one line
     naming the input, before anything is read or written: every file stays as it was."""
@@ -227,6 +234,7 @@ def test_an_output_never_replaces_an_input_of_the_same_run(tmp_path, args, names
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before
 
 
+@pytest.mark.slow
 def test_an_output_that_is_an_input_is_refused_on_a_terminal_too(tmp_path):
     from hostile import run_cli, warm
 
@@ -239,6 +247,7 @@ def test_an_output_that_is_an_input_is_refused_on_a_terminal_too(tmp_path):
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before
 
 
+@pytest.mark.slow
 def test_python_dash_m_follicle_is_the_command(tmp_path):
     """`python -m follicle` runs the `follicle` command, for where its script is not on
     PATH: the same help, and a bad input the same one line and exit 2."""

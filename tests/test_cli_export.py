@@ -60,6 +60,7 @@ def test_export_of_a_corrupted_file_exits_2_and_writes_nothing(tmp_path, ext):
 
 
 @pytest.mark.parametrize("ext", [".hair", ".tfx", ".obj", ".pbrt", ".txt"])
+@pytest.mark.slow
 def test_grow_streams_every_format_chunk_by_chunk(tmp_path, scene, monkeypatch, ext):
     monkeypatch.setattr(generator, "CHUNK", 500)
     chunk_sizes = []
@@ -86,6 +87,7 @@ def test_grow_streams_every_format_chunk_by_chunk(tmp_path, scene, monkeypatch, 
         np.testing.assert_allclose(back.points, whole.points, atol=1e-7)
 
 
+@pytest.mark.slow
 def test_grow_refuses_unknown_extensions_and_writes_an_empty_groom(tmp_path, scene):
     result = run("grow", scene, "-o", tmp_path / "x.xyz")
     assert result.exit_code == 2 and "must end in .npz or .abc or .hair" in result.output

@@ -52,6 +52,7 @@ def sim(tmp_path_factory):
     return folder, folder / "sim.npz", result.output
 
 
+@pytest.mark.slow
 def test_simulate_writes_a_cache_beside_the_scene(sim):
     folder, path, output = sim
     assert is_cache(path)
@@ -88,6 +89,7 @@ def test_simulate_writes_a_cache_beside_the_scene(sim):
         assert part in line
 
 
+@pytest.mark.slow
 def test_same_scene_same_bytes(sim, tmp_path):
     folder, path, _ = sim
     again = tmp_path / "again.npz"
@@ -164,6 +166,7 @@ def test_help(command):
 
 
 @gl
+@pytest.mark.slow
 def test_render_a_cache_to_a_png_sequence(sim, tmp_path):
     _, path, _ = sim
     out = tmp_path / "frames"
@@ -186,6 +189,7 @@ def test_render_a_cache_to_a_png_sequence(sim, tmp_path):
 
 
 @gl
+@pytest.mark.slow
 def test_render_defaults_and_hair_count(sim, tmp_path):
     _, path, _ = sim
     cache = tmp_path / "c.npz"
@@ -210,6 +214,7 @@ def test_render_defaults_and_hair_count(sim, tmp_path):
         (["--size", 0, 10], "[render].size"),
     ],
 )
+@pytest.mark.slow
 def test_bad_render_input_is_exit_2_and_no_file(sim, tmp_path, args, message):
     _, path, _ = sim
     args = [str(a).format(dir=tmp_path) for a in args]
@@ -230,6 +235,7 @@ def test_frames_and_count_need_the_right_source(tmp_path):
 
 
 @pytest.mark.parametrize("ext", [".usdc", ".abc"])
+@pytest.mark.slow
 def test_a_cache_exports_with_the_skin_moving_with_the_head(sim, tmp_path, ext):
     """`follicle export sim.npz -o anim.EXT`: the guides of every frame exact, and the
     skin's head transform at each frame the cache's."""

@@ -77,6 +77,7 @@ def test_a_plane_that_follows_the_head_moves_and_turns_with_it():
 
 
 @pytest.mark.parametrize("solver", ["pbd", "dftl"])
+@pytest.mark.slow
 def test_hair_falling_onto_a_floor_lies_on_it(solver):
     floor = ColliderParams(kind="plane", centre=(0, FLOOR, 0), normal=(0, 1, 0))
     margin = 0.002

@@ -83,6 +83,7 @@ def test_a_dab_falls_off_smoothly_to_zero_at_the_radius(camera):
     assert not dab(points, view.matrix, *SIZE, *centre, 10.0, seen, reach, depth)[0]
 
 
+@pytest.mark.slow
 def test_comb_keeps_every_length_and_drags_the_tips_along_the_stroke(guides, camera):
     ed = editor(guides)
     before = ed.points.copy()
@@ -251,6 +252,7 @@ def turning(points: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip(np.einsum("svk,svk->sv", seg[:, 1:], seg[:, :-1]), -1, 1))
 
 
+@pytest.mark.slow
 def test_smooth_straightens_and_puff_lifts_from_the_root(head, guides, camera):
     ed = editor(follicle.Guides(builtin_guides("curly", head, count=300), head))
     path = across_the_tips(ed, camera)
@@ -348,6 +350,7 @@ def above(head):
     return follicle.Camera(eye=centre + np.array([0.0, 0.6, 0.4]), target=centre)
 
 
+@pytest.mark.slow
 def test_part_combs_each_side_away_and_paints_the_groups(head, above, tmp_path):
     g = follicle.load_guides("builtin:short", head)
     ed = follicle.GuideEditor(g)
@@ -387,6 +390,7 @@ def test_part_combs_each_side_away_and_paints_the_groups(head, above, tmp_path):
     assert ed.undo() and [ed.groups.label(int(k)) for k in ed.guides.group] == old
 
 
+@pytest.mark.slow
 def test_a_parting_with_no_guide_on_one_side_is_refused(head, above):
     ed = follicle.GuideEditor(follicle.load_guides("builtin:short", head))
     roots = screen(above, ed.points[:, 0])
@@ -413,6 +417,7 @@ def test_joined_pieces_are_one_stroke_to_undo_and_replay(guides, camera, tmp_pat
 
 
 @pytest.mark.parametrize("skip", [None, 0.9999])
+@pytest.mark.slow
 def test_regrowing_only_the_hairs_on_changed_guides_equals_growing_all(head, guides, camera, skip):
     """Groom.regrow after comb, cut and length strokes: the same bytes as Groom.follow of
     every hair (clumps on: a hair also hangs on its clump centre's guides), and the

@@ -38,6 +38,7 @@ def made(tmp_path_factory):
     return folder, log, ed
 
 
+@pytest.mark.slow
 def test_a_replayed_log_gives_the_same_guides(made):
     folder, log, ed = made
     doc = load_strokes(log)
@@ -51,6 +52,7 @@ def test_a_replayed_log_gives_the_same_guides(made):
     assert again.log == ed.log
 
 
+@pytest.mark.slow
 def test_follicle_groom_replays_on_a_terminal_and_usd_opens_the_result(made):
     folder, log, ed = made
     warm()
@@ -103,6 +105,7 @@ def mutants(text: str) -> dict[str, str]:
     return out
 
 
+@pytest.mark.slow
 def test_damaged_logs_are_refused_in_a_child_under_limits(made):
     folder, log, _ = made
     names = []
@@ -137,6 +140,7 @@ def test_damaged_logs_are_refused_in_a_child_under_limits(made):
     assert must <= refused, sorted(must - refused)
 
 
+@pytest.mark.slow
 def test_the_command_line_says_what_is_wrong_in_one_line(made, tmp_path):
     folder, log, _ = made
     bad = tmp_path / "bad.json"
@@ -172,6 +176,7 @@ def test_a_number_of_thousands_of_digits_is_refused_naming_the_log(tmp_path):
         load_strokes(path)
 
 
+@pytest.mark.slow
 def test_a_stroke_of_tens_of_thousands_of_points_is_refused_at_once_on_a_terminal(made, tmp_path):
     """cut, delete and part test every guide against every segment of the path: a log
     whose one stroke has 50,000 points took minutes; refused before any work."""
@@ -192,6 +197,7 @@ def test_a_stroke_of_tens_of_thousands_of_points_is_refused_at_once_on_a_termina
 @pytest.mark.parametrize(
     "key, value", [("guides", ""), ("guides", "buil\x7ft"), ("mesh", "cuiltin8head")]
 )
+@pytest.mark.slow
 def test_a_source_the_log_names_that_cannot_be_read_is_refused_naming_the_log(
     made, tmp_path, key, value
 ):
@@ -209,6 +215,7 @@ def test_a_source_the_log_names_that_cannot_be_read_is_refused_naming_the_log(
     assert not (tmp_path / "g.npz").exists()
 
 
+@pytest.mark.slow
 def test_a_path_point_far_off_the_image_is_one_line(made, tmp_path):
     """A path point at 1e308 pixels is finite, but the stroke's length overflows: numpy
     warned on stderr before the refusal, two lines."""

@@ -81,6 +81,7 @@ def test_the_seven_examples_are_there():
 
 
 @pytest.mark.parametrize("name", NAMES)
+@pytest.mark.slow
 def test_scene_grows_finite_hair(name):
     scene, groom, hair = grown(name)
     assert hair.curve_count > 0
@@ -117,12 +118,14 @@ def test_render_script_renders_every_scene():
 
 
 # ------------------------------------------------------------------ what each one shows
+@pytest.mark.slow
 def test_long_straight_is_straight():
     scene, _, hair = grown("long_straight")
     assert scene.guides.path == "builtin:long"
     assert np.median(arc_over_chord(hair)) < 1.02
 
 
+@pytest.mark.slow
 def test_wavy_waves_but_does_not_curl():
     scene, _, hair = grown("wavy")
     _, _, straight = grown("long_straight")
@@ -134,6 +137,7 @@ def test_wavy_waves_but_does_not_curl():
     assert 1.01 < np.median(arc_over_chord(hair)) < 1.2
 
 
+@pytest.mark.slow
 def test_curly_forms_clumped_ringlets():
     scene, groom, hair = grown("curly")
     g = scene.groom
@@ -151,6 +155,7 @@ def test_curly_forms_clumped_ringlets():
     assert clumped < 0.5 * apart
 
 
+@pytest.mark.slow
 def test_short_fur_grows_only_where_the_density_map_is_not_zero():
     scene, groom, hair = grown("short_fur", 2000)
     assert not scene.mesh.path.startswith("builtin:")
@@ -183,6 +188,7 @@ def load_example_module(name: str):
     return module
 
 
+@pytest.mark.slow
 def test_example_assets_are_small_and_reproducible(tmp_path):
     assets = EXAMPLES / "assets"
     files = sorted(p for p in assets.iterdir() if p.is_file())
@@ -195,6 +201,7 @@ def test_example_assets_are_small_and_reproducible(tmp_path):
             assert np.array_equal(np.asarray(made), np.asarray(kept)), name
 
 
+@pytest.mark.slow
 def test_parting_keeps_the_two_groups_apart():
     scene, _, hair = grown("parting", 2000)
     assert scene.groom.groups == "builtin:parting"
@@ -215,6 +222,7 @@ def test_parting_keeps_the_two_groups_apart():
     assert set(np.unique(counts[~red]).tolist()) == {by_colour["#0000ff"]}
 
 
+@pytest.mark.slow
 def test_blond_multistrand_has_fibres_and_light_colour():
     scene, _, hair = grown("blond_multistrand", 500)
     n = scene.groom.strand_count
@@ -229,11 +237,13 @@ def test_blond_multistrand_has_fibres_and_light_colour():
     assert np.std(luminance) > 0.01  # per-hair variation
 
 
+@pytest.mark.slow
 def test_hand_groomed_log_is_what_its_script_writes(tmp_path):
     log = load_example_module("hand_groomed").main(tmp_path / "strokes.json")
     assert log.read_bytes() == (EXAMPLES / "hand_groomed.strokes.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_hand_groomed_is_combed_back_parted_and_has_a_fringe():
     """What the strokes were for, in the grown hair: the sides combed back, a parting
     over the left eye the hairs do not cross, a fringe ending on a line at the brow —

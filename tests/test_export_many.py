@@ -80,6 +80,7 @@ def _read_back_as_inputs(folder: Path, suffix: str, grooms: Path) -> None:
 
 
 @pytest.mark.parametrize("suffix", [".usdc", "abc", ".hair"])
+@pytest.mark.slow
 def test_many_files_convert_one_after_another_as_each_alone(grooms, tmp_path, suffix):
     _inputs(grooms, tmp_path)
     done = run("export", *INPUTS, "-o", "out/", "--to", suffix, cwd=tmp_path)
@@ -92,6 +93,7 @@ def test_many_files_convert_one_after_another_as_each_alone(grooms, tmp_path, su
     _read_back_as_inputs(tmp_path / "out", dot, grooms)
 
 
+@pytest.mark.slow
 def test_a_cluster_writes_the_bytes_of_one_process(grooms, tmp_path):
     """One task per file on local:2, the outputs in three formats and two folders: the
     same bytes as the serial run, counted by the progress."""
@@ -118,6 +120,7 @@ def test_a_cluster_writes_the_bytes_of_one_process(grooms, tmp_path):
 
 
 @pytest.mark.parametrize("scheduler", [None, "local:2"])
+@pytest.mark.slow
 def test_a_bad_file_keeps_those_before_it_and_writes_no_more(grooms, tmp_path, scheduler):
     """b.hair is cut short: a.usdc stays, whole; neither b nor c (converted or not on a
     worker) is written; one line names b.hair, exit 2."""
@@ -135,6 +138,7 @@ def test_a_bad_file_keeps_those_before_it_and_writes_no_more(grooms, tmp_path, s
     assert (tmp_path / "out" / "a.usdc").read_bytes() == (grooms / "single" / "a.usdc").read_bytes()
 
 
+@pytest.mark.slow
 def test_ambiguous_or_bad_input_is_one_line_and_writes_nothing(grooms, tmp_path):
     _inputs(grooms, tmp_path)
     shutil.copy(grooms / "a.npz", tmp_path / "a.hair")
@@ -170,6 +174,7 @@ def test_ambiguous_or_bad_input_is_one_line_and_writes_nothing(grooms, tmp_path)
     [(signal.SIGINT, None), (signal.SIGTERM, "local:2")],
     ids=["SIGINT-serial", "SIGTERM-local:2"],
 )
+@pytest.mark.slow
 def test_a_stopped_export_leaves_only_whole_files(tmp_path, signum, scheduler):
     """Stopped once the first of 40 conversions is in place: each file in the folder is
     whole (reads back as its input), and nothing else is there."""

@@ -149,6 +149,7 @@ def _cases(originals: tuple[bytes, str]) -> dict[str, list]:
 
 
 @pytest.mark.parametrize("kind", ["abc", "log", "made"])
+@pytest.mark.slow
 def test_damaged_files_through_the_api_read_or_are_one_follicle_error(tmp_path, originals, kind):
     """Every case, in one child under the limits: a result or one FollicleError line
     naming the file (any other exception, a signal or the time limit fails it)."""
@@ -159,6 +160,7 @@ def test_damaged_files_through_the_api_read_or_are_one_follicle_error(tmp_path, 
 
 
 @pytest.mark.parametrize("kind", ["abc", "log", "made"])
+@pytest.mark.slow
 def test_damaged_files_on_the_command_line_are_one_line_and_leave_nothing(
     tmp_path, originals, kind
 ):

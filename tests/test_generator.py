@@ -40,6 +40,7 @@ def _same(a: HairCurves, b: HairCurves) -> None:
         np.testing.assert_array_equal(a.curve_data[k], b.curve_data[k])
 
 
+@pytest.mark.slow
 def test_a_hair_at_a_guide_root_reproduces_the_guide():
     mesh = builtin_head()
     guides = load_guides("builtin:long", mesh, vertices=24)
@@ -68,6 +69,7 @@ def test_a_hair_at_a_guide_root_reproduces_the_guide():
         {"interpolation": "barycentric", "groups": "builtin:parting"},
     ],
 )
+@pytest.mark.slow
 def test_chunked_equals_whole_byte_for_byte(extra):
     mesh = builtin_head()
     guides = load_guides("builtin:long", mesh, vertices=16)
@@ -80,6 +82,7 @@ def test_chunked_equals_whole_byte_for_byte(extra):
     assert np.isfinite(whole.points).all() and np.isfinite(whole.point_data["normal"]).all()
 
 
+@pytest.mark.slow
 def test_rigidly_moved_mesh_moves_hair_rigidly(head_groom):
     p = head_groom.params.model_copy(update={"frizz_tip": 0.01, "clump_count": 30})
     head_groom.params = p
@@ -97,6 +100,7 @@ def test_rigidly_moved_mesh_moves_hair_rigidly(head_groom):
     )
 
 
+@pytest.mark.slow
 def test_new_pose_and_property_changes_do_not_resample_roots(head_groom, monkeypatch):
     head_groom.generate(2000)
     calls = []
@@ -287,6 +291,7 @@ def test_bad_arguments_name_themselves(head_groom):
         head_groom.params = {"count": 3}
 
 
+@pytest.mark.slow
 def test_hairs_at_the_uv_pole_bend_like_their_guides():
     """Root frames follow the UV tangent, which spins around the crown's UV pole; hairs
     are turned to their guides' tangent, so none swings round in front of the face."""

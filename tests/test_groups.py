@@ -123,6 +123,7 @@ def test_guides_far_from_the_mesh_warn_with_the_distance(caplog):
         HairCurves.from_polylines([np.array([[0, 0, 0], [np.nan, 1, 0]])])
 
 
+@pytest.mark.slow
 def test_builtin_guides_on_the_builtin_head_part_by_default():
     """Unset groups on the built-in head with built-in guides mean builtin:parting: the
     hairs rooted on the mid-line then keep out of the skull; "none" turns groups off and

@@ -117,6 +117,7 @@ def test_the_valid_archive_reads(tmp_path, valid):
 
 
 @pytest.mark.parametrize("name", ["truncated", "many children"])
+@pytest.mark.slow
 def test_the_cli_and_the_api_refuse_under_the_readme_limits(tmp_path, valid, name):
     (tmp_path / "bad.abc").write_bytes(_cases(valid)[name][0])
     before = files(tmp_path)
@@ -190,6 +191,7 @@ def test_a_one_point_curve_is_left_out_with_a_warning(tmp_path, caplog):
     assert "/C: 1 curve(s) with fewer than 2 points left out" in caplog.text
 
 
+@pytest.mark.slow
 def test_a_deep_hierarchy_reads_without_recursion(tmp_path):
     step = np.eye(4)
     step[3, 1] = 0.001
@@ -238,6 +240,7 @@ def test_alembic_out_of_memory_or_time_is_a_format_error(
 
 # ------------------------------------------------------------------ fuzz
 @pytest.mark.parametrize("read", [load_abc, load_abc_mesh], ids=["curves", "mesh"])
+@pytest.mark.slow
 def test_damaged_archives_give_results_or_one_format_error(tmp_path, valid, read):
     path = tmp_path / "fuzz.abc"
 
@@ -265,6 +268,7 @@ def _write_limited(folder, limit: int) -> Outcome:
 
 
 @pytest.mark.parametrize("room", [0.3, 0.999])  # a chunk's samples; the archive's last bytes
+@pytest.mark.slow
 def test_a_full_disk_is_one_line_and_leaves_nothing(tmp_path, room):
     rng = np.random.default_rng(1)
     curves = HairCurves.from_array(rng.random((2000, 8, 3), dtype=np.float32))
@@ -327,6 +331,7 @@ def shared(tmp_path_factory):
 @pytest.mark.parametrize(
     "args", [["info", "shared.abc"], ["check", "shared.abc"], ["grow", "scene.toml", "-o", "h.npz"]]
 )
+@pytest.mark.slow
 def test_objects_sharing_one_array_are_one_line_under_the_readme_limits(shared, args, tty):
     """Each object of ``shared`` is a copy in the parent once read: the child refuses
     them past what 2.9 MB may give, as soon as they pass it (before the child, capped,

@@ -453,6 +453,7 @@ def test_a_directory_that_understates_reads_no_more(tmp_path):
         ("tera", "export"),
     ],
 )
+@pytest.mark.slow
 def test_bombs_in_a_child_under_the_limits(bombs, name, how):
     """Refused within 2 GiB and 30 s, one line naming the file and member, nothing written.
     (A child costs about 4 s here, so each file meets the ways it matters most.)"""

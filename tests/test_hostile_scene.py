@@ -74,6 +74,7 @@ def test_oversized_scene_is_refused_before_parsing(tmp_path):
         load_scene(path)
 
 
+@pytest.mark.slow
 def test_nested_scene_on_the_command_line(tmp_path):
     (tmp_path / "deep.toml").write_bytes(b"[groom]\ncount = " + b"[" * 200_000)
     before = files(tmp_path)
@@ -307,6 +308,7 @@ def test_control_characters_are_written_as_valid_toml(value):
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(text=st.text(max_size=30), key=st.text(max_size=10))
+@pytest.mark.slow
 def test_any_string_round_trips_through_scene_to_toml(text, key):
     scene = parse_scene(
         {
@@ -379,6 +381,7 @@ DOCUMENTS = st.lists(SECTION_DOCS | st.tuples(st.text(max_size=6), VALUES), max_
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
 @given(doc=DOCUMENTS)
+@pytest.mark.slow
 def test_random_documents_give_a_scene_or_a_config_error(doc):
     try:
         scene = parse_scene(doc, "fuzz.toml")
@@ -475,6 +478,7 @@ def _not_file_scenes(folder: Path) -> list[tuple[str, str, str]]:
     return out
 
 
+@pytest.mark.slow
 def test_scene_paths_that_are_not_files_are_refused_at_once(tmp_path):
     """Every path a scene names (mesh, displacement, density, groups, a property map,
     guides) that is a FIFO, /dev/zero or a folder is refused naming it, not read: one
@@ -506,6 +510,7 @@ def test_scene_paths_that_are_not_files_are_refused_at_once(tmp_path):
         assert name in message and kind in message and "\n" not in message, (scene, message)
 
 
+@pytest.mark.slow
 def test_scene_path_that_is_a_fifo_on_the_command_line(tmp_path):
     scene, name, kind = _not_file_scenes(tmp_path)[0]  # the mesh, a FIFO
     before = files(tmp_path)
@@ -521,6 +526,7 @@ def test_scene_path_that_is_a_fifo_on_the_command_line(tmp_path):
     ],
     ids=["info-scene", "render-obj"],
 )
+@pytest.mark.slow
 def test_fifo_inputs_on_the_command_line_do_not_block(tmp_path, args, name):
     os.mkfifo(tmp_path / name)
     before = files(tmp_path)
@@ -528,6 +534,7 @@ def test_fifo_inputs_on_the_command_line_do_not_block(tmp_path, args, name):
     assert files(tmp_path) == before
 
 
+@pytest.mark.slow
 def test_readers_refuse_fifos_and_devices_in_python(tmp_path):
     for name in ("c.hair", "c.tfx", "c.obj", "c.txt"):
         os.mkfifo(tmp_path / name)
@@ -571,6 +578,7 @@ def test_nul_in_a_curves_path_is_a_format_error(tmp_path):
         load_curves(load_scene(tmp_path / "s.toml").guides.path)
 
 
+@pytest.mark.slow
 def test_scene_that_is_a_folder_on_the_command_line(tmp_path):
     (tmp_path / "d.toml").mkdir()
     assert_cli_refused(run_cli("grow", "d.toml", "-o", "h.npz", cwd=tmp_path), "d.toml", "folder")
@@ -603,6 +611,7 @@ def test_degenerate_mesh_is_refused(tmp_path):
         SkinMesh([[0, 0, 0], [1e-200, 0, 0], [0, 1e-200, 0]], [[0, 1, 2]])
 
 
+@pytest.mark.slow
 def test_far_mesh_in_a_scene_on_the_command_line(tmp_path):
     _obj(tmp_path / "far.obj", 1e38)
     (tmp_path / "s.toml").write_text('[mesh]\npath = "far.obj"\n[groom]\ncount = 20\n')
@@ -652,6 +661,7 @@ def test_truncated_image_is_a_format_error(tmp_path):
         Texture.load(tmp_path / "cut.png")
 
 
+@pytest.mark.slow
 def test_huge_density_image_on_the_command_line(tmp_path):
     _png_header(tmp_path / "big.png", 12_000, 12_000)  # in pillow's warning range
     (tmp_path / "s.toml").write_text('[groom]\ncount = 20\ndensity = "big.png"\n')

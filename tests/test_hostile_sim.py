@@ -102,6 +102,7 @@ def test_a_step_too_long_for_one_call_is_a_resource_error(sim, dt, needle):
     assert sim.state.time == 0.0 and np.array_equal(sim.positions, before)
 
 
+@pytest.mark.slow
 def test_the_substep_cap_counts_the_whole_step_and_says_the_fix():
     sim = Simulator(_strands(), params=SimParams(substep=1e-6))
     sim.step(MAX_SUBSTEPS_PER_CALL * 1e-6)  # exactly at the cap: runs
@@ -203,6 +204,7 @@ def test_a_rotation_and_a_far_but_sane_translation_are_taken():
 
 @settings(max_examples=80, deadline=None)
 @given(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=16, max_size=16))
+@pytest.mark.slow
 def test_any_4x4_is_a_rigid_motion_or_an_input_error(entries):
     sim = Simulator(_strands(1, 4))
     m = np.array(entries).reshape(4, 4)
@@ -239,6 +241,7 @@ def head():
         (lambda v: "v", "vertices"),
     ],
 )
+@pytest.mark.slow
 def test_bad_vertices_are_refused(head, make, needle):
     mesh, curves = head
     sim = Simulator(curves, mesh=mesh, params=SimParams(skin_collision=False))
@@ -381,6 +384,7 @@ def _shake(mesh, curves, settings: dict) -> tuple[float, float]:
 
 
 @pytest.mark.parametrize(("name", "value"), EXTREMES, ids=[f"{n}={v}" for n, v in EXTREMES])
+@pytest.mark.slow
 def test_every_accepted_sim_value_gives_a_stable_simulation(head, name, value):
     mesh, curves = head
     if (name, value) in PEAK_REFUSED:
@@ -416,6 +420,7 @@ def warmed() -> None:
     "sim_table",
     ["cone_angle = 1e-9", "drag = 1000.0", "cone_angle = 1e-9\ndrag = 1000.0\nsolver = 'dftl'"],
 )
+@pytest.mark.slow
 def test_cli_simulates_extreme_settings_to_a_finite_unstretched_cache(warmed, tmp_path, sim_table):
     (tmp_path / "s.toml").write_text(f"[groom]\ncount = 50\n[sim]\n{sim_table}\n")
     out = run_cli(
@@ -429,6 +434,7 @@ def test_cli_simulates_extreme_settings_to_a_finite_unstretched_cache(warmed, tm
     assert np.linalg.norm(x - x[:, :, :1], axis=3).max() < 1.0  # m: the longest guide is 0.33
 
 
+@pytest.mark.slow
 def test_cli_refuses_a_substep_a_frame_cannot_afford_in_one_line(warmed, tmp_path):
     (tmp_path / "s.toml").write_text("[groom]\ncount = 50\n[sim]\nsubstep = 1e-7\n")
     out = run_cli("simulate", "s.toml", "--frames", 48, "-o", "sim.npz", cwd=tmp_path)

@@ -341,6 +341,7 @@ def test_a_corrupt_crate_or_package_is_refused_by_the_container_check(tmp_path, 
 
 
 @pytest.mark.parametrize("ext, damage", [("usdc", "toc far away"), ("usdz", "deflated")])
+@pytest.mark.slow
 def test_the_cli_prints_one_line_for_a_corrupt_crate_or_package(tmp_path, valid, ext, damage):
     cases = _crate_cases(valid["usdc"]) if ext == "usdc" else _usdz_cases(valid)
     (tmp_path / f"bad.{ext}").write_bytes(cases[damage][0])
@@ -475,6 +476,7 @@ def _read_or_refuse(path) -> None:
 
 
 @pytest.mark.parametrize("ext, examples", [("usda", 80), ("usdc", 80), ("usdz", 40)])
+@pytest.mark.slow
 def test_damaged_usd_gives_curves_or_a_format_error(tmp_path, valid, ext, examples):
     path = tmp_path / f"fuzz.{ext}"
     strategy = text_damage(valid[ext].decode()) if ext == "usda" else byte_damage(valid[ext])
@@ -509,6 +511,7 @@ def _write_limited(folder, ext: str, limit: int) -> Outcome:
         ("usdz", 1.0),  # the crate fits; the package around it does not
     ],
 )
+@pytest.mark.slow
 def test_a_full_disk_is_one_line_and_leaves_nothing(tmp_path, ext, room):
     rng = np.random.default_rng(1)
     curves = HairCurves.from_array(rng.random((2000, 8, 3), dtype=np.float32))

@@ -80,6 +80,7 @@ def test_an_empty_groom_round_trips(tmp_path):
     assert back == empty and back.curve_count == 0
 
 
+@pytest.mark.slow
 def test_the_built_in_groom_round_trips_with_every_attribute(tmp_path, grown):
     path = save_abc(grown, tmp_path / "groom.abc")
     back = load_abc(path)
@@ -95,6 +96,7 @@ def test_the_built_in_groom_round_trips_with_every_attribute(tmp_path, grown):
     ]
 
 
+@pytest.mark.slow
 def test_layout_types_and_scopes(tmp_path, grown):
     path = save_abc(grown, tmp_path / "groom.abc")
     objects = _objects(path)
@@ -149,6 +151,7 @@ def test_same_curves_give_same_bytes(tmp_path, grown, groom):
     assert a.read_bytes()[:5] == b"Ogawa"
 
 
+@pytest.mark.slow
 def test_chunks_become_objects_in_order_with_bounded_memory(tmp_path):
     rng = np.random.default_rng(3)
     parts = [
@@ -497,6 +500,7 @@ def test_cache_samples_points_velocities_and_head_motion(tmp_path, grown, groom)
     np.testing.assert_allclose(skin.rest_vertices, groom.mesh.rest_vertices, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_cache_takes_a_sim_cache_and_refuses_bad_frames(tmp_path, grown, groom):
     positions = np.stack([np.zeros((2, 3, 3)), np.ones((2, 3, 3))]).astype(np.float32)
     moves = np.stack([np.eye(4)] * 2)

@@ -367,6 +367,7 @@ def test_empty_hair_writes_a_valid_file(tmp_path, ext):
 
 
 # ------------------------------------------------------------------ guides
+@pytest.mark.slow
 def test_guides_load_from_a_cyhair_file_onto_the_builtin_head(tmp_path):
     from follicle.groom.builtin_guides import builtin_guides
 

@@ -118,6 +118,7 @@ def _read_within_budget(path):
 @pytest.mark.parametrize(
     "name", ["hair", "hair uniform", "tfx4", "tfx3", "tfx3 packed", "obj", "mitsuba"]
 )
+@pytest.mark.slow
 def test_damaged_files_give_format_errors_only(valid, name):
     tmp, files = valid
     ext, data = files[name]

@@ -25,6 +25,7 @@ def hair(groom):
     return groom.generate(count=60)
 
 
+@pytest.mark.slow
 def test_structure_counts_and_values(tmp_path, hair):
     path = follicle.save(hair, tmp_path / "hair.rib")
     text = path.read_text()
@@ -47,6 +48,7 @@ def test_structure_counts_and_values(tmp_path, hair):
     assert np.array_equal(params["uniform int strand_index"], cd["strand_id"])
 
 
+@pytest.mark.slow
 def test_chunks_becomecurves_requests(tmp_path, groom):
     chunks = list(groom.chunks(20, count=60))
     path = save_rib(iter(chunks), tmp_path / "hair.rib")
@@ -82,6 +84,7 @@ def test_normals_can_be_left_out_and_bad_ids_are_refused(tmp_path, hair):
         follicle.load_curves(path)
 
 
+@pytest.mark.slow
 def test_same_curves_give_same_bytes(tmp_path, groom):
     a = save_rib(groom.chunks(25, count=60), tmp_path / "a.rib")
     b = save_rib(groom.chunks(25, count=60), tmp_path / "b.rib")
@@ -162,6 +165,7 @@ def test_numbers_print_like_c_percent_7g():
 
 @settings(max_examples=300, deadline=None)
 @given(st.floats(width=32, allow_nan=False, allow_infinity=False))
+@pytest.mark.slow
 def test_printed_numbers_are_seven_correct_digits(x):
     text = format_floats(np.float32([x])).decode()
     if x == 0:

@@ -33,6 +33,7 @@ def _curves_prims(path):
 
 
 @pytest.mark.parametrize("ext", EXTS)
+@pytest.mark.slow
 def test_round_trip_is_exact(tmp_path, hair, ext):
     path = follicle.save(hair, tmp_path / f"hair.{ext}")
     back = follicle.load_curves(path)
@@ -42,6 +43,7 @@ def test_round_trip_is_exact(tmp_path, hair, ext):
 
 
 @pytest.mark.parametrize("ext", EXTS)
+@pytest.mark.slow
 def test_prims_attributes_and_stage_metadata(tmp_path, hair, ext):
     path = save_usd(hair, tmp_path / f"hair.{ext}")
     stage, prims = _curves_prims(path)
@@ -152,6 +154,7 @@ def test_chunks_become_prims_in_order(tmp_path, groom):
 
 
 @pytest.mark.parametrize("ext", ["usda", "usdc", "usdz"])
+@pytest.mark.slow
 def test_same_curves_give_same_bytes(tmp_path, groom, ext):
     digests = set()
     for k in range(2):
@@ -175,6 +178,7 @@ def test_guides_prim_is_skipped_unless_asked_or_alone(tmp_path, hair, groom):
         save_usd(hair, tmp_path / "x.usda", guides="builtin:long")
 
 
+@pytest.mark.slow
 def test_load_guides_reads_a_usd_of_guides(tmp_path):
     mesh = follicle.load_mesh("builtin:head")
     guides = follicle.load_guides("builtin:long", mesh)

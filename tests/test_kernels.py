@@ -86,6 +86,7 @@ def _indexes(cache: Path) -> list[Path]:
     return sorted(cache.rglob("*.nbi"))
 
 
+@pytest.mark.slow
 def test_a_first_run_compiles_says_so_and_a_second_loads(module, tmp_path):
     cache = tmp_path / "cache"
     first = _run(module, cache)
@@ -101,6 +102,7 @@ def test_a_first_run_compiles_says_so_and_a_second_loads(module, tmp_path):
 
 
 @pytest.mark.parametrize("damage", ["truncate", "garbage", "flip"])
+@pytest.mark.slow
 def test_a_damaged_index_or_data_file_is_compiled_again(module, tmp_path, damage):
     cache = tmp_path / "cache"
     _run(module, cache)
@@ -121,6 +123,7 @@ def test_a_damaged_index_or_data_file_is_compiled_again(module, tmp_path, damage
     assert _run(module, cache)["compiled"] == 0  # and kept
 
 
+@pytest.mark.slow
 def test_a_data_file_swapped_for_another_kernels_is_not_run(module, tmp_path):
     """An index entry names its data file by content hash: another kernel's code under
     that name is refused, not run with the wrong arguments."""
@@ -132,6 +135,7 @@ def test_a_data_file_swapped_for_another_kernels_is_not_run(module, tmp_path):
     assert _run(module, cache)["compiled"] == 1
 
 
+@pytest.mark.slow
 def test_another_numba_version_or_cpu_is_not_loaded(module, tmp_path):
     cache = tmp_path / "cache"
     _run(module, cache)
@@ -145,6 +149,7 @@ def test_another_numba_version_or_cpu_is_not_loaded(module, tmp_path):
     assert _run(module, cache, NUMBA_CPU_NAME="generic")["compiled"] == 0
 
 
+@pytest.mark.slow
 def test_an_edited_source_is_compiled_again(module, tmp_path):
     cache = tmp_path / "cache"
     _run(module, cache)
@@ -153,6 +158,7 @@ def test_an_edited_source_is_compiled_again(module, tmp_path):
     assert _run(module, cache)["compiled"] == 2
 
 
+@pytest.mark.slow
 def test_an_unwritable_cache_folder_falls_back_to_one_that_is(module, tmp_path):
     """NUMBA_CACHE_DIR under a file cannot be made: the kernels go beside the source
     (``__pycache__``); where that cannot be made either, to the user's cache folder."""
@@ -173,6 +179,7 @@ def test_an_unwritable_cache_folder_falls_back_to_one_that_is(module, tmp_path):
     assert _run(module, cache, **env)["compiled"] == 0
 
 
+@pytest.mark.slow
 def test_two_processes_compiling_at_once_leave_one_good_cache(module, tmp_path):
     cache = tmp_path / "cache"
     env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(module)}
@@ -190,6 +197,7 @@ def test_two_processes_compiling_at_once_leave_one_good_cache(module, tmp_path):
     assert not list(cache.rglob("*.tmp*")) and not [p for p in cache.rglob(".*.nbi.*")]
 
 
+@pytest.mark.slow
 def test_import_follicle_and_help_load_no_heavy_library():
     assert modules_after("import follicle; follicle.HairCurves; follicle.render") == []
     help_ = (
@@ -204,6 +212,7 @@ def test_import_follicle_and_help_load_no_heavy_library():
         assert modules_after(sub) == [], command
 
 
+@pytest.mark.slow
 def test_importing_every_module_compiles_nothing_and_loads_no_numba():
     """No kernel runs at import: every module of follicle imported, no dispatcher made."""
     code = textwrap.dedent(

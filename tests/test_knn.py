@@ -41,6 +41,7 @@ def sphere(rng: np.random.Generator, n: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("k", [1, 4, 10, 600])
+@pytest.mark.slow
 def test_random_cube(k):
     rng = np.random.default_rng(1)
     points = rng.random((500, 3))

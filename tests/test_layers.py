@@ -9,6 +9,8 @@ import re
 import sys
 from pathlib import Path
 
+import pytest
+
 import follicle
 
 ROOT = Path(follicle.__file__).parent
@@ -158,10 +160,12 @@ def _graph() -> dict[str, set[str]]:
     return graph
 
 
+@pytest.mark.slow
 def test_every_unit_has_a_layer():
     assert set(_graph()) <= set(LAYER), sorted(set(_graph()) - set(LAYER))
 
 
+@pytest.mark.slow
 def test_no_import_runs_up_a_layer():
     upward = [
         f"{unit} → {other}"
@@ -172,6 +176,7 @@ def test_no_import_runs_up_a_layer():
     assert upward == []
 
 
+@pytest.mark.slow
 def test_packages_of_one_layer_import_each_other_without_a_cycle():
     graph = _graph()
     seen: dict[str, int] = {}  # 1 on the current path, 2 done
@@ -205,6 +210,7 @@ def _module_graph() -> dict[str, set[str]]:
     return {_module_name(m): _imported_modules(m) for m in ROOT.rglob("*.py")}
 
 
+@pytest.mark.slow
 def test_no_modules_import_each_other_in_a_cycle():
     """Not even two modules of one package, nor through an import inside a function."""
     assert _cycle(_module_graph()) == []

@@ -54,6 +54,7 @@ def luminance(image: np.ndarray) -> np.ndarray:
     return srgb_to_linear(image[..., :3] / 255) @ np.array([0.2126, 0.7152, 0.0722])
 
 
+@pytest.mark.slow
 def test_renders_hair_on_the_head(head):
     mesh, hair = head
     image = render_mitsuba(hair, mesh, size=SIZE, spp=4)
@@ -64,6 +65,7 @@ def test_renders_hair_on_the_head(head):
     assert 0.05 < changed.mean() < 0.5  # the head (11 %), framed with its hair around it
 
 
+@pytest.mark.slow
 def test_same_seed_same_bytes(head):
     mesh, hair = head
     a = render_mitsuba(hair, mesh, size=SIZE, spp=4, seed=3)
@@ -74,6 +76,7 @@ def test_same_seed_same_bytes(head):
 
 
 @gl
+@pytest.mark.slow
 def test_hair_where_the_gl_render_has_hair(head):
     """Hair coverage per pixel: Mitsuba's alpha (4 rays per pixel) against the GL render's
     (found by rendering on black and on white). Measured: 97.6 % of the GL pixels more
@@ -92,6 +95,7 @@ def test_hair_where_the_gl_render_has_hair(head):
 
 
 @gl
+@pytest.mark.slow
 def test_same_camera_and_background_as_gl(head):
     """A given camera (non-square image, tilted up vector) and the automatic framing both
     put the head on the same pixels; the background is the GL gradient."""
@@ -113,6 +117,7 @@ def test_same_camera_and_background_as_gl(head):
         assert diff.max() <= 1
 
 
+@pytest.mark.slow
 def test_blond_renders_brighter_than_dark(head):
     _, hair = head
     lights = [Light((0.3, 0.5, 1.0), space="camera"), Light.ambient(intensity=0.2)]
@@ -134,6 +139,7 @@ def test_absorption_from_color():
     assert np.all(np.isfinite(absorption_from_color([0.0, 0.0, 0.0])))
 
 
+@pytest.mark.slow
 def test_colour_follows_each_hair_and_its_length():
     """σ_a is a texture over the curve segments: two hairs side by side, one red, one
     blue at the root and green at the tip, keep their colours where they are."""
@@ -311,6 +317,7 @@ def test_mitsuba_crashing_is_one_error_not_the_process_gone(head, monkeypatch):
     assert "\n" not in str(caught.value)
 
 
+@pytest.mark.slow
 def test_cli_mitsuba_crashing_is_one_line_and_exit_2(tmp_path, monkeypatch):
     (tmp_path / "scene.toml").write_text(SCENE)
     monkeypatch.setattr(mitsuba, "_CHILD", [sys.executable, "-c", CRASH])
@@ -333,6 +340,7 @@ size = [40, 30]
 """
 
 
+@pytest.mark.slow
 def test_cli_engine_mitsuba(tmp_path):
     (tmp_path / "scene.toml").write_text(SCENE)
     out = tmp_path / "still.png"

@@ -21,6 +21,7 @@ def test_zero_on_integer_lattice():
     assert perlin(250.0, -1000.0, 7.0) == 0.0
 
 
+@pytest.mark.slow
 def test_pinned_values():
     # fixed permutation table: these hold on every machine and run
     assert perlin(0.5, 0.5, 0.5) == pytest.approx(0.375, abs=1e-15)
@@ -73,6 +74,7 @@ def test_arrays_match_scalars():
     np.testing.assert_array_equal(noise3_array(p), [noise3(*q) for q in p])
 
 
+@pytest.mark.slow
 def test_callable_from_kernels():
     @njit
     def kernel(x):

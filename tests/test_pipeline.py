@@ -60,6 +60,7 @@ def _grow_with(tmp_path, **sections) -> tuple:
     return groom, groom.generate(count=3000)
 
 
+@pytest.mark.slow
 def test_groom_density_from_an_image_path_builtin_and_number(tmp_path):
     from PIL import Image
 
@@ -83,6 +84,7 @@ def test_groom_density_from_an_image_path_builtin_and_number(tmp_path):
     assert scalp_texture().sample(uniform.curve_data["root_uv"]).min() == 0.0  # face, neck
 
 
+@pytest.mark.slow
 def test_displacement_moves_roots_along_the_normal(tmp_path):
     from PIL import Image
 
@@ -99,6 +101,7 @@ def test_displacement_moves_roots_along_the_normal(tmp_path):
     )
 
 
+@pytest.mark.slow
 def test_the_python_quick_start_grows_the_default_scenes_groom(tmp_path):
     """README § Python, line for line, and `follicle grow` of the default scene: the
     same bytes (the built-in guides part along the built-in head's parting in both)."""
@@ -120,6 +123,7 @@ def test_the_python_quick_start_grows_the_default_scenes_groom(tmp_path):
     assert guides.groups.colors.tolist() == [[255, 0, 0], [0, 0, 255]]  # the parting
 
 
+@pytest.mark.slow
 def test_the_python_quick_start_renders_the_scenes_picture(tmp_path):
     """`follicle.render_image(hair, mesh=mesh, size=…)` with every other setting at its default
     draws what `follicle render` of the same scene draws: one field of view, one

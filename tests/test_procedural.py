@@ -52,6 +52,7 @@ def _request(done, voxel, detail="310.5"):
     return f"{detail} {done.frame.resolve()} {voxel}\n".encode()
 
 
+@pytest.mark.slow
 def test_voxels_regrow_the_whole_groom_bit_for_bit(exported, procedural):
     done, whole = exported
     frame = procedural.frame(str(done.frame))
@@ -69,6 +70,7 @@ def test_voxels_regrow_the_whole_groom_bit_for_bit(exported, procedural):
     assert [p.curve_count for p in parts] == done.curves
 
 
+@pytest.mark.slow
 def test_replies_are_the_rib_of_the_whole_groom(exported, procedural, tmp_path):
     done, whole = exported
     ids = []
@@ -88,6 +90,7 @@ def test_replies_are_the_rib_of_the_whole_groom(exported, procedural, tmp_path):
     assert np.array_equal(np.sort(np.concatenate(ids)), whole.curve_data["hair_id"])
 
 
+@pytest.mark.slow
 def test_rib_names_each_voxel_its_box_and_counts(exported):
     done, whole = exported
     text = done.rib.read_text()
@@ -112,6 +115,7 @@ def test_rib_names_each_voxel_its_box_and_counts(exported):
     assert len(text) < 3000 and "Curves" not in text  # no geometry in the RIB
 
 
+@pytest.mark.slow
 def test_boxes_hold_the_curves_and_are_their_bezier_hulls(exported, procedural):
     done, _ = exported
     frame = procedural.frame(str(done.frame))
@@ -126,6 +130,7 @@ def test_boxes_hold_the_curves_and_are_their_bezier_hulls(exported, procedural):
         np.testing.assert_array_less(np.abs(box[1] - half - bezier.max(axis=0)), slack)
 
 
+@pytest.mark.slow
 def test_posed_mesh_and_time_are_regrown_exactly(tmp_path):
     scene = parse_scene(
         {
@@ -150,6 +155,7 @@ def test_posed_mesh_and_time_are_regrown_exactly(tmp_path):
     assert (done.boxes[:, 0].min(axis=0) < lo).all() and (done.boxes[:, 1].max(axis=0) > hi).all()
 
 
+@pytest.mark.slow
 def test_protocol_answers_every_line_and_survives_bad_ones(exported):
     done, _ = exported
     lines = [
@@ -186,6 +192,7 @@ def test_protocol_answers_every_line_and_survives_bad_ones(exported):
         assert message in text
 
 
+@pytest.mark.slow
 def test_corrupt_frame_files_are_errors_not_crashes(exported, tmp_path):
     done, _ = exported
     good = done.frame.read_bytes()
@@ -236,6 +243,7 @@ def test_any_request_line_parses_or_is_refused(line):
         max_size=8,
     )
 )
+@pytest.mark.slow
 def test_random_request_streams_get_one_answer_a_line(lines):
     stream = b"\n".join(lines)
     out = io.BytesIO()
@@ -249,6 +257,7 @@ def test_random_request_streams_get_one_answer_a_line(lines):
 @pytest.mark.parametrize(
     "command", [[str(PROCEDURAL)], [sys.executable, "-m", "follicle.apps.procedural"]]
 )
+@pytest.mark.slow
 def test_the_program_speaks_runprogram(exported, procedural, command):
     if not Path(command[0]).exists():  # the console script: CI installs it (pip install -e)
         pytest.skip("follicle-procedural is not installed: pip install -e .")
@@ -264,6 +273,7 @@ def test_the_program_speaks_runprogram(exported, procedural, command):
     assert b"malformed request" in proc.stderr and b"Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_export_arguments_are_checked_and_writes_are_all_or_nothing(tmp_path):
     scene = parse_scene({"groom": {"count": 50}})
     for voxels in (0, 257, True, 2.5):
@@ -277,6 +287,7 @@ def test_export_arguments_are_checked_and_writes_are_all_or_nothing(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b.follicle.z"]
 
 
+@pytest.mark.slow
 def test_cli_export_rib(tmp_path):
     scene = tmp_path / "scene.toml"
     scene.write_text("[groom]\ncount = 400\n")

@@ -43,6 +43,7 @@ def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
 
 
 @pytest.mark.parametrize("path", GALLERY, ids=[p.stem for p in GALLERY])
+@pytest.mark.slow
 def test_the_gallery_looks_the_same_on_both_engines(path):
     scene = load_scene(path)
     mesh, curves = grow(scene)
@@ -65,6 +66,7 @@ def small_scene():
 
 
 @pytest.mark.parametrize("oit", [True, False])
+@pytest.mark.slow
 def test_same_bytes_for_any_thread_count(small_scene, oit):
     mesh, curves = small_scene
     settings = RenderParams(size=(200, 150), engine="cpu", oit=oit, shading="scheuermann")

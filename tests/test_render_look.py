@@ -34,6 +34,7 @@ def saturation(rgb: np.ndarray) -> np.ndarray:
     return (f.max(-1) - f.min(-1)) / np.maximum(f.max(-1), 1.0)
 
 
+@pytest.mark.slow
 def test_dark_hair_keeps_its_colour_at_grazing_angles(default_groom):
     """Where the hair covers the picture (opaque over black and over white), hardly a
     pixel of the dark brown default groom is grey (saturation < 0.2); with a white
@@ -72,6 +73,7 @@ def scalp_showing(scene, mesh, curves) -> float:
     return float(full[m].sum() / skin[m].sum())
 
 
+@pytest.mark.slow
 def test_the_crown_hides_the_scalp_from_above(default_groom):
     """The default widths (3× a real hair's, for 20,000 hairs, a fifth of a head) let
     about a sixth of the scalp show from above, mostly the parting (0.175 at 320²; the
@@ -83,6 +85,7 @@ def test_the_crown_hides_the_scalp_from_above(default_groom):
     assert scalp_showing(thin, mesh, thin_curves) > 0.35
 
 
+@pytest.mark.slow
 def test_automatic_framing_fills_the_picture(default_groom):
     """The head and hair fill the fuller axis of the picture to 1 / 1.1, centred."""
     scene, mesh, curves = default_groom
@@ -95,6 +98,7 @@ def test_automatic_framing_fills_the_picture(default_groom):
     assert fill > 0.85
 
 
+@pytest.mark.slow
 def test_marschner_dark_hair_is_not_grey(default_groom):
     """Marschner's R lobe is white, as in the physical model, at a smooth fibre's
     Fresnel strength (r = 1): under 10 % of the opaque-hair pixels are grey (6.6 % at

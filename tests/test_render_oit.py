@@ -60,6 +60,7 @@ def order_difference(curves: HairCurves, **kw) -> tuple[float, int]:
 
 
 @pytest.mark.parametrize("msaa", [0, 4])
+@pytest.mark.slow
 def test_curve_order_does_not_change_the_image(msaa, monkeypatch):
     curves = crossing_strands()
     kw = dict(size=(128, 128), msaa=msaa, background=(0.1, 0.1, 0.1))

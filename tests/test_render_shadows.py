@@ -175,6 +175,7 @@ def test_the_lit_side_of_the_skin_has_no_shadow_acne():
     assert np.abs(a - b)[1:-1, 1:-1][inner].max() <= 2
 
 
+@pytest.mark.slow
 def test_shadow_density_and_layer_parameters():
     curves = HairCurves.concatenate([sheet(0.03, 0.08, 400, 1), sheet(-0.08, -0.03, 400, 2)])
     kw = dict(

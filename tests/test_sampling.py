@@ -141,6 +141,7 @@ def _per_texel_fit(mesh: SkinMesh, tex: Texture, refine: int) -> tuple[float, fl
     return _chi_square_p(counts, expected), error
 
 
+@pytest.mark.slow
 def test_refining_sharpens_the_density_where_texels_cut_sub_triangles():
     from scipy.ndimage import gaussian_filter
 

@@ -63,6 +63,7 @@ def test_caller_frame_rate_does_not_change_the_motion():
     assert gap <= 0.02 * length
 
 
+@pytest.mark.slow
 def test_stiffness_gives_the_same_sag_at_any_iteration_count():
     tips = []
     for iterations in (2, 4, 8):
@@ -144,6 +145,7 @@ def test_a_collider_sweeping_into_lagging_tips_pushes_them_out(speed):
         assert d.min() >= ball.radius + 0.002 - 1e-6, k
 
 
+@pytest.mark.slow
 def test_global_shape_keeps_a_standing_style_under_gravity():
     style = _strands(up=True, length=0.15)
     rest = Simulator(style).positions.copy()
@@ -186,6 +188,7 @@ def test_wind_blows_strands_downwind_and_teleport_keeps_the_shape():
     assert abs(float(sim.positions[0, 0, 0]) - 10.0) < 1e-5
 
 
+@pytest.mark.slow
 def test_adversarial_settings_never_give_nan():
     pts = np.zeros((3, 12, 3))
     pts[:, :, 0] = np.linspace(0, 0.2, 12)
@@ -240,6 +243,7 @@ def head_groom():
     return groom_scene(Scene())
 
 
+@pytest.mark.slow
 def test_a_fast_head_turn_keeps_hair_out_of_the_skin_mesh(head_groom):
     mesh = head_groom.mesh
     sim = Simulator(head_groom.guides, params=SimParams(iterations=4))
@@ -278,6 +282,7 @@ def test_groomed_vertices_inside_the_skin_at_rest_keep_their_depth_as_margin():
     np.testing.assert_allclose(sim.positions, rest, atol=1e-6)  # not pushed, not stretched
 
 
+@pytest.mark.slow
 def test_hairs_follow_the_simulated_guides(head_groom):
     sim = Simulator(head_groom.guides)  # the guides' own vertex count: exact transport
     grown = head_groom.generate(count=2000)
@@ -301,6 +306,7 @@ def test_hairs_follow_the_simulated_guides(head_groom):
         head_groom.generate(count=10, pose=other)
 
 
+@pytest.mark.slow
 def test_frames_follow_on_threads_as_one_by_one(head_groom):
     """follow changes nothing of the groom (no guides swapped in and out), so frames of
     a simulation grow on several threads at once exactly as one after another."""

@@ -199,6 +199,7 @@ def test_volume_repulsion_pushes_hair_away_from_a_dense_tuft():
     assert (outward > 0).mean() > 0.8  # the tuft spreads out
 
 
+@pytest.mark.slow
 def test_volume_grid_reproduces_follicle_apply_volume():
     rng = np.random.default_rng(3)
     x = (rng.normal(size=(200, 12, 3)) * 0.1).astype(np.float32)

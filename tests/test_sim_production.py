@@ -58,6 +58,7 @@ def _run(sim: Simulator, head, frames: int, motion: str) -> tuple[float, float]:
     return worst, deepest
 
 
+@pytest.mark.slow
 def test_the_production_guides_are_shaped_like_production_ones(production):
     """The generator gives what the tests claim to cover: counts 4–48, segments within a
     strand ×0.1–10 of each other's typical, ~1 % of zero length, 2 mm to 60 cm strands."""
@@ -87,6 +88,7 @@ def test_the_production_guides_are_shaped_like_production_ones(production):
     [("none", dict(skin_collision=False)), ("none", {}), ("shake", {})],
     ids=["free fall", "at rest on the skin", "head shake on the skin"],
 )
+@pytest.mark.slow
 def test_lengths_hold_on_production_guides(head, production, motion, params):
     """Default settings (PBD, strain limit 1e-4): after every frame no segment is more
     than 1e-3 off its rest length, and 2 s after the head stops, 1e-4 (was: 3.6 % on a
@@ -101,6 +103,7 @@ def test_lengths_hold_on_production_guides(head, production, motion, params):
     assert sim.stats["max_stretch"] < 1e-4, sim.stats["max_stretch"]
 
 
+@pytest.mark.slow
 def test_tressfx_and_cyhair_grooms_keep_their_lengths(head, tmp_path):
     """The production-shaped groom as a TressFX 3 file (32 vertices a strand, as TressFX
     has them; unequal and coincident inside) and as a cyHair file (its own counts),
@@ -119,6 +122,7 @@ def test_tressfx_and_cyhair_grooms_keep_their_lengths(head, tmp_path):
         assert sim.stats["max_stretch"] < 1e-4, (path.name, sim.stats["max_stretch"])
 
 
+@pytest.mark.slow
 def test_stretch_of_strands_shorter_than_rounding_is_measured_against_min_segment(head):
     """A 20 µm strand of 48 segments (0.4 µm each) beside the built-in ones: a 1 nm
     nudge of its tip, rounding at the size of a head, is 2.4e-3 of its last segment but
@@ -140,6 +144,7 @@ def test_stretch_of_strands_shorter_than_rounding_is_measured_against_min_segmen
     assert sim.stats["max_stretch"] == pytest.approx(0.01, rel=0.01)
 
 
+@pytest.mark.slow
 def test_a_groom_in_centimetres_simulates_like_the_same_groom_in_metres(head, tmp_path):
     """The built-in head and long guides written in centimetres and read with units =
     "cm": gravity, margins and stiffness act the same: after 1 s at rest every vertex is

@@ -136,6 +136,7 @@ def test_box_edges_and_corners():
     assert (d[1:4] > 0).all() and (d[[0, 4, 5]] < 0).all()
 
 
+@pytest.mark.slow
 def test_head_offsets_along_normals(head, head_sdf):
     normals = head.vertex_normals("current")
     voxel = head_sdf.voxel
@@ -152,6 +153,7 @@ def test_head_offsets_along_normals(head, head_sdf):
     assert head_sdf.distance(inside).max() < 0.0
 
 
+@pytest.mark.slow
 def test_head_grid_values_exact_near_skin(head):
     sdf = SDF.from_mesh(head.vertices, head.faces, voxel_size=0.01)  # a small grid
     values = sdf.values.ravel().astype(np.float64)
@@ -215,6 +217,7 @@ def test_outside_the_grid_is_positive_and_grows(head_sdf):
             )
 
 
+@pytest.mark.slow
 def test_same_bytes_with_one_or_two_threads(head):
     if numba.config.NUMBA_NUM_THREADS < 2:
         pytest.skip("numba runs with one thread only")
@@ -243,6 +246,7 @@ def sample_all(values, origin, inv_voxel, local_from_world, points):
     return out
 
 
+@pytest.mark.slow
 def test_sdf_sample_inside_another_kernel(head_sdf):
     transform = np.eye(4)
     transform[:3, :3] = rotation([1.0, 0.0, 1.0], -0.4)
@@ -314,6 +318,7 @@ def test_rejects_bad_transforms_and_queries(sphere):
     assert sdf.distance(np.zeros((0, 3))).shape == (0,)
 
 
+@pytest.mark.slow
 def test_lengths_hold_to_1e3_through_a_head_shake_with_the_skin_on():
     """The built-in long groom on the scalp with the skin SDF and the default settings,
     the head shaken for 3 s: after every frame no segment is more than 0.1 % off its rest

@@ -61,12 +61,14 @@ def test_the_spikes_rise_against_gravity(head, spiky):
     assert 0.05 <= length.min() and length.max() <= 0.15
 
 
+@pytest.mark.slow
 def test_spikes_hold_within_a_centimetre_after_five_seconds_at_rest(figures):
     """Default settings: RMS deviation from the rest pose ≤ 1 cm after 5 s (measured
     4 mm; shape_hold = 0, the old defaults: 5.2 cm)."""
     assert figures["spiky"]["rest"] <= HOLD, figures["spiky"]
 
 
+@pytest.mark.slow
 def test_spikes_are_back_within_two_seconds_of_a_head_shake(figures):
     """After the built-in ±40° shake the RMS deviation is ≤ 1 cm again within 2 s of
     the head stopping and stays there (measured: it never left 1 cm)."""
@@ -132,6 +134,7 @@ def test_the_styled_groom_is_shaped_like_a_production_one(styled):
     assert 0.0 < up[group == names.index("back")].max() <= 0.09
 
 
+@pytest.mark.slow
 def test_a_styled_groom_keeps_its_rise_under_gravity(styled):
     """Default [sim], skin on, 2 s at rest: the groom keeps ≥ 0.8 of its summed rise,
     the rising groups (top, front) each ≥ 0.8 of their own (measured 0.92; top 0.92,
@@ -150,6 +153,7 @@ def test_a_styled_groom_keeps_its_rise_under_gravity(styled):
     assert -change[group == list(GROUPS).index("back")].mean() <= 0.1
 
 
+@pytest.mark.slow
 def test_short_fur_lying_low_on_top_keeps_its_rise(head):
     """Fur on top of the head: 60 strands of 1–3 cm, 5–25° above level, default [sim]:
     after 2 s it keeps ≥ 0.9 of its rise (measured 1.00); the old hold (× the sine of
@@ -161,6 +165,7 @@ def test_short_fur_lying_low_on_top_keeps_its_rise(head):
     assert rise(sim).sum() >= 0.9 * before.sum()
 
 
+@pytest.mark.slow
 def test_long_straight_hair_still_falls(head, tmp_path):
     """The back spikes made 30–45 cm long (read in centimetres, default [sim]): in 2 s
     every tip drops ≥ 0.25 of its strand's length (measured 0.34–0.37, as with no hold
@@ -188,6 +193,7 @@ def test_the_hold_is_as_stiff_as_a_cantilever_of_the_style_length():
     assert tiny[0, 0] == 0.0 and np.isinf(tiny[0, 1:]).all()
 
 
+@pytest.mark.slow
 def test_the_shape_stiffness_keeps_its_compliance_at_any_substep(head, spiky):
     """per_substep keeps a shape stiffness's compliance: k at 1/120 s, 0 and 1 kept,
     and the spikes sag alike at substeps of 1/240 s and 1/30 s (4 mm; the per-substep

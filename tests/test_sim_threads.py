@@ -36,6 +36,7 @@ def _simulate(frames: int = 6) -> np.ndarray:
     return sim.positions.copy()
 
 
+@pytest.mark.slow
 def test_the_small_scene_keeps_to_one_thread(monkeypatch):
     """300 guides × 24 vertices (7,200) is below every grain: each stage's kernels are
     launched with one thread (numba's count is read inside them)."""
@@ -55,6 +56,7 @@ def test_the_small_scene_keeps_to_one_thread(monkeypatch):
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two numba threads")
+@pytest.mark.slow
 def test_the_same_bytes_serial_or_parallel(monkeypatch):
     serial = _simulate()
     monkeypatch.setattr(simulator, "SUBSTEP_GRAIN", 1)

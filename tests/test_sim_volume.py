@@ -280,6 +280,7 @@ def test_grid_covers_the_points_with_a_one_voxel_margin():
     ],
     ids=["point", "flat"],
 )
+@pytest.mark.slow
 def test_degenerate_clouds_give_finite_results(x):
     spec = grid_for(x)
     assert spec.voxel > 0 and min(spec.shape) >= 4  # one cell + two margins on every axis

@@ -180,6 +180,7 @@ def test_closest_points_exact():
     np.testing.assert_allclose(mesh.evaluate(tri2, bary2).position, on, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_closest_points_far_from_the_skin_test_few_candidates_at_once(monkeypatch):
     """A point far from the skin (guides in other units, a hostile file's roots) has
     nearly every triangle as a candidate: 4,096 of them at once held gigabytes (a

@@ -178,6 +178,7 @@ def simulated(tmp_path_factory, files):
     return folder, scene, cache, stats
 
 
+@pytest.mark.slow
 def test_the_roots_ride_the_deforming_skin(simulated, files):
     _, scene, cache, stats = simulated
     groom = groom_scene(scene)
@@ -194,6 +195,7 @@ def test_the_roots_ride_the_deforming_skin(simulated, files):
     assert stats["max_stretch"] <= 1e-3 and stats["max_penetration"] <= 2e-3
 
 
+@pytest.mark.slow
 def test_the_cache_keeps_the_skin_and_says_so(simulated, tmp_path):
     from follicle.io.sim_cache import write_cache
     from follicle.pipeline import describe_cache
@@ -233,6 +235,7 @@ def cli_sim(tmp_path_factory, files):
     return folder, out
 
 
+@pytest.mark.slow
 def test_the_cli_simulates_a_skin_animation_in_a_terminal(cli_sim, files):
     folder, out = cli_sim
     assert "skin animation" in out.stdout
@@ -241,6 +244,7 @@ def test_the_cli_simulates_a_skin_animation_in_a_terminal(cli_sim, files):
     np.testing.assert_allclose(cache.skin_vertices, files["frames"][:6], atol=2e-6)
 
 
+@pytest.mark.slow
 def test_exports_sample_the_skin_per_frame(cli_sim, files, head):
     """usd-core reads /Groom/Skin's points per time code; alembic3d its P per sample,
     and reading the export back as a skin animation gives the cache's skin."""
@@ -276,6 +280,7 @@ def test_exports_sample_the_skin_per_frame(cli_sim, files, head):
         ([], "anim.abc", ["anim.abc", "units"]),
     ],
 )
+@pytest.mark.slow
 def test_bad_skin_animations_are_one_line_and_no_file(tmp_path, files, head, extra, anim, names):
     (tmp_path / "scene.toml").write_text(SCENE.replace('skin_animation = "{anim}"\n', ""))
     if anim == "other.usda":
@@ -332,6 +337,7 @@ def test_damaged_animations_load_or_refuse(tmp_path, small, ext):
 
 
 # ------------------------------------------------------------------ the skin's field
+@pytest.mark.slow
 def test_the_field_follows_a_rigid_skin_unbuilt_and_a_deforming_one_rebuilt(head):
     """Posed by vertices that only turn, the skin SDF is the last one built, moved by the
     fitted rigid motion (distances as the transform's own field gives them); once the

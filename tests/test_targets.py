@@ -35,6 +35,7 @@ def test_the_scene_key_offers_every_target():
 
 
 @pytest.mark.parametrize("name", TARGET_NAMES)
+@pytest.mark.slow
 def test_what_a_target_writes_is_what_it_reads(hair, name):
     out = for_target(hair, name)
     assert problems(out, name) == []
@@ -44,6 +45,7 @@ def test_what_a_target_writes_is_what_it_reads(hair, name):
     np.testing.assert_allclose(out.point_data["width"], hair.point_data["width"] * scale, rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_ids_become_int32_for_blender_and_unreal(hair):
     assert [k for k, v in hair.curve_data.items() if v.dtype == np.int64] == [
         "hair_id",

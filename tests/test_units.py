@@ -240,6 +240,7 @@ def twin_scene(folder: Path, mesh: str, guides: str, units: str | None = None) -
     )
 
 
+@pytest.mark.slow
 def test_a_centimetre_scene_with_units_grows_the_metre_scene_hair(twins, caplog):
     with caplog.at_level(logging.WARNING, logger="follicle"):
         _, metre = grow(twin_scene(twins, "head_m.obj", "long_m.obj"))
@@ -255,6 +256,7 @@ def test_a_centimetre_scene_with_units_grows_the_metre_scene_hair(twins, caplog)
     assert 89e-6 < cm.point_data["width"].min() < cm.point_data["width"].max() < 241e-6
 
 
+@pytest.mark.slow
 def test_the_python_loaders_take_units(twins):
     mesh_m = load_mesh(twins / "head_m.obj")
     for units in ("cm", 0.01):
@@ -279,6 +281,7 @@ def test_centimetre_files_without_units_warn_naming_cm_and_the_keys(twins, caplo
     ]
 
 
+@pytest.mark.slow
 def test_one_file_in_centimetres_gets_one_warning_naming_its_key(twins, caplog):
     """The roots of metre guides lie far inside a centimetre head, and centimetre guides'
     roots far outside a metre head: the size warning says so, the off-mesh one is not
@@ -450,6 +453,7 @@ def test_roots_off_the_mesh_for_no_units_reason_warn_as_before(caplog):
     )
 
 
+@pytest.mark.slow
 def test_no_units_warning_for_the_defaults_and_the_examples(caplog):
     scenes = [Scene()] + [load_scene(p) for p in sorted(EXAMPLES.glob("*.toml"))]
     assert len(scenes) >= 7
@@ -459,6 +463,7 @@ def test_no_units_warning_for_the_defaults_and_the_examples(caplog):
     assert warnings_of(caplog) == []
 
 
+@pytest.mark.slow
 def test_follicle_grow_prints_the_warning_without_units_and_nothing_with(twins, tmp_path):
     def grow_cli(units: str) -> subprocess.CompletedProcess:
         scene = tmp_path / "cm.toml"

@@ -291,6 +291,7 @@ def _compare(theirs: Abc.ICompoundProperty, ours: Compound) -> int:
 
 
 # ------------------------------------------------------------------ the decoder
+@pytest.mark.slow
 def test_the_decoder_reads_the_archive_header(grown):
     archive = Archive(grown)
     assert (archive.ogawa_version, archive.archive_version) == (1, 0)
@@ -304,6 +305,7 @@ def test_the_decoder_reads_the_archive_header(grown):
 
 
 @pytest.mark.parametrize("which", ["grown", "chunked", "long_file", "animated"])
+@pytest.mark.slow
 def test_the_decoder_agrees_with_alembic3d_on_every_property(which, request):
     path = request.getfixturevalue(which)
     path = path[0] if isinstance(path, tuple) else path
@@ -328,6 +330,7 @@ def test_the_decoder_agrees_with_alembic3d_on_every_property(which, request):
         assert sampling.max_samples == theirs.getMaxNumSamplesForTimeSamplingIndex(i)
 
 
+@pytest.mark.slow
 def test_repeated_samples_read_the_sample_they_repeat(animated):
     path, frames = animated
     archive = Archive(path)
@@ -452,6 +455,7 @@ def test_the_decoder_refuses_a_bad_header(long_file, tmp_path, offset, value):
 
 
 # ------------------------------------------------------------------ Unreal's schema
+@pytest.mark.slow
 def test_curves_are_icurves_guides_apart_and_named_as_unreal_reads_them(grown, reference):
     archive = Archive(grown)
     guides, hair = _curves(archive)

@@ -76,6 +76,7 @@ def served(tmp_path, monkeypatch):
     server.server_close()
 
 
+@pytest.mark.slow
 def test_a_url_is_fetched_once_and_again_when_it_changes(served, tmp_path):
     folder, url, sent = served
     copy = input_file(f"{url}/density.png")
@@ -89,6 +90,7 @@ def test_a_url_is_fetched_once_and_again_when_it_changes(served, tmp_path):
     assert sent.count("/density.png") == 2
 
 
+@pytest.mark.slow
 def test_bad_urls_are_refused_naming_them(served):
     _, url, _ = served
     for bad, says in (
@@ -101,12 +103,14 @@ def test_bad_urls_are_refused_naming_them(served):
         assert bad.split("://")[0] in str(err.value) and says in str(err.value)
 
 
+@pytest.mark.slow
 def test_a_file_url_is_read_in_place(served):
     folder, _, _ = served
     assert input_file(f"file://{folder}/s.toml") == folder / "s.toml"
     assert is_url("s3://bucket/a.abc") and not is_url("builtin:head") and not is_url("a/b.png")
 
 
+@pytest.mark.slow
 def test_a_served_scene_grows_the_bytes_of_the_scene_on_disk(served, tmp_path):
     """`follicle grow URL` (relative paths inside become URLs beside it) in one process
     and on two workers, each fetching the files into its own cache: the file written
@@ -145,6 +149,7 @@ def test_a_served_scene_grows_the_bytes_of_the_scene_on_disk(served, tmp_path):
     assert {"/head.obj", "/guides.hair", "/density.png", "/color.png"} <= set(sent)
 
 
+@pytest.mark.slow
 def test_a_missing_served_file_is_one_line(served, tmp_path):
     folder, url, _ = served
     (folder / "color.png").unlink()
@@ -154,6 +159,7 @@ def test_a_missing_served_file_is_one_line(served, tmp_path):
     assert not any(tmp_path.glob("*h.usdc*"))
 
 
+@pytest.mark.slow
 def test_a_served_groom_exports_the_bytes_of_the_file_on_disk(served, tmp_path):
     """`follicle export URL -o …` and a folder of URLs (`export_files`): the bytes the
     files on disk give."""
@@ -181,6 +187,7 @@ def test_a_served_groom_exports_the_bytes_of_the_file_on_disk(served, tmp_path):
         ('[mesh]\npath = "http://127.0.0.1:9/head.obj"\n', "[mesh].path"),
     ],
 )
+@pytest.mark.slow
 def test_a_served_scene_reads_nothing_but_files_beside_it(served, tmp_path, line, key):
     """A scene fetched from a server may not name this machine's files (an absolute path,
     a file:// URL) nor another server's: one line naming the key, and the local file,
@@ -201,6 +208,7 @@ def test_a_served_scene_reads_nothing_but_files_beside_it(served, tmp_path, line
         load_scene(f"{url}/evil.toml")
 
 
+@pytest.mark.slow
 def test_a_served_scene_writes_its_default_outputs_in_the_current_folder(served, tmp_path):
     """`follicle grow URL` and `follicle render URL` without -o write the scene's
     [output] file names in the current folder (a local scene's are beside it), never a
@@ -229,6 +237,7 @@ def test_a_served_scene_writes_its_default_outputs_in_the_current_folder(served,
     assert sorted(p.name for p in work.iterdir()) == ["guides.png", "h.npz", "pic.png"]
 
 
+@pytest.mark.slow
 def test_a_skin_animation_url_is_fetched_like_every_url_input(served, tmp_path):
     """`follicle simulate --skin-animation URL`: fetched, not read as a local path."""
     from test_skin_animation import _frames, _usd
@@ -320,6 +329,7 @@ def _cached(tmp_path) -> list[str]:
     ("kind", "says"),
     [("trickle", "sent 2"), ("headers", "sent nothing"), ("silent", "sent nothing")],
 )
+@pytest.mark.slow
 def test_a_server_too_slow_or_silent_is_left_within_the_timeout(
     hostile_server, tmp_path, kind, says
 ):
@@ -367,6 +377,7 @@ def test_a_download_stops_at_the_readers_size_limit(hostile_server, tmp_path, mo
 
 
 @pytest.mark.parametrize("tty", [False, True])
+@pytest.mark.slow
 def test_the_cli_leaves_a_slow_server_in_one_line(hostile_server, tmp_path, tty):
     """`follicle grow URL` from a server whose body trickles, under a pseudo-terminal
     too: one line naming the URL and the setting, exit 2, nothing written."""
@@ -377,6 +388,7 @@ def test_the_cli_leaves_a_slow_server_in_one_line(hostile_server, tmp_path, tty)
     assert sorted(p.name for p in tmp_path.iterdir() if p.name != "cache") == []
 
 
+@pytest.mark.slow
 def test_a_served_stroke_log_names_files_beside_it_only(served, tmp_path):
     """A stroke log fetched from a server names guides and a mesh on its own server
     (relative paths become URLs beside it), never a file of this machine."""

@@ -54,6 +54,7 @@ def _same_curves(a, b):
 
 
 @pytest.mark.parametrize("ext, target", [(".usdc", "generic"), (".usda", "unreal")])
+@pytest.mark.slow
 def test_usd_core_composes_the_parts_into_the_one_file_groom(tmp_path, groom, ext, target):
     parts = _parts(groom, 1000)
     root = save_usd_payloads(
@@ -162,6 +163,7 @@ def test_a_part_gone_or_not_usd_is_one_clean_refusal(tmp_path, groom):
     assert load_usd(tmp_path / "alone.usdc").curve_count == 10  # a part reads on its own
 
 
+@pytest.mark.slow
 def test_the_cli_writes_payloads_in_a_terminal_and_refuses_bad_options(tmp_path):
     (tmp_path / "s.toml").write_text(f"[groom]\ncount = {HAIRS}\n")
     warm()
@@ -192,6 +194,7 @@ def test_the_cli_writes_payloads_in_a_terminal_and_refuses_bad_options(tmp_path)
     )
 
 
+@pytest.mark.slow
 def test_ctrl_c_leaves_neither_root_nor_parts(tmp_path):
     """SIGINT once parts are on disk: the hidden folder of parts and the root's
     temporary name go; exit 130; an older groom of the same name stays as it was."""
@@ -221,6 +224,7 @@ def test_ctrl_c_leaves_neither_root_nor_parts(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["h.usdc", "h.usdc.payloads", "s.toml"]
 
 
+@pytest.mark.slow
 def test_a_scene_asks_for_payloads_and_a_batch_refuses_them(tmp_path):
     """[output].layout = "payloads" is what `follicle grow SCENE` writes (--layout file
     overrides it); a batch, whose manifest hashes one file per variant, refuses it."""
@@ -270,6 +274,7 @@ def _snapshot(folder):
     return out
 
 
+@pytest.mark.slow
 def test_nothing_follicle_did_not_write_is_deleted_by_a_payloads_layout(tmp_path, groom):
     """A payloads folder is replaced only when all it holds are part files follicle wrote,
     judged by their contents: a part_0000.usdc that is a folder of the user's files, a
@@ -335,6 +340,7 @@ def test_writing_again_removes_only_the_part_files(tmp_path, groom, monkeypatch)
     ]
 
 
+@pytest.mark.slow
 def test_a_name_usd_cannot_hold_is_refused_naming_the_character(tmp_path):
     """A newline in the root's name (its payload arcs name the folder by it, and a USD
     asset path holds no control character) is one line saying so, not "free disk

@@ -91,6 +91,7 @@ def test_resource_error_is_its_own_follicle_error():
     assert not issubclass(ResourceError, (InputError, SimulationError, MemoryError))
 
 
+@pytest.mark.slow
 def test_a_request_too_big_for_memory_is_a_resource_error_and_one_cli_line(monkeypatch, tmp_path):
     from follicle.cli import main
     from follicle.groom import generator
@@ -196,6 +197,7 @@ def _public_calls(tmp_path):
     return calls
 
 
+@pytest.mark.slow
 def test_public_calls_refuse_a_wrong_argument_with_a_follicle_error_naming_it(tmp_path):
     """Every public call given an argument of the wrong kind raises a FollicleError that
     names the argument, never Python's ValueError, TypeError or IsADirectoryError."""

@@ -104,6 +104,7 @@ def render(*args):
 
 
 @gl
+@pytest.mark.slow
 def test_render_cache_to_mp4(cache_path, tmp_path):
     out = tmp_path / "clip" / "anim.mp4"
     result = render(cache_path, "-o", out)
@@ -122,6 +123,7 @@ def test_render_cache_to_mp4(cache_path, tmp_path):
 
 
 @gl
+@pytest.mark.slow
 def test_render_cache_to_a_folder_named_mp4_fails_cleanly(cache_path, tmp_path):
     (tmp_path / "taken.mp4").mkdir()
     result = render(cache_path, "-o", tmp_path / "taken.mp4")
@@ -130,6 +132,7 @@ def test_render_cache_to_a_folder_named_mp4_fails_cleanly(cache_path, tmp_path):
     assert not any((tmp_path / "taken.mp4").iterdir())
 
 
+@pytest.mark.slow
 def test_render_cache_to_png_is_refused(cache_path, tmp_path):
     result = render(cache_path, "-o", tmp_path / "a.png")
     assert result.exit_code == 2

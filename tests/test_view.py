@@ -58,6 +58,7 @@ def tips_y(c: Controller) -> float:
     return float(c.sim.positions[:, -1, 1].mean())
 
 
+@pytest.mark.slow
 def test_hair_moves_between_frames(ctl):
     ctl.reset()
     before = ctl.sim.positions.copy()
@@ -67,6 +68,7 @@ def test_hair_moves_between_frames(ctl):
     assert ctl.frame == 2 and ctl.time == pytest.approx(2 / 30)
 
 
+@pytest.mark.slow
 def test_pause_holds_and_step_advances(ctl):
     ctl.reset()
     ctl.playing = False
@@ -80,6 +82,7 @@ def test_pause_holds_and_step_advances(ctl):
     assert ctl.playing
 
 
+@pytest.mark.slow
 def test_gravity_changes_tip_height(ctl):
     heights = {}
     for g in (0.0, 9.8):
@@ -92,6 +95,7 @@ def test_gravity_changes_tip_height(ctl):
     assert heights[9.8] < heights[0.0] - 1e-3
 
 
+@pytest.mark.slow
 def test_groom_change_regenerates(ctl):
     ctl.reset()
     first = ctl.hair()
@@ -104,6 +108,7 @@ def test_groom_change_regenerates(ctl):
     ctl.set_param("groom", "count", 1500)
 
 
+@pytest.mark.slow
 def test_head_motion_moves_roots(ctl):
     ctl.reset()
     ctl.set_param("sim", "motion", "turn")
@@ -116,6 +121,7 @@ def test_head_motion_moves_roots(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_screenshot_has_hair_pixels(ctl, tmp_path):
     ctl.reset()
     ctl.set_param("groom", "count", 0)
@@ -130,6 +136,7 @@ def test_screenshot_has_hair_pixels(ctl, tmp_path):
     assert ctl.stats()["render_ms"] > 0 and ctl.stats()["hairs"] == 1500
 
 
+@pytest.mark.slow
 def test_orbit_and_zoom_move_the_camera_about_its_target(ctl):
     before = ctl.camera
     target = np.asarray(before.target)
@@ -149,6 +156,7 @@ def test_orbit_and_zoom_move_the_camera_about_its_target(ctl):
     ctl.camera = before
 
 
+@pytest.mark.slow
 def test_save_scene_reads_back_with_paths_for_the_new_folder(tmp_path):
     src = tmp_path / "src"
     src.mkdir()
@@ -178,6 +186,7 @@ def test_save_scene_reads_back_with_paths_for_the_new_folder(tmp_path):
 
 
 @gl
+@pytest.mark.slow
 def test_recording_writes_each_frame(ctl, tmp_path):
     imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")  # the test extra installs it
     ctl.reset()
@@ -207,6 +216,7 @@ def orange(image):
 
 
 @gl
+@pytest.mark.slow
 def test_show_toggles_hairs_mesh_and_guides(ctl):
     ctl.reset()
     ctl.step()
@@ -234,6 +244,7 @@ def test_show_toggles_hairs_mesh_and_guides(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_volume_overlay_tints_the_hair(ctl):
     ctl.reset()
     ctl.step()
@@ -253,6 +264,7 @@ def test_volume_overlay_tints_the_hair(ctl):
     assert (heat[tinted, 0] >= plain[tinted, 0]).all()  # a warm tint
 
 
+@pytest.mark.slow
 def test_gust_blows_the_hair_and_passes(ctl):
     ctl.set_param("sim", "wind", (0.0, 0.0, 0.0))
     moved = {}
@@ -273,6 +285,7 @@ def test_gust_blows_the_hair_and_passes(ctl):
         ctl.gust(duration=0.0)
 
 
+@pytest.mark.slow
 def test_hair_limit_grows_the_first_hairs(ctl):
     ctl.reset()
     every = ctl.hair()
@@ -288,6 +301,7 @@ def test_hair_limit_grows_the_first_hairs(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_resize_renders_at_the_new_size(ctl):
     before = ctl.camera
     try:
@@ -306,6 +320,7 @@ def test_resize_renders_at_the_new_size(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_fast_quality_and_lights(ctl):
     ctl.reset()
     full = ctl.draw().copy()
@@ -339,6 +354,7 @@ def test_fast_quality_and_lights(ctl):
         ctl.set_param("render", "lights", [])
 
 
+@pytest.mark.slow
 def test_bad_parameters_name_the_field(ctl):
     with pytest.raises(ConfigError, match=r"\[sim\]\.gravty: unknown parameter"):
         ctl.set_param("sim", "gravty", (0, 0, 0))
@@ -350,6 +366,7 @@ def test_bad_parameters_name_the_field(ctl):
 
 
 @gl
+@pytest.mark.slow
 def test_view_offscreen_runs_frames(tmp_path):
     ctl = view(small_scene(), frames=3, screenshot=tmp_path / "o.png", size=(96, 54), window=False)
     assert ctl.frame == 3 and ctl.loop_fps > 0
@@ -367,6 +384,7 @@ def test_cli_bad_input_exits_2(tmp_path):
 
 
 @gl
+@pytest.mark.slow
 def test_cli_offscreen(tmp_path):
     (tmp_path / "scene.toml").write_text(SCENE)
     out = tmp_path / "shot.png"
@@ -480,6 +498,7 @@ def test_window_is_resizable_and_the_render_follows(tmp_path):
     assert windowed_script(RESIZE, tmp_path) == "1 (120, 200, 4)"
 
 
+@pytest.mark.slow
 def test_hold_fps_draws_fewer_wider_hairs_and_comes_back():
     c = Controller(small_scene(), size=(160, 90), hold_fps=15.0)
     try:
@@ -513,6 +532,7 @@ def test_hold_fps_draws_fewer_wider_hairs_and_comes_back():
     assert Controller(small_scene(), size=(16, 9), hold_fps=0).hold_fps is None
 
 
+@pytest.mark.slow
 def test_a_brush_drag_edits_the_guides_and_one_undo_takes_it_back(tmp_path):
     c = Controller(small_scene(), size=(320, 180), fps=30.0)
     try:
