@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from follicle import HairCurves, InputError, ResourceError
+from follicle import ConfigError, HairCurves, InputError, ResourceError
 from follicle.groom.generator import Groom
 from follicle.groom.guides import Guides, load_guides
 from follicle.mesh.head import builtin_head
@@ -304,3 +304,14 @@ def test_hairs_at_the_uv_pole_bend_like_their_guides():
     hair = Groom(mesh, guides, GroomParams()).generate(16000)
     z_max = np.maximum.reduceat(hair.points[:, 2], hair.offsets[:-1])
     assert (z_max > 0.12).sum() == 0  # was 16 hairs with frames straight from the UVs
+
+
+def test_each_textured_property_keeps_its_own_bounds():
+    """Properties of one kind but other bounds validate apart: hue_variation takes up to
+    180 degrees though a length stops at 10 m (typing caches ``Annotated`` aliases by
+    their metadata's equality, which once let the first alias's bounds stand for all)."""
+    assert GroomParams(hue_variation=150.0).hue_variation == 150.0
+    with pytest.raises(ConfigError, match=r"hue_variation: must be ≤ 180"):
+        GroomParams(hue_variation=181.0)
+    with pytest.raises(ConfigError, match=r"curl_radius: must be ≤ 10"):
+        GroomParams(curl_radius=11.0)

@@ -4,7 +4,7 @@ its textured properties (read by :mod:`follicle.groom.properties`)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, Literal, TypeAlias
 
 from pydantic import Field, GetCoreSchemaHandler, PlainValidator
@@ -61,7 +61,9 @@ class _Property(PropertyTag):
     One object is both the tag and the validator, so each property is a plain
     ``Annotated[Any, _prop(...)]`` alias that a type checker reads as what it holds."""
 
-    bounds: tuple[tuple[str, float], ...] = field(default=(), compare=False)
+    # compared too: typing caches Annotated[Any, tag] by the tag's equality, so two
+    # properties of other bounds must never be equal (hue_variation ≤ 180, not Length's 10)
+    bounds: tuple[tuple[str, float], ...] = ()
 
     def check(self, v: object) -> object:
         bounds = dict(self.bounds)
