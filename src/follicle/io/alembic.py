@@ -407,8 +407,9 @@ def _send_frame(
         "velocities": velocities,
         "bounds": _bounds(frame.points, column(first, "width", 1)),
     }
-    if "normal" in first.point_data:
-        arrays["normal"] = column(frame, "normal", 3)
+    normal = column(frame, "normal", 3) if "normal" in first.point_data else None
+    if normal is not None:  # a frame without them keeps the last (as in USD's writer)
+        arrays["normal"] = normal
     if timing is None:
         sink.send({"op": "sample", "path": path}, arrays)
         return
