@@ -535,6 +535,16 @@ def test_cache_takes_a_sim_cache_and_refuses_bad_frames(tmp_path, grown, groom):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["early.abc", "guides.abc", "one.abc"]
 
 
+def test_cache_frame_without_the_first_frames_normals_keeps_the_last(tmp_path):
+    normal = np.tile([1.0, 0, 0], (9, 1)).astype(np.float32)
+    first = HairCurves(PTS, [0, 4, 9], point_data={"normal": normal})
+    later = HairCurves(PTS + 0.2, [0, 4, 9], point_data={"normal": -normal})
+    frames = [first, HairCurves(PTS + 0.1, [0, 4, 9]), later]
+    path = save_abc_cache(frames, tmp_path / "normals.abc")  # not a failed write
+    for f, expected in enumerate([normal, normal, -normal]):
+        np.testing.assert_array_equal(load_abc(path, time=f / 24).point_data["normal"], expected)
+
+
 # ------------------------------------------------------------------ reading any curves
 def _write(path, *objects, chain=()):
     """An archive of curves objects: kwargs of :func:`abcfiles.add_curves` each."""

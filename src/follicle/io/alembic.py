@@ -61,6 +61,7 @@ is one FormatError, never a crash.
 from __future__ import annotations
 
 import contextlib
+import io
 import json
 import logging
 import os
@@ -149,7 +150,9 @@ def _bounds(points: np.ndarray, width: np.ndarray | None) -> np.ndarray:
     return np.stack([lo - pad, hi + pad]).astype(np.float64)
 
 
-def _curves_arrays(curves: HairCurves, normals: bool) -> tuple[list, dict[str, np.ndarray]]:
+def _curves_arrays(
+    curves: HairCurves, normals: bool
+) -> tuple[list[list[str]], dict[str, np.ndarray]]:
     """(params, arrays) of a ``curves`` operation: points, counts, bounds, widths,
     normals, uv and every other attribute as an arbGeomParam (warning of those that
     have no Alembic type)."""
@@ -172,7 +175,7 @@ def _curves_arrays(curves: HairCurves, normals: bool) -> tuple[list, dict[str, n
                 f"curve_data['root_uv']: expected shape ({curves.curve_count}, 2), got {uv.shape}"
             )
         arrays["uv"] = uv.astype(np.float32)
-    params = []
+    params: list[list[str]] = []  # [name, kind, scope] of each arbGeomParam
     pd = curves.point_data
     for data, scope in ((pd, "Vertex"), (curves.curve_data, "Uniform")):
         for name, arr in sorted(data.items()):
@@ -244,6 +247,10 @@ class _Sink:
             stdout=subprocess.PIPE,
             stderr=self.stderr,
         )
+        stdin, stdout = self.proc.stdin, self.proc.stdout
+        # stdin=PIPE and stdout=PIPE with Popen's default buffering: buffered binary files
+        assert isinstance(stdin, io.BufferedWriter) and isinstance(stdout, io.BufferedReader)
+        self.stdin, self.stdout = stdin, stdout
         self.target = Path()
 
     @classmethod
@@ -261,7 +268,7 @@ class _Sink:
             sink.send({"op": "open", "path": str(tmp)})
             yield sink
             sink.send({"op": "close"})
-            reply = sink.proc.stdout.readline()
+            reply = sink.stdout.readline()
             if reply.strip() != b'{"ok": true}':
                 raise sink._failed(reply)
         except BaseException:
@@ -275,8 +282,8 @@ class _Sink:
 
     def send(self, op: dict, arrays: dict[str, np.ndarray] | None = None) -> None:
         try:
-            send(self.proc.stdin, op, arrays)
-            self.proc.stdin.flush()
+            send(self.stdin, op, arrays)
+            self.stdin.flush()
         except OSError:  # the child has ended: it says why
             raise self._failed() from None
 
@@ -284,9 +291,9 @@ class _Sink:
         """The child's reason for stopping (its ``reply``, read here if not given), as
         one FormatError."""
         with contextlib.suppress(OSError):
-            self.proc.stdin.close()
+            self.stdin.close()
         code = self.proc.wait()
-        line = self.proc.stdout.readline() if reply is None else reply
+        line = self.stdout.readline() if reply is None else reply
         why = None
         with contextlib.suppress(ValueError, AttributeError):  # a line cut short by a crash
             why = json.loads(line).get("error")
@@ -304,7 +311,7 @@ class _Sink:
     def kill(self) -> None:
         self.proc.kill()
         self.proc.wait()
-        for stream in (self.proc.stdin, self.proc.stdout, self.stderr):
+        for stream in (self.stdin, self.stdout, self.stderr):
             with contextlib.suppress(OSError):
                 stream.close()
 
@@ -407,8 +414,9 @@ def _send_frame(
         "velocities": velocities,
         "bounds": _bounds(frame.points, column(first, "width", 1)),
     }
-    if "normal" in first.point_data:
-        arrays["normal"] = column(frame, "normal", 3)
+    normal = column(frame, "normal", 3) if "normal" in first.point_data else None
+    if normal is not None:  # a frame without them keeps the last (as in USD's writer)
+        arrays["normal"] = normal
     if timing is None:
         sink.send({"op": "sample", "path": path}, arrays)
         return
@@ -437,13 +445,13 @@ def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None
         where = SKIN if anim.head is None else f"{HEAD}/Skin"
         sink.send({"op": "mesh", "path": _shape(sink, where)}, skin)
     path = _shape(sink, f"{GROOM}/Hair_0000")
-    first = previous = velocities = None
-    for count, frame in enumerate(anim.frames, 1):
-        if first is None:
-            first = frame
-        else:
-            velocities = _velocities(previous, frame, anim.fps)
-            _send_frame(sink, path, previous, first, velocities, timing if count == 2 else None)
+    frames = enumerate(anim.frames, 1)
+    count, first = next(frames)  # (the stream raises InputError when it is empty)
+    previous = first
+    velocities: np.ndarray | None = None
+    for count, frame in frames:
+        velocities = _velocities(previous, frame, anim.fps)
+        _send_frame(sink, path, previous, first, velocities, timing if count == 2 else None)
         previous = frame
     if velocities is None:
         velocities = np.zeros_like(first.points)

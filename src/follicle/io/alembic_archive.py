@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
+from typing import TYPE_CHECKING, Protocol, cast
 
 import numpy as np
 from alembic3d import Abc, AbcGeom, Util
@@ -27,6 +28,9 @@ from alembic3d import Abc, AbcGeom, Util
 from . import curve_basis
 from .curve_space import SpaceError, to_world
 from .guard_rules import MAX_ANIMATION_POINTS, Refused
+
+if TYPE_CHECKING:
+    from typing_extensions import Buffer
 
 GUIDES_PATH = "/Groom/Guides"  # as follicle.io.alembic writes them
 GROOM_VERSION_KEYS = ("groom_version_major", "groom_version_minor")  # Unreal's groom schema
@@ -85,13 +89,53 @@ _SCOPE = {
 COLOR_NAMES = ("color", "cd", "displaycolor", "groom_color", "col")  # by priority, lower case
 
 
+# ------------------------------------------------------------------ alembic3d's handles
+class _DataType(Protocol):
+    """``AbcCoreAbstract.DataType``: a property's plain old data type and its extent."""
+
+    def getPod(self) -> object: ...
+    def getExtent(self) -> int: ...
+
+
+class _PropertyHeader(Protocol):
+    """``AbcCoreAbstract.PropertyHeader`` of an array property: what :func:`_array` reads."""
+
+    def getName(self) -> str: ...
+    def getDataType(self) -> _DataType: ...
+
+
+class _TimeSampling(Protocol):
+    """``AbcCoreAbstract.TimeSampling``: the time (s) of each sample index."""
+
+    def getSampleTime(self, index: int, /) -> float: ...
+
+
+class _Sampled(Protocol):
+    """A schema's samples (``IXformSchema``, ``IPolyMeshSchema``, ``ISubDSchema``)."""
+
+    def getTimeSampling(self) -> _TimeSampling: ...
+    def getNumSamples(self) -> int: ...
+
+
+class _MeshSample(Protocol):
+    """``IPolyMeshSchema.Sample`` or ``ISubDSchema.Sample``: the positions read here."""
+
+    def getPositions(self) -> object: ...
+
+
+class _MeshSchema(_Sampled, Protocol):
+    """``IPolyMeshSchema`` or ``ISubDSchema``: its samples, one per selector."""
+
+    def getValue(self, sel: Abc.ISampleSelector, /) -> _MeshSample: ...
+
+
 # ------------------------------------------------------------------ values
 def _numpy(values: object) -> np.ndarray:
     """An alembic3d (imath) array as a numpy copy: through its buffer when it has one,
     colours channel by channel (their arrays have none, and element by element they
     take seconds a million), other scalars element by element."""
-    with contextlib.suppress(TypeError):
-        return np.array(memoryview(values))
+    with contextlib.suppress(TypeError):  # memoryview checks it is a buffer
+        return np.array(memoryview(cast("Buffer", values)))
     channels = [getattr(values, c) for c in "rgba" if hasattr(values, c)]
     if channels:
         return np.stack([np.array(memoryview(c)) for c in channels], axis=1)
@@ -104,7 +148,10 @@ def _optional(values: object) -> np.ndarray:
 
 
 def _array(
-    compound: Abc.ICompoundProperty, header: object, sel: Abc.ISampleSelector, where: str
+    compound: Abc.ICompoundProperty,
+    header: _PropertyHeader,
+    sel: Abc.ISampleSelector,
+    where: str,
 ) -> np.ndarray | None:
     """The numeric array property ``header`` of ``compound`` as rows of 1-4 components
     (float16 widened to float32), or None when it holds strings or wider rows."""
@@ -112,7 +159,9 @@ def _array(
     dtype, extent = _POD.get(kind.getPod()), kind.getExtent()
     if dtype is None or not 1 <= extent <= 4:
         return None
-    arr = _numpy(compound.getProperty(header.getName()).getValue(sel)).astype(dtype, copy=False)
+    arr: np.ndarray = _numpy(compound.getProperty(header.getName()).getValue(sel)).astype(
+        dtype, copy=False
+    )
     if extent > 1 and arr.ndim == 1 and arr.size % extent == 0:
         arr = arr.reshape(-1, extent)
     if arr.shape[1:] != ((extent,) if extent > 1 else ()):
@@ -147,7 +196,7 @@ def _param(
 
 def _indices(
     compound: Abc.ICompoundProperty,
-    header: object,
+    header: _PropertyHeader,
     sel: Abc.ISampleSelector,
     count: int,
     where: str,
@@ -176,8 +225,11 @@ class _Curves:
         counts = _numpy(sample.getCurvesNumVertices())
         points = _numpy(sample.getPositions())
         self.counts = curve_basis.topology(counts, points, where, "nVertices", "P")
-        self.stencil, self.mapping = None, "all"
+        self.stencil: curve_basis.NurbsStencil | None = None
+        self.mapping = "all"
         self._reduction(sample)
+        self.out: np.ndarray  # output points per curve
+        self.points: np.ndarray  # the points the curves pass through
         if self.stencil is not None:
             self.out, varying = self.stencil.counts, self.stencil.varying_counts
             self.points = self.stencil.vertex(points.astype(np.float32))
@@ -233,8 +285,9 @@ class _Curves:
         elif knots.size == int((self.counts + orders - 2).sum()):
             knots = _pad_knots(knots, self.counts + orders - 2)
         weights = _optional(sample.getPositionWeights()).astype(np.float64)
-        weights = weights if weights.size else None
-        return curve_basis.nurbs_stencil(self.counts, orders, knots, weights, where=self.where)
+        return curve_basis.nurbs_stencil(
+            self.counts, orders, knots, weights if weights.size else None, where=self.where
+        )
 
     def per_point(self, name: str, values: np.ndarray, scope: str) -> np.ndarray:
         """``values`` of any scope as one row per output point."""
@@ -409,14 +462,17 @@ def _groom_version(obj: Abc.IObject, sel: Abc.ISampleSelector, where: str) -> li
             geom = Abc.ICompoundProperty(props, schema)
             if geom.getPropertyHeader(".userProperties") is not None:
                 user = Abc.ICompoundProperty(geom, ".userProperties")
-                found = [_scalar_int(user, k) for k in GROOM_VERSION_KEYS]
-                if None not in found:
-                    return found
+                major, minor = (_scalar_int(user, k) for k in GROOM_VERSION_KEYS)
+                if major is not None and minor is not None:
+                    return [major, minor]
             if xform and geom.getPropertyHeader(".arbGeomParams") is not None:
                 arb = Abc.ICompoundProperty(geom, ".arbGeomParams")
                 params = [_param(arb, k, sel, where) for k in GROOM_VERSION_KEYS]
-                if all(p is not None and p[0].size and p[0].dtype.kind in "iu" for p in params):
-                    return [int(p[0].reshape(-1)[0]) for p in params]
+                ints = [
+                    p[0] for p in params if p is not None and p[0].size and p[0].dtype.kind in "iu"
+                ]
+                if len(ints) == len(params):
+                    return [int(v.reshape(-1)[0]) for v in ints]
         obj = obj.getParent()
     return None
 
@@ -432,7 +488,7 @@ def _curves_part(
         points = to_world(part.points, point_data, world, where, "fix its Xforms")
     except (curve_basis.CurveBasisError, SpaceError) as exc:
         raise Refused(str(exc)) from None
-    found = {
+    found: dict[str, object] = {
         "where": where,
         "points": points,
         "offsets": np.concatenate([[0], np.cumsum(part.out)]),
@@ -511,10 +567,12 @@ def _xform(obj: Abc.IObject, sel: Abc.ISampleSelector, source: str) -> tuple[np.
     return local, bool(schema.getInheritsXforms(sel))
 
 
-def _sampled_times(obj: Abc.IObject, schema: object) -> list[float]:
+def _sampled_times(obj: Abc.IObject, schema: _Sampled) -> list[float]:
     """The times (s) of the object's samples and of the samples of the Xforms above it."""
-    times = set()
-    schemas = [schema] + [AbcGeom.IXform(p, _EXISTING).getSchema() for p in _parents(obj)]
+    times: set[float] = set()
+    schemas: list[_Sampled] = [schema] + [
+        AbcGeom.IXform(p, _EXISTING).getSchema() for p in _parents(obj)
+    ]
     for kind in schemas:
         sampling = kind.getTimeSampling()
         times.update(sampling.getSampleTime(i) for i in range(kind.getNumSamples()))
@@ -531,7 +589,7 @@ def _parents(obj: Abc.IObject) -> list[Abc.IObject]:
     return out
 
 
-def _animation(obj: Abc.IObject, schema: object, count: int, where: str, source: str) -> dict:
+def _animation(obj: Abc.IObject, schema: _MeshSchema, count: int, where: str, source: str) -> dict:
     """The mesh's world points at each of its samples and its Xforms': ``times`` (K,)
     in seconds and ``frames`` (K, P, 3)."""
     times = _sampled_times(obj, schema)
