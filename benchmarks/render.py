@@ -40,7 +40,7 @@ from common import best_of
 from follicle.groom.builtin_guides import builtin_guides
 from follicle.io.dispatch import save
 from follicle.io.mesh_load import load_mesh
-from follicle.pipeline import groom_scene, grow, render_scene, render_scene_mitsuba
+from follicle.pipeline import groom_scene, grow, render_scene
 from follicle.render import CpuRenderer, Renderer
 from follicle.render.settings import RenderParams
 from follicle.scene import Scene
@@ -138,7 +138,7 @@ def mitsuba_stills(spp: int) -> None:
     for size in ((640, 640), (1280, 720)):
         params = scene.render.model_copy(update={"size": size})
         start = time.perf_counter()
-        render_scene_mitsuba(curves, mesh, params, spp=spp)
+        render_scene(curves, mesh, params.replace(engine="mitsuba", spp=spp))
         ours = time.perf_counter() - start
         base = best_of(lambda p=params: render_scene(curves, mesh, p), repeat=2)
         print(f"{size[0]}×{size[1]:<7} {ours:10.1f} {base:9.2f} {ours / base:7.0f}")

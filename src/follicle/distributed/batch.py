@@ -31,7 +31,7 @@ text. It is the same bytes whichever way the batch ran.
 outputs asked for are kept, not made again (their rows read from ``outputs.json``); a
 folder holding anything else is an error naming it, never overwritten.
 
-**On a cluster** (``scheduler``, see :func:`follicle.distributed.connect`) each variant
+**On a cluster** (``scheduler``, see :func:`follicle.distributed.cluster.connect`) each variant
 is one Dask task: a worker grows, writes and renders it into the batch folder, which
 every worker must reach; the files are the same bytes as one process writes.
 """

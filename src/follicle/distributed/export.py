@@ -16,7 +16,7 @@ the files before it stay, whole, and neither it nor any after it is written. The
 folder goes when the job ends, fails or is stopped (SIGINT/SIGTERM: local workers are
 stopped first), and with it whatever later tasks had converted.
 
-**On a cluster** (``scheduler``, see :func:`follicle.distributed.connect`) the paths a
+**On a cluster** (``scheduler``, see :func:`follicle.distributed.cluster.connect`) the paths a
 worker is given are absolute, and every worker must reach them: the inputs and the
 output folders (a local disk for ``local:N``, a shared one for a cluster).
 """

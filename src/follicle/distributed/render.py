@@ -87,7 +87,7 @@ def render_cache(
     progress: Progress | None = None,
 ) -> list[Path]:
     """:func:`follicle.pipeline.render_cache` on the Dask cluster ``scheduler`` (see
-    :func:`follicle.distributed.connect`): frames of ``cache`` (read by
+    :func:`follicle.distributed.cluster.connect`): frames of ``cache`` (read by
     :func:`~follicle.io.sim_cache.load_cache` from a file every worker reaches) to
     ``out_dir/frame_0000.png``, …, each worker writing its own frames' PNGs, the same
     bytes as one process writes. Returns the paths in frame order; ``progress(done,

@@ -1,7 +1,7 @@
 """A path-traced reference still with Mitsuba 3, seen and lit like the OpenGL render.
 
 The same camera (or the same automatic framing), the same lights, skin colour and
-background gradient as :func:`follicle.render.render`, so the two images can be laid
+background gradient as :func:`follicle.render.render_image`, so the two images can be laid
 side by side. The hair is Mitsuba's ``bsplinecurve`` shape, loaded from curve files
 :func:`follicle.io.mitsuba.save_mitsuba` writes (round tubes through every vertex,
 radius = width / 2; several shapes, each closed by a sentinel, see

@@ -1,5 +1,5 @@
 """[render]: the settings of a render, one object for every renderer (the OpenGL
-:func:`~follicle.render.render` and :class:`~follicle.render.Renderer`, Mitsuba, the
+:func:`~follicle.render.render_image` and :class:`~follicle.render.Renderer`, Mitsuba, the
 viewer), and the lights of ``[[render.lights]]``.
 
 Every default is defined once, in :mod:`.options` and :mod:`.camera`, and read here.
