@@ -311,8 +311,8 @@ def view(folder: Path) -> None:
 
 def api(folder: Path) -> None:
     """The Python functions over arrays that no command calls on its own: splines,
-    frames, colours, noise, low-discrepancy points, the skin's SDF, hair volume and the
-    density sampler's maps."""
+    frames, colours, noise, low-discrepancy points, the skin's SDF, hair volume, the
+    density sampler's maps and the finite check of a large array."""
     import numpy as np
 
     from .. import color, frames, noise, rng, spline
@@ -357,6 +357,10 @@ def api(folder: Path) -> None:
     grid.sample_density(points)
     grid.sample_velocity(points)
     grid.density_gradient(points)
+    from ..arrays import SCAN_IN_PARALLEL, all_finite
+
+    for dtype in (np.float32, np.float64):  # a large array is scanned on every core
+        all_finite(np.zeros(SCAN_IN_PARALLEL, dtype))
 
 
 def commands(folder: Path) -> None:
