@@ -9,6 +9,8 @@ hair ids into chunks gives the same bytes.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, TypedDict
+
 import numpy as np
 
 from ..color import hsv_to_rgb1, hue_distance1, rgb_to_hsv1
@@ -17,6 +19,9 @@ from ..kernels import kernel, prange
 from ..rng import purpose_id, stream_key, uniform
 from ..validate import whole
 from .params import curve_parameter, per_hair, row
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 __all__ = ["ENDS", "hair_ends", "vertex_look", "hair_appearance"]
 
@@ -180,8 +185,29 @@ def hair_ends(
     return ends
 
 
+class EndsProperties(TypedDict):
+    """The keyword arguments of :func:`hair_ends` after its first two, which
+    :func:`hair_appearance` passes on."""
+
+    root_color: object
+    tip_color: object
+    hue_var: float | np.ndarray
+    sat_var: float | np.ndarray
+    val_var: float | np.ndarray
+    mutant_fraction: float | np.ndarray
+    mutant_color: object
+    root_width: float | np.ndarray
+    tip_width: float | np.ndarray
+    root_opacity: float | np.ndarray
+    tip_opacity: float | np.ndarray
+
+
 def hair_appearance(
-    hair_ids: object, seed: int, vertices: int, t: np.ndarray | None = None, **properties: object
+    hair_ids: object,
+    seed: int,
+    vertices: int,
+    t: np.ndarray | None = None,
+    **properties: Unpack[EndsProperties],
 ) -> dict[str, np.ndarray]:
     """Point data ``color`` (n·N, 3), ``width``, ``opacity`` (n·N,) float32, in hair order.
 

@@ -61,13 +61,16 @@ def sample_roots(mesh: SkinMesh, count: int) -> tuple[np.ndarray, np.ndarray]:
     """
     tex = mesh.textures.get(SCALP_TEXTURE)
     if tex is None or mesh.uvs is None:
-        return DensitySampler(mesh).sample(count, sequence="halton", start=1)
+        tri, bary = DensitySampler(mesh).sample(count, sequence="halton", start=1)
+        return tri, bary
     values = tex.data[:, :, 0]
     if not values.max() > _MIN_DENSITY:
         raise InputError(f"mesh '{mesh.name}': no area with scalp density > {_MIN_DENSITY}")
     cut = Texture(np.where(values > _MIN_DENSITY, values, 0.0), wrap=tex.wrap, name=tex.name)
     sampler = DensitySampler(mesh, cut)
-    tris, barys, start = [], [], 1
+    tris: list[np.ndarray] = []
+    barys: list[np.ndarray] = []
+    start = 1
     while sum(len(t) for t in tris) < count:
         tri, bary = sampler.sample(2 * count, sequence="halton", start=start)
         start += 2 * count

@@ -19,7 +19,7 @@ from __future__ import annotations
 import logging
 import os
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,7 +72,7 @@ _CURVE_FIELDS = {
 }
 
 
-def _bytes(fields: dict[str, tuple[type, tuple[int, ...]]]) -> int:
+def _bytes(fields: Mapping[str, tuple[type, tuple[int, ...]]]) -> int:
     return sum(np.dtype(dtype).itemsize * int(np.prod(shape)) for dtype, shape in fields.values())
 
 
@@ -144,6 +144,10 @@ class _Layout:
     guide_weight: np.ndarray  # (n, k) float32
     clump: np.ndarray | None  # (n,) clump centre, −1 for none
     turn: np.ndarray  # (n, 2) cos, sin of the guide-aligned frame about the normal
+
+
+# what finds a group's guides near a root: a triangulation for barycentric interpolation
+_Finder = PointGrid | GuideTriangulation
 
 
 @dataclass
@@ -249,7 +253,7 @@ class Groom:
         self._resolve = resolve_path
         self._p: GroomParams | None = None
         self._layouts: dict[tuple[int, int], _Layout] = {}
-        self._weights_by_group: dict[int, object] = {}
+        self._weights_by_group: dict[int, tuple[np.ndarray, _Finder]] = {}
         self._centre_roots: tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._centre_shapes: np.ndarray | None = None
         self._lock = threading.RLock()
@@ -274,6 +278,8 @@ class Groom:
     # ------------------------------------------------------------------ parameters
     @property
     def params(self) -> GroomParams:
+        # None only inside __init__, before its first assignment to self.params
+        assert self._p is not None
         return self._p
 
     @params.setter
@@ -325,7 +331,7 @@ class Groom:
         """``pose`` checked as a pose of this groom's mesh (None: the rest pose)."""
         if pose is None or pose is self.mesh:
             return None
-        if not self.mesh.same_skin(pose):
+        if not isinstance(pose, SkinMesh) or not self.mesh.same_skin(pose):
             got = f"mesh '{pose.name}'" if isinstance(pose, SkinMesh) else type(pose).__name__
             raise InputError(
                 f"pose: expected the groom's mesh '{self.mesh.name}' in some pose"
@@ -431,9 +437,7 @@ class Groom:
                 parts.append(_subset(lay, np.flatnonzero(again)))
         if not parts:
             return previous
-        lay = _Layout(
-            *(_joined([getattr(p, f) for p in parts]) for f in _Layout.__dataclass_fields__)
-        )
+        lay = _joined(parts)
         out = _allocate(self._vertex_bound(lay), len(lay.ids) * self.params.strand_count)
         shaped = self._shape(lay, time, posed, skin)
         self._assemble(lay, shaped, out, 0, 0)
@@ -472,7 +476,8 @@ class Groom:
         them, with their ids, grows exactly those hairs of :meth:`generate`."""
         count = self.params.count if count is None else count
         self._check_range(count, start)
-        return self.sampler.sample(count, self.params.seed, "random", start)
+        tri, bary = self.sampler.sample(count, self.params.seed, "random", start)
+        return tri, bary
 
     def guide_binding(self, hair_ids: object, k: int = 3) -> tuple[np.ndarray, np.ndarray]:
         """The ``k`` guides that weigh most in each hair's interpolation and their
@@ -585,26 +590,30 @@ class Groom:
         for g in np.unique(group):
             sel = np.flatnonzero(group == g)
             members, finder = self._group_guides(int(g))
+            # _group_finder made the finder for p.interpolation (a change of it clears them)
             if p.interpolation == "barycentric":
+                assert isinstance(finder, GuideTriangulation)
                 idx, w = finder.weights(rest.position[sel], rest.normal[sel])
             elif p.interpolation == "offset":
+                assert isinstance(finder, PointGrid)
                 _, idx = finder.query(rest.position[sel], 1)
                 w = np.ones((len(sel), 1), np.float32)
             else:
+                assert isinstance(finder, PointGrid)
                 idx, w = idw_weights(finder, rest.position[sel], p.guide_samples)
             index[sel, : idx.shape[1]] = members[idx]
             index[sel, idx.shape[1] :] = members[idx[:, :1]]  # padding, weight 0
             weight[sel, : idx.shape[1]] = w
         return index, weight
 
-    def _group_guides(self, group: int) -> tuple[np.ndarray, object]:
+    def _group_guides(self, group: int) -> tuple[np.ndarray, _Finder]:
         """A group's guide indices and their PointGrid (or triangulation), made once."""
         with self._lock:  # chunks of one generate run on several threads
             if group not in self._weights_by_group:
                 self._weights_by_group[group] = self._group_finder(group)
             return self._weights_by_group[group]
 
-    def _group_finder(self, group: int) -> tuple[np.ndarray, object]:
+    def _group_finder(self, group: int) -> tuple[np.ndarray, _Finder]:
         """Make :meth:`_group_guides`' pair; an error when the group has no guides."""
         label = self.guides.groups.label(group)
         members = np.flatnonzero(self.guides.group == group)
@@ -925,18 +934,40 @@ class Groom:
 
 def _subset(lay: _Layout, rows: np.ndarray) -> _Layout:
     """The roots ``rows`` of a layout."""
-    fields = {f: getattr(lay, f) for f in _Layout.__dataclass_fields__}
-    out = {f: None if v is None else v[rows] for f, v in fields.items() if f != "rest"}
-    return _Layout(rest=SurfacePoints(*(a[rows] for a in lay.rest)), **out)
+    return _Layout(
+        ids=lay.ids[rows],
+        triangles=lay.triangles[rows],
+        bary=lay.bary[rows],
+        rest=SurfacePoints(*(a[rows] for a in lay.rest)),
+        group=lay.group[rows],
+        guide_index=lay.guide_index[rows],
+        guide_weight=lay.guide_weight[rows],
+        clump=None if lay.clump is None else lay.clump[rows],
+        turn=lay.turn[rows],
+    )
 
 
-def _joined(parts: list) -> object:
-    """Layout fields of several id ranges joined: arrays, surface points or None."""
-    if parts[0] is None:
-        return None
-    if isinstance(parts[0], SurfacePoints):
-        return SurfacePoints(*(np.concatenate(a) for a in zip(*parts, strict=True)))
-    return np.concatenate(parts)
+def _joined(parts: list[_Layout]) -> _Layout:
+    """The layouts of several id ranges as one, in their order."""
+
+    def joined(field: Callable[[_Layout], np.ndarray]) -> np.ndarray:
+        return np.concatenate([field(p) for p in parts])
+
+    # all have clumps or none: the layouts of one params (a clump_count change clears them)
+    clumps = [p.clump for p in parts if p.clump is not None]
+    return _Layout(
+        ids=joined(lambda p: p.ids),
+        triangles=joined(lambda p: p.triangles),
+        bary=joined(lambda p: p.bary),
+        rest=SurfacePoints(
+            *(np.concatenate(a) for a in zip(*(p.rest for p in parts), strict=True))
+        ),
+        group=joined(lambda p: p.group),
+        guide_index=joined(lambda p: p.guide_index),
+        guide_weight=joined(lambda p: p.guide_weight),
+        clump=None if parts[0].clump is None else np.concatenate(clumps),
+        turn=joined(lambda p: p.turn),
+    )
 
 
 def _spans(start: int, count: int) -> list[tuple[int, int]]:

@@ -37,6 +37,8 @@ class InterpolationGroups:
         self, texture: Texture | None = None, vertices: Mapping[str, int] | None = None
     ) -> None:
         self.texture = texture
+        self.colors: np.ndarray  # (G, 3) uint8, a group's colour
+        self._ids: np.ndarray  # (H, W) int32, each texel's group
         if texture is None:
             self.colors = np.zeros((1, 3), dtype=np.uint8)
             self._ids = np.zeros((1, 1), dtype=np.int32)

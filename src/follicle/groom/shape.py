@@ -208,7 +208,7 @@ def frizz(
     amp_root: float | np.ndarray,
     amp_tip: float | np.ndarray,
     frequency: np.ndarray,
-    offset: np.ndarray = (0.0, 0.0, 0.0),
+    offset: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0),
     blend: float | np.ndarray = 0.0,
     t: np.ndarray | None = None,
 ) -> None:

@@ -9,15 +9,15 @@ numbers after it, see :data:`SHAPES`), and the skin's SDF as the arguments of
 :func:`sdf_sample` (an empty grid for none).
 
 A new shape is one entry in :data:`~follicle.sim.settings.SHAPES` (its name and its
-fields, which ``[[sim.colliders]]`` then accepts) and one ``_push_*`` kernel here,
-called from :func:`collide` for its kind.
+fields, which ``[[sim.colliders]]`` then accepts; its name in ``ShapeKind`` too) and
+one ``_push_*`` kernel here, called from :func:`collide` for its kind.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -91,8 +91,16 @@ class Colliders(NamedTuple):
         return np.array(out, np.float64).reshape(-1, 3)
 
 
+class Shape(Protocol):
+    """A collider as :func:`colliders` reads it: its ``kind`` (a name in :data:`SHAPES`);
+    the fields that entry names and ``follow`` are read by name (``getattr``)."""
+
+    @property
+    def kind(self) -> str: ...
+
+
 def colliders(
-    shapes: Iterable[object], sdf: tuple = NO_SDF, transform: np.ndarray | None = None
+    shapes: Iterable[Shape], sdf: tuple = NO_SDF, transform: np.ndarray | None = None
 ) -> Colliders:
     """The :class:`Colliders` of ``shapes`` (objects with ``kind`` and the fields
     :data:`SHAPES` names, e.g. ``[[sim.colliders]]`` entries) and ``sdf``, in their

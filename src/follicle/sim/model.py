@@ -51,6 +51,8 @@ class Model:
         """The model of ``guides`` (bound to ``mesh`` when given) with N = ``vertices``."""
         if isinstance(guides, HairCurves) and mesh is not None:
             guides = Guides(guides, mesh)
+        tri: np.ndarray | None  # the roots' binding: only guides on a mesh have one
+        bary: np.ndarray | None
         if isinstance(guides, Guides):
             n = vertices or guides.vertex_count
             _check_vertices(n)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Annotated, ClassVar, Literal
+from typing import Annotated, ClassVar, Literal, get_args
 
 from pydantic import Field, model_validator
 
@@ -24,19 +24,25 @@ Acceleration = Annotated[tuple[Accel, Accel, Accel], Field(strict=False)]
 # The collider shapes: each one's fields in the order the kernels read them, each a
 # point (moved with the head), a direction (turned with it) or a scalar (kept). A
 # shape's kind is its place here; :mod:`follicle.sim.collision` has a kernel for each
-# (a new shape: an entry here, its fields on ColliderParams, one kernel there).
+# (a new shape: an entry here and in ShapeKind, its fields on ColliderParams, one
+# kernel there).
+ShapeKind = Literal["sphere", "capsule", "plane"]
 SHAPES: dict[str, tuple[tuple[str, str], ...]] = {
     "sphere": (("centre", "point"), ("radius", "scalar")),
     "capsule": (("a", "point"), ("b", "point"), ("radius", "scalar")),
     "plane": (("centre", "point"), ("normal", "direction")),
 }
+# ShapeKind spells SHAPES' names out for the type checker (a Literal cannot be made
+# from them); the two must not drift apart
+if get_args(ShapeKind) != tuple(SHAPES):  # pragma: no cover - a programming error
+    raise RuntimeError(f"ShapeKind {get_args(ShapeKind)} is not SHAPES' {tuple(SHAPES)}")
 
 
 class ColliderParams(StrictSection):
     """A sphere (centre, radius), capsule (a, b, radius) or plane (centre: a point on it,
     normal: the side the hair stays on) that the hair cannot enter."""
 
-    kind: Literal[tuple(SHAPES)] = Field("sphere", description=" or ".join(SHAPES))
+    kind: ShapeKind = Field("sphere", description=" or ".join(SHAPES))
     centre: Vec3 = Field((0.0, 0.0, 0.0), description="sphere centre, or a point on the plane, m")
     a: Vec3 = Field((0.0, 0.0, 0.0), description="capsule axis start, m")
     b: Vec3 = Field((0.0, 0.0, 0.0), description="capsule axis end, m")

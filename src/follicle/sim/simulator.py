@@ -213,6 +213,8 @@ class Simulator:
         sim.params.replace(gravity=(0, 0, 0))``): it applies from the next step; a change
         to a key of :data:`MODEL_KEYS` rebuilds the model, the skin's field and the rest
         clearances and puts the hair back at rest on the current pose."""
+        # None only inside __init__, before its first assignment to self.params
+        assert self._params is not None
         return self._params
 
     @params.setter
@@ -253,7 +255,7 @@ class Simulator:
         the pose changes)."""
         if self._pinned_cache is None:
             m = self.model
-            if self.mesh is not None:
+            if self._pose is not None:  # None exactly when self.mesh is
                 cur = self._pose.evaluate(m.triangles, m.bary, pose="current")
                 frames = _orthonormal(cur.tangent, cur.binormal, cur.normal)
                 self._pinned_cache = (np.ascontiguousarray(cur.position, np.float64), frames)

@@ -20,7 +20,7 @@ A strand whose step would leave a non-finite value is put back as it was and rep
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import NamedTuple, overload
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from .constraints import (
 )
 from .forces import acceleration
 from .model import Model
+from .settings import SimParams
 from .state import State
 
 __all__ = [
@@ -57,11 +58,19 @@ __all__ = [
 SHAPE_SUBSTEP = 1 / 120
 
 
+@overload
+def linearised(k: float, iterations: int) -> float: ...
+@overload
+def linearised(k: np.ndarray, iterations: int) -> np.ndarray: ...
 def linearised(k: float | np.ndarray, iterations: int) -> float | np.ndarray:
     """Le Muzic 2012 eq. 5.5: the per-iteration stiffness that gives ``k`` after ``iterations``."""
     return 1.0 - (1.0 - k) ** (1.0 / iterations)
 
 
+@overload
+def per_substep(k: float, substep: float) -> float: ...
+@overload
+def per_substep(k: np.ndarray, substep: float) -> float | np.ndarray: ...  # 0-d: a float
 def per_substep(k: float | np.ndarray, substep: float) -> float | np.ndarray:
     """A shape stiffness ``k`` given for a substep of SHAPE_SUBSTEP, for a substep of
     ``substep`` s with the same compliance α (XPBD, Macklin et al. 2016: a soft
@@ -577,7 +586,7 @@ class Solver:
     """Runs substeps of a Model's strands with one set of parameters (a SimParams)."""
 
     def __init__(
-        self, model: Model, params: object, rest_clearance: np.ndarray | None = None
+        self, model: Model, params: SimParams, rest_clearance: np.ndarray | None = None
     ) -> None:
         """``rest_clearance`` (S, N): each vertex's distance from the colliders at rest
         (negative inside): a vertex groomed nearer than the margin keeps that nearness as
@@ -592,7 +601,7 @@ class Solver:
         )
         self.energy = np.zeros(model.strands)  # ½ Σ |Δx / dt|² per strand, last substep
         self._bad = np.zeros(model.strands, np.uint8)
-        self._for: object = None  # the params the constants were made for
+        self._for: SimParams | None = None  # the params the constants were made for
 
     def global_profile(self) -> np.ndarray:
         """Per-vertex global shape stiffness (linearised): full up to the range start,
@@ -602,6 +611,7 @@ class Solver:
         start, end = p.shape_global_range
         fade = np.clip((end - t) / max(end - start, 1e-9), 0.0, 1.0)
         k = per_substep(p.shape_global * np.where(t <= start, 1.0, fade), p.substep)
+        assert isinstance(k, np.ndarray)  # (N,): only a 0-d array comes back as a float
         return linearised(k, p.iterations)
 
     def hold_profile(self) -> np.ndarray:

@@ -122,7 +122,8 @@ def _fitted(pts: np.ndarray, resolution: int, voxel_size: float | None, margin: 
         h *= max(float(np.cbrt(np.prod(cells) / _MAX_CELLS)), 1.01)
         cells = _cells(extent, h, margin)
     origin = (lo + hi) / 2 - h * cells / 2
-    return GridSpec(origin=origin, voxel=h, shape=tuple(int(c) + 1 for c in cells))
+    nx, ny, nz = (int(c) + 1 for c in cells)  # the vertices: one more than the cells
+    return GridSpec(origin=origin, voxel=h, shape=(nx, ny, nz))
 
 
 def _cells(extent: np.ndarray, h: float, margin: int) -> np.ndarray:
