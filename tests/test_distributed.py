@@ -17,7 +17,6 @@ import pytest
 import follicle.distributed.cluster as dcluster
 import follicle.distributed.grow as dgrow
 from follicle.errors import ConfigError
-from follicle.io.dispatch import save
 from follicle.pipeline import groom_scene
 from follicle.scene import scene_from_toml
 from hostile import assert_cli_refused, run_cli, session, session_workers, wait_session_ends, warm
@@ -33,29 +32,19 @@ def _scene(tmp_path):
 
 
 def _one_process(scene, path, target="generic"):
-    """What `follicle grow` writes in one process."""
-    from follicle.cli import _grown_chunks
-    from follicle.io.targets import writer_extras
+    """What `follicle grow` writes in one process (follicle.export.grow_file, its call)."""
+    from follicle.export import grow_file
 
-    groom = groom_scene(scene)
-    if path.suffix == ".npz":
-        save(groom.generate(), path)
-        return path
-    extras = writer_extras(path, target, groom.guides.curves, groom.mesh)
-    save(_grown_chunks(groom, lambda *_: None, [0, 0], target), path, **extras)
+    grow_file(scene, path, target)
     return path
 
 
 def _one_process_payloads(scene, path, target, chunk):
     """What `follicle grow --layout payloads --chunk CHUNK` writes in one process."""
-    from follicle.cli import _grown_chunks
-    from follicle.io.usd_payloads import save_usd_payloads
+    from follicle.export import grow_file
 
-    groom = groom_scene(scene)
-    chunks = _grown_chunks(groom, lambda *_: None, [0, 0], target, chunk)
-    return save_usd_payloads(
-        chunks, path, guides=groom.guides.curves, mesh=groom.mesh, target=target
-    )
+    grow_file(scene, path, target, chunk=chunk, layout="payloads")
+    return path
 
 
 def _layout_bytes(root: Path) -> dict[str, bytes]:
