@@ -123,7 +123,7 @@ def _signal(proc: subprocess.Popen, signum: int) -> None:
 
 @pytest.fixture(params=["opengl", "cpu"])
 def each_engine(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
-    """Run the test once per raster engine: ``follicle.render(...)`` without an
+    """Run the test once per raster engine: ``follicle.render_image(...)`` without an
     ``engine`` (and without settings) then draws with it. Engine availability is per
     parameter: without EGL / OpenGL 3.3 the ``opengl`` run is skipped (as ``@gl`` skips,
     never in CI) and the ``cpu`` run goes ahead. A test that needs OpenGL whatever the
