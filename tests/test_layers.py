@@ -33,12 +33,13 @@ LAYERS = [
         "threads",
         "kernels",
         "lazy",
+        "progress",
     },
     {"mesh"},
     {"io"},
     {"groom", "sim", "render"},
     {"scene", "editing"},  # editing: guides brushed through a camera (groom and render)
-    {"pipeline", "distributed", "export"},
+    {"pipeline", "distributed", "export", "render_job", "simulate_job"},
     {"cli", "view", "apps", "__init__", "__main__"},
     {"prebuild"},  # runs the commands (cli) to compile every kernel; started as a process
 ]

@@ -2,6 +2,7 @@
 # follicle/__init__.py imports each name from on its first use (follicle.lazy).
 from . import render as render
 from .curves import HairCurves as HairCurves
+from .distributed.batch import plan_batch as plan_batch
 from .editing.editor import GuideEditor as GuideEditor
 from .errors import ConfigError as ConfigError
 from .errors import FileAccessError as FileAccessError
@@ -10,6 +11,8 @@ from .errors import FormatError as FormatError
 from .errors import InputError as InputError
 from .errors import ResourceError as ResourceError
 from .errors import SimulationError as SimulationError
+from .export import plan_export as plan_export
+from .export import plan_grow as plan_grow
 from .groom.generator import Groom as Groom
 from .groom.guides import Guides as Guides
 from .groom.guides import load_guides as load_guides
@@ -25,8 +28,10 @@ from .pipeline import grow as grow
 from .render.backends import render_image as render_image
 from .render.camera import Camera as Camera
 from .render.camera import Light as Light
+from .render_job import plan_render as plan_render
 from .scene import Scene as Scene
 from .scene import load_scene as load_scene
 from .sim.simulator import Simulator as Simulator
+from .simulate_job import plan_simulate as plan_simulate
 
 __version__: str

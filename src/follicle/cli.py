@@ -14,7 +14,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, get_args
+from typing import TYPE_CHECKING, NoReturn, get_args
 
 import click
 from rich.console import Console
@@ -31,11 +31,10 @@ from rich.progress import (
 from rich.text import Text
 
 from .errors import FollicleError
+from .validate import check_suffix
 
 if TYPE_CHECKING:
-    from .io.sim_cache import SimCache
     from .pipeline import SimRun
-    from .render.backends import Engine
     from .scene import Scene
 
 log = logging.getLogger("follicle")
@@ -59,7 +58,7 @@ class _Group(click.Group):
             self._fail(ctx, f"{where}{exc.strerror or exc}")
 
     @staticmethod
-    def _fail(ctx: click.Context, message: str) -> None:
+    def _fail(ctx: click.Context, message: str) -> NoReturn:
         """One line, whatever the message holds: control characters (a newline in a file
         name) are shown escaped."""
         line = message.translate(_ESCAPES)
@@ -116,6 +115,14 @@ def _step(what: str) -> Iterator[None]:
     start = time.perf_counter()
     yield
     log.info("%s in %.2f s", what, time.perf_counter() - start)
+
+
+@contextlib.contextmanager
+def _stage(label: str) -> Iterator[Callable[[int, int], None]]:
+    """One stage of a library job (:class:`follicle.progress.Stage`): a bar labelled
+    ``label`` on a terminal, and its time in the log."""
+    with _step(label), _progress(label) as progress:
+        yield progress
 
 
 # what the running command has finished and keeps when a signal stops it: a function
@@ -183,7 +190,7 @@ class _LazyChoice(click.Choice):
         self.case_sensitive = True
 
     @property
-    def choices(self) -> tuple[str, ...]:  # type: ignore[override]
+    def choices(self) -> tuple[str, ...]:
         if self._values is None:
             self._values = self._make()
         return self._values
@@ -342,36 +349,21 @@ def grow(
     memory stays bounded whatever the count. USD and Alembic files also get the guides
     and the skin mesh, named and typed for the --target tool.
     """
-    from .scene import load_scene
+    from .export import plan_grow
 
-    scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
-    path = out or scene.output_path(scene.output.curves)
-    from .export import check_suffix, curve_suffixes
-
-    check_suffix(path, curve_suffixes())
-    tool = target_name or scene.output.target
-    _check_target(path, tool)
-    layout = layout or scene.output.layout
-    if chunk is not None and chunk < 1:
-        raise FollicleError(f"--chunk {chunk}: give a whole number of hairs ≥ 1")
-    if chunk is not None and scheduler is None and layout == "file":
-        raise FollicleError(
-            "--chunk: sizes the Dask tasks of --scheduler, or the part files of --layout"
-            " payloads; give one of them"
-        )
-    if layout == "payloads":
-        from .io.usd_payloads import check_payloads_target, payloads_folder
-
-        check_payloads_target(path)  # before any hair is grown
-        _check_apart(path, scene_path, scene, folders=[payloads_folder(path)])
-    else:
-        _check_apart(path, scene_path, scene)
-    from .export import grow_file
-
-    where = " on Dask" if scheduler is not None else ""
-    with _step(f"grow{where}"), _progress(f"growing hair{where}") as progress:
-        hairs, points = grow_file(scene, path, tool, skin, scheduler, chunk, layout, progress)
-    click.echo(f"{hairs:,} hairs, {points:,} points → {path}")
+    job = plan_grow(
+        scene_path,
+        out,
+        count=count,
+        seed=seed,
+        target=target_name,
+        skin=skin,
+        scheduler=scheduler,
+        chunk=chunk,
+        layout=layout,
+    )
+    hairs, points = job.run(_stage)
+    click.echo(f"{hairs:,} hairs, {points:,} points → {job.path}")
 
 
 @main.command()
@@ -396,11 +388,12 @@ def groom(
     """Replay a stroke log (brushes on the guides, README: Grooming by hand) headless
     and save the guides it makes."""
     from .editing.editor import replay_file
-    from .export import check_suffix, curve_suffixes
+    from .export import curve_suffixes
+    from .scene import check_outputs
 
     check_suffix(out, curve_suffixes())
     given = (("the stroke log", strokes_path), ("--guides", guides), ("--mesh", mesh))
-    _check_apart([out, *([groups_out] if groups_out else [])], None, more=given)
+    check_outputs([out, *([groups_out] if groups_out else [])], more=given)
     with _step("groom"):
         editor = replay_file(strokes_path, guides, mesh)
     editor.save(out)
@@ -409,34 +402,6 @@ def groom(
         editor.save_groups(groups_out)
         click.echo(f"{editor.groups.count} interpolation groups → {groups_out}")
     click.echo(f"{entries:,} strokes, {editor.guides.count:,} guides → {out}")
-
-
-def _check_target(path: str, target: str) -> None:
-    """``--target`` only for the formats that carry names (:func:`check_named`)."""
-    from .io.targets import check_named
-
-    check_named(path, Path(path).suffix, target, "--target")
-
-
-def _check_apart(
-    outputs: str | os.PathLike[str] | list,
-    source: str | None,
-    scene: Scene | None = None,
-    more: tuple[tuple[str, str | None], ...] = (),
-    folders: list | tuple = (),
-) -> None:
-    """Before anything is read: InputError when an output would replace an input of the
-    same run, the scene file ``source`` or a file the ``scene`` reads (its mesh, guides,
-    textures, skin animation), or one of ``more`` ((label, path or None) pairs; see
-    :func:`follicle.inputs.check_apart`)."""
-    from .inputs import check_apart
-    from .scene import scene_files
-
-    inputs = [("the scene", source)] if source else []
-    inputs += scene_files(scene) if scene is not None else []
-    inputs += [(label, path) for label, path in more if path]
-    outs = [outputs] if isinstance(outputs, (str, os.PathLike)) else outputs
-    check_apart(outs, inputs, folders)
 
 
 @main.command()
@@ -487,59 +452,26 @@ def export(
     before it are converted: when a file fails, the files before it stay, and it and
     those after it are not written.
     """
-    from .distributed.export import convert
-    from .export import check_suffix, curve_suffixes, export_cache, export_skin, mesh_only
-    from .io.mesh_load import BUILTIN_MESHES
-    from .io.sim_cache import is_cache
+    from .export import plan_export
 
-    tool = target_name or "generic"
-    if len(sources) > 1 or suffix is not None or scheduler is not None or Path(out).is_dir():
-        _export_files(sources, out, suffix, tool, scheduler)
-        return
-    source = sources[0]
-    _check_apart(out, None, more=(("its own input", source),))
-    if (
-        source.startswith("builtin:")
-        and source[len("builtin:") :] in BUILTIN_MESHES
-        or mesh_only(out)
-    ):
-        mesh = export_skin(source, out, tool)
+    job = plan_export(
+        sources, out, suffix=suffix, target=target_name, skin=skin, scheduler=scheduler
+    )
+    _keeping(_finished(list(job.targets)))
+    done = job.run(_stage)
+    if done.mesh is not None:
+        mesh = done.mesh
         click.echo(
             f"mesh '{mesh.name}': {len(mesh.rest_vertices):,} vertices,"
             f" {len(mesh.faces):,} triangles → {out}"
         )
-        return
-
-    check_suffix(out, curve_suffixes())
-    _check_target(out, tool)
-    if is_cache(source):
-        with _step("export"), _progress("writing frames") as progress:
-            done = export_cache(source, out, skin, tool, progress)
-        moving = f" with the {done.skin} skin" if done.skin else ""
+    elif done.cache is not None:
+        moving = f" with the {done.cache.skin} skin" if done.cache.skin else ""
         click.echo(
-            f"{done.frames} frames of {done.strands:,} guides × {done.vertices} vertices"
-            f" at {done.fps:g} fps{moving} → {out}"
+            f"{done.cache.frames} frames of {done.cache.strands:,} guides ×"
+            f" {done.cache.vertices} vertices at {done.cache.fps:g} fps{moving} → {out}"
         )
-        return
-    hairs, points = convert(source, out, tool)
-    click.echo(f"{hairs:,} hairs, {points:,} points → {out}")
-
-
-def _export_files(
-    sources: tuple[str, ...], out: str, suffix: str | None, target: str, scheduler: str | None
-) -> None:
-    """`follicle export IN... -o FOLDER --to SUFFIX`: the curves files converted, here or
-    on the Dask cluster ``scheduler``, with a line for each."""
-    from .distributed.export import export_files
-    from .export import export_targets
-
-    targets = export_targets(sources, out, suffix)
-    _check_target(targets[0], target)
-    where = " on Dask" if scheduler else ""
-    with _step(f"export{where}"), _progress(f"converting files{where}") as progress:
-        _keeping(_finished(targets))
-        done = export_files(sources, targets, scheduler, target, progress)
-    for path, (hairs, points) in zip(targets, done, strict=True):
+    for path, (hairs, points) in zip(job.targets, done.counts, strict=False):
         click.echo(f"{hairs:,} hairs, {points:,} points → {path}")
 
 
@@ -589,13 +521,11 @@ def export_rib(scene_path: str, out: str, voxels: int, count: int | None, seed: 
     """Write a RenderMan RIB that grows the scene's hair at render time: one
     `Procedural "RunProgram"` per voxel, run by follicle-procedural (README § Formats)."""
     from .apps.procedural import export_rib as export
-    from .scene import load_scene
+    from .scene import check_outputs, load_scene, scene_with
 
-    scene = _with_overrides(load_scene(scene_path), count=count, seed=seed)
-    from .export import check_suffix
-
+    scene = scene_with(load_scene(scene_path), "groom", {"count": count, "seed": seed})
     check_suffix(out, (".rib",))
-    _check_apart([out, str(Path(out).with_suffix(".follicle.z"))], scene_path, scene)
+    check_outputs([out, str(Path(out).with_suffix(".follicle.z"))], scene_path, scene)
     with _step("grow and bound"), _progress("bounding voxels") as progress:
         done = export(scene, out, voxels, progress=progress)
     sizes = [p.stat().st_size for p in (done.rib, done.frame)]
@@ -674,47 +604,46 @@ def batch(
     scene × every combination of --vary values × each of --seeds, each into a folder of
     its own, with a manifest of parameters, files and SHA-256s. Run it again after a stop
     and it keeps the variants already made."""
-    from .distributed.batch import (
-        SCENE_SUFFIX,
-        Outputs,
-        parse_seeds,
-        parse_vary,
-        run_batch,
-        variants,
+    from .distributed.batch import plan_batch
+
+    job = plan_batch(
+        scene_paths,
+        out,
+        vary=vary,
+        seeds=seeds,
+        count=count,
+        curves=curves,
+        image=image,
+        size=size,
+        engine=engine,
+        target=target_name,
+        skin=skin,
+        scheduler=scheduler,
+        manifest=manifest_format,
     )
-    from .scene import load_scene
-
-    render = {k: v for k, v in {"size": size, "engine": engine}.items() if v is not None}
-    scenes = []
-    for path in scene_paths or (None,):
-        scene = _with_overrides(load_scene(path), count=count)
-        if render:
-            scene = scene.replace(render=scene.render.replace("command line", **render))
-        scenes.append((path or "default", scene))
-    sweeps = [parse_vary(v) for v in vary]
-    batch_ = variants(scenes, sweeps, None if seeds is None else parse_seeds(seeds))
-    suffix = SCENE_SUFFIX if curves is None else curves.lower()
-    if suffix not in ("none", SCENE_SUFFIX) and not suffix.startswith("."):
-        suffix = f".{suffix}"  # --curves usdc as well as .usdc
-    outputs = Outputs(None if suffix == "none" else suffix, image, target_name, skin)
-    where = " on Dask" if scheduler else ""
-    with _step(f"batch{where}"), _progress(f"making {len(batch_):,} variants{where}") as progress:
-        done = [0]
-        _keeping(
-            lambda: (
-                f"the variants finished, {done[0]:,} of {len(batch_):,}, in {out} (run the"
-                " batch again to make the rest; the manifest is written last)"
-                if done[0]
-                else None
-            )
+    total = len(job.variants)
+    done = [0]
+    _keeping(
+        lambda: (
+            f"the variants finished, {done[0]:,} of {total:,}, in {out} (run the batch again"
+            " to make the rest; the manifest is written last)"
+            if done[0]
+            else None
         )
+    )
 
-        def counted(finished: int, total: int) -> None:
-            done[0] = finished
-            progress(finished, total)
+    @contextlib.contextmanager
+    def counted(label: str) -> Iterator[Callable[[int, int], None]]:
+        with _stage(label) as progress:
 
-        manifest = run_batch(batch_, out, outputs, scheduler, counted, manifest_format)
-    click.echo(f"{len(batch_):,} variants → {manifest}")
+            def report(finished: int, total: int) -> None:
+                done[0] = finished
+                progress(finished, total)
+
+            yield report
+
+    manifest = job.run(counted)
+    click.echo(f"{total:,} variants → {manifest}")
 
 
 @main.command()
@@ -773,83 +702,22 @@ def simulate(
     and renders the hair of each frame. Several scenes are simulated one after another,
     or side by side on a Dask cluster with --scheduler.
     """
-    from .io.sim_cache import write_cache
-    from .pipeline import timed_simulation
+    from .simulate_job import plan_simulate
 
-    scenes = [_sim_scene(path, count, motion, skin_animation) for path in scene_paths]
-    targets = _cache_targets(scene_paths, scenes, out)
-    for path, scene in zip(scene_paths, scenes, strict=True):
-        _check_apart(targets, path, scene)
-    if len(targets) > 1:
-        _keeping(_finished(targets, "caches"))
-    if scheduler is not None:
-        from .distributed.simulate import simulate_scenes
-
-        with _step("simulate on Dask"), _progress("simulating scenes on Dask") as progress:
-            runs = simulate_scenes(scenes, targets, scheduler, frames, fps, progress)
-        for scene, run, target in zip(scenes, runs, targets, strict=True):
-            click.echo(_simulated(scene, run, target))
-        return
-    for scene, target in zip(scenes, targets, strict=True):
-        with _step("simulate"), _progress("simulating") as progress:
-            cache, run = timed_simulation(scene, frames, fps, progress)
-        with _step("save"):
-            write_cache(cache, target)
+    job = plan_simulate(
+        scene_paths,
+        out,
+        frames=frames,
+        fps=fps,
+        motion=motion,
+        skin_animation=skin_animation,
+        count=count,
+        scheduler=scheduler,
+    )
+    if len(job.targets) > 1:
+        _keeping(_finished(list(job.targets), "caches"))
+    for scene, run, target in job.run(_stage):
         click.echo(_simulated(scene, run, target))
-
-
-def _sim_scene(
-    path: str, count: int | None, motion: str | None, skin_animation: str | None
-) -> Scene:
-    """The scene file ``path`` with `follicle simulate`'s overrides."""
-    from .scene import load_scene
-
-    scene = _with_overrides(load_scene(path), count=count)
-    changes: dict[str, object] = {} if motion is None else {"motion": motion}
-    if skin_animation is not None:  # it replaces the scene's motion, not one given here
-        from .inputs import is_url
-
-        given = skin_animation if is_url(skin_animation) else os.path.abspath(skin_animation)
-        changes = {"motion": "none", **changes, "skin_animation": given}
-    if changes:
-        scene = scene.replace(sim=scene.sim.replace("command line", **changes))
-    return scene
-
-
-def _cache_targets(paths: tuple[str, ...], scenes: list[Scene], out: str | None) -> list[str]:
-    """Where `follicle simulate` writes each scene's cache: ``out`` (default sim.npz in the
-    scene's folder) for one scene; for several, ``out`` must be a folder, and scene
-    NAME.toml goes to OUT/NAME.npz. InputError for what would be ambiguous: several
-    scenes without -o, or with -o a file, or two scenes of one name."""
-    from .errors import InputError
-
-    if len(paths) == 1:
-        target = out or scenes[0].output_path("sim.npz")
-        from .export import check_suffix
-
-        check_suffix(target, (".npz",))
-        return [target]
-    if out is None:
-        raise InputError(
-            f"{len(paths)} scenes: give -o FOLDER for their caches (FOLDER/NAME.npz for each"
-            " scene NAME.toml)"
-        )
-    folder = Path(out)
-    if folder.suffix.lower() == ".npz" or (folder.exists() and not folder.is_dir()):
-        raise InputError(
-            f"-o {out}: {len(paths)} scenes write a cache each; give -o a folder"
-            " (FOLDER/NAME.npz for each scene NAME.toml)"
-        )
-    targets: dict[str, str] = {}
-    for path in paths:
-        target = str(folder / f"{Path(path).stem}.npz")
-        if target in targets:
-            raise InputError(
-                f"-o {out}: scenes {targets[target]} and {path} would both write {target};"
-                " give the scene files different names"
-            )
-        targets[target] = path
-    return list(targets)
 
 
 def _simulated(scene: Scene, run: SimRun, target: str) -> str:
@@ -948,192 +816,37 @@ def render(
     """Render a scene (grown on the fly) or a saved curves file to PNG, or each frame of a
     simulation cache (`follicle simulate`) to a PNG sequence or an MP4, seen through one
     camera. `--engine mitsuba` path-traces a still with Mitsuba 3 instead."""
-    from .inputs import default_output
-    from .io.dispatch import load_curves
-    from .io.mesh_load import load_mesh
-    from .io.sim_cache import is_cache
-    from .pipeline import grow as grow_scene
-    from .pipeline import render_scene
-    from .scene import Scene, load_scene
+    from .render_job import plan_render
 
-    overrides = {
-        k: v
-        for k, v in {
-            "size": size,
-            "shading": shading,
-            "msaa": None if msaa is None else int(msaa),
-            "spp": spp,
-            "engine": engine,
-        }.items()
-        if v is not None
-    }
-    if frames_per_task is not None:
-        from .validate import whole
-
-        if scheduler is None:
-            raise FollicleError(
-                "--frames-per-task: sizes the Dask tasks of --scheduler; give --scheduler"
-            )
-        whole(frames_per_task, "--frames-per-task", 1)
-    if is_cache(source):
-        _not_for(source, "a simulation cache", mesh=mesh_path)
-        _engine_takes(source, engine or "auto", shading, msaa, spp, cache=True)
-        _render_cache(source, out, overrides, count, frame_range, scheduler, frames_per_task)
-        return
-    from .export import check_suffix
-
-    scene = Scene()
-    if Path(source).suffix.lower() == ".toml":
-        scene = _with_overrides(load_scene(source), count=count)
-    params = scene.render.replace("command line", **overrides)
-    chosen = _engine_takes(source, params.engine, shading, msaa, spp)
-    if Path(source).suffix.lower() == ".toml":
-        target = out or scene.output_path(scene.output.image)
-        check_suffix(target, (".png",))
-        _check_apart(target, source, scene, more=(("--mesh", mesh_path),))
-        _not_for(source, "a scene", frames=frame_range, scheduler=scheduler)
-        with _step("grow"), _progress("growing hair") as progress:
-            mesh, curves = grow_scene(scene, progress)
-        if mesh_path is not None:
-            mesh = load_mesh(mesh_path)
-    else:
-        target = out or default_output(source, ".png")
-        check_suffix(target, (".png",))
-        _check_apart(target, None, more=(("the curves file", source), ("--mesh", mesh_path)))
-        _not_for(source, "a curves file", count=count, frames=frame_range, scheduler=scheduler)
-        curves = load_curves(source)
-        mesh = load_mesh(mesh_path) if mesh_path else None
-    with _step("render"), _progress("path tracing (%)" if chosen.spp else "rendering") as progress:
-        render_scene(curves, mesh, params, out=target, progress=progress)
-    click.echo(f"→ {target}")
-
-
-def _engine_takes(
-    source: str,
-    name: str,
-    shading: str | None,
-    msaa: str | None,
-    spp: int | None,
-    cache: bool = False,
-) -> Engine:
-    """The engine ``name``, after an InputError for an option it does not take, or for a
-    simulation cache (``cache``) when it draws stills only: its capability flags in the
-    engine registry (:mod:`follicle.render.backends`)."""
-    from .errors import InputError
-    from .render.backends import ENGINES, get_engine
-
-    engine = get_engine(name)
-    given = {"shading": shading, "msaa": msaa, "spp": spp}
-    takes = {"shading": engine.shading, "msaa": engine.msaa, "spp": engine.spp}
-    for option, value in given.items():
-        if value is not None and not takes[option]:
-            raise InputError(f"{source}: --{option} does not apply to --engine {engine.name}")
-    if cache and not engine.sequences:
-        raster = ", ".join(e.name for e in ENGINES.values() if e.sequences)
-        raise InputError(
-            f"{source}: --engine {engine.name} renders stills; render a simulation cache"
-            f" with --engine {raster}"
-        )
-    return engine
-
-
-def _render_cache(
-    source: str,
-    out: str | None,
-    overrides: dict[str, object],
-    count: int | None,
-    frame_range: str | None,
-    scheduler: str | None,
-    frames_per_task: int | None,
-) -> None:
-    """`follicle render CACHE`: every (or --frames) frame to OUT/frame_0000.png, …, or to
-    the video OUT.mp4 (frames encoded as they are rendered), here or on the Dask cluster
-    ``scheduler`` in tasks of ``frames_per_task`` frames."""
-    from .errors import InputError
-    from .inputs import default_output
-    from .io.sim_cache import load_cache
-    from .pipeline import cache_scene, frame_name, render_cache
-
-    cache = load_cache(source)
-    frames = _frame_range(frame_range, cache.frame_count)
-    scene = _with_overrides(cache_scene(cache), count=count)
-    scene = scene.replace(render=scene.render.replace("command line", **overrides))
-    target = Path(out or default_output(source, "_frames"))
-    video = target.suffix.lower() == ".mp4"
-    if not video and (target.suffix.lower() == ".png" or target.is_file()):
-        raise InputError(
-            f"{target}: a simulation cache renders to a folder of frame_0000.png, … or to an"
-            " .mp4 video; give -o a folder or a .mp4 file"
-        )
-    written = [target] if video else [target / frame_name(cache, f) for f in frames]
-    _check_apart(written, None, scene, more=(("the cache", source),))
-    if not video:
-        _keeping(_finished(written, "frames"))
-    start = time.perf_counter()
-    if scheduler is not None:
-        from .distributed import render as distributed_render
-
-        on_dask = distributed_render.render_video if video else distributed_render.render_cache
-        with _step("render on Dask"), _progress("rendering frames on Dask") as progress:
-            paths = on_dask(cache, target, scheduler, scene, frames, frames_per_task, progress)
-    else:
-        with _step("render"), _progress("rendering frames") as progress:
-            if video:
-                _cache_video(cache, target, scene, frames, progress)
-            else:
-                paths = render_cache(cache, target, scene, frames, progress)
-    wall = time.perf_counter() - start
-    w, h = scene.render.size
-    written = target if video else f"{paths[0]}{f' … {paths[-1].name}' if len(paths) > 1 else ''}"
-    click.echo(
-        f"{len(frames)} frames ({frames.start}–{frames.stop - 1}) of {scene.groom.count:,} hairs,"
-        f" {w}×{h}, {wall:.2f} s ({len(frames) / wall:.1f} frames/s) → {written}"
+    job = plan_render(
+        source,
+        out,
+        mesh=mesh_path,
+        size=size,
+        engine=engine,
+        shading=shading,
+        msaa=None if msaa is None else int(msaa),
+        spp=spp,
+        count=count,
+        frames=frame_range,
+        scheduler=scheduler,
+        frames_per_task=frames_per_task,
     )
-
-
-def _cache_video(
-    cache: SimCache, target: Path, scene: Scene, frames: range, progress: Callable[[int, int], None]
-) -> None:
-    """Frames of ``cache`` as an H.264 MP4 at the cache's fps, handed to the encoder as
-    they are rendered. The rendering starts when the encoder asks for the first frame,
-    after it has checked the path, the fps and that ffmpeg is there."""
-    from .pipeline import render_frames
-    from .render.video import write_mp4
-
-    images = (image for _, image in render_frames(cache, scene, frames, progress))
-    write_mp4(images, target, cache.fps)
-
-
-def _frame_range(text: str | None, count: int) -> range:
-    """``--frames`` START:STOP (STOP excluded; either may be left out) or N, within a cache
-    of ``count`` frames."""
-    from .errors import InputError
-
-    if text is None:
-        return range(count)
-    first, colon, last = text.partition(":")
-    try:
-        a = int(first) if first.strip() else 0
-        b = (int(last) if last.strip() else count) if colon else a + 1
-    except ValueError:
-        raise InputError(
-            f"--frames {text!r}: expected START:STOP (e.g. 0:24, 10:, :12) or one frame number"
-        ) from None
-    if not 0 <= a < b <= count:
-        raise InputError(
-            f"--frames {text}: the cache has {count} frames (0..{count - 1}); give"
-            f" 0 ≤ START < STOP ≤ {count}"
-        )
-    return range(a, b)
-
-
-def _not_for(source: str, what: str, **options: object) -> None:
-    """InputError when a command-line option that does not apply to ``what`` was given."""
-    from .errors import InputError
-
-    given = [name for name, value in options.items() if value is not None]
-    if given:
-        raise InputError(f"{source}: --{given[0]} does not apply to {what}")
+    if job.kind == "cache" and not job.video:
+        _keeping(_finished(job.outputs, "frames"))
+    done = job.run(_stage)
+    if done.frames is None:
+        click.echo(f"→ {job.target}")
+        return
+    frames, paths, wall = done.frames, done.paths, done.seconds
+    written = (
+        paths[0] if job.video else f"{paths[0]}{f' … {paths[-1].name}' if len(paths) > 1 else ''}"
+    )
+    click.echo(
+        f"{len(frames)} frames ({frames.start}–{frames.stop - 1}) of {done.hairs:,} hairs,"
+        f" {done.size[0]}×{done.size[1]}, {wall:.2f} s ({len(frames) / wall:.1f} frames/s)"
+        f" → {written}"
+    )
 
 
 @main.command()
@@ -1197,16 +910,14 @@ def view(
     """Live viewer: the scene's hair simulated and rendered in a window, with a parameter
     panel (README § Viewer). Needs the view extra: pip install 'follicle[view]'."""
     from .errors import InputError
-    from .scene import load_scene
+    from .scene import load_scene, scene_with
     from .view import view as run_viewer
 
     if offscreen and frames is None:
         raise InputError("--offscreen: give --frames N (there is no window to close)")
     if screenshot is not None:
-        from .export import check_suffix
-
         check_suffix(screenshot, (".png",))
-    scene = _with_overrides(load_scene(scene_path), count=count)
+    scene = scene_with(load_scene(scene_path), "groom", {"count": count})
     ctl = run_viewer(
         scene,
         frames,
@@ -1334,14 +1045,6 @@ def check(source: str, target_name: str) -> None:
         f"{source}: {target.tool} reads all of it ({curves.curve_count:,} curves,"
         f" {curves.point_count:,} points)".translate(_ESCAPES)
     )
-
-
-def _with_overrides(scene: Scene, **groom: object) -> Scene:
-    """``scene`` with the non-None [groom] values from the command line applied."""
-    changes = {k: v for k, v in groom.items() if v is not None}
-    if changes:
-        scene = scene.replace(groom=scene.groom.replace("command line", **changes))
-    return scene
 
 
 if __name__ == "__main__":  # pragma: no cover

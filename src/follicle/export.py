@@ -1,11 +1,14 @@
-"""Grooms, skins and caches written to files as the commands write them: ``follicle
-grow``'s file (:func:`grow_file`: one process or a Dask cluster, one file or a payloads
-layout), and ``follicle export``'s calls: where each input goes, a skin alone, a
-simulation cache as animated USD or Alembic. A command parses, calls one of these and
-prints what it returns; Python calls them the same way.
+"""``follicle grow`` and ``follicle export`` as library calls.
 
-Curves files themselves convert through :func:`follicle.distributed.export.convert`
-(one file) and :func:`follicle.distributed.export.export_files` (many, here or on Dask).
+:func:`plan_grow` and :func:`plan_export` take a command's options as keywords, check
+everything before any work (formats, targets, that no output replaces an input) and
+return a job (:class:`GrowJob`, :class:`ExportJob`) whose ``run`` writes and returns
+what the command prints. Beneath them: :func:`grow_file` (one process or a Dask
+cluster, one file or a payloads layout), :func:`export_targets` (where each input
+goes), :func:`export_skin` (a mesh alone) and :func:`export_cache` (a simulation cache
+as animated USD or Alembic). Curves files themselves convert through
+:func:`follicle.distributed.export.convert` (one file) and
+:func:`follicle.distributed.export.export_files` (many, here or on Dask).
 """
 
 from __future__ import annotations
@@ -14,32 +17,36 @@ import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from .curves import HairCurves
 from .errors import FormatError, InputError
 from .io.dispatch import CACHE_WRITERS, MESH_WRITERS, WRITERS
 from .io.suffixes import MESH_FILE_SUFFIXES, SCENE_SUFFIXES, USD_SUFFIXES
 from .mesh.skin import SkinMesh
+from .progress import Progress, Stage, quietly
+from .validate import check_suffix
 
 if TYPE_CHECKING:
     from .groom.generator import Groom
     from .scene import Scene
 
 __all__ = [
+    "plan_grow",
+    "GrowJob",
     "grow_file",
     "grown_chunks",
     "curve_suffixes",
     "mesh_only",
-    "check_suffix",
+    "plan_export",
+    "ExportJob",
+    "Exported",
     "export_targets",
     "files_in_folder",
     "export_skin",
     "export_cache",
     "CacheExport",
 ]
-
-Progress = Callable[[int, int], None]
 
 
 def grown_chunks(
@@ -109,6 +116,79 @@ def grow_file(
     return tally[0], tally[1]
 
 
+@dataclass(frozen=True)
+class GrowJob:
+    """A checked grow of ``scene`` into ``path`` (see :func:`grow_file` for the rest).
+    Made by :func:`plan_grow`."""
+
+    scene: Scene
+    path: str
+    target: str = "generic"
+    skin: bool = True
+    scheduler: str | None = None
+    chunk: int | None = None
+    layout: str = "file"
+
+    def run(self, stage: Stage = quietly) -> tuple[int, int]:
+        """:func:`grow_file` under ``stage("growing hair")``; returns (hairs, points)."""
+        where = " on Dask" if self.scheduler is not None else ""
+        with stage(f"growing hair{where}") as progress:
+            return grow_file(
+                self.scene,
+                self.path,
+                self.target,
+                self.skin,
+                self.scheduler,
+                self.chunk,
+                self.layout,
+                progress,
+            )
+
+
+def plan_grow(
+    scene_path: str | None,
+    out: str | os.PathLike[str] | None = None,
+    *,
+    count: int | None = None,
+    seed: int | None = None,
+    target: str | None = None,
+    skin: bool = True,
+    scheduler: str | None = None,
+    chunk: int | None = None,
+    layout: str | None = None,
+) -> GrowJob:
+    """A checked :class:`GrowJob`, as ``follicle grow SCENE -o OUT`` runs it; each keyword
+    is the command's option of that name (None: not given). ``out`` defaults to the
+    scene's [output].curves, ``target`` to its [output].target, ``layout`` to its
+    [output].layout; ``count`` and ``seed`` override [groom]. FormatError or
+    InputError, before any hair is grown, for an output format, target, chunk or
+    layout that does not fit, or an output that would replace an input."""
+    from .io.targets import check_named
+    from .scene import check_outputs, load_scene, scene_with
+
+    scene = scene_with(load_scene(scene_path), "groom", {"count": count, "seed": seed})
+    path = os.fspath(out or scene.output_path(scene.output.curves))
+    check_suffix(path, curve_suffixes())
+    tool = target or scene.output.target
+    check_named(path, Path(path).suffix, tool, "--target")
+    layout = layout or scene.output.layout
+    if chunk is not None and chunk < 1:
+        raise InputError(f"--chunk {chunk}: give a whole number of hairs ≥ 1")
+    if chunk is not None and scheduler is None and layout == "file":
+        raise InputError(
+            "--chunk: sizes the Dask tasks of --scheduler, or the part files of --layout"
+            " payloads; give one of them"
+        )
+    folders = []
+    if layout == "payloads":
+        from .io.usd_payloads import check_payloads_target, payloads_folder
+
+        check_payloads_target(path)  # before any hair is grown
+        folders.append(payloads_folder(path))
+    check_outputs(path, scene_path, scene, folders=folders)
+    return GrowJob(scene, path, tool, skin, scheduler, chunk, layout)
+
+
 def curve_suffixes() -> tuple[str, ...]:
     """The extensions curves can be written to: .npz first, then the others sorted."""
     return (".npz", *sorted(set(WRITERS) - {".npz"}))
@@ -120,10 +200,91 @@ def mesh_only(path: str | os.PathLike[str]) -> bool:
     return Path(path).suffix.lower() in set(MESH_WRITERS) - set(WRITERS)
 
 
-def check_suffix(path: str | os.PathLike[str], allowed: Sequence[str]) -> None:
-    """FormatError naming ``path`` unless its extension is one of ``allowed``."""
-    if Path(path).suffix.lower() not in allowed:
-        raise FormatError(f"{path}: output must end in {' or '.join(allowed)}")
+@dataclass(frozen=True)
+class Exported:
+    """What :meth:`ExportJob.run` wrote, by its kind: (hairs, points) per curves file
+    (``counts``, in the order of the targets), the ``mesh`` of a mesh export, or the
+    ``cache`` export's summary."""
+
+    counts: tuple[tuple[int, int], ...] = ()
+    mesh: SkinMesh | None = None
+    cache: CacheExport | None = None
+
+
+@dataclass(frozen=True)
+class ExportJob:
+    """A checked export of ``sources`` to ``targets`` (one each) for the ``tool``: as
+    curves files (``kind`` ``"curves"``, converted here or on the Dask cluster
+    ``scheduler``), a mesh alone (``"mesh"``) or a simulation cache as animated USD or
+    Alembic (``"cache"``, with the ``skin`` or not). Made by :func:`plan_export`."""
+
+    kind: Literal["curves", "mesh", "cache"]
+    sources: tuple[str, ...]
+    targets: tuple[str, ...]
+    tool: str = "generic"
+    skin: bool = True
+    scheduler: str | None = None
+
+    def run(self, stage: Stage = quietly) -> Exported:
+        """Write every target: ``stage("writing frames")`` for a cache,
+        ``stage("converting files")`` for several curves files."""
+        if self.kind == "mesh":
+            return Exported(mesh=export_skin(self.sources[0], self.targets[0], self.tool))
+        if self.kind == "cache":
+            with stage("writing frames") as progress:
+                done = export_cache(
+                    self.sources[0], self.targets[0], self.skin, self.tool, progress
+                )
+            return Exported(cache=done)
+        from .distributed.export import convert, export_files
+
+        if len(self.sources) == 1 and self.scheduler is None:
+            return Exported(counts=(convert(self.sources[0], self.targets[0], self.tool),))
+        where = " on Dask" if self.scheduler else ""
+        with stage(f"converting files{where}") as progress:
+            counts = export_files(self.sources, self.targets, self.scheduler, self.tool, progress)
+        return Exported(counts=tuple(counts))
+
+
+def plan_export(
+    sources: Sequence[str],
+    out: str | os.PathLike[str],
+    *,
+    suffix: str | None = None,
+    target: str | None = None,
+    skin: bool = True,
+    scheduler: str | None = None,
+) -> ExportJob:
+    """A checked :class:`ExportJob`, as ``follicle export IN... -o OUT`` runs it; each
+    keyword is the command's option of that name (``suffix``: ``--to``; None: not
+    given). Several ``sources``, a ``suffix``, a ``scheduler`` or ``out`` a folder
+    convert curves files into the folder ``out`` (:func:`export_targets`); one source
+    that is a built-in mesh, or an ``out`` that only a mesh is written to, exports a
+    mesh (:func:`export_skin`); a simulation cache exports as animated USD or Alembic
+    (:func:`export_cache`); else one curves file converts to ``out``. FormatError or
+    InputError, before anything is read, for what does not fit."""
+    from .io.mesh_load import BUILTIN_MESHES
+    from .io.sim_cache import is_cache
+    from .io.targets import check_named
+    from .scene import check_outputs
+
+    tool = target or "generic"
+    out = os.fspath(out)
+    if not sources:
+        raise InputError("export: give at least one file to export")
+    if len(sources) > 1 or suffix is not None or scheduler is not None or Path(out).is_dir():
+        targets = export_targets(sources, out, suffix)
+        check_named(targets[0], Path(targets[0]).suffix, tool, "--target")
+        return ExportJob("curves", tuple(sources), tuple(targets), tool, skin, scheduler)
+    source = sources[0]
+    check_outputs(out, more=(("its own input", source),))
+    builtin = source.startswith("builtin:") and source[len("builtin:") :] in BUILTIN_MESHES
+    if builtin or mesh_only(out):
+        return ExportJob("mesh", (source,), (out,), tool)
+    check_suffix(out, curve_suffixes())
+    check_named(out, Path(out).suffix, tool, "--target")
+    kind: Literal["curves", "cache"] = "cache" if is_cache(source) else "curves"
+    return ExportJob(kind, (source,), (out,), tool, skin)
 
 
 def export_targets(

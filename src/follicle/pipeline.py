@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -19,6 +19,8 @@ from .groom.guides import Guides, load_guides
 from .inputs import base_folder
 from .io.mesh_load import load_mesh
 from .mesh.skin import SkinMesh
+from .mesh.texture import Texture
+from .progress import Progress
 from .render import Camera, fit_camera, make_renderer, render_image, save_png
 from .scene import RenderParams, Scene, scene_from_toml, scene_to_toml
 from .validate import file_path, positive, whole
@@ -46,8 +48,6 @@ __all__ = [
     "frame_name",
 ]
 
-Progress = Callable[[int, int], None]
-
 
 @dataclass(frozen=True)
 class GroomInputs:
@@ -59,8 +59,8 @@ class GroomInputs:
     key: tuple
     mesh: SkinMesh
     guides: Guides
-    density: object
-    displacement: object
+    density: Texture | float | None
+    displacement: Texture | None
 
 
 def _inputs_key(scene: Scene) -> tuple:
@@ -114,7 +114,7 @@ def groom_scene(scene: Scene, inputs: GroomInputs | None = None) -> Groom:
 
 
 def grow(
-    scene: Scene | None = None, progress: Callable[[int, int], None] | None = None
+    scene: Scene | None = None, progress: Progress | None = None
 ) -> tuple[SkinMesh, HairCurves]:
     """Grow the hair of ``scene`` (the default scene when None): (mesh, curves)."""
     if scene is not None and not isinstance(scene, Scene):
@@ -183,10 +183,11 @@ def simulate_scene(
     sim = Simulator(groom.guides, params=p)
     positions = np.empty((int(frames), *sim.positions.shape), dtype=np.float32)
     transforms = np.repeat(np.eye(4)[None], int(frames), axis=0)
-    skin_vertices = None
+    skin_vertices: np.ndarray | None = None
     if skin is not None:
         sim.teleport(vertices=skin.at(0.0))
         skin_vertices = np.empty((int(frames), *skin.vertices.shape[1:]), dtype=np.float32)
+        assert sim.pose is not None  # posed by the skin just now
         skin_vertices[0] = sim.pose.vertices
     positions[0] = sim.positions
     if progress is not None:
@@ -199,6 +200,7 @@ def simulate_scene(
             sim.set_pose(transform=transforms[f])
         else:
             sim.set_pose(vertices=skin.at(f / fps))
+            assert skin_vertices is not None and sim.pose is not None  # a skin poses the sim
             skin_vertices[f] = sim.pose.vertices
         sim.step(1.0 / fps)
         positions[f] = sim.positions

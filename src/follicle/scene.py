@@ -19,7 +19,7 @@ import os
 import sys
 import types
 import typing
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
@@ -35,7 +35,7 @@ from pydantic.fields import FieldInfo
 
 from .errors import ConfigError, FileAccessError
 from .groom.settings import GroomParams, PropertyTag
-from .inputs import input_file, is_remote, is_url, remote_reach
+from .inputs import check_apart, input_file, is_remote, is_url, remote_reach
 from .io.targets import TARGET_NAMES
 from .render.settings import LightParams, RenderParams
 from .settings import StrictSection, format_errors, shown
@@ -64,6 +64,8 @@ __all__ = [
     "parse_scene",
     "scene_files",
     "scene_paths",
+    "scene_with",
+    "check_outputs",
     "scene_to_toml",
     "MAX_SCENE_BYTES",
 ]
@@ -89,10 +91,10 @@ def _units_apply(value: str | float, info: ValidationInfo) -> str | float:
 
 # "m", "cm", "mm", "in" or metres per unit (follicle.units), as written in the scene; a
 # name, not a path (the viewer's save_scene rewrites keys typed str)
-UnitsSetting = Annotated[
-    Literal[tuple(UNITS)] | float,  # type: ignore[valid-type]
-    PlainValidator(_units, json_schema_input_type=Any),
-]
+UnitName = Literal["m", "cm", "mm", "in"]  # UNITS' names spelled out for a type checker
+if typing.get_args(UnitName) != tuple(UNITS):  # pragma: no cover - a programming error
+    raise RuntimeError(f"UnitName {typing.get_args(UnitName)} is not UNITS' {tuple(UNITS)}")
+UnitsSetting = Annotated[UnitName | float, PlainValidator(_units, json_schema_input_type=Any)]
 _UNITS_HELP = (
     'the file\'s units, converted to metres when loaded: "m", "cm", "mm",'
     ' "in" or metres per unit; not for builtins or USD/glTF (they declare theirs)'
@@ -174,13 +176,14 @@ class Scene(StrictSection):
                     f" {', '.join(Scene.model_fields)}"
                 )
             want = (Path, str) if key == "base_dir" else field.annotation
+            assert isinstance(want, (type, tuple))  # a section's class, or the base_dir types
             if (
                 not isinstance(value, want)
                 or key == "base_dir"
                 and isinstance(value, str)
                 and not is_url(value)
             ):
-                wanted = "a Path or a URL" if key == "base_dir" else want.__name__
+                wanted = "a Path or a URL" if isinstance(want, tuple) else want.__name__
                 raise ConfigError(f"{source}: {key}: expected {wanted}, got {type(value).__name__}")
         return self.model_copy(update=changes)
 
@@ -206,7 +209,9 @@ class Scene(StrictSection):
 
 
 # every section names its [table] (Section.replace): the scene's field of that name
-assert all(f.exclude or f.annotation._section == k for k, f in Scene.model_fields.items())
+assert all(
+    f.exclude or getattr(f.annotation, "_section", None) == k for k, f in Scene.model_fields.items()
+)
 
 
 def holds_paths(field: FieldInfo) -> bool:
@@ -244,6 +249,36 @@ def scene_files(scene: Scene) -> list[tuple[str, str]]:
         for key, path in scene_paths(scene)
         if not path.startswith("builtin:")
     ]
+
+
+def scene_with(
+    scene: Scene, section: str, values: Mapping[str, object], source: str = "command line"
+) -> Scene:
+    """``scene`` with the keys of ``values`` that are not None replaced in [``section``]
+    (a command's options: ``{"count": None}`` means "not given"); ConfigError naming
+    ``source`` for a value the section refuses."""
+    changes = {key: value for key, value in values.items() if value is not None}
+    if not changes:
+        return scene
+    return scene.replace(**{section: getattr(scene, section).replace(source, **changes)})
+
+
+def check_outputs(
+    outputs: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+    source: str | None = None,
+    scene: Scene | None = None,
+    more: Sequence[tuple[str, str | None]] = (),
+    folders: Sequence[str | os.PathLike[str]] = (),
+) -> None:
+    """Before anything is read: InputError when an output would replace an input of the
+    same run: the scene file ``source``, a file the ``scene`` reads (its mesh, guides,
+    textures, skin animation), or one of ``more`` ((label, path or None) pairs), or
+    when one of ``folders`` (replaced whole) holds one (:func:`follicle.inputs.check_apart`)."""
+    inputs: list[tuple[str, str | os.PathLike[str]]] = [("the scene", source)] if source else []
+    inputs += scene_files(scene) if scene is not None else []
+    inputs += [(label, path) for label, path in more if path]
+    outs = [outputs] if isinstance(outputs, (str, os.PathLike)) else outputs
+    check_apart(outs, inputs, folders)
 
 
 def _check_remote(scene: Scene, source: str) -> None:

@@ -22,15 +22,17 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Sequence
 from numbers import Integral, Real
+from pathlib import Path
 from typing import TYPE_CHECKING, Literal, TypeGuard, overload
 
-from .errors import InputError
+from .errors import FormatError, InputError
 
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["file_path", "number", "positive", "whole", "is_whole"]
+__all__ = ["file_path", "number", "positive", "whole", "is_whole", "check_suffix"]
 
 _SHOWN = 60  # characters of a given value's repr kept in a message
 
@@ -199,3 +201,10 @@ def file_path(value: object, name: str = "path") -> str | os.PathLike[str]:
         if isinstance(text, str):
             return value
     raise InputError(f"{name}: expected a file path (str or os.PathLike), got {_show(value)}")
+
+
+def check_suffix(path: str | os.PathLike[str], allowed: Sequence[str]) -> None:
+    """FormatError naming ``path`` unless its extension is one of ``allowed``: an output
+    checked before any work is done for it."""
+    if Path(path).suffix.lower() not in allowed:
+        raise FormatError(f"{path}: output must end in {' or '.join(allowed)}")

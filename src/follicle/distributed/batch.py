@@ -46,13 +46,14 @@ import json
 import math
 import os
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..atomic import atomic_path, deliver, pending_folders
 from ..errors import ConfigError, FollicleError
 from ..inputs import base_folder, check_apart
+from ..progress import Progress, Stage, quietly
 from ..scene import Scene, holds_paths, scene_files, scene_from_toml, scene_to_toml
 
 if sys.version_info >= (3, 11):
@@ -69,10 +70,11 @@ __all__ = [
     "parse_seeds",
     "variants",
     "run_batch",
+    "plan_batch",
+    "BatchJob",
 ]
 
 MANIFESTS = {"csv": "manifest.csv", "parquet": "manifest.parquet"}
-Progress = Callable[[int, int], None]
 # variants a batch: each holds its scene (about 10 kB) while the batch runs, so 100,000
 # take about 1 GB; a dataset beyond is several batches (docs/scale.md)
 _MAX_VARIANTS = 100_000
@@ -245,6 +247,68 @@ def run_batch(
         else:
             _write_parquet(tmp, header, rows)
     return path
+
+
+@dataclass(frozen=True)
+class BatchJob:
+    """A checked batch: its ``variants``, made into the folder ``out`` with ``outputs``,
+    here or on the Dask cluster ``scheduler``, and its ``manifest`` format. Made by
+    :func:`plan_batch`."""
+
+    variants: tuple[Variant, ...]
+    out: str
+    outputs: Outputs = Outputs()
+    scheduler: str | None = None
+    manifest: str = "csv"
+
+    def run(self, stage: Stage = quietly) -> Path:
+        """:func:`run_batch` under ``stage("making N variants")``: every variant not
+        already made, then the manifest, whose path it returns."""
+        where = " on Dask" if self.scheduler else ""
+        count = len(self.variants)
+        with stage(f"making {count:,} variant{'' if count == 1 else 's'}{where}") as progress:
+            return run_batch(
+                self.variants, self.out, self.outputs, self.scheduler, progress, self.manifest
+            )
+
+
+def plan_batch(
+    scene_paths: Sequence[str | None],
+    out: str | os.PathLike[str],
+    *,
+    vary: Sequence[str] = (),
+    seeds: str | None = None,
+    count: int | None = None,
+    curves: str | None = None,
+    image: bool = True,
+    size: tuple[int, int] | None = None,
+    engine: str | None = None,
+    target: str | None = None,
+    skin: bool = True,
+    scheduler: str | None = None,
+    manifest: str = "csv",
+) -> BatchJob:
+    """A checked :class:`BatchJob`, as ``follicle batch SCENE... -o OUT`` runs it; each
+    keyword is the command's option of that name (None: not given). ``scene_paths``
+    empty is the default scene; ``vary`` are ``KEY=SPEC`` texts (:func:`parse_vary`),
+    ``seeds`` ``A:B`` (:func:`parse_seeds`); ``count``, ``size`` and ``engine``
+    override each scene's; ``curves`` is the hair file's suffix (``usdc`` or
+    ``.usdc``; None: each scene's [output].curves; ``"none"``: no hair file).
+    ConfigError, before any variant is made, for a bad key, value or size."""
+    from ..scene import load_scene, scene_with
+
+    scenes = []
+    for path in scene_paths or (None,):
+        scene = scene_with(load_scene(path), "groom", {"count": count})
+        scene = scene_with(scene, "render", {"size": size, "engine": engine})
+        scenes.append((path or "default", scene))
+    sweeps = [parse_vary(v) for v in vary]
+    batch = variants(scenes, sweeps, None if seeds is None else parse_seeds(seeds))
+    suffix = SCENE_SUFFIX if curves is None else curves.lower()
+    if suffix not in ("none", SCENE_SUFFIX) and not suffix.startswith("."):
+        suffix = f".{suffix}"  # usdc as well as .usdc
+    outputs = Outputs(None if suffix == "none" else suffix, image, target, skin)
+    return BatchJob(tuple(batch), os.fspath(out), outputs, scheduler, manifest)
 
 
 def _inputs(batch: Sequence[Variant]) -> Iterator[tuple[str, str]]:

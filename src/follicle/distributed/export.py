@@ -34,10 +34,10 @@ from ..inputs import is_url
 from ..io.dispatch import WRITERS, load_curves, save
 from ..io.sim_cache import is_cache
 from ..io.targets import NAMED_FORMATS, check_named, get_target
+from ..progress import Progress
 
 __all__ = ["convert", "export_files"]
 
-Progress = Callable[[int, int], None]
 Call = tuple[str, str, str, str]  # (source, output, target, the output folder's pending folder)
 
 

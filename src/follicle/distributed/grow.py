@@ -29,7 +29,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from ..atomic import temporary_folder
@@ -37,6 +37,7 @@ from ..curves import HairCurves
 from ..errors import ConfigError
 from ..groom.generator import CHUNK, Groom
 from ..io.targets import writer_extras
+from ..progress import Progress
 from ..scene import Scene, scene_to_toml
 from ..threads import threads_for
 from ..validate import whole
@@ -122,7 +123,7 @@ def grow(
     chunk: int | None = None,
     target: str = "generic",
     skin: bool = True,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Progress | None = None,
     layout: str | None = None,
 ) -> tuple[int, int]:
     """Grow ``scene``'s hair on the Dask cluster ``scheduler`` (see :func:`connect`) in
@@ -193,7 +194,7 @@ def _grow_payloads(
     chunk: int | None,
     target: str,
     skin: bool,
-    progress: Callable[[int, int], None] | None,
+    progress: Progress | None,
 ) -> tuple[int, int]:
     """:func:`grow` in the payloads layout: one task per part file, written by the worker
     into a folder beside ``out`` that every worker must reach; the client writes the

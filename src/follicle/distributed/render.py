@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import os
 import socket
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +47,7 @@ from ..pipeline import (
     groom_scene,
     sequence_camera,
 )
+from ..progress import Progress
 from ..render import Camera, save_png
 from ..render.video import Mp4Writer
 from ..scene import Scene, scene_from_toml, scene_to_toml
@@ -63,7 +64,6 @@ from .cluster import (
 
 __all__ = ["TASKS_PER_WORKER", "default_frames_per_task", "render_cache", "render_video"]
 
-Progress = Callable[[int, int], None]
 
 TASKS_PER_WORKER = 4  # the frames of a render shared into this many tasks per worker
 _CACHES: dict[tuple[str, int, int], SimCache] = {}  # per worker process: the cache it read

@@ -14,7 +14,7 @@ frames.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 from ..atomic import deliver, pending_folders
@@ -25,6 +25,7 @@ from ..pipeline import (
     SimRun,
     timed_simulation,
 )
+from ..progress import Progress
 from ..scene import Scene, scene_from_toml, scene_to_toml
 from ..validate import positive, whole
 from .cluster import (
@@ -36,7 +37,6 @@ from .cluster import (
 
 __all__ = ["simulate_scenes"]
 
-Progress = Callable[[int, int], None]
 
 TASKS_PER_WORKER = 4  # the frames of a render shared into this many tasks per worker
 _CACHES: dict[tuple[str, int, int], SimCache] = {}  # per worker process: the cache it read

@@ -66,7 +66,7 @@ def head_motion(
     t: float,
     amplitude: float = 40.0,
     period: float = 2.0,
-    pivot: Sequence[float] = (0.0, 0.0, 0.0),
+    pivot: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
 ) -> np.ndarray:
     """World-from-rest rigid transform (4, 4) float64 of the head at time ``t`` (s).
 
