@@ -79,8 +79,8 @@ def _parameters(table: dispatch.Registry) -> dict[str, list[str]]:
 def test_each_registry_entry_takes_its_table_parameters():
     """Every ``"module:function"`` entry imports and takes its table's parameters in the
     same places, so any entry is called the same way: hair writers (hair, path,
-    **options), readers (path), mesh writers (mesh, path, target), and the two cache
-    writers one signature."""
+    **options), readers (path), mesh writers (mesh, path, target), mesh readers (path,
+    mpu), and the two cache writers one signature."""
     for suffix, names in _parameters(dispatch.WRITERS).items():
         assert names[1] == "path" and names[0] in ("curves", "chunks"), (suffix, names)
     assert {s: names[0] for s, names in _parameters(dispatch.READERS).items()} == dict.fromkeys(
@@ -88,6 +88,8 @@ def test_each_registry_entry_takes_its_table_parameters():
     )
     mesh = _parameters(dispatch.MESH_WRITERS)
     assert mesh == dict.fromkeys(dispatch.MESH_WRITERS, ["mesh", "path", "target"])
+    mesh = _parameters(dispatch.MESH_READERS)
+    assert mesh == dict.fromkeys(dispatch.MESH_READERS, ["path", "mpu"])
     caches = _parameters(dispatch.CACHE_WRITERS)
     assert set(caches) == {".usd", ".usda", ".usdc", ".usdz", ".abc"}
     assert len({tuple(names) for names in caches.values()}) == 1

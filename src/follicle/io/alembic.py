@@ -78,7 +78,7 @@ from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FileAccessError, FormatError, InputError
 from ..inputs import input_file
-from ..io.polymesh import skin_from_part
+from ..io.polymesh import scaled_skin, skin_from_part
 from ..mesh.skin import SkinMesh
 from ..validate import number
 from . import guard_server
@@ -539,13 +539,14 @@ def abc_parts(
     return source, read_curves(source, time, bool(guides), bool(stored))
 
 
-def load_abc_mesh(path: str | os.PathLike[str]) -> SkinMesh:
+def load_abc_mesh(path: str | os.PathLike[str], mpu: float = 1.0) -> SkinMesh:
     """The first PolyMesh (or SubD, as its control cage) of an Alembic archive, at its
     first sample, as a SkinMesh: moved by the Xforms above it, polygons (wound
     clockwise, as Alembic keeps them) fanned into counter-clockwise triangles, its
     ``uv`` of vertex or faceVarying scope as per-vertex UVs split at seams
-    (:mod:`follicle.io.polymesh`). Further meshes are named in a warning and not
+    (:mod:`follicle.io.polymesh`), its vertices times ``mpu`` (metres per the file's
+    unit: an archive declares none). Further meshes are named in a warning and not
     read. Read in a guarded child process like :func:`load_abc`."""
     source = input_file(path, "Alembic file (.abc)")
     check_archive(source)
-    return skin_from_part(read_mesh(source), source)
+    return scaled_skin(skin_from_part(read_mesh(source), source), mpu, source)

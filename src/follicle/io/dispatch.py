@@ -12,8 +12,11 @@ neither usd-core nor Alembic. One table per capability:
 - :data:`CACHE_WRITERS`: a simulation's frames as one animated curves object, USD's
   and Alembic's writers of one signature (``write(frames, path, fps=…, mesh=…,
   target=…, …) -> Path``; :func:`follicle.export.export_cache` drives them).
-- :data:`MESH_WRITERS`: a skin mesh, ``write(mesh, path, target) -> Path``; mesh files
-  through trimesh, and USD or Alembic as a groom file with the skin and no hair.
+- :data:`MESH_WRITERS`, :data:`MESH_READERS`: a skin mesh. A writer is ``write(mesh,
+  path, target) -> Path``: mesh files through trimesh, and USD or Alembic as a groom
+  file with the skin and no hair; a reader is ``read(path, mpu) -> SkinMesh``, ``mpu``
+  the metres per the file's unit: mesh files through trimesh, and the first mesh of a
+  USD or Alembic file (:func:`follicle.load_mesh` checks the path and picks from it).
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ __all__ = [
     "READERS",
     "CACHE_WRITERS",
     "MESH_WRITERS",
+    "MESH_READERS",
 ]
 
 
@@ -123,6 +127,14 @@ MESH_WRITERS = Registry(
     {
         **dict.fromkeys(MESH_FILE_SUFFIXES, "follicle.io.mesh_save:save_mesh"),
         **dict.fromkeys(SCENE_SUFFIXES, "follicle.io.dispatch:save_skin"),
+    },
+)
+MESH_READERS = Registry(
+    "read a mesh from",
+    {
+        **dict.fromkeys(MESH_FILE_SUFFIXES, "follicle.io.mesh_file:load_mesh_file"),
+        ".abc": "follicle.io.alembic:load_abc_mesh",
+        **dict.fromkeys(USD_SUFFIXES, "follicle.io.polymesh:load_usd_mesh"),
     },
 )
 

@@ -22,7 +22,14 @@ from ..inputs import input_file
 from ..mesh.skin import SkinMesh
 from .usd_guard import check_container, read_meshes
 
-__all__ = ["skin_from_part", "polygon_layout", "load_usd_mesh", "fan_triangles", "split_seams"]
+__all__ = [
+    "skin_from_part",
+    "scaled_skin",
+    "polygon_layout",
+    "load_usd_mesh",
+    "fan_triangles",
+    "split_seams",
+]
 
 log = logging.getLogger("follicle")
 
@@ -160,14 +167,28 @@ def skin_from_part(part: dict, source: Path) -> SkinMesh:
         raise FormatError(f"{source}: {exc}") from None
 
 
-def load_usd_mesh(path: str | os.PathLike[str]) -> SkinMesh:
+def scaled_skin(mesh: SkinMesh, mpu: float, source: Path) -> SkinMesh:
+    """``mesh`` with its vertices times ``mpu`` (metres per the file's unit), the file's
+    geometry as it holds it checked first (:func:`skin_from_part`); an InputError naming
+    ``source`` when the scaled mesh is refused (a unit that puts it out of range)."""
+    if mpu == 1.0:
+        return mesh
+    try:
+        return SkinMesh(mesh.rest_vertices * mpu, mesh.faces, mesh.uvs, name=mesh.name)
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from exc
+
+
+def load_usd_mesh(path: str | os.PathLike[str], mpu: float = 1.0) -> SkinMesh:
     """The first Mesh prim of a USD stage as a SkinMesh (transforms, metersPerUnit and a
     Z up axis applied; ``primvars:st``, ``UVMap`` or ``uv`` of vertex or faceVarying
     interpolation as its UVs, split at seams; polygons fanned into triangles). Further
     meshes are named in a warning and not read. usd-core reads the file in a guarded
     child process (see :mod:`follicle.io.usd_guard`): anything wrong with the file is a
-    FormatError naming it."""
+    FormatError naming it. ``mpu`` scales the vertices after the stage's own
+    metersPerUnit, the signature of :data:`follicle.io.dispatch.MESH_READERS`
+    (:func:`follicle.load_mesh` gives 1: the stage declares its unit)."""
     source = input_file(path, "USD file (.usd, .usda, .usdc or .usdz)")
     check_container(source)
     (part,) = read_meshes(source)
-    return skin_from_part(part, source)
+    return scaled_skin(skin_from_part(part, source), mpu, source)
