@@ -426,3 +426,18 @@ def test_a_download_leaves_the_cache_disk_a_gibibyte_free(hostile_server, tmp_pa
     assert line.startswith(f"{url}/endless.obj: past ") and "would keep less than 1 GiB" in line
     assert "$FOLLICLE_CACHE" in line and "\n" not in line
     assert _cached(tmp_path) == []
+
+
+@pytest.mark.slow
+def test_a_batch_of_a_served_scene_names_its_url_in_each_variant(served, tmp_path):
+    import csv
+
+    from follicle.distributed.batch import plan_batch
+
+    _, url, _ = served
+    job = plan_batch([f"{url}/s.toml"], tmp_path / "b", seeds="0:2", count=50, image=False)
+    manifest = job.run()
+    first = (tmp_path / "b" / "v00000" / "scene.toml").read_text().splitlines()[0]
+    assert first.endswith(f"relative paths start in {url}")  # the server's folder, as given
+    rows = list(csv.DictReader(manifest.open()))
+    assert [row["seed"] for row in rows] == ["0", "1"] and rows[0]["hairs"] == "50"

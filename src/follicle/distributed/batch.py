@@ -49,12 +49,18 @@ import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from pydantic import BaseModel
 
 from ..atomic import atomic_path, deliver, pending_folders
 from ..errors import ConfigError, FollicleError
 from ..inputs import base_folder, check_apart
 from ..progress import Progress, Stage, quietly
 from ..scene import Scene, holds_paths, scene_files, scene_from_toml, scene_to_toml
+
+if TYPE_CHECKING:
+    from ..pipeline import GroomInputs
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -80,7 +86,7 @@ MANIFESTS = {"csv": "manifest.csv", "parquet": "manifest.parquet"}
 _MAX_VARIANTS = 100_000
 # per process: the groom inputs (mesh, guides, textures) last read, by batch run (its
 # pending folder), so variants that differ in other keys share them, within one run only
-_INPUTS: dict[str, object] = {}
+_INPUTS: dict[str, GroomInputs] = {}
 
 
 @dataclass(frozen=True)
@@ -329,10 +335,17 @@ def _inputs(batch: Sequence[Variant]) -> Iterator[tuple[str, str]]:
 def _is_path(key: str) -> bool:
     """Whether the scene key ``section.key`` holds file paths."""
     section, name = _field(key)
-    return holds_paths(Scene.model_fields[section].annotation.model_fields[name])
+    return holds_paths(_section_model(section).model_fields[name])
 
 
-def _made(calls: list[tuple], scheduler: str | None) -> Iterator[dict]:
+def _section_model(section: str) -> type[BaseModel]:
+    """The settings class of the scene's [``section``] (a field of :class:`Scene`)."""
+    model = Scene.model_fields[section].annotation
+    assert isinstance(model, type) and issubclass(model, BaseModel)  # every section is one
+    return model
+
+
+def _made(calls: list[tuple[Any, ...]], scheduler: str | None) -> Iterator[dict]:
     """Each call's variant made, in call order: here one after another, or as Dask tasks
     on the cluster ``scheduler``, all submitted at once (each writes its own folder
     as it finishes, so a stopped batch keeps every variant made)."""
@@ -388,8 +401,11 @@ def _check_curves(variant: Variant, suffix: str, target: str) -> None:
     check_named(f"{variant.source} (--curves {suffix})", suffix, target)
 
 
-def _shown_path(path: Path) -> str:
-    return json.dumps(str(path.resolve()), ensure_ascii=False)[1:-1]
+def _shown_path(path: Path | str) -> str:
+    """A scene's folder as a variant's first line names it: a local folder absolute, a
+    URL (a scene served from another machine) as it is; control characters escaped."""
+    shown = path if isinstance(path, str) else str(path.resolve())
+    return json.dumps(shown, ensure_ascii=False)[1:-1]
 
 
 def _kept(folder: Path, job: tuple) -> dict | None:
@@ -419,7 +435,7 @@ def _kept(folder: Path, job: tuple) -> dict | None:
     return {**record, "files": {r: files[r] for r in wanted}}
 
 
-def _variant_task(*call: object) -> dict:
+def _variant_task(*call: Any) -> dict:
     """A Dask worker's task: one variant made (:func:`_make`)."""
     from .cluster import on_worker, task_setup
 
@@ -527,7 +543,7 @@ def _cell(value: object) -> object:
     return repr(value) if isinstance(value, float) else value
 
 
-def _pyarrow() -> object:
+def _pyarrow() -> Any:  # pyarrow ships no types
     """pyarrow, or ConfigError saying how to get it."""
     try:
         import pyarrow
@@ -560,7 +576,7 @@ def _field(key: str) -> tuple[str, str]:
     if field is None or field.exclude or not name:
         sections = ", ".join(k for k, f in Scene.model_fields.items() if not f.exclude)
         raise ConfigError(f"--vary {key}: expected section.key, a section one of {sections}")
-    model = field.annotation
+    model = _section_model(section)
     if name not in model.model_fields:
         raise ConfigError(
             f"--vary {key}: [{section}] has no key {name}; it has {', '.join(model.model_fields)}"
@@ -591,14 +607,20 @@ def _short(text: str) -> str:
 
 def _spaced(text: str, start: str, stop: str, count: str) -> tuple[object, ...]:
     """``START:STOP:N``: N evenly spaced numbers from START to STOP, ends included."""
-    a, b = _value(start.strip()), _value(stop.strip())
+    ends = [_value(start.strip()), _value(stop.strip())]
+    numbers = [v for v in ends if isinstance(v, (int, float)) and not isinstance(v, bool)]
     n = _value(count.strip())
-    numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b))
-    if not numbers or not isinstance(n, int) or isinstance(n, bool) or not 1 <= n <= _MAX_VARIANTS:
+    if (
+        len(numbers) != 2
+        or not isinstance(n, int)
+        or isinstance(n, bool)
+        or not 1 <= n <= _MAX_VARIANTS
+    ):
         raise ConfigError(
             f"--vary {_short(text)}: START:STOP:N takes two numbers and a count of 1 to"
             f" {_MAX_VARIANTS:,}"
         )
+    a, b = numbers
     if any(isinstance(v, int) and abs(v) >= 1 << 63 for v in (a, b)) or not (
         math.isfinite(a) and math.isfinite(b)
     ):

@@ -22,7 +22,7 @@ from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, cast
 
 from ..atomic import temporary_folder
 from ..errors import ConfigError, FileAccessError, FollicleError
@@ -47,6 +47,33 @@ __all__ = [
 ]
 
 R = TypeVar("R")
+R_co = TypeVar("R_co", covariant=True)
+
+if TYPE_CHECKING:
+    from ..curves import HairCurves
+
+
+class Future(Protocol[R_co]):
+    """What follicle uses of a ``distributed.Future``: its task's key, and its result,
+    waited for."""
+
+    key: str
+
+    def result(self) -> R_co: ...
+
+
+class DaskClient(Protocol):
+    """What follicle uses of a ``distributed.Client``: tasks submitted under a key, the
+    workers' threads, closing; typed so a checker sees what a task returns."""
+
+    dashboard_link: str
+
+    def submit(self, fn: Callable[..., R], *args: Any, key: str) -> Future[R]: ...
+
+    def nthreads(self) -> dict[str, int]: ...
+
+    def close(self) -> object: ...
+
 
 log = logging.getLogger("follicle")
 
@@ -54,10 +81,11 @@ _QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
 CONNECT_SECONDS = 10  # how long a scheduler's address may take to answer
 MAX_WORKERS_PER_CORE = 4  # local:N at most this many worker processes a core
 AHEAD = 3  # grow tasks in flight per worker thread, ahead of the client's writing
+_LOCAL_CLUSTERS: dict[int, Any] = {}  # the LocalCluster connect started, by its client's id
 _GROOMS: dict[tuple[str, str], Groom] = {}  # per worker process: the scenes it has built
 
 
-def connect(scheduler: str) -> object:
+def connect(scheduler: str) -> DaskClient:
     """A ``distributed.Client`` for ``scheduler``: ``"local:N"`` starts a LocalCluster
     of N single-threaded worker processes here (closed with the client), each with its
     share of the cores for numba (``NUMBA_NUM_THREADS``); anything else is a scheduler's
@@ -105,15 +133,15 @@ def connect(scheduler: str) -> object:
                 " a Python script, call follicle.distributed under"
                 ' `if __name__ == "__main__":` (they import the script again)'
             ) from None
-        client = Client(cluster)
-        client._follicle_cluster = cluster  # closed with the client (close())
-        log.info("Dask: %d local workers, dashboard %s", int(n), client.dashboard_link)
-        return client
+        local = Client(cluster)
+        _LOCAL_CLUSTERS[id(local)] = cluster  # closed with the client (close())
+        log.info("Dask: %d local workers, dashboard %s", int(n), local.dashboard_link)
+        return cast(DaskClient, local)
     _check_answers(scheduler)
     try:
-        client = Client(scheduler, timeout=CONNECT_SECONDS)
-        log.info("Dask: scheduler %s, dashboard %s", scheduler, client.dashboard_link)
-        return client
+        remote = Client(scheduler, timeout=CONNECT_SECONDS)
+        log.info("Dask: scheduler %s, dashboard %s", scheduler, remote.dashboard_link)
+        return cast(DaskClient, remote)
     except (OSError, TimeoutError, ValueError) as exc:
         raise ConfigError(
             f"--scheduler {scheduler!r}: no Dask scheduler answered there within"
@@ -164,16 +192,16 @@ def _check_answers(scheduler: str) -> None:
         )
 
 
-def close(client: object) -> None:
+def close(client: DaskClient) -> None:
     """Close ``client`` and the LocalCluster :func:`connect` started for it, if any."""
-    cluster = getattr(client, "_follicle_cluster", None)
+    cluster = _LOCAL_CLUSTERS.pop(id(client), None)
     client.close()
     if cluster is not None:
         cluster.close()
 
 
 @contextmanager
-def cluster(scheduler: str) -> Iterator[object]:
+def cluster(scheduler: str) -> Iterator[DaskClient]:
     """:func:`connect` to ``scheduler`` for the ``with`` block, closed on leaving."""
     client = connect(scheduler)
     try:
@@ -182,7 +210,9 @@ def cluster(scheduler: str) -> Iterator[object]:
         close(client)
 
 
-def submit_all(client: object, fn: Callable[..., R], calls: Sequence[tuple], name: str) -> list:
+def submit_all(
+    client: DaskClient, fn: Callable[..., R], calls: Sequence[tuple], name: str
+) -> list[Future[R]]:
     """One Dask task ``fn(*call)`` per call, keyed ``follicle-NAME-RUN-I``: a retried or
     speculative task keeps its key, so the scheduler never holds two results for one
     call (``fn`` writes its outputs atomically, under names fixed by its arguments)."""
@@ -192,18 +222,21 @@ def submit_all(client: object, fn: Callable[..., R], calls: Sequence[tuple], nam
     ]
 
 
-def in_order(futures: list) -> Iterator[object]:
+def in_order(futures: list[Future[R]]) -> Iterator[R]:
     """The results of ``futures`` in their order, each as soon as it and those before it
     are done (later tasks keep running meanwhile); a finished future is dropped from
     the list, so its result is not held longer than the caller holds it."""
-    for i, future in enumerate(futures):
+    held: list[Future[R] | None] = list(futures)
+    futures.clear()  # the caller's list no longer holds them either
+    for i, future in enumerate(held):
+        assert future is not None
         result = future.result()
-        futures[i] = None
+        held[i] = None
         yield result
 
 
 def streamed(
-    client: object, fn: Callable[..., R], calls: Sequence[tuple], name: str, ahead: int
+    client: DaskClient, fn: Callable[..., R], calls: Sequence[tuple], name: str, ahead: int
 ) -> Iterator[R]:
     """The results of ``fn(*call)`` for each call, in order, computed as Dask tasks (keyed
     as :func:`submit_all` keys them) with at most ``ahead`` of them submitted and not yet
@@ -213,7 +246,7 @@ def streamed(
     for, so the caller can do its own work while they run."""
     run = uuid.uuid4().hex
 
-    def submit(i: int) -> object:
+    def submit(i: int) -> Future[R]:
         return client.submit(fn, *calls[i], key=f"follicle-{name}-{run}-{i}")
 
     pending = deque(submit(i) for i in range(min(ahead, len(calls))))
@@ -228,7 +261,7 @@ def streamed(
     return results()
 
 
-def workers_of(client: object) -> int:
+def workers_of(client: DaskClient) -> int:
     """How many tasks ``client``'s cluster runs at once (its workers' threads), at least 1."""
     return max(1, sum(client.nthreads().values()))
 
@@ -242,7 +275,9 @@ def task_setup() -> int:
 
     from distributed import get_worker
 
-    threads = max(1, numba.config.NUMBA_NUM_THREADS // get_worker().state.nthreads)
+    from ..kernels.cache import config
+
+    threads = max(1, config.NUMBA_NUM_THREADS // get_worker().state.nthreads)
     numba.set_num_threads(threads)
     return threads
 
@@ -268,7 +303,7 @@ def on_worker() -> Iterator[None]:
         raise type(exc)(f"on Dask worker {get_worker().address}: {exc}{hint}") from None
 
 
-def write_part(curves: object, path: str | os.PathLike[str]) -> None:
+def write_part(curves: HairCurves, path: str | os.PathLike[str]) -> None:
     """``curves`` (HairCurves) as a part: a folder of one .npy file per array
     (``points``, ``offsets``, ``p.NAME``, ``c.NAME`` for point and curve data), written
     under a temporary name and renamed, so a reader never sees half of one and a task
@@ -292,7 +327,7 @@ def write_part(curves: object, path: str | os.PathLike[str]) -> None:
             raise
 
 
-def read_part(path: str | os.PathLike[str]) -> object:
+def read_part(path: str | os.PathLike[str]) -> HairCurves:
     """The HairCurves of a part :func:`write_part` wrote, read into memory (mapping it
     saves the copy but pays as much in page faults, measured)."""
     import numpy as np

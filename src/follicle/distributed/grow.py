@@ -95,7 +95,7 @@ def _grow_part(
     return part.point_count
 
 
-def _rechunked(parts: Iterable[object], size: int) -> Iterator[object]:
+def _rechunked(parts: Iterable[HairCurves], size: int) -> Iterator[HairCurves]:
     """``parts`` (HairCurves) in order, as chunks of ``size`` hairs (the last shorter)."""
 
     held: list[HairCurves] = []

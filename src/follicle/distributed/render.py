@@ -26,6 +26,7 @@ finds the folder gone and writes nothing. Finished outputs stay, as in one proce
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import socket
@@ -54,6 +55,7 @@ from ..scene import Scene, scene_from_toml, scene_to_toml
 from ..validate import whole
 from .cluster import (
     AHEAD,
+    DaskClient,
     cluster,
     streamed,
     submit_all,
@@ -162,7 +164,7 @@ class _FramesJob:
         check_cache_skin(cache, groom.mesh)
         self.camera = sequence_camera(cache, groom, scene.render)
 
-    def calls(self, client: object) -> list[tuple]:
+    def calls(self, client: DaskClient) -> list[tuple]:
         """One task's arguments per run of frames, sized for ``client``'s workers."""
         first, stop = self.frames.start, self.frames.stop
         per = self.per_task or default_frames_per_task(len(self.frames), workers_of(client))
@@ -216,7 +218,7 @@ def _render_task(
     ``pending`` folder); returns how many."""
     cache, drawn = _drawn(source, text, base_dir, start, stop, camera)
     for f, image in drawn:
-        deliver(pending, Path(folder) / frame_name(cache, f), lambda p, i=image: save_png(i, p))
+        deliver(pending, Path(folder) / frame_name(cache, f), functools.partial(save_png, image))
     return stop - start
 
 

@@ -66,6 +66,7 @@ class NumbaConfig(Protocol):
 
     CPU_NAME: str | None
     CACHE_DIR: str
+    NUMBA_NUM_THREADS: int
 
 
 config = cast(NumbaConfig, _numba_config)  # the module itself, typed
