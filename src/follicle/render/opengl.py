@@ -32,6 +32,7 @@ from .image import encode_srgb8
 from .options import (
     DEFAULT_SHADOW_SIZE,
     MAX_STEP_PX,
+    ShadingValue,
     scalar_param,
 )
 from .programs import get_program, set_uniforms, use_framebuffer
@@ -67,7 +68,9 @@ class _Releasable(Protocol):
     def release(self) -> None: ...
 
 
-def _buffer_format(prog, vbo, layout) -> tuple:
+def _buffer_format(
+    prog: moderngl.Program, vbo: moderngl.Buffer, layout: tuple[tuple[str, str], ...]
+) -> tuple:
     """moderngl's (buffer, format, names...) for ``prog``: attributes it does not read
     (dropped by the compiler) become padding."""
     used = [(fmt, name) for fmt, name in layout if name in prog]
@@ -318,7 +321,9 @@ class Renderer(RasterRenderer):
             vaos["hair_depth"], vaos["hair_opacity"] = pair[0::2], pair[1::2]
         return vaos
 
-    def _mesh_arrays(self, arrays, released):
+    def _mesh_arrays(
+        self, arrays: tuple[np.ndarray, np.ndarray, np.ndarray], released: list[_Releasable]
+    ) -> dict[str, moderngl.VertexArray]:
         ctx = self.ctx
         vertices, faces, normals = arrays
         data = np.empty((len(vertices), 6), dtype="f4")
@@ -338,7 +343,13 @@ class Renderer(RasterRenderer):
             released.append(vaos[name])
         return vaos
 
-    def _draw_opaque(self, skin_vaos, uniforms, skin_color, wrap) -> None:
+    def _draw_opaque(
+        self,
+        skin_vaos: dict[str, moderngl.VertexArray] | None,
+        uniforms: dict[str, object],
+        skin_color: np.ndarray,
+        wrap: ShadingValue,
+    ) -> None:
         """Background (a full-screen triangle, no depth), then the skin."""
         ctx = self.ctx
         use_framebuffer(self._opaque_fbo)
@@ -355,7 +366,9 @@ class Renderer(RasterRenderer):
             set_uniforms(vao.program, {**uniforms, "skin_color": tuple(skin_color), "wrap": wrap})
             vao.render(mode=ctx.TRIANGLES)
 
-    def _draw_hair(self, vaos, uniforms, oit) -> None:
+    def _draw_hair(
+        self, vaos: list[tuple[moderngl.VertexArray, int]], uniforms: dict[str, object], oit: bool
+    ) -> None:
         """Weighted blended OIT: colour·α·w and α·w summed, Π(1 - α) in the alpha; or,
         without ``oit``, "over" the opaque layer (w = 1: the colour is premultiplied)."""
         ctx = self.ctx
