@@ -211,7 +211,7 @@ def export_rib(
     for v, expect in zip(filled, expected, strict=True):
         box = " ".join(repr(float(x)) for x in boxes[v].T.reshape(-1))
         lines.append(
-            f"# voxel {v} {grid.cell_of(v)}: {roots[v]} hairs (count × P(voxel) ="
+            f"# voxel {v} {grid.cell_of(int(v))}: {roots[v]} hairs (count × P(voxel) ="
             f" {expect:.1f}), {curves[v]} curves"
         )
         lines.append(f'Procedural "RunProgram" ["{PROGRAM}" "{datablock} {v}"] [{box}]')
@@ -311,7 +311,7 @@ class Procedural:
         except OSError as exc:
             raise FormatError(f"{path}: cannot read the frame file ({exc.strerror})") from None
         key = (os.path.abspath(path), stat.st_mtime_ns, stat.st_size)
-        if key != self._key:
+        if key != self._key or self._frame is None:
             self._key, self._frame = None, None  # let the old frame go first
             self._frame, self._key = _Frame(path), key
         return self._frame

@@ -341,10 +341,22 @@ def api(folder: Path) -> None:
     color.lerp_hsv(hsv, hsv[::-1], np.linspace(0.0, 1.0, 10))
     noise.perlin_array(points)
     noise.noise3_array(points)
-    look = {"root_color": (0.1, 0.05, 0.02), "tip_color": (0.2, 0.1, 0.05), "hue_var": 5.0}
-    look.update(sat_var=0.1, val_var=0.1, mutant_fraction=0.1, mutant_color=(0.8, 0.8, 0.8))
-    look.update(root_width=1e-4, tip_width=5e-5, root_opacity=1.0, tip_opacity=0.5)
-    hair_appearance(np.arange(4), 0, 6, **look)
+    hair_appearance(
+        np.arange(4),
+        0,
+        6,
+        root_color=(0.1, 0.05, 0.02),
+        tip_color=(0.2, 0.1, 0.05),
+        hue_var=5.0,
+        sat_var=0.1,
+        val_var=0.1,
+        mutant_fraction=0.1,
+        mutant_color=(0.8, 0.8, 0.8),
+        root_width=1e-4,
+        tip_width=5e-5,
+        root_opacity=1.0,
+        tip_opacity=0.5,
+    )
     mesh = load_mesh("builtin:head")
     field = SDF.from_mesh(mesh.vertices, mesh.faces)
     field.distance_and_normal(points)

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..arrays import all_finite, as_array, point_bounds
 from ..curves import HairCurves
@@ -60,35 +61,43 @@ def _perpendicular_up(forward: np.ndarray, up: np.ndarray) -> np.ndarray:
     return axes[int(np.argmin(np.abs(axes @ forward)))]
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, init=False)
 class Camera:
     """A perspective camera at ``eye`` looking at ``target``.
 
     ``fov_y`` is the vertical field of view in degrees. ``near``/``far`` are the clip
     distances in metres; None lets the renderer fit them to the scene (and
     :meth:`projection_matrix` fall back to 1/100 and 100 × the eye-target distance).
+    ``eye``, ``target`` and ``up`` take any three numbers and are stored as (3,) float64
+    arrays.
     """
 
-    eye: Sequence[float]
-    target: Sequence[float]
-    up: Sequence[float] = (0.0, 1.0, 0.0)
-    fov_y: float = DEFAULT_FOV
-    near: float | None = None
-    far: float | None = None
+    eye: np.ndarray
+    target: np.ndarray
+    up: np.ndarray
+    fov_y: float
+    near: float | None
+    far: float | None
 
-    def __post_init__(self) -> None:
-        self.eye = _vec3(self.eye, "camera eye")
-        self.target = _vec3(self.target, "camera target")
-        self.up = _vec3(self.up, "camera up")
+    def __init__(
+        self,
+        eye: ArrayLike,
+        target: ArrayLike,
+        up: ArrayLike = (0.0, 1.0, 0.0),
+        fov_y: float = DEFAULT_FOV,
+        near: float | None = None,
+        far: float | None = None,
+    ) -> None:
+        self.eye = _vec3(eye, "camera eye")
+        self.target = _vec3(target, "camera target")
+        self.up = _vec3(up, "camera up")
         if np.linalg.norm(self.target - self.eye) <= 0.0:
             raise InputError("camera: eye and target are the same point; move the eye back")
         if np.linalg.norm(self.up) <= 0.0:
             raise InputError("camera up: must not be the zero vector")
-        self.fov_y = _fov(self.fov_y, "camera fov_y")
-        if self.near is not None:
-            self.near = positive(self.near, "camera near", unit="m")
-        if self.far is not None:
-            self.far = number(self.far, "camera far", unit="m")
+        self.fov_y = _fov(fov_y, "camera fov_y")
+        self.near = None if near is None else positive(near, "camera near", unit="m")
+        self.far = None if far is None else number(far, "camera far", unit="m")
         if self.near is not None and self.far is not None and self.far <= self.near:
             raise InputError(f"camera: far ({self.far}) must exceed near ({self.near})")
 
@@ -330,7 +339,7 @@ def scene_bounds(
     return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, init=False)
 class Light:
     """A directional light, or an ambient one when ``direction`` is None.
 
@@ -341,23 +350,31 @@ class Light:
     RGB, scaled by ``intensity``.
     """
 
-    direction: Sequence[float] | None
-    color: Sequence[float] = (1.0, 1.0, 1.0)
-    intensity: float = 1.0
-    space: str = "world"
+    direction: np.ndarray | None
+    color: np.ndarray
+    intensity: float
+    space: str
     radiance: np.ndarray = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
-        if self.direction is not None:
-            d = _vec3(self.direction, "light direction")
+    def __init__(
+        self,
+        direction: ArrayLike | None,
+        color: ArrayLike = (1.0, 1.0, 1.0),
+        intensity: float = 1.0,
+        space: str = "world",
+    ) -> None:
+        self.direction = None
+        if direction is not None:
+            d = _vec3(direction, "light direction")
             if np.linalg.norm(d) <= 0:
                 raise InputError("light direction: must not be the zero vector")
             self.direction = normalize(d)
-        c = _vec3(self.color, "light color")
+        c = _vec3(color, "light color")
         if np.any(c < 0):
             raise InputError(f"light color: must be non-negative, got {c.tolist()}")
-        self.intensity = positive(self.intensity, "light intensity", allow_zero=True)
+        self.intensity = positive(intensity, "light intensity", allow_zero=True)
         self.color = c
+        self.space = space
         if self.space not in ("world", "camera"):
             raise InputError(f"light space: expected 'world' or 'camera', got {self.space!r}")
         self.radiance = c * float(self.intensity)

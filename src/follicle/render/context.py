@@ -12,8 +12,12 @@ import contextlib
 import os
 import threading
 from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 from ..errors import FollicleError
+
+if TYPE_CHECKING:
+    import moderngl
 
 __all__ = ["get_context", "use_context", "GL_REQUIRED", "INSTALL_HINT"]
 
@@ -27,12 +31,12 @@ INSTALL_HINT = (
 )
 
 _lock = threading.Lock()
-_cached: dict[int, object] = {}  # pid -> moderngl.Context (a forked child needs its own)
-_borrowed: list[object] = []  # contexts lent by use_context, innermost last
+_cached: dict[int, moderngl.Context] = {}  # pid -> context (a forked child needs its own)
+_borrowed: list[moderngl.Context] = []  # contexts lent by use_context, innermost last
 
 
 @contextlib.contextmanager
-def use_context(ctx: object) -> Iterator[object]:
+def use_context(ctx: moderngl.Context) -> Iterator[moderngl.Context]:
     """Within the block, :func:`get_context` returns ``ctx`` (e.g. an on-screen window's
     moderngl context), so renderers made there draw on it instead of the headless one."""
     _borrowed.append(ctx)
@@ -42,7 +46,7 @@ def use_context(ctx: object) -> Iterator[object]:
         _borrowed.remove(ctx)
 
 
-def get_context():
+def get_context() -> moderngl.Context:
     """The process's cached moderngl standalone context (EGL backend).
 
     Raises FollicleError, saying what to install, when EGL or OpenGL >= 3.3 is missing.
@@ -62,13 +66,17 @@ def get_context():
     return ctx
 
 
-def _create():
+def _create() -> moderngl.Context:
     try:
         import moderngl
     except ImportError as exc:  # pragma: no cover - moderngl is a dependency
         raise FollicleError(f"cannot import moderngl ({exc}); `pip install moderngl`") from exc
     try:
-        ctx = moderngl.create_standalone_context(backend="egl", require=GL_REQUIRED)
+        ctx = moderngl.create_standalone_context(
+            require=GL_REQUIRED,
+            # moderngl's stub types every ``**settings`` value as a dict, wrongly
+            backend="egl",  # type: ignore[arg-type]
+        )
     except Exception as exc:
         raise FollicleError(
             f"cannot create a headless OpenGL context ({exc}). {INSTALL_HINT}"

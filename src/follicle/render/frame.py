@@ -18,7 +18,16 @@ from ..curves import HairCurves
 from ..errors import InputError
 from .camera import Camera, Light, default_lights, frame_scene, hair_bounds, scene_bounds
 from .lod import lod_fraction, thin_out
-from .options import ANGLE_PARAMS, MAX_LIGHTS, check_mesh, color3, parse_shading, point_attr
+from .options import (
+    ANGLE_PARAMS,
+    MAX_LIGHTS,
+    ShadingValue,
+    check_mesh,
+    color3,
+    parse_shading,
+    point_attr,
+    scalar_param,
+)
 from .shadows import automatic_layer, light_projection
 from .strands import StrandTables
 
@@ -38,7 +47,7 @@ class Frame:
     near: float
     far: float
     view_proj: np.ndarray  # (4, 4) float64, world -> clip
-    params: dict[str, object]  # the shading model's parameters and the common ones
+    params: dict[str, ShadingValue]  # the shading model's parameters and the common ones
     n_lights: int  # directional lights; the first is the key
     light_dirs: np.ndarray  # (MAX_LIGHTS, 3) float32, unit, towards the lights
     light_radiance: np.ndarray  # (MAX_LIGHTS, 3) float32
@@ -54,10 +63,11 @@ class Frame:
     lod: float  # the share of the hairs drawn ([render].lod; 1: all)
 
     @property
-    def model(self) -> dict[str, object]:
+    def model(self) -> dict[str, ShadingValue]:
         """The parameters as the shaders take them (``p_`` names, angles in radians)."""
         return {
-            f"p_{k}": (np.radians(v) if k in ANGLE_PARAMS else v) for k, v in self.params.items()
+            f"p_{k}": (np.radians(scalar_param(self.params, k)) if k in ANGLE_PARAMS else v)
+            for k, v in self.params.items()
         }
 
 
@@ -166,7 +176,7 @@ def prepare_frame(
     if settings.shadows and n_dir > 0:
         key = dirs[0].astype(np.float64)
         light = (key, *light_projection(key, lo, hi, shadow_size))
-    layer = float(params["shadow_layer"]) or automatic_layer(hair_lo, hair_hi)
+    layer = scalar_param(params, "shadow_layer") or automatic_layer(hair_lo, hair_hi)
     return Frame(
         settings=settings,
         size=(w, h),

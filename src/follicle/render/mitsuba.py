@@ -97,13 +97,14 @@ def _reporting(mi, progress: Callable[[int, int], None] | None) -> Iterator[None
     if progress is None:
         yield
         return
+    report = progress  # the closure below sees it narrowed
 
     class Reporter(mi.Appender):
         def append(self, level, text):  # log lines: the CLI's -v logging says enough
             pass
 
         def log_progress(self, fraction, name, formatted, eta, ptr=None):
-            progress(min(int(fraction * 100), 100), 100)
+            report(min(int(fraction * 100), 100), 100)
 
     logger = mi.logger()
     saved = [logger.appender(i) for i in range(logger.appender_count())]

@@ -19,7 +19,7 @@ wider hair is drawn as ribbons shaded per fragment.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -32,6 +32,8 @@ from .image import encode_srgb8
 from .options import (
     DEFAULT_SHADOW_SIZE,
     MAX_STEP_PX,
+    ShadingValue,
+    scalar_param,
 )
 from .programs import get_program, set_uniforms, use_framebuffer
 from .raster import RasterRenderer
@@ -40,6 +42,8 @@ from .shadows import ShadowMaps
 from .strands import StrandTables, back_to_front, vertex_tangents
 
 if TYPE_CHECKING:  # imported when used: pydantic is slow to load, `import follicle` quick
+    import moderngl
+
     from .settings import RenderParams
 
 __all__ = ["Renderer"]
@@ -58,7 +62,15 @@ _HAIR_LAYOUT = (
 _MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"))
 
 
-def _buffer_format(prog, vbo, layout) -> tuple:
+class _Releasable(Protocol):
+    """A GL object this renderer frees: buffer, texture, framebuffer, vertex array."""
+
+    def release(self) -> None: ...
+
+
+def _buffer_format(
+    prog: moderngl.Program, vbo: moderngl.Buffer, layout: tuple[tuple[str, str], ...]
+) -> tuple:
     """moderngl's (buffer, format, names...) for ``prog``: attributes it does not read
     (dropped by the compiler) become padding."""
     used = [(fmt, name) for fmt, name in layout if name in prog]
@@ -100,7 +112,7 @@ class Renderer(RasterRenderer):
         self._opaque_fbo = ctx.framebuffer([self._opaque], self._depth)
         self._hair_fbo = ctx.framebuffer([self._accum, self._weight], self._depth)
         self._out = ctx.renderbuffer((w, h), 4, dtype="f2")
-        self._out_fbo = ctx.framebuffer([self._out])
+        self._out_fbo: moderngl.Framebuffer | None = ctx.framebuffer([self._out])
         self._shadow = ShadowMaps(ctx, self.shadow_size)
         self._tables = StrandTables()
         self._fullscreen = {
@@ -113,7 +125,7 @@ class Renderer(RasterRenderer):
         """Free the framebuffers and shadow maps (the shared context and programs stay)."""
         if self._out_fbo is None:
             return
-        for obj in (
+        objs: tuple[_Releasable, ...] = (
             *self._fullscreen.values(),
             self._opaque_fbo,
             self._hair_fbo,
@@ -123,7 +135,8 @@ class Renderer(RasterRenderer):
             self._weight,
             self._depth,
             self._out,
-        ):
+        )
+        for obj in objs:
             obj.release()
         self._shadow.release()
         self._out_fbo = None
@@ -166,7 +179,7 @@ class Renderer(RasterRenderer):
         params, camera, light = f.params, f.camera, f.light
         w, h = self.size
         right, _, forward = camera.basis()
-        frame = {
+        frame: dict[str, object] = {
             **f.model,
             "n_lights": f.n_lights,
             "light_dir": f.light_dirs.tobytes(),
@@ -182,11 +195,13 @@ class Renderer(RasterRenderer):
         hair_gs = {"subdivisions": subdivisions}
 
         ctx = self.ctx
-        released: list = []
+        released: list[_Releasable] = []
         try:
             hair_vaos, skin_vaos = {}, None
             if f.curves is not None:
-                hair_vaos = self._hair_arrays(f, None if light is None else light[2], released)
+                hair_vaos = self._hair_arrays(
+                    f, f.curves, None if light is None else light[2], released
+                )
             if f.mesh is not None:
                 skin_vaos = self._mesh_arrays(f.mesh, released)
             if light is not None:
@@ -194,7 +209,7 @@ class Renderer(RasterRenderer):
                     self._shadow.render(
                         light,
                         f.layer,
-                        float(params["skin_softness"]),
+                        scalar_param(params, "skin_softness"),
                         hair_vaos,
                         hair_gs,
                         skin_vaos["mesh_depth"] if skin_vaos else None,
@@ -223,16 +238,19 @@ class Renderer(RasterRenderer):
             for obj in released:
                 obj.release()
             ctx.disable(ctx.BLEND | ctx.DEPTH_TEST)
-            ctx.blend_equation = ctx.FUNC_ADD
+            ctx.blend_equation = (ctx.FUNC_ADD, ctx.FUNC_ADD)  # colour and alpha
         linear = np.frombuffer(raw, dtype=np.float16).reshape(h, w, 4)[::-1]
         image = encode_srgb8(linear)
         image[..., 3] = 255  # the background is opaque
         return image
 
-    def _hair_arrays(self, f: Frame, light_texel: float | None, released: list) -> dict[str, list]:
-        """Upload the hair of frame ``f`` once; the vertex arrays that draw it, by pass (``colour``:
-        (vertex array, primitive) pairs; ``hair_depth``, ``hair_opacity``, drawn as lines
-        with adjacency, only with a ``light_texel`` size).
+    def _hair_arrays(
+        self, f: Frame, curves: HairCurves, light_texel: float | None, released: list[_Releasable]
+    ) -> dict[str, list]:
+        """Upload the hair ``curves`` of frame ``f`` (its :attr:`~Frame.curves`) once; the
+        vertex arrays that draw it, by pass (``colour``: (vertex array, primitive) pairs;
+        ``hair_depth``, ``hair_opacity``, drawn as lines with adjacency, only with a
+        ``light_texel`` size).
 
         Segments thinner than a pixel (texel) at both ends go to the line programs
         (``_thin``, the colour shaded per Catmull-Rom step; at one step a segment,
@@ -240,7 +258,7 @@ class Renderer(RasterRenderer):
         to the ribbon programs (shaded per fragment).
         """
         ctx = self.ctx
-        curves, camera = f.curves, f.camera
+        camera = f.camera
         shading, oit, subdivisions = f.settings.shading, f.settings.oit, f.settings.subdivisions
         segments = self._tables.segments(curves.offsets)
         data = np.empty((curves.point_count, 10), dtype="f4")  # position, hair_vertices
@@ -303,7 +321,9 @@ class Renderer(RasterRenderer):
             vaos["hair_depth"], vaos["hair_opacity"] = pair[0::2], pair[1::2]
         return vaos
 
-    def _mesh_arrays(self, arrays, released):
+    def _mesh_arrays(
+        self, arrays: tuple[np.ndarray, np.ndarray, np.ndarray], released: list[_Releasable]
+    ) -> dict[str, moderngl.VertexArray]:
         ctx = self.ctx
         vertices, faces, normals = arrays
         data = np.empty((len(vertices), 6), dtype="f4")
@@ -323,7 +343,13 @@ class Renderer(RasterRenderer):
             released.append(vaos[name])
         return vaos
 
-    def _draw_opaque(self, skin_vaos, uniforms, skin_color, wrap) -> None:
+    def _draw_opaque(
+        self,
+        skin_vaos: dict[str, moderngl.VertexArray] | None,
+        uniforms: dict[str, object],
+        skin_color: np.ndarray,
+        wrap: ShadingValue,
+    ) -> None:
         """Background (a full-screen triangle, no depth), then the skin."""
         ctx = self.ctx
         use_framebuffer(self._opaque_fbo)
@@ -340,7 +366,9 @@ class Renderer(RasterRenderer):
             set_uniforms(vao.program, {**uniforms, "skin_color": tuple(skin_color), "wrap": wrap})
             vao.render(mode=ctx.TRIANGLES)
 
-    def _draw_hair(self, vaos, uniforms, oit) -> None:
+    def _draw_hair(
+        self, vaos: list[tuple[moderngl.VertexArray, int]], uniforms: dict[str, object], oit: bool
+    ) -> None:
         """Weighted blended OIT: colour·α·w and α·w summed, Π(1 - α) in the alpha; or,
         without ``oit``, "over" the opaque layer (w = 1: the colour is premultiplied)."""
         ctx = self.ctx
@@ -350,7 +378,8 @@ class Renderer(RasterRenderer):
         ctx.enable(ctx.DEPTH_TEST | ctx.BLEND)
         ctx.depth_func = "<"
         if oit:
-            ctx.blend_func = ctx.ONE, ctx.ONE, ctx.ZERO, ctx.ONE_MINUS_SRC_ALPHA
+            # colour and alpha apart; moderngl's stub types blend_func as a pair only
+            ctx.blend_func = ctx.ONE, ctx.ONE, ctx.ZERO, ctx.ONE_MINUS_SRC_ALPHA  # type: ignore[assignment]
         else:
             ctx.blend_func = ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA
         for vao, primitive in vaos:
@@ -361,6 +390,8 @@ class Renderer(RasterRenderer):
     def _composite(self) -> None:
         ctx = self.ctx
         ctx.disable(ctx.DEPTH_TEST | ctx.BLEND)
+        if self._out_fbo is None:
+            raise InputError("Renderer: already released")
         use_framebuffer(self._out_fbo)
         vao = self._fullscreen["composite_msaa" if self.msaa else "composite"]
         for unit, tex in enumerate((self._opaque, self._accum, self._weight)):

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..validate import number, whole
@@ -31,6 +32,8 @@ __all__ = [
     "background_rows",
     "parse_size",
     "parse_shading",
+    "scalar_param",
+    "ShadingValue",
     "check_mesh",
     "RASTER_ENGINES",
     "ENGINE_NAMES",
@@ -62,7 +65,9 @@ DEFAULT_BACKGROUND = ((0.33, 0.36, 0.41), (0.08, 0.085, 0.1))
 # half vector leans towards the root (θh < 0, α < 0, or a positive tangent shift along
 # the ribbon normal); on a head seen from the light's side that puts the band nearer the
 # tips. The primary (R) lobe goes towards the root, the tinted one (TRT) towards the tip.
-Spec = tuple[object, float, float, str]
+# A shading parameter's value: a number, or a colour (r, g, b) when the default is one.
+ShadingValue = float | tuple[float, ...]
+Spec = tuple[ShadingValue, float, float, str]
 # dark hair keeps its colour where the primary lobe is seen at grazing angles
 SPECULAR_TINT: Spec = (
     0.6,
@@ -167,7 +172,7 @@ def parse_background(background: object) -> tuple[np.ndarray, np.ndarray]:
     return top, bottom
 
 
-def background_rows(background: tuple[np.ndarray, np.ndarray], height: int) -> np.ndarray:
+def background_rows(background: tuple[ArrayLike, ArrayLike], height: int) -> np.ndarray:
     """The background gradient per image row, top row first, (H, 3) float64: ``bottom``
     to ``top`` (:func:`parse_background`'s pair) linear over the pixel centres, as the
     OpenGL engine's full-screen triangle interpolates it."""
@@ -186,13 +191,16 @@ def soft_radius(softness: float, texel: float) -> int:
 
 
 def parse_size(size: object) -> tuple[int, int]:
+    w: object
+    h: object
     try:
-        w, h = size  # type: ignore[misc]
+        w, h = size  # type: ignore[misc]  # any pair unpacks; anything else raises here
     except (TypeError, ValueError):
         raise InputError(f"size: expected (width, height), got {size!r}") from None
-    w = whole(w, "size width", 1, MAX_SIZE, what="a whole number of pixels")
-    h = whole(h, "size height", 1, MAX_SIZE, what="a whole number of pixels")
-    return w, h
+    return (
+        whole(w, "size width", 1, MAX_SIZE, what="a whole number of pixels"),
+        whole(h, "size height", 1, MAX_SIZE, what="a whole number of pixels"),
+    )
 
 
 def shading_params_for(shading: str) -> dict[str, Spec]:
@@ -202,10 +210,10 @@ def shading_params_for(shading: str) -> dict[str, Spec]:
     return {**MODEL_PARAMS[shading], **COMMON_PARAMS}
 
 
-def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str, object]:
+def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str, ShadingValue]:
     """Defaults of model ``shading`` updated by ``params``, each checked against its range."""
     specs = shading_params_for(shading)
-    merged = {key: spec[0] for key, spec in specs.items()}
+    merged: dict[str, ShadingValue] = {key: spec[0] for key, spec in specs.items()}
     for key, value in (params or {}).items():
         if key not in specs:
             raise InputError(
@@ -218,6 +226,14 @@ def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str
             continue
         merged[key] = number(value, f"shading_params[{key!r}]", lo=lo, hi=hi)
     return merged
+
+
+def scalar_param(params: Mapping[str, ShadingValue], key: str) -> float:
+    """The number parameter ``key`` of ``params`` (:func:`parse_shading`'s), as a float."""
+    value = params[key]
+    if isinstance(value, tuple):
+        raise TypeError(f"shading parameter {key!r} is a colour, not a number")
+    return float(value)
 
 
 def check_mesh(mesh: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

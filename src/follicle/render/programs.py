@@ -12,6 +12,10 @@ fragment).
 from __future__ import annotations
 
 from importlib import resources
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import moderngl
 
 __all__ = ["MODEL_FILES", "get_program", "set_uniforms", "use_framebuffer"]
 
@@ -23,12 +27,12 @@ MODEL_FILES = {
 _GS_OUT = ("VARYING out", "VARYING_NAME gs_out")
 _FS_IN = ("VARYING in", "VARYING_NAME fs_in")
 
-_cache: dict[tuple[int, str], object] = {}
+_cache: dict[tuple[int, str], moderngl.Program] = {}
 
 
 def _read(name: str) -> str:
     """The shader file ``name``, a data file of this package (``__package__``)."""
-    return resources.files(__package__).joinpath("shaders", name).read_text("utf-8")
+    return resources.files(__package__).joinpath("shaders").joinpath(name).read_text("utf-8")
 
 
 def _stage(defines: tuple[str, ...], files: list[str]) -> str:
@@ -87,7 +91,7 @@ def _sources(name: str) -> tuple[str, str | None, str]:
     }[name]
 
 
-def get_program(ctx, name: str):
+def get_program(ctx: moderngl.Context, name: str) -> moderngl.Program:
     """Program ``name`` for ``ctx``: ``hair:<model>``, ``hair_depth``, ``hair_opacity``
     (ribbons; each also as ``..._thin``: lines for hair thinner than a pixel),
     ``hair_line:<model>`` (thin hair at one step a segment, no geometry shader), ``mesh``,
@@ -101,19 +105,22 @@ def get_program(ctx, name: str):
     return prog
 
 
-def set_uniforms(prog, values: dict[str, object]) -> None:
+def set_uniforms(prog: moderngl.Program, values: dict[str, object]) -> None:
     """Set the uniforms ``prog`` has; the compiler drops the unused ones, so others are
     skipped. Numbers and tuples go by ``value``; bytes (arrays) by ``write``."""
+    import moderngl  # loaded already: ``prog`` exists
+
     for name, value in values.items():
-        if name not in prog:
+        member = prog.get(name, None)
+        if not isinstance(member, moderngl.Uniform):  # dropped, or not a uniform
             continue
         if isinstance(value, bytes):
-            prog[name].write(value)
+            member.write(value)
         else:
-            prog[name].value = value
+            member.value = value
 
 
-def use_framebuffer(fbo) -> None:
+def use_framebuffer(fbo: moderngl.Framebuffer) -> None:
     """Bind ``fbo`` with its whole area as viewport. moderngl keeps a viewport per
     framebuffer, and ``ctx.viewport = ...`` (here or in a caller sharing the context,
     such as a window) changes the bound one's: always set it, never rely on it."""

@@ -49,7 +49,7 @@ def light_table(light: Light) -> dict[str, object]:
         "color": tuple(color),
         "intensity": intensity,
     }
-    if not light.is_ambient:
+    if light.direction is not None:  # not ambient
         table["direction"] = tuple(float(x) for x in light.direction)
     return table
 
@@ -203,7 +203,7 @@ def _plain(value: object) -> object:
 
 
 # an override of None means the setting's default where the setting itself cannot be None
-_NONE_IS = {"lights": [], "shading_params": {}}
+_NONE_IS: dict[str, object] = {"lights": [], "shading_params": {}}
 
 
 def with_overrides(
@@ -238,6 +238,8 @@ def with_overrides(
                     f"{source}: background: expected one linear RGB colour (r, g, b) or a"
                     f" vertical gradient ((r, g, b) top, (r, g, b) bottom), got {shown(background)}"
                 ) from None
+            top: object
+            bottom: object
             top, bottom = background if pair else (background, background)  # type: ignore[misc]
             changes.update(background_top=_plain(top), background_bottom=_plain(bottom))
     return settings.replace(source, **changes)

@@ -11,11 +11,16 @@ four, that its depth falls in behind that nearest depth. Receivers (hair and ski
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..frames import normalize
 from .options import soft_radius
 from .programs import set_uniforms, use_framebuffer
+
+if TYPE_CHECKING:
+    import moderngl
 
 __all__ = ["ShadowMaps", "automatic_layer", "light_projection"]
 
@@ -55,7 +60,7 @@ def light_projection(
 class ShadowMaps:
     """The key light's maps at ``size`` × ``size`` texels, reused from frame to frame."""
 
-    def __init__(self, ctx, size: int) -> None:
+    def __init__(self, ctx: moderngl.Context, size: int) -> None:
         self.ctx = ctx
         self.size = size
         self.skin_depth = ctx.depth_texture((size, size))
@@ -95,9 +100,9 @@ class ShadowMaps:
         light: tuple[np.ndarray, np.ndarray, float, float],
         layer: float,
         softness: float,
-        hair_vaos: dict[str, list],
+        hair_vaos: dict[str, list[moderngl.VertexArray]],
         hair_uniforms: dict,
-        skin_vao,
+        skin_vao: moderngl.VertexArray | None,
     ) -> dict[str, object]:
         """Render the maps; returns the receivers' uniforms.
 
@@ -149,13 +154,13 @@ class ShadowMaps:
             ("hair_opacity", self._layers_fbo, ctx.FUNC_ADD),
         ):
             use_framebuffer(fbo)
-            ctx.blend_equation = equation
+            ctx.blend_equation = (equation, equation)  # colour and alpha
             if name == "hair_opacity":
                 self.first.use(0)  # the nearest depths, just drawn
             for vao in hair_vaos.get(name, []):
                 set_uniforms(vao.program, view)
                 vao.render(mode=ctx.LINES_ADJACENCY)
-        ctx.blend_equation = ctx.FUNC_ADD
+        ctx.blend_equation = (ctx.FUNC_ADD, ctx.FUNC_ADD)
         ctx.disable(ctx.BLEND)
         return {
             "shadows": True,

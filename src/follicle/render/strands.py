@@ -62,7 +62,7 @@ def curve_param(offsets: np.ndarray, n_points: int) -> np.ndarray:
 def strand_seeds(offsets: np.ndarray) -> np.ndarray:
     """Per vertex, a number in [0, 1) fixed per curve (the golden-ratio sequence over the
     curve index): neighbouring strands get well-spread noise in the shaders."""
-    counts = np.diff(np.asarray(offsets, dtype=np.int64))
+    counts: np.ndarray = np.diff(np.asarray(offsets, dtype=np.int64))
     seeds = np.modf(np.arange(len(counts), dtype=np.float64) * 0.6180339887498949)[0]
     return np.repeat(seeds.astype(np.float32), counts)
 

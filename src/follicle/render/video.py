@@ -76,7 +76,8 @@ class Mp4Writer:
         self._ffmpeg = _ffmpeg()
         self.frames = 0  # frames written so far
         self._size: tuple[int, ...] | None = None  # frame 0's (H, W)
-        self._encoder = None  # started by the first frame, which fixes the size
+        # started by the first frame, which fixes the size
+        self._encoder: Generator[None, np.ndarray | None, None] | None = None
 
     def __enter__(self) -> Mp4Writer:
         return self
@@ -154,7 +155,7 @@ class Mp4Writer:
             )
             writer.send(None)
             try:
-                frame = first
+                frame: np.ndarray | None = first
                 while frame is not None:
                     writer.send(frame)
                     frame = yield

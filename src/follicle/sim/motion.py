@@ -12,9 +12,9 @@ hair can settle. The face looks towards +z and +y is up (the built-in head).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from ..validate import number, positive
@@ -66,7 +66,7 @@ def head_motion(
     t: float,
     amplitude: float = 40.0,
     period: float = 2.0,
-    pivot: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+    pivot: ArrayLike = (0.0, 0.0, 0.0),
 ) -> np.ndarray:
     """World-from-rest rigid transform (4, 4) float64 of the head at time ``t`` (s).
 

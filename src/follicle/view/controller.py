@@ -307,7 +307,7 @@ class Controller:
         groom, points = self.groom, self.editor.points
         grown = self._grown[1] if self._grown and self._grown[0] is groom else None
         if grown is not None and int(grown.curve_data["hair_id"][-1]) == drawn - 1:
-            changed = np.concatenate(self._changed) if self._changed else []
+            changed: np.ndarray | list[int] = np.concatenate(self._changed) if self._changed else []
             curves = groom.regrow(grown, points, changed)  # nothing changed: grown itself
         else:  # the first piece of a drag, or another groom or share of the hairs
             curves = groom.follow(points, count=drawn)
@@ -353,6 +353,8 @@ class Controller:
         guides changed."""
         if self._stroke is None:
             raise InputError("drag_stroke: no stroke begun (begin_stroke)")
+        if self.brush is None:
+            raise InputError("drag_stroke: choose a brush first (set_brush)")
         path = [self._stroke, (float(x), float(y))]
         strength = self.brush_strength
         if self.brush != "length":

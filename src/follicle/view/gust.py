@@ -4,11 +4,16 @@ simulated time, added to the scene's [sim] wind without changing the scene."""
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from ..sim.simulator import Simulator
+
+if TYPE_CHECKING:
+    from ..curves import HairCurves
+    from ..groom.guides import Guides
+    from ..sim.settings import SimParams
 
 __all__ = ["Gust", "GustySimulator"]
 
@@ -35,7 +40,9 @@ class GustySimulator(Simulator):
     """A :class:`Simulator` whose wind is the [sim] wind plus ``gusts`` (a list the
     the viewer owns and adds to)."""
 
-    def __init__(self, guides: object, params: object, gusts: list[Gust]) -> None:
+    def __init__(
+        self, guides: Guides | HairCurves, params: SimParams | None, gusts: list[Gust]
+    ) -> None:
         super().__init__(guides, params=params)
         self.gusts = gusts
 

@@ -4,13 +4,17 @@ its actions; everything it does is reachable from Python without it."""
 from __future__ import annotations
 
 import typing
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import fields
+from typing import TYPE_CHECKING, SupportsFloat, SupportsInt
 
 from ..errors import FollicleError
 from ..groom.brushes import BRUSHES
 from .controller import DEFAULT_SCENE_FILE, QUALITIES, Controller, Show
 from .controls import CONTROLS, SECTIONS, Control
+
+if TYPE_CHECKING:
+    from .window import Window
 
 __all__ = ["Panel", "KEYS"]
 
@@ -36,6 +40,25 @@ RADIUS_STEP = 1.1  # brush radius factor per Ctrl + wheel notch
 STRENGTH_STEP = 0.05  # brush strength per Shift + wheel notch
 
 
+def _int(value: object) -> int:
+    if not isinstance(value, SupportsInt):
+        raise TypeError(f"expected a whole number, got {value!r}")
+    return int(value)
+
+
+def _float(value: object) -> float:
+    if not isinstance(value, SupportsFloat):
+        raise TypeError(f"expected a number, got {value!r}")
+    return float(value)
+
+
+def _list(value: object) -> list[float]:
+    """A vector or colour setting as the list an ImGui widget edits."""
+    if not isinstance(value, Iterable):
+        raise TypeError(f"expected numbers, got {value!r}")
+    return list(value)
+
+
 def _choices(section: str, key: str) -> list[str]:
     return [str(v) for v in typing.get_args(SECTIONS[section].model_fields[key].annotation)]
 
@@ -43,7 +66,7 @@ def _choices(section: str, key: str) -> list[str]:
 class Panel:
     """ImGui on ``window`` (a :class:`~follicle.view.window.Window`), drawn each frame."""
 
-    def __init__(self, window: object, ctl: Controller) -> None:
+    def __init__(self, window: Window, ctl: Controller) -> None:
         from imgui_bundle import imgui
 
         self.imgui = imgui
@@ -233,14 +256,14 @@ class Panel:
             imgui.text_disabled(f"{c.key}: {value} (map)")
             return
         elif c.kind == "int":
-            changed, new = imgui.slider_int(label, int(value), int(c.lo), int(c.hi))
+            changed, new = imgui.slider_int(label, _int(value), int(c.lo), int(c.hi))
         elif c.kind == "float":
             fmt = "%.2e" if c.hi < 0.1 else "%.3f"
-            changed, new = imgui.slider_float(label, float(value), c.lo, c.hi, fmt)
+            changed, new = imgui.slider_float(label, _float(value), c.lo, c.hi, fmt)
         elif c.kind == "vec3":
-            changed, new = imgui.slider_float3(label, list(value), c.lo, c.hi)
+            changed, new = imgui.slider_float3(label, _list(value), c.lo, c.hi)
         else:  # colour
-            changed, new = imgui.color_edit3(label, list(value), imgui.ColorEditFlags_.float)
+            changed, new = imgui.color_edit3(label, _list(value), imgui.ColorEditFlags_.float)
         if changed:
             self._act(ctl.set_param, section, c.key, tuple(new) if isinstance(new, list) else new)
 
@@ -302,13 +325,13 @@ class Panel:
             if changed:
                 self._act(ctl.set_light, i, "intensity", v)
             changed, v = imgui.color_edit3(
-                f"colour##light{i}", list(light["color"]), imgui.ColorEditFlags_.float
+                f"colour##light{i}", _list(light["color"]), imgui.ColorEditFlags_.float
             )
             if changed:
                 self._act(ctl.set_light, i, "color", tuple(v))
             if light["type"] == "directional":
                 changed, v = imgui.slider_float3(
-                    f"direction##light{i}", list(light["direction"]), -1.0, 1.0
+                    f"direction##light{i}", _list(light["direction"]), -1.0, 1.0
                 )
                 if changed:
                     self._act(ctl.set_light, i, "direction", tuple(v))

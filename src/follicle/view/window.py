@@ -7,10 +7,14 @@ from __future__ import annotations
 import ctypes
 import importlib
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import FollicleError
+
+if TYPE_CHECKING:
+    import moderngl
 
 __all__ = ["Window"]
 
@@ -78,12 +82,15 @@ class Window:
         self._vao = self.ctx.vertex_array(
             self.ctx.program(vertex_shader=_VS, fragment_shader=_FS), []
         )
-        self._texture = None
+        self._texture: moderngl.Texture | None = None
 
     @property
     def address(self) -> int:
         """The GLFWwindow pointer, for ImGui's GLFW backend."""
-        return ctypes.cast(self.handle, ctypes.c_void_p).value
+        pointer = ctypes.cast(self.handle, ctypes.c_void_p).value
+        if pointer is None:
+            raise FollicleError("the window is closed")
+        return pointer
 
     def framebuffer_size(self) -> tuple[int, int]:
         """The window's drawable size in pixels now ((0, 0) while minimised)."""

@@ -35,7 +35,7 @@ from ...kernels import kernel, prange
 from ..camera import Camera
 from ..frame import Frame, hair_vertices, prepare_frame
 from ..image import half_bits, srgb8_table
-from ..options import MAX_STEP_PX, background_rows, soft_radius
+from ..options import MAX_STEP_PX, background_rows, scalar_param, soft_radius
 from ..raster import RasterRenderer
 from ..strands import StrandTables
 from .bins import bin_boxes, tile_grid
@@ -266,8 +266,8 @@ class CpuRenderer(RasterRenderer):
             f.layer / depth_range,
             1.0 / depth_range,
             texel,
-            float(f.params["shadow_density"]),
-            soft_radius(float(f.params["skin_softness"]), texel),
+            scalar_param(f.params, "shadow_density"),
+            soft_radius(scalar_param(f.params, "skin_softness"), texel),
         )
         return (
             np.ascontiguousarray(matrix, np.float64),
@@ -305,7 +305,7 @@ class CpuRenderer(RasterRenderer):
             np.ascontiguousarray(faces, np.int64),
             np.asarray(f.camera.eye, np.float64),
             np.asarray(f.skin_color, np.float64),
-            float(f.params["skin_wrap"]),
+            scalar_param(f.params, "skin_wrap"),
             f.n_lights,
             f.light_dirs,
             f.light_radiance,

@@ -12,11 +12,12 @@ one float64 array (:func:`pack_model`) in the order of :data:`PARAM_ORDER`.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
 from ...kernels import kernel
-from ..options import SHADINGS
+from ..options import SHADINGS, ShadingValue, scalar_param
 
 __all__ = [
     "MODELS",
@@ -29,7 +30,14 @@ __all__ = [
 ]
 
 MODELS = {name: i for i, name in enumerate(SHADINGS)}
-_KK = ("diffuse", "specular", "shininess", "specular_color", "specular2", "shininess2")
+_KK: tuple[str, ...] = (
+    "diffuse",
+    "specular",
+    "shininess",
+    "specular_color",
+    "specular2",
+    "shininess2",
+)
 _KK += ("shift", "shift2", "specular_tint")
 PARAM_ORDER = {
     "kajiya-kay": _KK,
@@ -39,7 +47,7 @@ PARAM_ORDER = {
 _U32 = np.uint64(0xFFFFFFFF)
 
 
-def pack_model(shading: str, model: dict[str, object]) -> np.ndarray:
+def pack_model(shading: str, model: Mapping[str, ShadingValue]) -> np.ndarray:
     """The model's parameters as one float64 array in :data:`PARAM_ORDER` (a colour
     takes three places), from the shaders' uniforms
     (:attr:`follicle.render.frame.Frame.model`: ``p_`` names, angles in radians)."""
@@ -56,7 +64,7 @@ def pack_model(shading: str, model: dict[str, object]) -> np.ndarray:
 POWER_STEPS = 4096  # intervals of the specular power tables: error 1e-4 at p = 120, 3e-4 at 200
 
 
-def pack_powers(shading: str, model: dict[str, object]) -> np.ndarray:
+def pack_powers(shading: str, model: Mapping[str, ShadingValue]) -> np.ndarray:
     """The specular lobes' power tables, (2, POWER_STEPS + 1) float64: x^e over x in
     [0, 1] for the primary and secondary exponents (Kajiya-Kay: the shininesses;
     Scheuermann: half of them, its lobes being (1 − cos²)^(p/2)); Marschner uses none."""
@@ -64,7 +72,10 @@ def pack_powers(shading: str, model: dict[str, object]) -> np.ndarray:
         return np.zeros((2, POWER_STEPS + 1))
     half = 0.5 if shading == "scheuermann" else 1.0
     x = np.linspace(0.0, 1.0, POWER_STEPS + 1)
-    exponents = (half * float(model["p_shininess"]), half * float(model["p_shininess2"]))
+    exponents = (
+        half * scalar_param(model, "p_shininess"),
+        half * scalar_param(model, "p_shininess2"),
+    )
     return np.stack([x**e for e in exponents])
 
 
