@@ -208,6 +208,7 @@ class GuideEditor:
         spacing = options.pop("spacing", None) if brush == "add" else None
         if options:
             raise InputError(f"{brush}: unknown option(s) {sorted(options)}")
+        step = None if spacing is None else positive(spacing, "spacing", unit="px")
         view = self._view(camera, (w, h))
         if not join:
             self._pushed = False  # a new stroke: its first change gets an undo step
@@ -218,11 +219,10 @@ class GuideEditor:
         elif brush == "part":
             changed = self._part(view, line, radius, strength)
         elif brush == "add":
-            step = radius if spacing is None else positive(spacing, "spacing", unit="px")
-            changed = self._add(view, _dabs(line, step))
+            changed = self._add(view, _dabs(line, radius if step is None else step))
         else:
             changed = self._brush(brush, view, _dabs(line, radius * SPACING), radius, strength)
-        extra = {} if spacing is None else {"spacing": float(spacing)}
+        extra = {} if step is None else {"spacing": step}
         entry = stroke_entry(brush, line.tolist(), camera, radius, strength, (w, h), extra)
         if join:
             entry["join"] = True
@@ -407,7 +407,7 @@ class GuideEditor:
         band = (seen & covered.ravel() & (dist <= radius)).reshape(h, w)
         if not band.any():
             return None, []
-        colors = [tuple(int(c) for c in rgb) for rgb in old.colors]
+        colors = [(int(r), int(g), int(b)) for r, g, b in old.colors]
         new = _fresh_colours(colors, 2)
         image = np.array(colors, np.uint8)[ids]
         left = band & (side.reshape(h, w) > 0)
@@ -649,7 +649,10 @@ def _dabs(line: np.ndarray, spacing: float) -> np.ndarray:
 def replay(editor: GuideEditor, doc: Mapping[str, object], name: str = "strokes") -> None:
     """Apply a loaded stroke log's entries (:func:`~.strokes.load_strokes`) to
     ``editor`` in order; a bad stroke is an InputError naming ``name`` and the entry."""
-    for i, entry in enumerate(doc["strokes"]):  # type: ignore[arg-type]
+    strokes = doc["strokes"]
+    if not isinstance(strokes, list):  # load_strokes gives a list; a hand-made doc may not
+        raise InputError(f"{name}: strokes: expected a list of strokes")
+    for i, entry in enumerate(strokes):
         where = f"{name}: strokes[{i}]"
         if entry == {"undo": True}:
             editor.undo()
