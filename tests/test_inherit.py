@@ -167,6 +167,7 @@ def test_chunks_fibres_clumps_and_follow(mesh, guides):
         np.testing.assert_array_equal(followed.point_data[key], whole.point_data[key])
     for key in ("stiffness", "tag"):
         np.testing.assert_array_equal(followed.curve_data[key], whole.curve_data[key])
+    assert groom.regrow(whole, moved, [0, 1, 2, 3]) == followed
 
 
 def test_unequal_segments_and_a_coincident_pair_resample_by_arc_length(mesh):
