@@ -23,7 +23,7 @@ from .params import curve_parameter, per_hair, row
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
-__all__ = ["ENDS", "hair_ends", "vertex_look", "hair_appearance"]
+__all__ = ["ENDS", "hair_ends", "hair_shifts", "shifted_rgb", "vertex_look", "hair_appearance"]
 
 _MUTANT = purpose_id("mutant hair")  # one number per hair: mutant when ξ < fraction
 _VARIATION = purpose_id("color variation")  # numbers 0, 1, 2: hue, saturation, value
@@ -40,6 +40,38 @@ def _shifted_hsv(r, g, b, dh, ds, dv):
     """Šik 2012 §2.2.6: RGB to HSV minus the shifts; s, v clamped to [0, 1] (hue wraps later)."""
     h, s, v = rgb_to_hsv1(r, g, b)
     return h - dh, _clamp01(s - ds), _clamp01(v - dv)
+
+
+@kernel(inline="always")
+def _hair_shifts(ids, seed, hue_var, sat_var, val_var, mutant_fraction, i):
+    """Whether hair ``i`` is a mutant, and its hue, saturation and value shifts."""
+    hair = ids[i]
+    fraction = mutant_fraction[row(mutant_fraction, i)]
+    mutant = uniform(stream_key(seed, hair, _MUTANT), 0) < fraction
+    key = stream_key(seed, hair, _VARIATION)
+    dh = hue_var[row(hue_var, i)] * 2.0 * (uniform(key, 0) - 0.5)
+    ds = sat_var[row(sat_var, i)] * 2.0 * (uniform(key, 1) - 0.5)
+    dv = val_var[row(val_var, i)] * 2.0 * (uniform(key, 2) - 0.5)
+    return mutant, dh, ds, dv
+
+
+@kernel(parallel=True, nogil=True)
+def _shifts_kernel(ids, seed, hue_var, sat_var, val_var, mutant_fraction, out):
+    for i in prange(ids.shape[0]):
+        mutant, dh, ds, dv = _hair_shifts(ids, seed, hue_var, sat_var, val_var, mutant_fraction, i)
+        out[i, 0] = 1.0 if mutant else 0.0
+        out[i, 1], out[i, 2], out[i, 3] = dh, ds, dv
+
+
+@kernel(inline="always")
+def shifted_rgb(r, g, b, shift):
+    """An RGB colour moved by a hair's :func:`hair_shifts` row ``shift`` as its root and
+    tip colours are (Šik 2012 §2.2.6); unchanged, with no trip through HSV, when the
+    shifts are 0."""
+    if shift[1] == 0.0 and shift[2] == 0.0 and shift[3] == 0.0:
+        return r, g, b
+    h, s, v = _shifted_hsv(r, g, b, shift[1], shift[2], shift[3])
+    return hsv_to_rgb1(h, s, v)
 
 
 # per hair: root h, s, v, signed hue distance to the tip, tip s, v; width and opacity
@@ -66,13 +98,7 @@ def _ends_kernel(
 ):
     """Fill ``ends`` (n, ENDS) for hairs ``ids``; inputs have n rows or one shared row."""
     for i in prange(ids.shape[0]):
-        hair = ids[i]
-        fraction = mutant_fraction[row(mutant_fraction, i)]
-        mutant = uniform(stream_key(seed, hair, _MUTANT), 0) < fraction
-        key = stream_key(seed, hair, _VARIATION)
-        dh = hue_var[row(hue_var, i)] * 2.0 * (uniform(key, 0) - 0.5)
-        ds = sat_var[row(sat_var, i)] * 2.0 * (uniform(key, 1) - 0.5)
-        dv = val_var[row(val_var, i)] * 2.0 * (uniform(key, 2) - 0.5)
+        mutant, dh, ds, dv = _hair_shifts(ids, seed, hue_var, sat_var, val_var, mutant_fraction, i)
         if mutant:  # one colour for the whole hair
             m = mutant_rgb[row(mutant_rgb, i)]
             h1, s1, v1 = _shifted_hsv(m[0], m[1], m[2], dh, ds, dv)
@@ -183,6 +209,34 @@ def hair_ends(
     ends = np.empty((n, ENDS), dtype=np.float64)
     _ends_kernel(ids, np.uint64(seed), *inputs, ends)
     return ends
+
+
+def hair_shifts(
+    hair_ids: object,
+    seed: int,
+    hue_var: float | np.ndarray,
+    sat_var: float | np.ndarray,
+    val_var: float | np.ndarray,
+    mutant_fraction: float | np.ndarray,
+) -> np.ndarray:
+    """Each hair's mutant flag (1 or 0) and hue, saturation and value shifts, float64
+    (n, 4): the random choices :func:`hair_ends` makes, from the same streams, for a
+    colour that does not come from root and tip colours (one inherited from the guides,
+    ``[groom].inherit``)."""
+    ids = _hair_ids(hair_ids)
+    n = ids.shape[0]
+    seed = whole(seed, "seed", 0, 2**64 - 1)
+    out = np.empty((n, 4), dtype=np.float64)
+    _shifts_kernel(
+        ids,
+        np.uint64(seed),
+        per_hair(hue_var, n, "hue_var", 0.0, 180.0),
+        per_hair(sat_var, n, "sat_var", 0.0, 1.0),
+        per_hair(val_var, n, "val_var", 0.0, 1.0),
+        per_hair(mutant_fraction, n, "mutant_fraction", 0.0, 1.0),
+        out,
+    )
+    return out
 
 
 class EndsProperties(TypedDict):

@@ -23,6 +23,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import DTypeLike
 
 from ..arrays import empty_touched
 from ..curves import HairCurves
@@ -35,12 +36,13 @@ from ..mesh.texture import Texture
 from ..rng import uniforms
 from ..threads import chained, ordered_map, workers
 from ..validate import whole
-from .appearance import hair_ends
+from .appearance import hair_ends, hair_shifts
 from .barycentric import GuideTriangulation
 from .clump import assign_clumps, clump
 from .fibres import make_fibres
 from .finalize import cut_in_place, cut_plan, finish, pack
 from .guides import Guides
+from .inherit import Inherited, hair_values, inherited, pack_values
 from .interpolate import blend_guides, guide_turn, idw_weights, tilt, translate_guides
 from .knn import PointGrid
 from .properties import GroomProperties
@@ -72,7 +74,11 @@ _CURVE_FIELDS = {
 }
 
 
-def _bytes(fields: Mapping[str, tuple[type, tuple[int, ...]]]) -> int:
+# name -> (dtype, shape per vertex or per curve) of output arrays
+_Fields = Mapping[str, tuple[DTypeLike, tuple[int, ...]]]
+
+
+def _bytes(fields: _Fields) -> int:
     return sum(np.dtype(dtype).itemsize * int(np.prod(shape)) for dtype, shape in fields.values())
 
 
@@ -163,6 +169,8 @@ class _Bucket:
     keep: np.ndarray  # (m, n) bool
     t_end: np.ndarray  # (m,) curve parameter of the last vertex
     ends: np.ndarray  # (m, ENDS) colour, width, opacity at root and tip
+    inherited: dict[str, np.ndarray]  # attributes from the guides (.inherit.hair_values)
+    shifts: np.ndarray | None  # (m, 4) hue etc. shifts of an inherited colour
 
 
 class _Shaped:
@@ -256,6 +264,7 @@ class Groom:
         self._weights_by_group: dict[int, tuple[np.ndarray, _Finder]] = {}
         self._centre_roots: tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._centre_shapes: np.ndarray | None = None
+        self._inherit: tuple[Inherited, ...] = ()  # [groom].inherit, checked on the guides
         self._lock = threading.RLock()
         self.params = params if params is not None else GroomParams()
 
@@ -301,6 +310,7 @@ class Groom:
             self._layouts.clear()
             self._weights_by_group.clear()
             self._centre_roots = None
+        self._inherit = inherited(self.guides, params.inherit)
         groups = self.guides.groups
         default = params.vertices or self.guides.vertex_count
         self._vertices = np.array(
@@ -358,7 +368,7 @@ class Groom:
         # reuses them, while memory stays bounded by one call's roots
         self._layouts = dict(zip(spans, layouts, strict=True))
         bound = sum(self._vertex_bound(lay) for lay in layouts)
-        out = _allocate(bound, count * self.params.strand_count)
+        out = self._allocate(bound, count * self.params.strand_count)
         v, c = chained(
             layouts,
             lambda lay: self._shape(lay, time, guides, skin),
@@ -367,7 +377,7 @@ class Groom:
             (0, 0),
             None if progress is None else lambda k: progress(spans[k][1] - start, count),
         )
-        return _curves(out, v, c)
+        return self._curves(out, v, c)
 
     def follow(
         self,
@@ -438,10 +448,10 @@ class Groom:
         if not parts:
             return previous
         lay = _joined(parts)
-        out = _allocate(self._vertex_bound(lay), len(lay.ids) * self.params.strand_count)
+        out = self._allocate(self._vertex_bound(lay), len(lay.ids) * self.params.strand_count)
         shaped = self._shape(lay, time, posed, skin)
         self._assemble(lay, shaped, out, 0, 0)
-        grown = _curves(out, *shaped.after((0, 0)))
+        grown = self._curves(out, *shaped.after((0, 0)))
         strands = self.params.strand_count
         old = ids * strands + previous.curve_data["strand_id"]  # (hair id, strand) order
         new = grown.curve_data["hair_id"] * strands + grown.curve_data["strand_id"]
@@ -529,10 +539,10 @@ class Groom:
             raise InputError("ids: hair ids must be distinct and ≥ 0")
         lay = self._make_layout(tri, np.asarray(bary), ids.astype(np.int64))  # mesh validates
         bound = self._vertex_bound(lay)
-        out = _allocate(bound, len(tri) * self.params.strand_count)
+        out = self._allocate(bound, len(tri) * self.params.strand_count)
         shaped = self._shape(lay, time, self.guides, skin)
         self._assemble(lay, shaped, out, 0, 0)
-        return _curves(out, *shaped.after((0, 0)))
+        return self._curves(out, *shaped.after((0, 0)))
 
     # ------------------------------------------------------------------ checks
     @staticmethod
@@ -544,7 +554,11 @@ class Groom:
 
     def _check_memory(self, count: int) -> None:
         curves = count * self.params.strand_count
-        need = curves * (int(self._vertices.max()) * _VERTEX_BYTES + _CURVE_BYTES)
+        points, per_curve = self._fields()
+        vertex_bytes = _VERTEX_BYTES + _bytes(points)
+        need = curves * (
+            int(self._vertices.max()) * vertex_bytes + _CURVE_BYTES + _bytes(per_curve)
+        )
         have = _available_memory()
         if 2 * need > have:
             raise ResourceError(
@@ -808,7 +822,7 @@ class Groom:
                 _shared_row(p.kink_frequency),
                 t,
             )
-        return self._finish(local, rows, ids, prop, n_total)
+        return self._finish(local, rows, ids, prop, n_total, index, lay.guide_weight[pick])
 
     def _curl(
         self,
@@ -841,10 +855,15 @@ class Groom:
         ids: np.ndarray,
         prop: Callable[[str], np.ndarray],
         n_total: int,
+        index: np.ndarray,
+        weight: np.ndarray,
     ) -> _Bucket:
-        """Fibres, cut, appearance, normals and vertex removal of shaped hairs."""
+        """Fibres, cut, appearance (inherited from the guides weighted by ``index`` and
+        ``weight`` as far as ``[groom].inherit`` says), normals and vertex removal of
+        shaped hairs."""
         p = self.params
         m, n = local.shape[:2]
+        values = hair_values(self._inherit, self.guides, index, weight, n_total, n)
         parent = None  # the hair row of each curve, when fibres multiply them
         strand = np.zeros(m, dtype=np.int64)
         strand_uv = np.zeros((m, 2), dtype=np.float32)
@@ -869,6 +888,7 @@ class Groom:
 
         if parent is not None:
             rows, ids = rows[parent], ids[parent]
+            values = {k: v[parent] for k, v in values.items()}
         tcut = np.broadcast_to(per_curve("cut"), (len(local),))
         length, t_end = cut_in_place(local, tcut, n_total)
         ends = hair_ends(
@@ -886,8 +906,20 @@ class Groom:
             per_curve("root_opacity"),
             per_curve("tip_opacity"),
         )
+        shifts = None
+        if "color" in values:
+            shifts = hair_shifts(
+                ids,
+                p.seed,
+                per_curve("hue_variation"),
+                per_curve("saturation_variation"),
+                per_curve("value_variation"),
+                per_curve("mutant_fraction"),
+            )
         keep = finish(local, length, p.skip_threshold)
-        return _Bucket(rows, strand, strand_uv, local, n_total, length, keep, t_end, ends)
+        return _Bucket(
+            rows, strand, strand_uv, local, n_total, length, keep, t_end, ends, values, shifts
+        )
 
     def _assemble(
         self, lay: _Layout, shaped: _Shaped, out: dict[str, np.ndarray], v: int, c: int
@@ -919,6 +951,17 @@ class Groom:
                 b.n_total,
                 out,
             )
+            pack_values(
+                self._inherit,
+                b.inherited,
+                b.length,
+                b.keep,
+                start[first : first + m],
+                b.t_end,
+                b.n_total,
+                b.shifts,
+                out,
+            )
             first += m
         kept = order[counts[order] > 0]
         rows = np.concatenate([b.rows for b in buckets])[kept]
@@ -930,6 +973,51 @@ class Groom:
         out["strand_uv"][c:end] = np.concatenate([b.strand_uv for b in buckets])[kept]
         out["root_triangle"][c:end] = lay.triangles[rows]
         out["root_bary"][c:end] = lay.bary[rows]
+        for item in self._inherit:
+            if not item.per_vertex:
+                values = np.concatenate([b.inherited[item.name][:, 0] for b in buckets])[kept]
+                out[item.name][c:end] = values.reshape(len(kept), *item.shape)
+
+    def _fields(self) -> tuple[_Fields, ...]:
+        """The output arrays ``[groom].inherit`` adds to the groom's own: (per vertex,
+        per curve), name -> (dtype, shape per row)."""
+        return tuple(
+            {i.name: i.field() for i in self._inherit if i.per_vertex == vertex}
+            for vertex in (True, False)
+        )
+
+    def _allocate(self, vertices: int, curves: int) -> dict[str, np.ndarray]:
+        """Output arrays for at most ``vertices`` vertices and ``curves`` curves, paged in:
+        the groom's own and the inherited ones (an inherited look is one of its own)."""
+        points, per_curve = self._fields()
+        return {
+            k: empty_touched((n, *shape), dtype)
+            for fields, n in (
+                ({**_POINT_FIELDS, **points}, vertices),
+                ({**_CURVE_FIELDS, **per_curve}, curves),
+            )
+            for k, (dtype, shape) in fields.items()
+        }
+
+    def _curves(self, out: dict[str, np.ndarray], v: int, c: int) -> HairCurves:
+        """HairCurves of the first ``v`` vertices and ``c`` curves of ``out``.
+
+        Where cutting or vertex removal left much of the room unused, the arrays are
+        copied to their size so the spare memory is given back.
+        """
+
+        def fit(a: np.ndarray, n: int) -> np.ndarray:
+            return a[:n].copy() if n < 0.75 * len(a) else a[:n]
+
+        points, per_curve = self._fields()
+        offsets = np.zeros(c + 1, dtype=np.int64)
+        np.cumsum(out["counts"][:c], out=offsets[1:])
+        return HairCurves(
+            fit(out["points"], v),
+            offsets,
+            point_data={k: fit(out[k], v) for k in {**_POINT_FIELDS, **points} if k != "points"},
+            curve_data={k: fit(out[k], c) for k in {**_CURVE_FIELDS, **per_curve} if k != "counts"},
+        )
 
 
 def _subset(lay: _Layout, rows: np.ndarray) -> _Layout:
@@ -979,32 +1067,3 @@ def _spans(start: int, count: int) -> list[tuple[int, int]]:
     pieces = -(-count // (CHUNK * threads)) * threads
     size = -(-count // pieces)
     return [(a, min(a + size, start + count)) for a in range(start, start + count, size)]
-
-
-def _allocate(vertices: int, curves: int) -> dict[str, np.ndarray]:
-    """Output arrays for at most ``vertices`` vertices and ``curves`` curves, paged in."""
-    return {
-        k: empty_touched((n, *shape), dtype)
-        for fields, n in ((_POINT_FIELDS, vertices), (_CURVE_FIELDS, curves))
-        for k, (dtype, shape) in fields.items()
-    }
-
-
-def _curves(out: dict[str, np.ndarray], v: int, c: int) -> HairCurves:
-    """HairCurves of the first ``v`` vertices and ``c`` curves of ``out``.
-
-    Where cutting or vertex removal left much of the room unused, the arrays are
-    copied to their size so the spare memory is given back.
-    """
-
-    def fit(a: np.ndarray, n: int) -> np.ndarray:
-        return a[:n].copy() if n < 0.75 * len(a) else a[:n]
-
-    offsets = np.zeros(c + 1, dtype=np.int64)
-    np.cumsum(out["counts"][:c], out=offsets[1:])
-    return HairCurves(
-        fit(out["points"], v),
-        offsets,
-        point_data={k: fit(out[k], v) for k in _POINT_FIELDS if k != "points"},
-        curve_data={k: fit(out[k], c) for k in _CURVE_FIELDS if k != "counts"},
-    )

@@ -4,7 +4,8 @@ Each guide keeps the triangle and barycentric coordinates of its root on the res
 mesh, the rest root frame there, and its vertices relative to the root in that frame
 (Šik 2012 §2.2.4 "Interpolation details"): interpolating in root-local frames keeps the
 hair shape when the mesh deforms and stops guides on the far side of a thin part from
-bleeding through. Guides are resampled by arc length to a common vertex count.
+bleeding through. Guides are resampled by arc length to a common vertex count, and so
+are their point attributes (a colour or width the hairs inherit: ``[groom].inherit``).
 """
 
 from __future__ import annotations
@@ -35,42 +36,80 @@ from .groups import InterpolationGroups, mesh_groups
 log = logging.getLogger("follicle")
 _FAR = 0.01  # warn when a root is farther from the mesh than this share of its size
 
-__all__ = ["Guides", "load_guides", "bind_roots", "resample_arclength"]
+__all__ = ["Guides", "load_guides", "bind_roots", "resample_arclength", "resample_attribute"]
+
+
+@kernel(inline="always")
+def _arc(points, a, n, s):
+    """Normalised arc length of the ``n`` vertices of ``points`` from ``a`` into ``s``;
+    False for a curve of zero length."""
+    s[0] = 0.0
+    for i in range(1, n):
+        dx = points[a + i, 0] - points[a + i - 1, 0]
+        dy = points[a + i, 1] - points[a + i - 1, 1]
+        dz = points[a + i, 2] - points[a + i - 1, 2]
+        s[i] = s[i - 1] + np.sqrt(dx * dx + dy * dy + dz * dz)
+    total = s[n - 1]
+    if not total > 0.0:
+        return False
+    for i in range(n):
+        s[i] /= total
+    return True
 
 
 @kernel(nogil=True)
-def _resample_kernel(points, offsets, s_new, out):
-    """Each curve at parameters ``s_new`` of its normalised arc length, as np.interp
-    computes it; returns the first zero-length curve, or −1."""
+def _resample_kernel(points, offsets, values, s_new, out):
+    """Each curve's per-vertex ``values`` (P, K) at parameters ``s_new`` of its
+    normalised arc length (of ``points``), as np.interp computes it, into ``out``
+    (C, n, K); returns the first zero-length curve, or −1. A coincident vertex pair
+    (a zero-length segment) is stepped over: its later vertex's value holds from it on."""
     for c in range(offsets.shape[0] - 1):
         a = offsets[c]
         n = offsets[c + 1] - a
         s = np.empty(n)
-        s[0] = 0.0
-        for i in range(1, n):
-            dx = points[a + i, 0] - points[a + i - 1, 0]
-            dy = points[a + i, 1] - points[a + i - 1, 1]
-            dz = points[a + i, 2] - points[a + i - 1, 2]
-            s[i] = s[i - 1] + np.sqrt(dx * dx + dy * dy + dz * dz)
-        total = s[n - 1]
-        if not total > 0.0:
+        if not _arc(points, a, n, s):
             return c
-        for i in range(n):
-            s[i] /= total
         j = 0
         for k in range(s_new.shape[0]):
             x = s_new[k]
             if x >= s[n - 1]:
-                for axis in range(3):
-                    out[c, k, axis] = points[a + n - 1, axis]
+                for axis in range(values.shape[1]):
+                    out[c, k, axis] = values[a + n - 1, axis]
                 continue
             while j + 1 < n and s[j + 1] <= x:
                 j += 1
-            for axis in range(3):
-                f0 = points[a + j, axis]
-                slope = (points[a + j + 1, axis] - f0) / (s[j + 1] - s[j])
+            for axis in range(values.shape[1]):
+                f0 = values[a + j, axis]
+                slope = (values[a + j + 1, axis] - f0) / (s[j + 1] - s[j])
                 out[c, k, axis] = slope * (x - s[j]) + f0
     return -1
+
+
+@kernel(nogil=True)
+def _nearest_kernel(points, offsets, s_new, out):
+    """The vertex (global index) of each curve nearest in normalised arc length to each
+    of the parameters ``s_new``, into ``out`` (C, n); a tie goes to the root side."""
+    for c in range(offsets.shape[0] - 1):
+        a = offsets[c]
+        n = offsets[c + 1] - a
+        s = np.empty(n)
+        if not _arc(points, a, n, s):
+            return c
+        j = 0
+        for k in range(s_new.shape[0]):
+            x = s_new[k]
+            while j + 1 < n and s[j + 1] <= x:
+                j += 1
+            near = j
+            if j + 1 < n and s[j + 1] - x < x - s[j]:
+                near = j + 1
+            out[c, k] = a + near
+    return -1
+
+
+def _zero_length(bad: int) -> None:
+    if bad >= 0:
+        raise InputError(f"guide {bad} has zero length; remove it or give it a shape")
 
 
 def resample_arclength(curves: HairCurves, vertices: int) -> np.ndarray:
@@ -79,10 +118,34 @@ def resample_arclength(curves: HairCurves, vertices: int) -> np.ndarray:
     out = np.empty((curves.curve_count, vertices, 3), dtype=np.float64)
     points = np.ascontiguousarray(curves.points, dtype=np.float64)
     offsets = np.ascontiguousarray(curves.offsets, dtype=np.int64)
-    bad = _resample_kernel(points, offsets, np.linspace(0.0, 1.0, vertices), out)
-    if bad >= 0:
-        raise InputError(f"guide {bad} has zero length; remove it or give it a shape")
+    _zero_length(_resample_kernel(points, offsets, points, np.linspace(0.0, 1.0, vertices), out))
     return out
+
+
+def resample_attribute(curves: HairCurves, name: str, vertices: int) -> np.ndarray:
+    """Point attribute ``name`` of every curve at ``vertices`` points evenly spaced by arc
+    length, as :func:`resample_arclength` places the points: (C, n, *shape).
+
+    Floating-point values are interpolated linearly in arc length (float64); integers
+    and booleans, which have no value between two, take the nearest vertex's.
+    """
+    vertices = whole(vertices, "vertices", 2, what="a whole number of vertices per curve")
+    values = curves.point_data[name]
+    shape = values.shape[1:]
+    flat = values.reshape(len(values), -1)
+    points = np.ascontiguousarray(curves.points, dtype=np.float64)
+    offsets = np.ascontiguousarray(curves.offsets, dtype=np.int64)
+    s_new = np.linspace(0.0, 1.0, vertices)
+    if values.dtype.kind == "f":
+        out = np.empty((curves.curve_count, vertices, flat.shape[1]), dtype=np.float64)
+        _zero_length(
+            _resample_kernel(points, offsets, np.ascontiguousarray(flat, np.float64), s_new, out)
+        )
+    else:
+        near = np.empty((curves.curve_count, vertices), dtype=np.int64)
+        _zero_length(_nearest_kernel(points, offsets, s_new, near))
+        out = flat[near]
+    return out.reshape(curves.curve_count, vertices, *shape)
 
 
 def _bound(curves: HairCurves) -> bool:
@@ -176,6 +239,7 @@ class Guides:
         self.group = self.groups.group_of(frame.uv)
         self._local: dict[int, np.ndarray] = {}
         self._rest: dict[int, np.ndarray] = {}
+        self._attributes: dict[tuple[str, int], np.ndarray] = {}
         self.local = self.local_shapes(n)
 
     def local_shapes(self, vertices: int) -> np.ndarray:
@@ -195,6 +259,15 @@ class Guides:
             rel = resample_arclength(self.curves, vertices)
             self._rest[vertices] = (rel - rel[:, :1, :]).astype(np.float32)
         return self._rest[vertices]
+
+    def point_attribute(self, name: str, vertices: int) -> np.ndarray:
+        """Point attribute ``name`` of the guides (``curves.point_data``) at the
+        ``vertices`` points :meth:`rest_shapes` places by arc length, (S, V, *shape):
+        :func:`resample_attribute`, made once per count."""
+        key = (name, vertices)
+        if key not in self._attributes:
+            self._attributes[key] = resample_attribute(self.curves, name, vertices)
+        return self._attributes[key]
 
     def posed(self, positions: object, pose: SkinMesh | None = None) -> Guides:
         """These guides with new shapes ``positions`` (S, N, 3), given on ``pose`` (the

@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, Literal, TypeAlias
 
-from pydantic import Field, GetCoreSchemaHandler, PlainValidator
+from pydantic import Field, GetCoreSchemaHandler, PlainValidator, field_validator
 from pydantic_core import core_schema
 
 from ..settings import StrictSection, Vec3, shown
@@ -217,8 +217,25 @@ class GroomParams(StrictSection):
         0.0, description="(map) strand tips pushed along the curve normal (t³), m"
     )
     strand_randomize: Fraction = Field(0.0, description="(map) random shortening of fibres")
+    inherit: Annotated[tuple[str, ...], Field(strict=False, max_length=64)] = Field(
+        (),
+        description="the guides' point and curve attributes the hairs take, blended by"
+        ' their interpolation weights: ["color", "width", …]; an inherited color, width'
+        " or opacity replaces the one of root_*/tip_*",
+    )
     skip_threshold: Annotated[float, Field(gt=0.0, le=1.0)] | None = Field(
         None,
         description="drop a vertex whose tangent is within acos(threshold) of both"
         " neighbours' (e.g. 0.9995); unset = keep all",
     )
+
+    @field_validator("inherit")
+    @classmethod
+    def _names(cls, names: tuple[str, ...]) -> tuple[str, ...]:
+        """Attribute names: not empty, each once."""
+        if any(not name for name in names):
+            raise ValueError("an attribute name is empty")
+        twice = sorted({name for name in names if names.count(name) > 1})
+        if twice:
+            raise ValueError(f"{shown(twice)} named more than once")
+        return names

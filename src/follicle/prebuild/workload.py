@@ -92,6 +92,28 @@ def _textures(folder: Path) -> None:
     Image.fromarray(groups, "RGB").save(folder / "groups.png")
 
 
+def _attributed_guides(folder: Path) -> None:
+    """The built-in short guides with attributes to inherit: a colour and a width per
+    vertex, an integer per vertex, a float and an integer per guide."""
+    import numpy as np
+
+    from ..curves import HairCurves
+    from ..groom.builtin_guides import builtin_guides
+    from ..io.dispatch import save
+    from ..mesh.head import builtin_head
+
+    curves = builtin_guides("short", builtin_head())
+    t = np.concatenate([np.linspace(0.0, 1.0, c) for c in curves.counts])
+    point_data = {
+        "color": np.stack([1.0 - t, 0.2 * t, t], axis=1),
+        "width": (2e-4 - 1e-4 * t).astype(np.float32),
+        "knot": np.concatenate([np.arange(c) for c in curves.counts]),
+    }
+    n = curves.curve_count
+    curve_data = {"stiffness": np.linspace(0.0, 1.0, n), "tag": np.arange(n, dtype=np.int32)}
+    save(HairCurves(curves.points, curves.offsets, point_data, curve_data), folder / "inherit.npz")
+
+
 # ---------------------------------------------------------------------------- tasks
 def grow(folder: Path) -> None:
     """Every groom feature, IDW and barycentric, textures as property maps, written to
@@ -144,6 +166,18 @@ def grow(folder: Path) -> None:
         },
     )
     _scene(folder, "short.toml", guides={"path": "builtin:short"}, groom=small)
+    _attributed_guides(folder)
+    _scene(
+        folder,
+        "inherit.toml",
+        guides={"path": "inherit.npz"},
+        groom={
+            **small,
+            "inherit": ["color", "width", "knot", "stiffness", "tag"],
+            "cut": 0.8,
+            "hue_variation": 5.0,
+        },
+    )
     _scene(folder, "offset.toml", groom={**small, "interpolation": "offset"})
     _scene(
         folder,
@@ -154,6 +188,7 @@ def grow(folder: Path) -> None:
         "features.toml",
         "barycentric.toml",
         "short.toml",
+        "inherit.toml",
         "offset.toml",
         "translate.toml",
     ):
