@@ -35,6 +35,7 @@ COMMANDS = [
         "400 hairs → demo/demo.png",
     ),
     (["grow", "s.toml", "-o", "h.npz"], "growing hair", "300 hairs"),
+    (["settle", "s.toml", "--seconds", "0.2", "-o", "g.npz"], "settling guides", "→ g.npz"),
     (["grow", "s.toml", "-o", "h.hair"], "growing hair", "→ h.hair"),
     (["render", "s.toml", "-o", "s.png"], "rendering", "→ s.png"),
     (

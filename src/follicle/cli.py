@@ -1,5 +1,5 @@
-"""The ``follicle`` command: demo, grow, groom, export, check, export-rib, simulate, render,
-view, info, warm.
+"""The ``follicle`` command: demo, grow, groom, settle, export, check, export-rib, simulate,
+render, view, info, warm.
 
 Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
 traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
@@ -260,6 +260,17 @@ def main(verbose: int) -> None:
     logging.getLogger("follicle").setLevel(level)
 
 
+# the demo's body, for its long hair to rest on (the built-in head ends at the neck):
+# shoulders, a capsule across at the neck's foot, and the chest below, both on the
+# neck's axis and clear of the guides as grown (a guide grown inside a collider keeps
+# that depth: follicle.sim.solver.Solver)
+_DEMO_BODY = [
+    {"kind": "capsule", "a": [-0.19, -0.29, -0.01], "b": [0.19, -0.29, -0.01], "radius": 0.07},
+    {"kind": "capsule", "a": [0.0, -0.36, -0.01], "b": [0.0, -0.7, -0.01], "radius": 0.12},
+]
+_DEMO_SETTLE = 2.0  # s: the long hair comes to rest on the shoulders (README: Dynamics)
+
+
 @main.command()
 @click.option(
     "--out",
@@ -280,17 +291,22 @@ def main(verbose: int) -> None:
     "--size", type=(int, int), default=(960, 960), show_default=True, help="Image width and height."
 )
 def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) -> None:
-    """Grow hair on the built-in head and render it: DIR/demo.png and DIR/demo.npz."""
+    """Grow hair on the built-in head, settled onto the shoulders, and render it:
+    DIR/demo.png and DIR/demo.npz."""
     from .io.dispatch import save
     from .pipeline import grow, render_scene
     from .scene import parse_scene
 
-    groom: dict[str, object] = {}
+    groom: dict[str, object] = {"settle": _DEMO_SETTLE}
     if count is not None:
         groom["count"] = count
-    scene = parse_scene(
-        {"guides": {"path": guides}, "groom": groom, "render": {"size": list(size)}}, "demo"
-    )
+    tables = {
+        "guides": {"path": guides},
+        "groom": groom,
+        "sim": {"colliders": _DEMO_BODY},
+        "render": {"size": list(size)},
+    }
+    scene = parse_scene(tables, "demo")
     out = Path(out_dir)
     with _step("grow"), _progress("growing hair") as progress:
         mesh, curves = grow(scene, progress)
@@ -402,6 +418,41 @@ def groom(
         editor.save_groups(groups_out)
         click.echo(f"{editor.groups.count} interpolation groups → {groups_out}")
     click.echo(f"{entries:,} strokes, {editor.guides.count:,} guides → {out}")
+
+
+@main.command()
+@click.argument("scene_path", metavar="SCENE", type=click.Path())
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Guides file to write (.usda, .npz, .abc, …: any curves format).",
+)
+@click.option(
+    "--seconds", type=float, default=None, help="Override [groom].settle: seconds to settle."
+)
+def settle(scene_path: str, out: str, seconds: float | None) -> None:
+    """Settle a scene's guides under its [sim] dynamics, the head still (gravity, the skin
+    and [[sim.colliders]]: long hair falls onto the shoulders and rests), and save them as
+    new guides, bound to the same mesh."""
+    from .export import curve_suffixes
+    from .io.dispatch import save
+    from .pipeline import settle_guides
+    from .scene import check_outputs, load_scene, scene_with
+
+    check_suffix(out, curve_suffixes())
+    scene = scene_with(load_scene(scene_path), "groom", {"settle": seconds})
+    check_outputs([out], scene_path, scene)
+    with _stage("settling guides") as progress:
+        done = settle_guides(scene, progress=progress)
+    save(done.guides.curves, out)
+    guides = done.guides
+    click.echo(
+        f"{guides.count:,} guides × {guides.vertex_count} vertices settled for"
+        f" {done.seconds:g} s: max stretch {done.stats['max_stretch']:.2e}, max penetration"
+        f" {done.stats['max_penetration'] * 1000:.2f} mm → {out}"
+    )
 
 
 @main.command()

@@ -27,11 +27,13 @@ from .validate import file_path, positive, whole
 
 if TYPE_CHECKING:
     from .io.sim_cache import SimCache
+    from .sim.settle import Settled
 
 __all__ = [
     "GroomInputs",
     "groom_inputs",
     "groom_scene",
+    "settle_guides",
     "grow",
     "render_scene",
     "simulate_scene",
@@ -52,32 +54,53 @@ __all__ = [
 @dataclass(frozen=True)
 class GroomInputs:
     """What a scene's groom grows on, read from its files: the skin ``mesh``, the
-    ``guides``, the ``density`` and ``displacement`` textures. ``key`` names the scene
-    keys they come from (:func:`groom_inputs`), so scenes that differ elsewhere (a
-    batch's variants of curl or seed) share them instead of reading them again."""
+    ``guides`` (settled when ``[groom].settle`` > 0: ``settled`` says how), the
+    ``density`` and ``displacement`` textures. ``key`` names the scene keys they come
+    from (:func:`groom_inputs`), so scenes that differ elsewhere (a batch's variants of
+    curl or seed) share them instead of reading, and settling, them again."""
 
     key: tuple
     mesh: SkinMesh
     guides: Guides
     density: Texture | float | None
     displacement: Texture | None
+    settled: Settled | None = None
+
+
+# [sim] keys a settle does not read: it holds the head still and pulls towards no pose
+_UNSETTLING = {
+    "motion",
+    "motion_amplitude",
+    "motion_period",
+    "motion_pivot",
+    "skin_animation",
+    "shape_global",
+}
 
 
 def _inputs_key(scene: Scene) -> tuple:
     """The scene keys a groom's inputs come from: [mesh], [guides], the [groom] keys that
-    pick the density and interpolation groups, and the folder paths start in."""
+    pick the density and interpolation groups, and the folder paths start in; with
+    [groom].settle > 0, it and the [sim] keys of the dynamics that settle the guides."""
     groom = scene.groom.model_dump(include={"density", "groups", "group_vertices"})
-    return (
+    key: tuple = (
         str(scene.base_dir),
         scene.mesh.model_dump_json(),
         scene.guides.model_dump_json(),
         repr(sorted(groom.items())),
     )
+    if scene.groom.settle > 0:
+        key += (scene.groom.settle, scene.sim.model_dump_json(exclude=_UNSETTLING))
+    return key
 
 
-def groom_inputs(scene: Scene, reuse: GroomInputs | None = None) -> GroomInputs:
-    """The mesh, guides and textures of ``scene``, read from its files; ``reuse`` itself
-    when it was read for the same keys (see :class:`GroomInputs`)."""
+def groom_inputs(
+    scene: Scene, reuse: GroomInputs | None = None, progress: Progress | None = None
+) -> GroomInputs:
+    """The mesh, guides and textures of ``scene``, read from its files, the guides settled
+    for ``[groom].settle`` s (:func:`follicle.sim.settle.settle`; ``progress(done,
+    total)`` hears it); ``reuse`` itself when it was made for the same keys (see
+    :class:`GroomInputs`)."""
     key = _inputs_key(scene)
     if reuse is not None and reuse.key == key:
         return reuse
@@ -91,10 +114,35 @@ def groom_inputs(scene: Scene, reuse: GroomInputs | None = None) -> GroomInputs:
     guides = load_guides(
         scene.resolve(scene.guides.path), mesh, groups=groups, units=scene.guides.units
     )
+    settled = None
+    if scene.groom.settle > 0:
+        from .sim.settle import settle
+
+        settled = settle(guides, scene.sim, scene.groom.settle, progress)
+        guides = settled.guides
     density = resolve_density(mesh, scene.groom.density, scene.resolve)
     displacement = scene.mesh.displacement
     texture = load_texture(displacement, scene.resolve) if displacement else None
-    return GroomInputs(key, mesh, guides, density, texture)
+    return GroomInputs(key, mesh, guides, density, texture, settled)
+
+
+def settle_guides(
+    scene: Scene, seconds: float | None = None, progress: Progress | None = None
+) -> Settled:
+    """`follicle settle`: the guides of ``scene`` settled for ``seconds`` (None: its
+    ``[groom].settle``, which must then be > 0) under its [sim] dynamics with the head
+    still, and how they ended (:class:`~follicle.sim.settle.Settled`); save them with
+    ``follicle.save(settled.guides.curves, path)``."""
+    if seconds is not None:
+        scene = scene.replace(groom=scene.groom.replace("settle_guides seconds", settle=seconds))
+    if scene.groom.settle <= 0:
+        raise InputError(
+            "[groom].settle: 0 s leaves the guides as they are; set it (e.g. 2) or give"
+            " the seconds to settle (`follicle settle --seconds 2`)"
+        )
+    settled = groom_inputs(scene, progress=progress).settled
+    assert settled is not None  # settle > 0
+    return settled
 
 
 def groom_scene(scene: Scene, inputs: GroomInputs | None = None) -> Groom:

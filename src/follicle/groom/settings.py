@@ -223,6 +223,15 @@ class GroomParams(StrictSection):
         ' their interpolation weights: ["color", "width", …]; an inherited color, width'
         " or opacity replaces the one of root_*/tip_*",
     )
+    settle: float = Field(
+        0.0,
+        ge=0,
+        le=60,
+        description="seconds of [sim] dynamics (gravity, the skin and [[sim.colliders]],"
+        " the head still) the guides run before growing: long hair falls onto the"
+        " shoulders and rests, and that is the rest shape grown, rendered, exported and"
+        " simulated from; at most 60; 0 = the guides as given",
+    )
     skip_threshold: Annotated[float, Field(gt=0.0, le=1.0)] | None = Field(
         None,
         description="drop a vertex whose tangent is within acos(threshold) of both"
