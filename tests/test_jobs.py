@@ -51,13 +51,23 @@ def scene(tmp_path):
 
 def test_the_plans_are_public_names():
     from follicle.distributed.batch import plan_batch
-    from follicle.export import plan_export, plan_grow
+    from follicle.export import plan_export, plan_grow, plan_settle
     from follicle.render_job import plan_render
     from follicle.simulate_job import plan_simulate
 
     assert follicle.plan_grow is plan_grow and follicle.plan_export is plan_export
     assert follicle.plan_render is plan_render and follicle.plan_simulate is plan_simulate
-    assert follicle.plan_batch is plan_batch
+    assert follicle.plan_batch is plan_batch and follicle.plan_settle is plan_settle
+
+
+def test_a_settle_of_zero_seconds_is_refused_before_any_simulation(scene, tmp_path):
+    with pytest.raises(InputError, match=r"\[groom\]\.settle: 0 s leaves the guides"):
+        follicle.plan_settle(str(scene), tmp_path / "g.npz")
+    with pytest.raises(FormatError, match="output must end in"):
+        follicle.plan_settle(str(scene), tmp_path / "g.png", seconds=1)
+    job = follicle.plan_settle(str(scene), tmp_path / "g.npz", seconds=0.5)
+    assert job.scene.groom.settle == 0.5 and job.path == str(tmp_path / "g.npz")
+    assert not (tmp_path / "g.npz").exists()  # planned, not run
 
 
 def test_a_grow_planned_in_python_writes_what_the_command_writes(scene, tmp_path):

@@ -13,6 +13,7 @@ from .errors import ResourceError as ResourceError
 from .errors import SimulationError as SimulationError
 from .export import plan_export as plan_export
 from .export import plan_grow as plan_grow
+from .export import plan_settle as plan_settle
 from .groom.generator import Groom as Groom
 from .groom.guides import Guides as Guides
 from .groom.guides import load_guides as load_guides

@@ -436,17 +436,10 @@ def settle(scene_path: str, out: str, seconds: float | None) -> None:
     """Settle a scene's guides under its [sim] dynamics, the head still (gravity, the skin
     and [[sim.colliders]]: long hair falls onto the shoulders and rests), and save them as
     new guides, bound to the same mesh."""
-    from .export import curve_suffixes
-    from .io.dispatch import save
-    from .pipeline import settle_guides
-    from .scene import check_outputs, load_scene, scene_with
+    from .export import plan_settle
 
-    check_suffix(out, curve_suffixes())
-    scene = scene_with(load_scene(scene_path), "groom", {"settle": seconds})
-    check_outputs([out], scene_path, scene)
-    with _stage("settling guides") as progress:
-        done = settle_guides(scene, progress=progress)
-    save(done.guides.curves, out)
+    job = plan_settle(scene_path, out, seconds=seconds)
+    done = job.run(_stage)
     guides = done.guides
     click.echo(
         f"{guides.count:,} guides × {guides.vertex_count} vertices settled for"

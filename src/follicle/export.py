@@ -1,14 +1,14 @@
-"""``follicle grow`` and ``follicle export`` as library calls.
+"""``follicle grow``, ``follicle settle`` and ``follicle export`` as library calls.
 
-:func:`plan_grow` and :func:`plan_export` take a command's options as keywords, check
-everything before any work (formats, targets, that no output replaces an input) and
-return a job (:class:`GrowJob`, :class:`ExportJob`) whose ``run`` writes and returns
-what the command prints. Beneath them: :func:`grow_file` (one process or a Dask
-cluster, one file or a payloads layout), :func:`export_targets` (where each input
-goes), :func:`export_skin` (a mesh alone) and :func:`export_cache` (a simulation cache
-as animated USD or Alembic). Curves files themselves convert through
-:func:`follicle.distributed.export.convert` (one file) and
-:func:`follicle.distributed.export.export_files` (many, here or on Dask).
+:func:`plan_grow`, :func:`plan_settle` and :func:`plan_export` take a command's options
+as keywords, check everything before any work (formats, targets, that no output
+replaces an input) and return a job (:class:`GrowJob`, :class:`SettleJob`,
+:class:`ExportJob`) whose ``run`` writes and returns what the command prints. Beneath
+them: :func:`grow_file` (one process or a Dask cluster, one file or a payloads
+layout), :func:`export_targets` (where each input goes), :func:`export_skin` (a mesh
+alone) and :func:`export_cache` (a simulation cache as animated USD or Alembic).
+Curves files themselves convert through :func:`follicle.distributed.export.convert`
+(one file) and :func:`follicle.distributed.export.export_files` (many, here or on Dask).
 """
 
 from __future__ import annotations
@@ -30,10 +30,13 @@ from .validate import check_suffix
 if TYPE_CHECKING:
     from .groom.generator import Groom
     from .scene import Scene
+    from .sim.settle import Settled
 
 __all__ = [
     "plan_grow",
     "GrowJob",
+    "plan_settle",
+    "SettleJob",
     "grow_file",
     "grown_chunks",
     "curve_suffixes",
@@ -187,6 +190,46 @@ def plan_grow(
         folders.append(payloads_folder(path))
     check_outputs(path, scene_path, scene, folders=folders)
     return GrowJob(scene, path, tool, skin, scheduler, chunk, layout)
+
+
+@dataclass(frozen=True)
+class SettleJob:
+    """A checked settle of ``scene``'s guides, saved as new guides at ``path``. Made by
+    :func:`plan_settle`."""
+
+    scene: Scene
+    path: str
+
+    def run(self, stage: Stage = quietly) -> Settled:
+        """:func:`follicle.pipeline.settle_guides` under ``stage("settling guides")``,
+        then the guides written; returns how they ended."""
+        from .io.dispatch import save
+        from .pipeline import settle_guides
+
+        with stage("settling guides") as progress:
+            done = settle_guides(self.scene, progress=progress)
+        save(done.guides.curves, self.path)
+        return done
+
+
+def plan_settle(
+    scene_path: str | None, out: str | os.PathLike[str], *, seconds: float | None = None
+) -> SettleJob:
+    """A checked :class:`SettleJob`, as ``follicle settle SCENE -o OUT`` runs it:
+    ``seconds`` overrides [groom].settle, which must then be > 0; ``out`` is any curves
+    format. InputError, FormatError or ConfigError before any simulation."""
+    from .scene import check_outputs, load_scene, scene_with
+
+    path = os.fspath(out)
+    check_suffix(path, curve_suffixes())
+    scene = scene_with(load_scene(scene_path), "groom", {"settle": seconds})
+    if scene.groom.settle <= 0:
+        raise InputError(
+            "[groom].settle: 0 s leaves the guides as they are; set it (e.g. 2) or give"
+            " the seconds to settle (`follicle settle --seconds 2`)"
+        )
+    check_outputs([path], scene_path, scene)
+    return SettleJob(scene, path)
 
 
 def curve_suffixes() -> tuple[str, ...]:
