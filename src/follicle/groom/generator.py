@@ -27,6 +27,7 @@ import numpy as np
 from ..arrays import empty_touched
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
+from ..melanin import hair_pigments, melanin_color
 from ..mesh.displacement import displace
 from ..mesh.head import SCALP_TEXTURE, parting_texture, scalp_texture
 from ..mesh.sampling import DensitySampler
@@ -367,7 +368,7 @@ class Groom:
             (0, 0),
             None if progress is None else lambda k: progress(spans[k][1] - start, count),
         )
-        return _curves(out, v, c)
+        return _curves(out, v, c, self._pigments)
 
     def follow(
         self,
@@ -441,7 +442,7 @@ class Groom:
         out = _allocate(self._vertex_bound(lay), len(lay.ids) * self.params.strand_count)
         shaped = self._shape(lay, time, posed, skin)
         self._assemble(lay, shaped, out, 0, 0)
-        grown = _curves(out, *shaped.after((0, 0)))
+        grown = _curves(out, *shaped.after((0, 0)), self._pigments)
         strands = self.params.strand_count
         old = ids * strands + previous.curve_data["strand_id"]  # (hair id, strand) order
         new = grown.curve_data["hair_id"] * strands + grown.curve_data["strand_id"]
@@ -532,7 +533,7 @@ class Groom:
         out = _allocate(bound, len(tri) * self.params.strand_count)
         shaped = self._shape(lay, time, self.guides, skin)
         self._assemble(lay, shaped, out, 0, 0)
-        return _curves(out, *shaped.after((0, 0)))
+        return _curves(out, *shaped.after((0, 0)), self._pigments)
 
     # ------------------------------------------------------------------ checks
     @staticmethod
@@ -871,16 +872,33 @@ class Groom:
             rows, ids = rows[parent], ids[parent]
         tcut = np.broadcast_to(per_curve("cut"), (len(local),))
         length, t_end = cut_in_place(local, tcut, n_total)
+        if p.melanin is None:
+            root, tip, mutant = (per_curve(k) for k in ("root_color", "tip_color", "mutant_color"))
+            hue, sat, val, fraction = (
+                per_curve(k)
+                for k in (
+                    "hue_variation",
+                    "saturation_variation",
+                    "value_variation",
+                    "mutant_fraction",
+                )
+            )
+        else:  # one colour from root to tip, no HSV shifts, no mutants
+            pigments = self._pigments(ids)
+            root = tip = mutant = melanin_color(
+                pigments["melanin"], pigments["melanin_redness"], p.dye
+            )
+            hue = sat = val = fraction = np.zeros(1)
         ends = hair_ends(
             ids,
             p.seed,
-            per_curve("root_color"),
-            per_curve("tip_color"),
-            per_curve("hue_variation"),
-            per_curve("saturation_variation"),
-            per_curve("value_variation"),
-            per_curve("mutant_fraction"),
-            per_curve("mutant_color"),
+            root,
+            tip,
+            hue,
+            sat,
+            val,
+            fraction,
+            mutant,
             per_curve("root_width"),
             per_curve("tip_width"),
             per_curve("root_opacity"),
@@ -888,6 +906,19 @@ class Groom:
         )
         keep = finish(local, length, p.skip_threshold)
         return _Bucket(rows, strand, strand_uv, local, n_total, length, keep, t_end, ends)
+
+    def _pigments(self, ids: np.ndarray) -> dict[str, np.ndarray]:
+        """The curve data of hairs ``ids`` grown from melanin (none without): each
+        hair's ``melanin`` and ``melanin_redness`` (:func:`follicle.melanin.hair_pigments`)
+        and the ``dye``, float32, what an exported groom's shader reads."""
+        p = self.params
+        if p.melanin is None:
+            return {}
+        melanin, redness = hair_pigments(
+            ids, p.seed, p.melanin, p.melanin_redness, p.random_melanin, p.random_redness
+        )
+        dye = np.broadcast_to(np.asarray(p.dye, np.float32), (len(ids), 3)).copy()
+        return {"melanin": melanin, "melanin_redness": redness, "dye": dye}
 
     def _assemble(
         self, lay: _Layout, shaped: _Shaped, out: dict[str, np.ndarray], v: int, c: int
@@ -990,8 +1021,14 @@ def _allocate(vertices: int, curves: int) -> dict[str, np.ndarray]:
     }
 
 
-def _curves(out: dict[str, np.ndarray], v: int, c: int) -> HairCurves:
-    """HairCurves of the first ``v`` vertices and ``c`` curves of ``out``.
+def _curves(
+    out: dict[str, np.ndarray],
+    v: int,
+    c: int,
+    pigments: Callable[[np.ndarray], dict[str, np.ndarray]],
+) -> HairCurves:
+    """HairCurves of the first ``v`` vertices and ``c`` curves of ``out``, with the
+    ``pigments`` of their hair ids (:meth:`Groom._pigments`) beside their curve data.
 
     Where cutting or vertex removal left much of the room unused, the arrays are
     copied to their size so the spare memory is given back.
@@ -1002,9 +1039,10 @@ def _curves(out: dict[str, np.ndarray], v: int, c: int) -> HairCurves:
 
     offsets = np.zeros(c + 1, dtype=np.int64)
     np.cumsum(out["counts"][:c], out=offsets[1:])
+    curve_data = {k: fit(out[k], c) for k in _CURVE_FIELDS if k != "counts"}
     return HairCurves(
         fit(out["points"], v),
         offsets,
         point_data={k: fit(out[k], v) for k in _POINT_FIELDS if k != "points"},
-        curve_data={k: fit(out[k], c) for k in _CURVE_FIELDS if k != "counts"},
+        curve_data=curve_data | pigments(curve_data["hair_id"]),
     )
