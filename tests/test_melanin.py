@@ -249,3 +249,13 @@ def test_usd_carries_the_pigments(melanin_groom, tmp_path, target):
     # and the colour for tools without melanin
     shown = np.array(UsdGeom.BasisCurves(prim).GetDisplayColorPrimvar().Get())
     assert shown == pytest.approx(hair.point_data["color"])
+
+
+def test_alembic_carries_the_pigments(melanin_groom, tmp_path):
+    from follicle.io.dispatch import load_curves
+
+    hair = melanin_groom.generate(50)
+    path = save(hair, tmp_path / "groom.abc")
+    back = load_curves(path)
+    for name in ("melanin", "melanin_redness", "dye"):
+        assert np.array_equal(back.curve_data[name], hair.curve_data[name]), name
