@@ -217,10 +217,9 @@ class GroomParams(StrictSection):
         None,
         ge=0.0,
         le=1.0,
-        description="hair colour by pigment, as Blender's Principled Hair Melanin: 0 white,"
-        " blond ≈ 0.2, brown ≈ 0.6, black ≈ 0.95 (Chiang 2016 §4.2); unset = root_color"
-        " and tip_color. Set, it colours every hair evenly from root to tip, in place of"
-        " root_color, tip_color, the *_variation keys and mutant hairs (leave those unset)",
+        description="hair colour by pigment, Blender's Principled Hair Melanin: blond ≈ 0.2,"
+        " brown ≈ 0.6, black ≈ 0.95; in place of root/tip_color, *_variation and mutants;"
+        " unset = those",
     )
     melanin_redness: Unit = Field(
         0.0, description="with melanin: share of pheomelanin (red), 0 brown–black, 1 red"
