@@ -28,6 +28,7 @@ from PIL import Image
 from pydantic import BaseModel
 
 from follicle import ConfigError, FollicleError, FormatError, InputError
+from follicle.groom.settings import MELANIN_KEYS
 from follicle.io.dispatch import load_curves
 from follicle.io.mesh_load import load_mesh
 from follicle.mesh.skin import MAX_COORDINATE, SkinMesh
@@ -101,6 +102,8 @@ SAMPLES: tuple[Any, ...] = (
 )
 # a section as it must be for one key to be valid (render: eye needs a target)
 CONTEXT = {"render": {"eye": [0, 0, 1], "target": [0, 0, 0]}}
+# a key that takes effect only beside another (the melanin keys: with melanin)
+NEEDS = {("groom", key): {"melanin": 0.5} for key in MELANIN_KEYS}
 BAD = (math.nan, math.inf, -math.inf, 1e300, -1e300, True, "1")
 
 
@@ -139,10 +142,11 @@ def _walk(
             found += sub[0]
             missing += sub[1]
             continue
-        text = _valid(section, wrap({**base, key: "t.png"})) or isinstance(field.default, str)
-        sample = next((s for s in SAMPLES if _valid(section, wrap({**base, key: s}))), None)
+        ctx = {**base, **NEEDS.get((section, key), {})}
+        text = _valid(section, wrap({**ctx, key: "t.png"})) or isinstance(field.default, str)
+        sample = next((s for s in SAMPLES if _valid(section, wrap({**ctx, key: s}))), None)
         if sample is not None:
-            found.append(((*prefix, key), wrap({**base, key: sample}), text))
+            found.append(((*prefix, key), wrap({**ctx, key: sample}), text))
         elif not text:
             missing.append(f"[{section}]." + ".".join(map(str, (*prefix, key))))
     return found, missing

@@ -29,6 +29,7 @@ LAYERS = [
         "frames",
         "noise",
         "color",
+        "melanin",
         "rng",
         "threads",
         "kernels",

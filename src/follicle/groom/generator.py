@@ -28,6 +28,7 @@ from numpy.typing import DTypeLike
 from ..arrays import empty_touched
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
+from ..melanin import hair_pigments, melanin_color
 from ..mesh.displacement import displace
 from ..mesh.head import SCALP_TEXTURE, parting_texture, scalp_texture
 from ..mesh.sampling import DensitySampler
@@ -891,16 +892,33 @@ class Groom:
             values = {k: v[parent] for k, v in values.items()}
         tcut = np.broadcast_to(per_curve("cut"), (len(local),))
         length, t_end = cut_in_place(local, tcut, n_total)
+        if p.melanin is None:
+            root, tip, mutant = (per_curve(k) for k in ("root_color", "tip_color", "mutant_color"))
+            hue, sat, val, fraction = (
+                per_curve(k)
+                for k in (
+                    "hue_variation",
+                    "saturation_variation",
+                    "value_variation",
+                    "mutant_fraction",
+                )
+            )
+        else:  # one colour from root to tip, no HSV shifts, no mutants
+            pigments = self._pigments(ids)
+            root = tip = mutant = melanin_color(
+                pigments["melanin"], pigments["melanin_redness"], p.dye
+            )
+            hue = sat = val = fraction = np.zeros(1)
         ends = hair_ends(
             ids,
             p.seed,
-            per_curve("root_color"),
-            per_curve("tip_color"),
-            per_curve("hue_variation"),
-            per_curve("saturation_variation"),
-            per_curve("value_variation"),
-            per_curve("mutant_fraction"),
-            per_curve("mutant_color"),
+            root,
+            tip,
+            hue,
+            sat,
+            val,
+            fraction,
+            mutant,
             per_curve("root_width"),
             per_curve("tip_width"),
             per_curve("root_opacity"),
@@ -920,6 +938,19 @@ class Groom:
         return _Bucket(
             rows, strand, strand_uv, local, n_total, length, keep, t_end, ends, values, shifts
         )
+
+    def _pigments(self, ids: np.ndarray) -> dict[str, np.ndarray]:
+        """The curve data of hairs ``ids`` grown from melanin (none without): each
+        hair's ``melanin`` and ``melanin_redness`` (:func:`follicle.melanin.hair_pigments`)
+        and the ``dye``, float32, what an exported groom's shader reads."""
+        p = self.params
+        if p.melanin is None:
+            return {}
+        melanin, redness = hair_pigments(
+            ids, p.seed, p.melanin, p.melanin_redness, p.random_melanin, p.random_redness
+        )
+        dye = np.broadcast_to(np.asarray(p.dye, np.float32), (len(ids), 3)).copy()
+        return {"melanin": melanin, "melanin_redness": redness, "dye": dye}
 
     def _assemble(
         self, lay: _Layout, shaped: _Shaped, out: dict[str, np.ndarray], v: int, c: int
@@ -1000,7 +1031,8 @@ class Groom:
         }
 
     def _curves(self, out: dict[str, np.ndarray], v: int, c: int) -> HairCurves:
-        """HairCurves of the first ``v`` vertices and ``c`` curves of ``out``.
+        """HairCurves of the first ``v`` vertices and ``c`` curves of ``out``, with the
+        pigments of their hair ids (:meth:`_pigments`) beside their curve data.
 
         Where cutting or vertex removal left much of the room unused, the arrays are
         copied to their size so the spare memory is given back.
@@ -1012,11 +1044,12 @@ class Groom:
         points, per_curve = self._fields()
         offsets = np.zeros(c + 1, dtype=np.int64)
         np.cumsum(out["counts"][:c], out=offsets[1:])
+        curve_data = {k: fit(out[k], c) for k in {**_CURVE_FIELDS, **per_curve} if k != "counts"}
         return HairCurves(
             fit(out["points"], v),
             offsets,
             point_data={k: fit(out[k], v) for k in {**_POINT_FIELDS, **points} if k != "points"},
-            curve_data={k: fit(out[k], c) for k in {**_CURVE_FIELDS, **per_curve} if k != "counts"},
+            curve_data=curve_data | self._pigments(curve_data["hair_id"]),
         )
 
 

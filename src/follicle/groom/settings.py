@@ -7,12 +7,24 @@ import math
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, Literal, TypeAlias
 
-from pydantic import Field, GetCoreSchemaHandler, PlainValidator, field_validator
+from pydantic import Field, GetCoreSchemaHandler, PlainValidator, field_validator, model_validator
 from pydantic_core import core_schema
 
-from ..settings import StrictSection, Vec3, shown
+from ..settings import RGB, StrictSection, Unit, Vec3, shown
 
-__all__ = ["GroomParams", "PropertyTag"]
+__all__ = ["GroomParams", "PropertyTag", "MELANIN_KEYS", "COLOR_KEYS"]
+
+# what melanin colours hair with, and the keys of root/tip colouring it takes the place of
+MELANIN_KEYS = ("melanin_redness", "dye", "random_melanin", "random_redness")
+COLOR_KEYS = (
+    "root_color",
+    "tip_color",
+    "hue_variation",
+    "saturation_variation",
+    "value_variation",
+    "mutant_fraction",
+    "mutant_color",
+)
 
 
 def _in_range(x: object, bounds: dict[str, float]) -> float:
@@ -201,6 +213,27 @@ class GroomParams(StrictSection):
     value_variation: Fraction = Field(0.0, description="(map) per-hair value shift, ±")
     mutant_fraction: Fraction = Field(0.0, description="(map) share of hairs in mutant_color")
     mutant_color: Color = Field((0.8, 0.8, 0.8), description="(map) linear RGB of mutant hairs")
+    melanin: float | None = Field(
+        None,
+        ge=0.0,
+        le=1.0,
+        description="hair colour by pigment, Blender's Principled Hair Melanin: blond ≈ 0.2,"
+        " brown ≈ 0.6, black ≈ 0.95; in place of root/tip_color, *_variation and mutants;"
+        " unset = those",
+    )
+    melanin_redness: Unit = Field(
+        0.0, description="with melanin: share of pheomelanin (red), 0 brown–black, 1 red"
+    )
+    dye: RGB = Field(
+        (1.0, 1.0, 1.0), description="with melanin: linear RGB dye on the pigment (white: none)"
+    )
+    random_melanin: Unit = Field(
+        0.0,
+        description="with melanin: per-hair melanin × (1 ± random_melanin), Blender's Random Color",
+    )
+    random_redness: Unit = Field(
+        0.0, description="with melanin: per-hair melanin_redness × (1 ± random_redness)"
+    )
     root_opacity: Fraction = Field(1.0, description="(map) opacity at the root")
     tip_opacity: Fraction = Field(1.0, description="(map) opacity at the tip")
     strand_count: int = Field(1, ge=1, le=64, description="fibres per hair strand (1: plain)")
@@ -248,3 +281,23 @@ class GroomParams(StrictSection):
         if twice:
             raise ValueError(f"{shown(twice)} named more than once")
         return names
+
+    @model_validator(mode="after")
+    def _one_way_to_colour(self) -> GroomParams:
+        """Hair is coloured by melanin or by root/tip colours, never both: a key of the
+        way not taken, changed from its default, would silently do nothing."""
+        if self.melanin is not None and "color" in self.inherit:
+            raise ValueError(
+                "inherit: melanin gives the hair's colour; take color from the guides or"
+                " melanin, not both"
+            )
+        unused = COLOR_KEYS if self.melanin is not None else MELANIN_KEYS
+        fields = type(self).model_fields
+        for key in unused:
+            if getattr(self, key) != fields[key].default:
+                if self.melanin is not None:
+                    raise ValueError(
+                        f"{key}: melanin gives the hair's colour; unset {key} or melanin"
+                    )
+                raise ValueError(f"{key}: takes effect with melanin only; set melanin too")
+        return self

@@ -6,8 +6,9 @@ side by side. The hair is Mitsuba's ``bsplinecurve`` shape, loaded from curve fi
 :func:`follicle.io.mitsuba.save_mitsuba` writes (round tubes through every vertex,
 radius = width / 2; several shapes, each closed by a sentinel, see
 :func:`_hair_shapes`), with the ``hair`` BSDF (Chiang et al. 2016). Its absorption σ_a
-is derived from the hair colour per curve segment (:func:`absorption_from_color`) and
-handed to the BSDF as a texture over each shape's ``v`` coordinate, which runs over the
+is derived per curve segment from the hair colour (:func:`absorption_from_color`), or,
+for hair grown from melanin, from its pigment concentrations (:mod:`follicle.melanin`),
+and handed to the BSDF as a texture over each shape's ``v`` coordinate, which runs over the
 segments of its curves in file order, so every hair keeps its own colour and its
 root-to-tip gradient. The skin is a two-sided diffuse mesh.
 
@@ -45,6 +46,7 @@ from ..arrays import budget_runs
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
 from ..io.mitsuba import save_mitsuba
+from ..melanin import AZIMUTHAL_ROUGHNESS, absorption_from_color, melanin_absorption
 from ..validate import whole
 from .camera import Camera, Light, default_lights, frame_scene
 from .frame import drawable
@@ -58,21 +60,7 @@ __all__ = ["render_mitsuba", "absorption_from_color", "VARIANT", "MAX_DEPTH"]
 
 VARIANT = "scalar_rgb"
 MAX_DEPTH = 24  # path length: light hair needs many bounces (Russian roulette after 5)
-AZIMUTHAL_ROUGHNESS = 0.3  # β_n, the hair plugin's default (as is longitudinal 0.3)
 MAX_SEGMENTS = 1 << 16  # B-spline segments per curve shape (see _hair_shapes)
-
-
-def absorption_from_color(color: object, beta_n: float = AZIMUTHAL_ROUGHNESS) -> np.ndarray:
-    """σ_a (relative to the fibre radius) giving a hair about ``color`` (linear RGB) under
-    multiple scattering, Chiang et al. 2016 §4.2:
-    σ_a = (ln C / (5.969 − 0.215β_n + 2.532β_n² − 10.73β_n³ + 5.574β_n⁴ + 0.245β_n⁵))².
-
-    C is clipped to [1e-4, 1]: white hair absorbs nothing, black gets a finite σ_a.
-    """
-    c = np.clip(np.asarray(color, dtype=np.float64), 1e-4, 1.0)
-    b = float(beta_n)
-    poly = 5.969 - 0.215 * b + 2.532 * b**2 - 10.73 * b**3 + 5.574 * b**4 + 0.245 * b**5
-    return (np.log(c) / poly) ** 2
 
 
 def _mitsuba():
@@ -123,7 +111,15 @@ def _reporting(mi, progress: Callable[[int, int], None] | None) -> Iterator[None
 
 def _segment_absorption(curves: HairCurves, hair_color: np.ndarray) -> np.ndarray:
     """σ_a per curve segment (S, 3), float32, in the order of the curve file's segments:
-    curve by curve, root to tip, each the mean colour of its two vertices."""
+    curve by curve, root to tip. Hair grown from melanin (``curve_data`` ``melanin`` and
+    ``melanin_redness``, with its ``dye``) takes its pigments' σ_a
+    (:func:`follicle.melanin.melanin_absorption`), every segment of a curve alike;
+    other hair the σ_a of each segment's colour, the mean of its two vertices'."""
+    cd = curves.curve_data
+    if "melanin" in cd and "melanin_redness" in cd:
+        dye = cd.get("dye", (1.0, 1.0, 1.0))
+        sigma = melanin_absorption(cd["melanin"], cd["melanin_redness"], dye)
+        return np.repeat(sigma, curves.counts - 1, axis=0).astype(np.float32)
     color = point_attr(curves.point_data, "color", (curves.point_count, 3), hair_color)
     last = np.zeros(curves.point_count, dtype=bool)
     last[curves.offsets[1:] - 1] = True

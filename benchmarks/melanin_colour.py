@@ -1,0 +1,197 @@
+"""Hair colour by melanin: do the raster engines and the path tracer draw the same hair?
+
+For blond, brown and black melanin (0.2, 0.6, 0.95) the default groom (``--count``
+hairs, 3,000 by default, on the built-in head and guides) is drawn by the CPU engine
+(and OpenGL through EGL with ``--opengl``) and by Mitsuba (``--spp`` samples per pixel),
+with the same camera, lights and background. The raster engines shade each hair with
+its melanin's colour (:func:`follicle.melanin.melanin_color`); Mitsuba's ``hair`` BSDF
+takes the pigments' absorption σ_a itself (Chiang 2016 §4.2).
+
+Only hair pixels count: those the CPU engine draws the same over a black background and
+black skin as over a white background and white skin (the hair covers them wholly),
+less one pixel of border. The table gives the mean colour of those pixels (linear RGB
+averaged, then CIELAB, D65) in each engine and their CIEDE2000 difference (Sharma, Wu
+& Dalal 2005; checked against their published pairs first). Target: ΔE2000 ≤ 5.
+
+``--diffuse 1.0 1.5`` and ``--unshadowed`` add rows of the CPU engine with another
+Kajiya-Kay diffuse weight K_d (default 0.6) or without shadows, against the same
+reference: how much of a difference is the raster shading's energy.
+
+Run: ``.venv/bin/python benchmarks/melanin_colour.py [--count 3000] [--size 384]
+[--spp 64] [--opengl] [--diffuse K ...] [--unshadowed]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+import follicle
+from follicle.groom.settings import GroomParams
+from follicle.render.camera import frame_scene
+from follicle.render.image import srgb_to_linear
+
+MELANIN = {"blond": 0.2, "brown": 0.6, "black": 0.95}
+TARGET = 5.0
+# linear sRGB (Rec. 709 primaries) to CIE XYZ, D65 white (IEC 61966-2-1)
+_XYZ = np.array(
+    [
+        [0.4124564, 0.3575761, 0.1804375],
+        [0.2126729, 0.7151522, 0.0721750],
+        [0.0193339, 0.1191920, 0.9503041],
+    ]
+)
+_WHITE = _XYZ.sum(axis=1)
+
+
+def lab(rgb: np.ndarray) -> np.ndarray:
+    """CIELAB of a linear sRGB colour (CIE 15:2004)."""
+    t = (_XYZ @ np.asarray(rgb, np.float64)) / _WHITE
+    f = np.where(t > (6 / 29) ** 3, np.cbrt(t), t / (3 * (6 / 29) ** 2) + 4 / 29)
+    return np.array([116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2])])
+
+
+def delta_e2000(lab1: np.ndarray, lab2: np.ndarray) -> float:
+    """CIEDE2000 colour difference, Sharma, Wu & Dalal 2005 eqs. (1)–(21), kL = kC = kH = 1."""
+    (l1, a1, b1), (l2, a2, b2) = lab1, lab2
+    c_bar = (math.hypot(a1, b1) + math.hypot(a2, b2)) / 2
+    g = 0.5 * (1 - math.sqrt(c_bar**7 / (c_bar**7 + 25**7)))
+    a1p, a2p = (1 + g) * a1, (1 + g) * a2
+    c1p, c2p = math.hypot(a1p, b1), math.hypot(a2p, b2)
+    h1p = math.degrees(math.atan2(b1, a1p)) % 360 if c1p else 0.0
+    h2p = math.degrees(math.atan2(b2, a2p)) % 360 if c2p else 0.0
+    dl, dc = l2 - l1, c2p - c1p
+    dh = 0.0
+    if c1p * c2p:
+        dh = h2p - h1p
+        dh = dh - 360 if dh > 180 else dh + 360 if dh < -180 else dh
+    d_big_h = 2 * math.sqrt(c1p * c2p) * math.sin(math.radians(dh) / 2)
+    l_bar, cp_bar = (l1 + l2) / 2, (c1p + c2p) / 2
+    if c1p * c2p == 0:
+        h_bar = h1p + h2p
+    elif abs(h1p - h2p) <= 180:
+        h_bar = (h1p + h2p) / 2
+    else:
+        h_bar = (h1p + h2p + 360) / 2 if h1p + h2p < 360 else (h1p + h2p - 360) / 2
+    t = (
+        1
+        - 0.17 * math.cos(math.radians(h_bar - 30))
+        + 0.24 * math.cos(math.radians(2 * h_bar))
+        + 0.32 * math.cos(math.radians(3 * h_bar + 6))
+        - 0.20 * math.cos(math.radians(4 * h_bar - 63))
+    )
+    d_theta = 30 * math.exp(-(((h_bar - 275) / 25) ** 2))
+    r_c = 2 * math.sqrt(cp_bar**7 / (cp_bar**7 + 25**7))
+    s_l = 1 + 0.015 * (l_bar - 50) ** 2 / math.sqrt(20 + (l_bar - 50) ** 2)
+    s_c = 1 + 0.045 * cp_bar
+    s_h = 1 + 0.015 * cp_bar * t
+    r_t = -math.sin(math.radians(2 * d_theta)) * r_c
+    return math.sqrt(
+        (dl / s_l) ** 2
+        + (dc / s_c) ** 2
+        + (d_big_h / s_h) ** 2
+        + r_t * (dc / s_c) * (d_big_h / s_h)
+    )
+
+
+# Sharma 2005 Table 1: pairs 1, 7, 17, 25 and their ΔE00
+_SHARMA = [
+    ((50.0, 2.6772, -79.7751), (50.0, 0.0, -82.7485), 2.0425),
+    ((50.0, 0.0, 0.0), (50.0, -1.0, 2.0), 2.3669),
+    ((50.0, 2.5, 0.0), (73.0, 25.0, -18.0), 27.1492),
+    ((60.2574, -34.0099, 36.2677), (60.4626, -34.1751, 39.4387), 1.2644),
+]
+
+
+def hair_mask(curves, mesh, camera, size) -> np.ndarray:
+    """Pixels wholly covered by hair in the CPU engine, less a pixel of border."""
+    dark = follicle.render_image(
+        curves, mesh, camera, engine="cpu", size=size, background=(0, 0, 0), skin_color=(0, 0, 0)
+    )
+    light = follicle.render_image(
+        curves, mesh, camera, engine="cpu", size=size, background=(1, 1, 1), skin_color=(1, 1, 1)
+    )
+    same = np.abs(dark[..., :3].astype(int) - light[..., :3]).max(axis=-1) <= 1
+    inner = same.copy()
+    inner[1:] &= same[:-1]
+    inner[:-1] &= same[1:]
+    inner[:, 1:] &= same[:, :-1]
+    inner[:, :-1] &= same[:, 1:]
+    return inner
+
+
+def mean_lab(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    return lab(srgb_to_linear(image[..., :3][mask] / 255.0).mean(axis=0))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--count", type=int, default=3000)
+    parser.add_argument("--size", type=int, default=384)
+    parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("--opengl", action="store_true", help="also the OpenGL engine (EGL)")
+    parser.add_argument(
+        "--diffuse",
+        type=float,
+        nargs="*",
+        default=[],
+        help="also the CPU engine with these Kajiya-Kay K_d (default 0.6): the raster energy",
+    )
+    parser.add_argument(
+        "--unshadowed", action="store_true", help="also the CPU engine without shadows"
+    )
+    args = parser.parse_args()
+    for lab1, lab2, expected in _SHARMA:
+        got = delta_e2000(np.array(lab1), np.array(lab2))
+        assert abs(got - expected) < 1e-4, (lab1, lab2, got, expected)
+
+    mesh = follicle.load_mesh("builtin:head")
+    guides = follicle.load_guides("builtin:long", mesh)
+    size = (args.size, args.size)
+    rasters: dict[str, dict] = {"cpu": {"engine": "cpu"}}
+    if args.opengl:
+        rasters["opengl"] = {"engine": "opengl"}
+    for k in args.diffuse:
+        rasters[f"cpu Kd={k:g}"] = {"engine": "cpu", "shading_params": {"diffuse": k}}
+    if args.unshadowed:
+        rasters["cpu no shadows"] = {"engine": "cpu", "shadows": False}
+    print(
+        f"{args.count:,} hairs, {size[0]}×{size[1]}, Mitsuba {args.spp} spp;"
+        f" ΔE2000 target ≤ {TARGET:g}"
+    )
+    print(
+        f"{'hair':6} {'melanin':>7} {'engine':14} {'pixels':>7} {'raster L*a*b*':>22}"
+        f" {'Mitsuba L*a*b*':>22} {'ΔE2000':>7}"
+    )
+    camera = None
+    for name, melanin in MELANIN.items():
+        groom = follicle.Groom(mesh, guides, GroomParams(count=args.count, melanin=melanin))
+        curves = groom.generate()
+        if camera is None:
+            camera = frame_scene(curves, mesh, 30.0, 1.0)
+        mask = hair_mask(curves, mesh, camera, size)
+        start = time.perf_counter()
+        reference = follicle.render_image(
+            curves, mesh, camera, engine="mitsuba", size=size, spp=args.spp
+        )
+        seconds = time.perf_counter() - start
+        ref = mean_lab(reference, mask)
+        for engine, options in rasters.items():
+            raster = mean_lab(
+                follicle.render_image(curves, mesh, camera, size=size, **options), mask
+            )
+            de = delta_e2000(raster, ref)
+            print(
+                f"{name:6} {melanin:7.2f} {engine:14} {int(mask.sum()):7d}"
+                f" {np.array2string(raster, precision=1, floatmode='fixed'):>22}"
+                f" {np.array2string(ref, precision=1, floatmode='fixed'):>22} {de:7.2f}"
+                f"{'' if de <= TARGET else '  (over target)'}"
+            )
+        print(f"{'':6} (Mitsuba {seconds:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()
