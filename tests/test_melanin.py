@@ -117,6 +117,7 @@ def test_bad_values_refused():
         ({"melanin": 0.5, "mutant_fraction": 0.1}, "mutant_fraction"),
         ({"melanin_redness": 0.3}, "melanin_redness: takes effect with melanin only"),
         ({"dye": [0.5, 0.5, 0.5]}, "dye: takes effect"),
+        ({"melanin": 0.5, "inherit": ["color"]}, "inherit: melanin gives the hair's colour"),
     ],
 )
 def test_groom_keys_refused(keys, named):
