@@ -122,9 +122,14 @@ def _push_out(p: np.ndarray, prev: np.ndarray, seg: np.ndarray, sdf: SDF, clear:
     return p
 
 
-def _comb_field(p: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Style direction: away from a centre parting and towards the back."""
-    side = np.tanh((p[:, 0] - centre[0]) / 0.015)
+def _comb_field(p: np.ndarray, centre: np.ndarray, parting_side: np.ndarray) -> np.ndarray:
+    """Style direction: away from a centre parting and towards the back.
+
+    ``parting_side`` (C,) ±1 is the side of the parting each strand's root is on; the
+    strand is combed at least half strength towards it, so one rooted on the parting line
+    itself does not slide straight down a steep forehead over the face.
+    """
+    side = parting_side * np.maximum(np.tanh((p[:, 0] - centre[0]) / 0.015) * parting_side, 0.5)
     return np.stack([0.6 * side, np.zeros(len(p)), -0.5 * np.ones(len(p))], axis=1)
 
 
@@ -149,11 +154,12 @@ def _march(
     down = np.array([0.0, -1.0, 0.0])
     out = np.empty((len(roots), count, 3))
     out[:, 0] = roots
-    d = normalize(style.lift * normals + _comb_field(roots, centre) + 0.5 * down)
+    parting_side = np.where(roots[:, 0] >= centre[0], 1.0, -1.0)
+    d = normalize(style.lift * normals + _comb_field(roots, centre, parting_side) + 0.5 * down)
     for i in range(1, count):
         prev = out[:, i - 1]
         dist, n_s = sdf(prev)
-        want = style.gravity * down + style.comb * _comb_field(prev, centre)
+        want = style.gravity * down + style.comb * _comb_field(prev, centre, parting_side)
         hug = np.ones(len(prev)) if style.hug_all else np.clip(3.0 * n_s[:, 1], 0.0, 1.0)
         hug = hug * (dist < clear + 0.02)
         outward = np.maximum(np.sum(want * n_s, axis=1), 0.0)
