@@ -56,6 +56,7 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
         assert manifest["uncompiled"] == {}, manifest["uncompiled"]
         assert sum(n.endswith(".nbc") for n in archive.namelist()) > 150
         assert not [n for n in archive.namelist() if "/." in n]  # no lock or temporary file
+        assert "follicle/mesh/data/bust.npz" in archive.namelist()  # builtin:bust
     venv.EnvBuilder(with_pip=True, clear=True).create(tmp / "venv")
     bin_ = tmp / "venv" / "bin"
     subprocess.run([bin_ / "pip", "install", "-q", str(wheel)], check=True)

@@ -109,7 +109,7 @@ def groom_inputs(
     if spec is None and scene.guides.path.startswith("builtin:"):
         groups = mesh_groups(mesh, vertices)  # as load_guides gives built-in guides
     else:
-        texture = None if spec in (None, "none") else load_texture(spec, scene.resolve)
+        texture = None if spec in (None, "none") else load_texture(spec, scene.resolve, mesh)
         groups = InterpolationGroups(texture, vertices)
     guides = load_guides(
         scene.resolve(scene.guides.path), mesh, groups=groups, units=scene.guides.units

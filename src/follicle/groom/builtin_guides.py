@@ -1,4 +1,4 @@
-"""Built-in guide sets ("long", "short", "curly") grown on the built-in head by code.
+"""Built-in guide sets ("long", "short", "curly") grown on the built-in head or bust by code.
 
 Roots come from a small deterministic sampler (Halton (2, 3) points mapped to
 triangles by an area × scalp-density CDF). Each strand is marched from its root
@@ -19,6 +19,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
+from ..mesh.bust import builtin_bust, bust_signed_distance_and_normal
 from ..mesh.head import SCALP_TEXTURE, builtin_head, head_signed_distance_and_normal
 from ..mesh.sampling import DensitySampler
 from ..mesh.skin import SkinMesh
@@ -50,6 +51,11 @@ _CLEARANCE = 0.003  # m kept between hair and head
 _MIN_DENSITY = 0.5
 
 SDF = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+# the built-in meshes with an analytic signed distance; their head centre is the origin
+_ANALYTIC: tuple[tuple[Callable[[], SkinMesh], SDF], ...] = (
+    (builtin_head, head_signed_distance_and_normal),
+    (builtin_bust, bust_signed_distance_and_normal),
+)
 
 
 def sample_roots(mesh: SkinMesh, count: int) -> tuple[np.ndarray, np.ndarray]:
@@ -94,6 +100,16 @@ def _mesh_sdf(mesh: SkinMesh) -> SDF:
     return sdf
 
 
+def _analytic_sdf(mesh: SkinMesh) -> SDF | None:
+    """The analytic signed distance of the built-in mesh ``mesh`` is (its rest vertices
+    equal), else None."""
+    for make, sdf in _ANALYTIC:
+        rest = make().rest_vertices
+        if mesh.rest_vertices.shape == rest.shape and np.array_equal(mesh.rest_vertices, rest):
+            return sdf
+    return None
+
+
 def _push_out(p: np.ndarray, prev: np.ndarray, seg: np.ndarray, sdf: SDF, clear: float):
     """Move points closer than ``clear`` to the head out, keeping |p - prev| = seg (C, 1)."""
     for _ in range(4):
@@ -106,9 +122,14 @@ def _push_out(p: np.ndarray, prev: np.ndarray, seg: np.ndarray, sdf: SDF, clear:
     return p
 
 
-def _comb_field(p: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Style direction: away from a centre parting and towards the back."""
-    side = np.tanh((p[:, 0] - centre[0]) / 0.015)
+def _comb_field(p: np.ndarray, centre: np.ndarray, parting_side: np.ndarray) -> np.ndarray:
+    """Style direction: away from a centre parting and towards the back.
+
+    ``parting_side`` (C,) ±1 is the side of the parting each strand's root is on; the
+    strand is combed at least half strength towards it, so one rooted on the parting line
+    itself does not slide straight down a steep forehead over the face.
+    """
+    side = parting_side * np.maximum(np.tanh((p[:, 0] - centre[0]) / 0.015) * parting_side, 0.5)
     return np.stack([0.6 * side, np.zeros(len(p)), -0.5 * np.ones(len(p))], axis=1)
 
 
@@ -133,11 +154,12 @@ def _march(
     down = np.array([0.0, -1.0, 0.0])
     out = np.empty((len(roots), count, 3))
     out[:, 0] = roots
-    d = normalize(style.lift * normals + _comb_field(roots, centre) + 0.5 * down)
+    parting_side = np.where(roots[:, 0] >= centre[0], 1.0, -1.0)
+    d = normalize(style.lift * normals + _comb_field(roots, centre, parting_side) + 0.5 * down)
     for i in range(1, count):
         prev = out[:, i - 1]
         dist, n_s = sdf(prev)
-        want = style.gravity * down + style.comb * _comb_field(prev, centre)
+        want = style.gravity * down + style.comb * _comb_field(prev, centre, parting_side)
         hug = np.ones(len(prev)) if style.hug_all else np.clip(3.0 * n_s[:, 1], 0.0, 1.0)
         hug = hug * (dist < clear + 0.02)
         outward = np.maximum(np.sum(want * n_s, axis=1), 0.0)
@@ -195,8 +217,8 @@ def _follow(targets: np.ndarray, sdf: SDF, clear: float) -> np.ndarray:
 def builtin_guides(name: str, mesh: SkinMesh | None = None, count: int = _COUNT) -> HairCurves:
     """Built-in guides 'long', 'short' or 'curly' (``count``, default 300) on ``mesh``.
 
-    ``mesh`` defaults to the built-in head. On the built-in head collisions use its
-    analytic signed distance; on another mesh they use exact closest points (its
+    ``mesh`` defaults to the built-in head. On the built-in head or bust collisions use
+    its analytic signed distance; on another mesh they use exact closest points (its
     ``textures['scalp']`` is the density if present, else the whole surface grows hair).
     """
     if name not in BUILTIN_GUIDES:
@@ -205,13 +227,10 @@ def builtin_guides(name: str, mesh: SkinMesh | None = None, count: int = _COUNT)
     style = BUILTIN_GUIDES[name]
     if mesh is None:
         mesh = builtin_head()
-    default = builtin_head()
-    is_head = mesh.rest_vertices.shape == default.rest_vertices.shape and np.array_equal(
-        mesh.rest_vertices, default.rest_vertices
-    )
-    sdf: SDF = head_signed_distance_and_normal if is_head else _mesh_sdf(mesh)
+    analytic = _analytic_sdf(mesh)
     lo, hi = mesh.bounds("rest")
-    centre = np.zeros(3) if is_head else 0.5 * (lo + hi)
+    centre = np.zeros(3) if analytic is not None else 0.5 * (lo + hi)
+    sdf: SDF = analytic if analytic is not None else _mesh_sdf(mesh)
 
     tri, bary = sample_roots(mesh, int(count))
     surf = mesh.evaluate(tri, bary.astype(np.float64))

@@ -95,24 +95,31 @@ def resolve_density(
 ) -> Texture | float | None:
     """A density setting made concrete: ``builtin:scalp``, an image path, a number or None.
 
-    None picks the mesh's own scalp map when it has one (the built-in head), else
-    uniform density.
+    None picks the mesh's own scalp map when it has one (the built-in head and bust),
+    else uniform density.
     """
     if spec is None:
         return mesh.textures.get(SCALP_TEXTURE)
     if isinstance(spec, str):
-        return load_texture(spec, resolve_path)
+        return load_texture(spec, resolve_path, mesh)
     return spec
 
 
-def load_texture(spec: str, resolve_path: Callable[[str], str] = str) -> Texture:
-    """A texture from ``builtin:NAME`` or an image path (resolved against the scene)."""
+def load_texture(
+    spec: str, resolve_path: Callable[[str], str] = str, mesh: SkinMesh | None = None
+) -> Texture:
+    """A texture from ``builtin:NAME`` or an image path (resolved against the scene).
+
+    ``builtin:scalp`` and ``builtin:parting`` are ``mesh``'s own map of that name when it
+    has one (the built-in bust's, in its UV layout), else the built-in head's.
+    """
     if spec.startswith("builtin:"):
         if spec not in BUILTIN_TEXTURES:
             raise InputError(
                 f"unknown built-in texture {spec!r}; choose one of {sorted(BUILTIN_TEXTURES)}"
             )
-        return BUILTIN_TEXTURES[spec]()
+        own = None if mesh is None else mesh.textures.get(spec.split(":", 1)[1])
+        return own if own is not None else BUILTIN_TEXTURES[spec]()
     return Texture.load(resolve_path(spec))
 
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import FileAccessError, FormatError
 from ..inputs import input_file, is_url
+from ..mesh.bust import builtin_bust
 from ..mesh.head import builtin_head
 from ..mesh.skin import SkinMesh
 from ..units import Units, units_for, warn_mesh_size
@@ -21,12 +22,13 @@ from .dispatch import MESH_READERS
 __all__ = ["load_mesh", "MESH_EXTENSIONS", "BUILTIN_MESHES"]
 
 MESH_EXTENSIONS = tuple(MESH_READERS)
-BUILTIN_MESHES: dict[str, Callable[[], SkinMesh]] = {"head": builtin_head}
+BUILTIN_MESHES: dict[str, Callable[[], SkinMesh]] = {"head": builtin_head, "bust": builtin_bust}
 _BUILTIN_PREFIX = "builtin:"
 
 
 def load_mesh(path: str | os.PathLike[str], units: Units = "m") -> SkinMesh:
-    """Load ``path`` (OBJ/PLY/GLB/GLTF/STL/OFF, Alembic, USD) or ``"builtin:head"`` as a
+    """Load ``path`` (OBJ/PLY/GLB/GLTF/STL/OFF, Alembic, USD) or a built-in mesh
+    (``"builtin:head"``, ``"builtin:bust"``) as a
     SkinMesh, a file through its extension's entry of
     :data:`follicle.io.dispatch.MESH_READERS`.
 
