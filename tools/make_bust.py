@@ -26,12 +26,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import fast_simplification
 import numpy as np
-import trimesh
-from skimage.measure import marching_cubes
 
-from follicle.mesh.bust import BUST_BOTTOM, BUST_DATA, UV_CENTRE, bust_field
+from follicle.mesh.bust import BUST_BOTTOM, BUST_DATA, UV_CENTRE, bust_field, ear_distance
 from follicle.mesh.head import _scalp_density_at
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,6 +37,7 @@ LO = np.array([-0.26, BUST_BOTTOM - 0.012, -0.17])
 HI = np.array([0.26, 0.14, 0.17])
 BLOCK = 16
 SCALP_SIZE = 256
+EAR_CLEAR = (0.010, 0.020)  # m from an ear's flap: no hair within the first, full beyond
 
 
 def sample_grid(voxel: float) -> tuple[np.ndarray, np.ndarray]:
@@ -191,6 +189,16 @@ def outermost(d: np.ndarray) -> np.ndarray:
     return c + d * lo[:, None]
 
 
+def scalp_map(n: int) -> np.ndarray:
+    """The scalp map, n × n: the head's hairline rule at each texel's outermost surface
+    point, kept off the ears (none within 10 mm of an ear's flap, full from 20 mm; the
+    UV poles lie in the ears, where texels of ear and head crowd together)."""
+    p = texel_points(n)
+    lo, hi = EAR_CLEAR
+    x = np.clip((ear_distance(p) - lo) / (hi - lo), 0.0, 1.0)
+    return (_scalp_density_at(p) * x * x * (3.0 - 2.0 * x)).reshape(n, n)
+
+
 def texel_points(n: int) -> np.ndarray:
     c = (np.arange(n) + 0.5) / n
     u = np.broadcast_to(c[None, :], (n, n)).ravel()
@@ -239,11 +247,20 @@ def main() -> None:
     ap.add_argument("--triangles", type=int, default=34000)
     ap.add_argument("--pictures", type=Path, default=None)
     ap.add_argument("--no-mesh", action="store_true", help="only render the pictures")
+    ap.add_argument(
+        "--scalp-only", action="store_true", help="bake the scalp map again, keep the mesh"
+    )
     args = ap.parse_args()
-    if not args.no_mesh:
+    if args.scalp_only:
+        with np.load(OUT) as data:
+            arrays = dict(data)
+        arrays["scalp"] = scalp_map(SCALP_SIZE).astype(np.float32)
+        np.savez_compressed(OUT, **arrays)
+        print(f"wrote {OUT}: the scalp map baked again, {OUT.stat().st_size} bytes")
+    elif not args.no_mesh:
         mesh = surface(args.voxel, args.triangles)
         p, f, uv = cut_and_map(mesh, snap=0.25 * args.voxel)
-        scalp = _scalp_density_at(texel_points(SCALP_SIZE)).reshape(SCALP_SIZE, SCALP_SIZE)
+        scalp = scalp_map(SCALP_SIZE)
         OUT.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(
             OUT,

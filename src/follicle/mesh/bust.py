@@ -38,12 +38,16 @@ __all__ = [
     "BUST_DATA",
     "BUST_BOTTOM",
     "UV_CENTRE",
+    "EAR",
+    "ear_distance",
 ]
 
 BUST_DATA = "data/bust.npz"  # beside this module, written by tools/make_bust.py
 BUST_BOTTOM = -0.40  # y of the flat cut under the shoulders (m)
 UV_CENTRE = (0.0, -0.004, -0.012)  # centre of the UV map: its poles are in the ears' hollows
 _CUT_SOFT = 0.006  # rounding of the cut's edge (m)
+# the right ear's flap: an ellipsoid (centre, semi-axes, (pitch, yaw)), mirrored for the left
+EAR = ((0.078, 0.0, -0.016), (0.0065, 0.031, 0.018), (-14.0, -22.0))
 
 # One primitive per row, applied in order: ("add" | "sub", shape, parameters, blend k in
 # metres, mirrored). A mirrored primitive is written for x > 0 and evaluated at |x|, so a
@@ -75,7 +79,7 @@ _PRIMITIVES: tuple[tuple[str, str, tuple, float, bool], ...] = (
     ("add", "ell", ((0.0, -0.0640, 0.0890), (0.0180, 0.0062, 0.0085)), 0.004, False),
     ("sub", "ell", ((0.0235, -0.0600, 0.0900), (0.0030, 0.0030, 0.0040)), 0.004, True),
     # ears: a tilted, flared flap with a hollow (concha) and a fossa above it
-    ("add", "ell", ((0.078, 0.0, -0.016), (0.0065, 0.031, 0.018), (-14.0, -22.0)), 0.006, True),
+    ("add", "ell", EAR, 0.006, True),
     (
         "sub",
         "ell",
@@ -159,6 +163,14 @@ def bust_signed_distance_and_normal(points: object) -> tuple[np.ndarray, np.ndar
     g = np.linalg.norm(grad, axis=1)
     g = np.where(g > 1e-9, g, 1.0)
     return f[0] / g, grad / g[:, None]
+
+
+def ear_distance(points: object) -> np.ndarray:
+    """Approximate distance (m) from points (n, 3) to the nearer ear's flap (:data:`EAR`),
+    negative inside: what keeps the scalp map's hairline off the ears."""
+    p = _as_points(points).copy()
+    p[:, 0] = np.abs(p[:, 0])
+    return _ellipsoid(p, EAR)
 
 
 def bust_signed_distance(points: object) -> np.ndarray:
