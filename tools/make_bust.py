@@ -25,11 +25,15 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from follicle.mesh.bust import BUST_BOTTOM, BUST_DATA, UV_CENTRE, bust_field, ear_distance
 from follicle.mesh.head import _scalp_density_at
+
+if TYPE_CHECKING:
+    import trimesh
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "src" / "follicle" / "mesh" / BUST_DATA
@@ -81,6 +85,10 @@ def project(verts: np.ndarray, steps: int = 4, keep: np.ndarray | None = None) -
 
 
 def surface(voxel: float, triangles: int) -> trimesh.Trimesh:
+    import fast_simplification
+    import trimesh
+    from skimage.measure import marching_cubes
+
     vol, origin = sample_grid(voxel)
     v, f, _, _ = marching_cubes(vol, level=0.0, spacing=(voxel,) * 3)
     v = v + origin
@@ -101,6 +109,8 @@ def surface(voxel: float, triangles: int) -> trimesh.Trimesh:
 def relax(v: np.ndarray, f: np.ndarray, rounds: int = 4) -> np.ndarray:
     """Even out the triangles: move each vertex half way to its neighbours' mean within
     its tangent plane, then back onto the surface."""
+    import trimesh
+
     for _ in range(rounds):
         mesh = trimesh.Trimesh(v, f, process=False)
         adj = mesh.edges_sparse.astype(float)
@@ -124,6 +134,8 @@ def uv_of(p: np.ndarray, sy: float, sz: float) -> np.ndarray:
 
 def cut_and_map(mesh: trimesh.Trimesh, snap: float) -> tuple[np.ndarray, ...]:
     """Vertices, faces and UVs with the seam and poles on vertices (see the module doc)."""
+    import trimesh
+
     v = np.array(mesh.vertices) - UV_CENTRE  # about the UV centre from here on
     v[np.abs(v[:, 1]) < snap, 1] = 0.0  # no slivers where the planes pass near vertices
     v[np.abs(v[:, 2]) < snap, 2] = 0.0
