@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..arrays import budget_runs
+from ..color import AZIMUTHAL_ROUGHNESS, absorption_from_color
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
 from ..io.mitsuba import save_mitsuba
@@ -54,25 +55,11 @@ from .options import MAX_SPP, background_rows, color3, parse_background, parse_s
 if TYPE_CHECKING:
     from .settings import RenderParams
 
-__all__ = ["render_mitsuba", "absorption_from_color", "VARIANT", "MAX_DEPTH"]
+__all__ = ["render_mitsuba", "VARIANT", "MAX_DEPTH"]
 
 VARIANT = "scalar_rgb"
 MAX_DEPTH = 24  # path length: light hair needs many bounces (Russian roulette after 5)
-AZIMUTHAL_ROUGHNESS = 0.3  # β_n, the hair plugin's default (as is longitudinal 0.3)
 MAX_SEGMENTS = 1 << 16  # B-spline segments per curve shape (see _hair_shapes)
-
-
-def absorption_from_color(color: object, beta_n: float = AZIMUTHAL_ROUGHNESS) -> np.ndarray:
-    """σ_a (relative to the fibre radius) giving a hair about ``color`` (linear RGB) under
-    multiple scattering, Chiang et al. 2016 §4.2:
-    σ_a = (ln C / (5.969 − 0.215β_n + 2.532β_n² − 10.73β_n³ + 5.574β_n⁴ + 0.245β_n⁵))².
-
-    C is clipped to [1e-4, 1]: white hair absorbs nothing, black gets a finite σ_a.
-    """
-    c = np.clip(np.asarray(color, dtype=np.float64), 1e-4, 1.0)
-    b = float(beta_n)
-    poly = 5.969 - 0.215 * b + 2.532 * b**2 - 10.73 * b**3 + 5.574 * b**4 + 0.245 * b**5
-    return (np.log(c) / poly) ** 2
 
 
 def _mitsuba():

@@ -1,0 +1,93 @@
+// Physically based hair in the real-time forms of Karis 2016 ("Physically Based Hair
+// Shading in Unreal"), on Marschner et al. 2003's lobes with Chiang et al. 2016's
+// absorption, so that it approaches Mitsuba's hair BSDF (the reference) under the same
+// lights. Per light: Σ_p M_p A_p N_p times the irradiance π·radiance (a Lambertian of
+// albedo ρ under this light is ρ·radiance·cos), p = R, TT, TRT:
+//   M_p  a Gaussian in sin θi + sin θr (normalised over cos θi dθi) of width β_p around
+//        the cuticle tilt's shift: R β at -2α, TT β/2 at α, TRT 2β at 4α; β from the
+//        roughness as Mitsuba maps it (Chiang 2016 §4.1);
+//   N_p  Karis's fits: R cos(φ/2)/4, TT exp(-3.65 cos φ - 3.98), TRT exp(17 cos φ - 16.78);
+//   A_p  Schlick Fresnel and, for TT and TRT, the transmittance exp(-σa·l) over the
+//        chords l inside the fibre (radius 1: TT 2 cos γt / cos θt at Karis's h(φ), TRT
+//        twice that at h = √3/2), σa = k (ln C)² from the hair colour C (Chiang 2016
+//        §4.2, k = p_absorption, the mapping Mitsuba's σa comes from).
+// Multiple scattering (the soft look): Karis 2016's scatter term, C times a mix of a
+// wrapped lighting on the normal facing the eye and 1 - |T·L|, its key light reaching
+// deeper through light hair than dark: through the deep opacity maps' visibility v,
+// v^(1 - C) per channel (Zinke et al. 2008's forward scattering attenuation a_f^n with
+// the colour as the albedo a_f, simplified).
+uniform float p_roughness;
+uniform float p_cuticle_tilt;  // radians
+uniform float p_eta;
+uniform float p_r;
+uniform float p_tt;
+uniform float p_trt;
+uniform float p_scatter;
+uniform float p_absorption;    // k of σa = k (ln C)^2
+
+float lobe(float width, float x) {
+    return exp(-0.5 * x * x / (width * width)) / (width * sqrt(2.0 * PI));
+}
+
+// Schlick's Fresnel of the fibre at incidence cosine c
+float schlick(float f0, float c) {
+    float m = clamp(1.0 - c, 0.0, 1.0);
+    float m2 = m * m;
+    return f0 + (1.0 - f0) * m2 * m2 * m;
+}
+
+vec3 hair_shade(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed, float key) {
+    vec3 colour = clamp(base, vec3(1e-4), vec3(1.0));
+    vec3 ln_c = log(colour);
+    vec3 sigma = p_absorption * ln_c * ln_c;
+    float rho = p_roughness;
+    float rho2 = rho * rho;
+    float rho4 = rho2 * rho2;
+    float rho5 = rho4 * rho;
+    float rho10 = rho5 * rho5;
+    float beta = 0.726 * rho + 0.812 * rho2 + 3.7 * rho10 * rho10;
+    float f0 = (1.0 - p_eta) / (1.0 + p_eta);
+    f0 *= f0;
+    float sin_r = clamp(dot(T, E), -1.0, 1.0);
+    float cos_r = sqrt(1.0 - sin_r * sin_r);
+    vec3 Ep = E - sin_r * T;
+    // the multiple scattering's normal: across the fibre, facing the eye
+    vec3 Nf = Ep * inversesqrt(max(dot(Ep, Ep), 1e-12));
+    // the key light through the hair for multiple scattering: v^(1 - C)
+    vec3 key_ms = exp((1.0 - colour) * log(max(key, 1e-6)));
+    vec3 rgb = base * ambient;
+    for (int i = 0; i < n_lights; ++i) {
+        vec3 L = light_dir[i];
+        float sin_i = clamp(dot(T, L), -1.0, 1.0);
+        float cos_i = sqrt(1.0 - sin_i * sin_i);
+        // cos θd, θd = (θr - θi) / 2
+        float cos_d = max(sqrt(max(0.5 + 0.5 * (cos_i * cos_r + sin_i * sin_r), 0.0)), 0.2);
+        vec3 Lp = L - sin_i * T;
+        float cos_phi = clamp(dot(Lp, Ep) * inversesqrt(max(dot(Lp, Lp) * dot(Ep, Ep), 1e-12)),
+                              -1.0, 1.0);
+        float cos_half = sqrt(0.5 + 0.5 * cos_phi);
+        float x = sin_i + sin_r;
+        // inside the fibre: the refracted inclination and the 2D (Bravais) index
+        float sin_d2 = 1.0 - cos_d * cos_d;
+        float cos_t = sqrt(1.0 - sin_d2 / (p_eta * p_eta));
+        float a = cos_d / sqrt(p_eta * p_eta - sin_d2);  // 1 / η'
+
+        float s_r = p_r * lobe(beta, x + 2.0 * p_cuticle_tilt) * 0.25 * cos_half
+                    * schlick(f0, sqrt(clamp(0.5 + 0.5 * dot(L, E), 0.0, 1.0)));
+        float h = cos_half * (1.0 + a * (0.6 - 0.8 * cos_phi));
+        float f_tt = schlick(f0, cos_d * sqrt(max(1.0 - h * h, 0.0)));
+        vec3 s_tt = p_tt * lobe(0.5 * beta, x - p_cuticle_tilt) * exp(-3.65 * cos_phi - 3.98)
+                    * (1.0 - f_tt) * (1.0 - f_tt)
+                    * exp(-sigma * (2.0 * sqrt(max(1.0 - h * h * a * a, 0.0)) / cos_t));
+        float f_trt = schlick(f0, 0.5 * cos_d);
+        vec3 s_trt = p_trt * lobe(2.0 * beta, x - 4.0 * p_cuticle_tilt)
+                     * exp(17.0 * cos_phi - 16.78) * (1.0 - f_trt) * (1.0 - f_trt) * f_trt
+                     * exp(-sigma * (4.0 * sqrt(1.0 - 0.75 * a * a) / cos_t));
+        float wrap = clamp((dot(Nf, L) + 1.0) * 0.25, 0.0, 1.0);
+        float scatter = p_scatter * mix(wrap, 1.0 - abs(sin_i), 0.33);
+        vec3 single = PI * (s_r + s_tt + s_trt) * (i == 0 ? key : 1.0);
+        vec3 multiple = colour * scatter * (i == 0 ? key_ms : vec3(1.0));
+        rgb += light_radiance[i] * (single + multiple);
+    }
+    return rgb;
+}
