@@ -156,7 +156,8 @@ def physical_lobes(T, E, L, base, p) -> dict[str, np.ndarray]:
     )
     facing = unit(ep)  # the fibre's normal facing the eye
     wrap = np.clip((facing @ L + 1) / 4, 0, 1)
-    scatter = c * (0.67 * wrap + 0.33 * (1 - abs(T @ L)))
+    # ∫ (0.67 wrap + 0.33 (1 − |T·L|)) dω = 0.67π + 0.33·2π: 3/4 of it makes it π
+    scatter = 0.75 * c * (0.67 * wrap + 0.33 * (1 - abs(T @ L)))
     return {"r": np.full(3, r), "tt": tt, "trt": trt, "scatter": scatter}
 
 
@@ -220,6 +221,9 @@ def test_each_model_has_its_parameters_and_shared_ones():
         ("kajiya-kay", {"specular_color": (1, 1)}, r"shading_params\['specular_color'\]"),
         ("kajiya-kay", {"shadow_density": True}, r"expected a number"),
         ("phong", None, r"shading: unknown model 'phong'; allowed: kajiya-kay, scheuermann"),
+        ("physical", {"alpha": 1}, r"unknown key 'alpha' for shading 'physical'.*roughness"),
+        ("physical", {"roughness": 2.0}, r"shading_params\['roughness'\]: must be in \[0.05,"),
+        ("physical", {"cuticle_tilt": -20}, r"shading_params\['cuticle_tilt'\]: must be in"),
     ],
 )
 def test_bad_shading_params_name_the_field(model, params, message):

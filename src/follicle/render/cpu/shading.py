@@ -321,9 +321,7 @@ def _shade_marschner(prm, T, E, base, key, nl, ldir, lrad, amb):
     return (r, g, b)
 
 
-@kernel(inline="always")
-def _lobe(width, x):
-    return math.exp(-0.5 * x * x / (width * width)) / (width * math.sqrt(2.0 * math.pi))
+LOBE_CUT = -15.0  # a TT or TRT lobe whose exponent is below this adds < 1e-6: skipped
 
 
 @kernel(inline="always")
@@ -339,7 +337,9 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
     """shade_physical.glsl: Karis 2016's real-time R, TT and TRT (Gaussian M_p in
     sin θi + sin θr, his fitted N_p) with the absorption σa = k (ln C)² of Chiang 2016
     §4.2 over the chords inside the fibre, under the irradiance π·radiance; plus Karis's
-    multiple scattering term, its key light seen through the hair as v^(1 − C)."""
+    multiple scattering term, its key light seen through the hair as v^(1 − C). A TT or
+    TRT lobe's M_p, N_p and transmittance share one exp per channel, skipped where the
+    exponent is below :data:`LOBE_CUT`."""
     rho, tilt, eta, p_r, p_tt, p_trt, p_scatter, k_abs = (
         prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7],
     )  # fmt: skip
@@ -355,7 +355,9 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
     rho2 = rho * rho
     rho10 = rho2 * rho2 * rho
     rho10 *= rho10
-    beta = 0.726 * rho + 0.812 * rho2 + 3.7 * rho10 * rho10
+    beta = 0.726 * rho + 0.812 * rho2 + 3.7 * rho10 * rho10  # the R lobe's width
+    g = 0.5 / (beta * beta)  # exp(-g x²): the R lobe; TT 4g (β/2), TRT g/4 (2β)
+    norm = 1.0 / (beta * math.sqrt(2.0 * math.pi))  # R; TT 2·norm, TRT norm / 2
     f0 = (1.0 - eta) / (1.0 + eta)
     f0 *= f0
     sin_r = min(max(dot(T, E), -1.0), 1.0)
@@ -363,12 +365,14 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
     Ep = added(E, scaled(T, -sin_r))
     ep2 = dot(Ep, Ep)
     Nf = scaled(Ep, 1.0 / math.sqrt(max(ep2, 1e-12)))
-    lk = math.log(max(key, 1e-6))
-    k0 = math.exp((1.0 - c0) * lk)
-    k1 = math.exp((1.0 - c1) * lk)
-    k2 = math.exp((1.0 - c2) * lk)
+    k0 = k1 = k2 = 1.0
+    if key < 1.0:
+        lk = math.log(max(key, 1e-6))
+        k0 = math.exp((1.0 - c0) * lk)
+        k1 = math.exp((1.0 - c1) * lk)
+        k2 = math.exp((1.0 - c2) * lk)
     r = base[0] * amb[0]
-    g = base[1] * amb[1]
+    gr = base[1] * amb[1]
     b = base[2] * amb[2]
     for i in range(nl):
         L = (float(ldir[i, 0]), float(ldir[i, 1]), float(ldir[i, 2]))
@@ -382,52 +386,43 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
         x = sin_i + sin_r
         sin_d2 = 1.0 - cos_d * cos_d
         cos_t = math.sqrt(1.0 - sin_d2 / (eta * eta))
-        a = cos_d / math.sqrt(eta * eta - sin_d2)
-        s_r = (
-            p_r
-            * _lobe(beta, x + 2.0 * tilt)
-            * 0.25
-            * cos_half
-            * _schlick(f0, math.sqrt(min(max(0.5 + 0.5 * dot(L, E), 0.0), 1.0)))
-        )
-        h = cos_half * (1.0 + a * (0.6 - 0.8 * cos_phi))
-        f_tt = _schlick(f0, cos_d * math.sqrt(max(1.0 - h * h, 0.0)))
-        m_tt = (
-            p_tt
-            * _lobe(0.5 * beta, x - tilt)
-            * math.exp(-3.65 * cos_phi - 3.98)
-            * (1.0 - f_tt)
-            * (1.0 - f_tt)
-        )
-        l_tt = 2.0 * math.sqrt(max(1.0 - h * h * a * a, 0.0)) / cos_t
-        f_trt = _schlick(f0, 0.5 * cos_d)
-        m_trt = (
-            p_trt
-            * _lobe(2.0 * beta, x - 4.0 * tilt)
-            * math.exp(17.0 * cos_phi - 16.78)
-            * (1.0 - f_trt)
-            * (1.0 - f_trt)
-            * f_trt
-        )
-        l_trt = 4.0 * math.sqrt(1.0 - 0.75 * a * a) / cos_t
+        a = cos_d / math.sqrt(eta * eta - sin_d2)  # 1 / η', the 2D (Bravais) index
+        xr = x + 2.0 * tilt
+        fr = _schlick(f0, math.sqrt(min(max(0.5 + 0.5 * dot(L, E), 0.0), 1.0)))
+        single = p_r * norm * math.exp(-g * xr * xr) * 0.25 * cos_half * fr
+        t0 = t1 = t2 = single
+        xt = x - tilt
+        e_tt = -4.0 * g * xt * xt - 3.65 * cos_phi - 3.98
+        if e_tt > LOBE_CUT and p_tt > 0.0:
+            h = cos_half * (1.0 + a * (0.6 - 0.8 * cos_phi))
+            f_tt = _schlick(f0, cos_d * math.sqrt(max(1.0 - h * h, 0.0)))
+            w = p_tt * 2.0 * norm * (1.0 - f_tt) * (1.0 - f_tt)
+            l_tt = 2.0 * math.sqrt(max(1.0 - h * h * a * a, 0.0)) / cos_t
+            t0 += w * math.exp(e_tt - s0 * l_tt)
+            t1 += w * math.exp(e_tt - s1 * l_tt)
+            t2 += w * math.exp(e_tt - s2 * l_tt)
+        xt = x - 4.0 * tilt
+        e_trt = -0.25 * g * xt * xt + 17.0 * cos_phi - 16.78
+        if e_trt > LOBE_CUT and p_trt > 0.0:
+            f_trt = _schlick(f0, 0.5 * cos_d)
+            w = p_trt * 0.5 * norm * (1.0 - f_trt) * (1.0 - f_trt) * f_trt
+            l_trt = 4.0 * math.sqrt(1.0 - 0.75 * a * a) / cos_t
+            t0 += w * math.exp(e_trt - s0 * l_trt)
+            t1 += w * math.exp(e_trt - s1 * l_trt)
+            t2 += w * math.exp(e_trt - s2 * l_trt)
         wrap = min(max((dot(Nf, L) + 1.0) * 0.25, 0.0), 1.0)
         w = 1.0 - abs(sin_i)
-        scatter = p_scatter * (wrap + (w - wrap) * 0.33)
-        vis = key if i == 0 else 1.0
-        single = math.pi * vis
-        r += lrad[i, 0] * (
-            single * (s_r + m_tt * math.exp(-s0 * l_tt) + m_trt * math.exp(-s0 * l_trt))
-            + c0 * scatter * (k0 if i == 0 else 1.0)
-        )
-        g += lrad[i, 1] * (
-            single * (s_r + m_tt * math.exp(-s1 * l_tt) + m_trt * math.exp(-s1 * l_trt))
-            + c1 * scatter * (k1 if i == 0 else 1.0)
-        )
-        b += lrad[i, 2] * (
-            single * (s_r + m_tt * math.exp(-s2 * l_tt) + m_trt * math.exp(-s2 * l_trt))
-            + c2 * scatter * (k2 if i == 0 else 1.0)
-        )
-    return (r, g, b)
+        scatter = 0.75 * p_scatter * (wrap + (w - wrap) * 0.33)
+        vis = math.pi * (key if i == 0 else 1.0)
+        if i == 0:
+            r += lrad[i, 0] * (vis * t0 + c0 * scatter * k0)
+            gr += lrad[i, 1] * (vis * t1 + c1 * scatter * k1)
+            b += lrad[i, 2] * (vis * t2 + c2 * scatter * k2)
+        else:
+            r += lrad[i, 0] * (vis * t0 + c0 * scatter)
+            gr += lrad[i, 1] * (vis * t1 + c1 * scatter)
+            b += lrad[i, 2] * (vis * t2 + c2 * scatter)
+    return (r, gr, b)
 
 
 # ----------------------------------------------------------------------------- shadows

@@ -12,7 +12,8 @@
 //        twice that at h = √3/2), σa = k (ln C)² from the hair colour C (Chiang 2016
 //        §4.2, k = p_absorption, the mapping Mitsuba's σa comes from).
 // Multiple scattering (the soft look): Karis 2016's scatter term, C times a mix of a
-// wrapped lighting on the normal facing the eye and 1 - |T·L|, its key light reaching
+// wrapped lighting on the normal facing the eye and 1 - |T·L| (scaled by 3/4: under
+// radiance 1 from every side white hair returns 1, as its ambient term), its key light reaching
 // deeper through light hair than dark: through the deep opacity maps' visibility v,
 // v^(1 - C) per channel (Zinke et al. 2008's forward scattering attenuation a_f^n with
 // the colour as the albedo a_f, simplified).
@@ -25,9 +26,8 @@ uniform float p_trt;
 uniform float p_scatter;
 uniform float p_absorption;    // k of σa = k (ln C)^2
 
-float lobe(float width, float x) {
-    return exp(-0.5 * x * x / (width * width)) / (width * sqrt(2.0 * PI));
-}
+// a TT or TRT lobe whose exponent is below this adds < 1e-6: skipped
+#define LOBE_CUT -15.0
 
 // Schlick's Fresnel of the fibre at incidence cosine c
 float schlick(float f0, float c) {
@@ -42,19 +42,21 @@ vec3 hair_shade(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed, 
     vec3 sigma = p_absorption * ln_c * ln_c;
     float rho = p_roughness;
     float rho2 = rho * rho;
-    float rho4 = rho2 * rho2;
-    float rho5 = rho4 * rho;
-    float rho10 = rho5 * rho5;
-    float beta = 0.726 * rho + 0.812 * rho2 + 3.7 * rho10 * rho10;
+    float rho10 = rho2 * rho2 * rho;
+    rho10 *= rho10;
+    float beta = 0.726 * rho + 0.812 * rho2 + 3.7 * rho10 * rho10;  // the R lobe's width
+    float g = 0.5 / (beta * beta);  // exp(-g x^2): R; TT 4g (width β/2), TRT g/4 (2β)
+    float norm = 1.0 / (beta * sqrt(2.0 * PI));  // R; TT 2 norm, TRT norm / 2
     float f0 = (1.0 - p_eta) / (1.0 + p_eta);
     f0 *= f0;
     float sin_r = clamp(dot(T, E), -1.0, 1.0);
     float cos_r = sqrt(1.0 - sin_r * sin_r);
     vec3 Ep = E - sin_r * T;
+    float ep2 = dot(Ep, Ep);
     // the multiple scattering's normal: across the fibre, facing the eye
-    vec3 Nf = Ep * inversesqrt(max(dot(Ep, Ep), 1e-12));
+    vec3 Nf = Ep * inversesqrt(max(ep2, 1e-12));
     // the key light through the hair for multiple scattering: v^(1 - C)
-    vec3 key_ms = exp((1.0 - colour) * log(max(key, 1e-6)));
+    vec3 key_ms = key < 1.0 ? exp((1.0 - colour) * log(max(key, 1e-6))) : vec3(1.0);
     vec3 rgb = base * ambient;
     for (int i = 0; i < n_lights; ++i) {
         vec3 L = light_dir[i];
@@ -63,31 +65,39 @@ vec3 hair_shade(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed, 
         // cos θd, θd = (θr - θi) / 2
         float cos_d = max(sqrt(max(0.5 + 0.5 * (cos_i * cos_r + sin_i * sin_r), 0.0)), 0.2);
         vec3 Lp = L - sin_i * T;
-        float cos_phi = clamp(dot(Lp, Ep) * inversesqrt(max(dot(Lp, Lp) * dot(Ep, Ep), 1e-12)),
+        float cos_phi = clamp(dot(Lp, Ep) * inversesqrt(max(dot(Lp, Lp) * ep2, 1e-12)),
                               -1.0, 1.0);
         float cos_half = sqrt(0.5 + 0.5 * cos_phi);
         float x = sin_i + sin_r;
-        // inside the fibre: the refracted inclination and the 2D (Bravais) index
+        // inside the fibre: the refracted inclination and 1 / η', the 2D (Bravais) index
         float sin_d2 = 1.0 - cos_d * cos_d;
         float cos_t = sqrt(1.0 - sin_d2 / (p_eta * p_eta));
-        float a = cos_d / sqrt(p_eta * p_eta - sin_d2);  // 1 / η'
+        float a = cos_d / sqrt(p_eta * p_eta - sin_d2);
 
-        float s_r = p_r * lobe(beta, x + 2.0 * p_cuticle_tilt) * 0.25 * cos_half
-                    * schlick(f0, sqrt(clamp(0.5 + 0.5 * dot(L, E), 0.0, 1.0)));
-        float h = cos_half * (1.0 + a * (0.6 - 0.8 * cos_phi));
-        float f_tt = schlick(f0, cos_d * sqrt(max(1.0 - h * h, 0.0)));
-        vec3 s_tt = p_tt * lobe(0.5 * beta, x - p_cuticle_tilt) * exp(-3.65 * cos_phi - 3.98)
-                    * (1.0 - f_tt) * (1.0 - f_tt)
-                    * exp(-sigma * (2.0 * sqrt(max(1.0 - h * h * a * a, 0.0)) / cos_t));
-        float f_trt = schlick(f0, 0.5 * cos_d);
-        vec3 s_trt = p_trt * lobe(2.0 * beta, x - 4.0 * p_cuticle_tilt)
-                     * exp(17.0 * cos_phi - 16.78) * (1.0 - f_trt) * (1.0 - f_trt) * f_trt
-                     * exp(-sigma * (4.0 * sqrt(1.0 - 0.75 * a * a) / cos_t));
+        float xr = x + 2.0 * p_cuticle_tilt;
+        float fr = schlick(f0, sqrt(clamp(0.5 + 0.5 * dot(L, E), 0.0, 1.0)));
+        vec3 single = vec3(p_r * norm * exp(-g * xr * xr) * 0.25 * cos_half * fr);
+        float xt = x - p_cuticle_tilt;
+        float e_tt = -4.0 * g * xt * xt - 3.65 * cos_phi - 3.98;
+        if (e_tt > LOBE_CUT && p_tt > 0.0) {
+            float h = cos_half * (1.0 + a * (0.6 - 0.8 * cos_phi));  // Karis's h(φ)
+            float f_tt = schlick(f0, cos_d * sqrt(max(1.0 - h * h, 0.0)));
+            float w = p_tt * 2.0 * norm * (1.0 - f_tt) * (1.0 - f_tt);
+            float l_tt = 2.0 * sqrt(max(1.0 - h * h * a * a, 0.0)) / cos_t;
+            single += w * exp(e_tt - sigma * l_tt);
+        }
+        xt = x - 4.0 * p_cuticle_tilt;
+        float e_trt = -0.25 * g * xt * xt + 17.0 * cos_phi - 16.78;
+        if (e_trt > LOBE_CUT && p_trt > 0.0) {
+            float f_trt = schlick(f0, 0.5 * cos_d);
+            float w = p_trt * 0.5 * norm * (1.0 - f_trt) * (1.0 - f_trt) * f_trt;
+            float l_trt = 4.0 * sqrt(1.0 - 0.75 * a * a) / cos_t;  // h = √3/2
+            single += w * exp(e_trt - sigma * l_trt);
+        }
         float wrap = clamp((dot(Nf, L) + 1.0) * 0.25, 0.0, 1.0);
-        float scatter = p_scatter * mix(wrap, 1.0 - abs(sin_i), 0.33);
-        vec3 single = PI * (s_r + s_tt + s_trt) * (i == 0 ? key : 1.0);
-        vec3 multiple = colour * scatter * (i == 0 ? key_ms : vec3(1.0));
-        rgb += light_radiance[i] * (single + multiple);
+        float scatter = 0.75 * p_scatter * mix(wrap, 1.0 - abs(sin_i), 0.33);
+        rgb += light_radiance[i] * (PI * single * (i == 0 ? key : 1.0)
+                                    + colour * scatter * (i == 0 ? key_ms : vec3(1.0)));
     }
     return rgb;
 }
