@@ -16,7 +16,7 @@ ONLY = {  # one term at a time
     "r": {"tt": 0.0, "trt": 0.0, "scatter": 0.0},
     "tt": {"r": 0.0, "trt": 0.0, "scatter": 0.0},
     "trt": {"r": 0.0, "tt": 0.0, "scatter": 0.0},
-    "scatter": {"r": 0.0, "tt": 0.0, "trt": 0.0},
+    "scatter": {"r": 0.0, "tt": 0.0, "trt": 0.0, "scatter": 1.0},  # 1: one fibre's share
 }
 
 
@@ -86,3 +86,24 @@ def test_colour_tints_transmission_by_the_chiang_absorption():
     assert tt[0] > tt[1] > tt[2]
     logs = np.log(tt / white)  # −σa·l, the same l for every channel
     assert logs[0] / logs[2] == pytest.approx((np.log(0.3) / np.log(0.06)) ** 2, rel=1e-6)
+
+
+def test_lights_without_shadows_transmit_by_backlit():
+    """TT of a light behind the strand: the key's in full, another light's (no shadow
+    map: it would shine through the head) times ``backlit``."""
+    E = (0.0, 0.0, 1.0)
+    back = np.array([0.0, 0.25, -1.0]) / np.linalg.norm([0.0, 0.25, -1.0])
+    ldir = np.asarray([back, back], np.float32)
+    as_key = np.asarray([[1.0] * 3, [0.0] * 3], np.float32)
+    as_fill = as_key[::-1].copy()
+    base = (0.5, 0.5, 0.5)
+
+    def tt(lrad, backlit):
+        params = parse_shading("physical", {**ONLY["tt"], "backlit": backlit})
+        prm = pack_model("physical", model_uniforms("physical", params))
+        return _shade_physical(prm, T, E, base, 1.0, 2, ldir, lrad, NO_LIGHT)[0]
+
+    key = tt(as_key, 0.0)
+    assert key > 0.05
+    assert tt(as_fill, 0.0) == 0.0
+    assert tt(as_fill, 0.25) == pytest.approx(0.25 * key, rel=1e-9)

@@ -166,12 +166,20 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
         "r": (1.0, 0.0, 100.0, "R (surface reflection) strength"),
         "tt": (1.0, 0.0, 100.0, "TT (transmission) strength"),
         "trt": (1.0, 0.0, 100.0, "TRT (internal reflection) strength"),
-        "scatter": (
+        "backlit": (
+            0.0,
+            0.0,
             1.0,
+            "TT share of the lights without shadows (all but the key), which would shine"
+            " through the head and the hair in front (Karis 2016's Backlit)",
+        ),
+        "scatter": (
+            2.0,
             0.0,
             10.0,
-            "multiple scattering strength: light scattered through the hair volume,"
-            " the soft look (Karis 2016)",
+            "multiple scattering strength, the soft look (Karis 2016): 1 returns a white"
+            " fibre's light once; 2, light bounced on through the hair volume (nearest"
+            " Mitsuba on the gallery)",
         ),
     },
 }

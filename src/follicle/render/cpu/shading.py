@@ -44,7 +44,17 @@ PARAM_ORDER = {
     "kajiya-kay": _KK,
     "scheuermann": (*_KK, "shift_noise", "sparkle", "noise_frequency"),
     "marschner": ("alpha", "beta", "r", "tt", "trt", "tt_width", "eta", "diffuse"),
-    "physical": ("roughness", "cuticle_tilt", "eta", "r", "tt", "trt", "scatter", "absorption"),
+    "physical": (
+        "roughness",
+        "cuticle_tilt",
+        "eta",
+        "r",
+        "tt",
+        "trt",
+        "scatter",
+        "absorption",
+        "backlit",
+    ),  # fmt: skip
 }
 _U32 = np.uint64(0xFFFFFFFF)
 
@@ -337,11 +347,12 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
     """shade_physical.glsl: Karis 2016's real-time R, TT and TRT (Gaussian M_p in
     sin θi + sin θr, his fitted N_p) with the absorption σa = k (ln C)² of Chiang 2016
     §4.2 over the chords inside the fibre, under the irradiance π·radiance; plus Karis's
-    multiple scattering term, its key light seen through the hair as v^(1 − C). A TT or
+    multiple scattering term, its key light seen through the hair as v^(1 − C); the
+    unshadowed lights' TT scaled by ``backlit``. A TT or
     TRT lobe's M_p, N_p and transmittance share one exp per channel, skipped where the
     exponent is below :data:`LOBE_CUT`."""
-    rho, tilt, eta, p_r, p_tt, p_trt, p_scatter, k_abs = (
-        prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7],
+    rho, tilt, eta, p_r, p_tt, p_trt, p_scatter, k_abs, backlit = (
+        prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8],
     )  # fmt: skip
     c0 = min(max(base[0], 1e-4), 1.0)
     c1 = min(max(base[1], 1e-4), 1.0)
@@ -393,10 +404,11 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
         t0 = t1 = t2 = single
         xt = x - tilt
         e_tt = -4.0 * g * xt * xt - 3.65 * cos_phi - 3.98
-        if e_tt > LOBE_CUT and p_tt > 0.0:
+        tt_share = p_tt if i == 0 else p_tt * backlit
+        if e_tt > LOBE_CUT and tt_share > 0.0:
             h = cos_half * (1.0 + a * (0.6 - 0.8 * cos_phi))
             f_tt = _schlick(f0, cos_d * math.sqrt(max(1.0 - h * h, 0.0)))
-            w = p_tt * 2.0 * norm * (1.0 - f_tt) * (1.0 - f_tt)
+            w = tt_share * 2.0 * norm * (1.0 - f_tt) * (1.0 - f_tt)
             l_tt = 2.0 * math.sqrt(max(1.0 - h * h * a * a, 0.0)) / cos_t
             t0 += w * math.exp(e_tt - s0 * l_tt)
             t1 += w * math.exp(e_tt - s1 * l_tt)

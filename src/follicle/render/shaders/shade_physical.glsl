@@ -16,7 +16,9 @@
 // radiance 1 from every side white hair returns 1, as its ambient term), its key light reaching
 // deeper through light hair than dark: through the deep opacity maps' visibility v,
 // v^(1 - C) per channel (Zinke et al. 2008's forward scattering attenuation a_f^n with
-// the colour as the albedo a_f, simplified).
+// the colour as the albedo a_f, simplified). The lights without shadows (all but the
+// key) would shine TT through the head and the hair in front of a strand: their TT is
+// scaled by p_backlit (Karis 2016's Backlit).
 uniform float p_roughness;
 uniform float p_cuticle_tilt;  // radians
 uniform float p_eta;
@@ -24,6 +26,7 @@ uniform float p_r;
 uniform float p_tt;
 uniform float p_trt;
 uniform float p_scatter;
+uniform float p_backlit;       // TT share of the lights without shadows
 uniform float p_absorption;    // k of σa = k (ln C)^2
 
 // a TT or TRT lobe whose exponent is below this adds < 1e-6: skipped
@@ -79,10 +82,11 @@ vec3 hair_shade(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed, 
         vec3 single = vec3(p_r * norm * exp(-g * xr * xr) * 0.25 * cos_half * fr);
         float xt = x - p_cuticle_tilt;
         float e_tt = -4.0 * g * xt * xt - 3.65 * cos_phi - 3.98;
-        if (e_tt > LOBE_CUT && p_tt > 0.0) {
+        float tt_share = i == 0 ? p_tt : p_tt * p_backlit;
+        if (e_tt > LOBE_CUT && tt_share > 0.0) {
             float h = cos_half * (1.0 + a * (0.6 - 0.8 * cos_phi));  // Karis's h(φ)
             float f_tt = schlick(f0, cos_d * sqrt(max(1.0 - h * h, 0.0)));
-            float w = p_tt * 2.0 * norm * (1.0 - f_tt) * (1.0 - f_tt);
+            float w = tt_share * 2.0 * norm * (1.0 - f_tt) * (1.0 - f_tt);
             float l_tt = 2.0 * sqrt(max(1.0 - h * h * a * a, 0.0)) / cos_t;
             single += w * exp(e_tt - sigma * l_tt);
         }
