@@ -2,8 +2,8 @@
 (Andersson et al. 2020) of each model's CPU-engine render against Mitsuba 3's
 (Chiang et al. 2016 hair BSDF) on the gallery scenes, same camera and lights.
 
-Prints a table (scene × model: mean FLIP, lower is nearer; CPU frame time) and writes
-``docs/shading_flip.png``: Mitsuba | kajiya-kay | physical for a few scenes. The Mitsuba
+Prints a table (scene × model: mean FLIP, lower is nearer; CPU frame time at that size,
+benchmarks/shading.py measures the ratio better) and writes ``docs/shading_flip.png``: Mitsuba | kajiya-kay | physical for a few scenes. The Mitsuba
 pictures are cached under ``out/flip/`` (keyed by scene, size and samples), so a rerun
 only renders the raster models. Needs the pbr extra and ``pip install flip-evaluator``.
 
@@ -123,7 +123,9 @@ def write_sheet(pictures: dict, size: int) -> None:
         rows.append(np.concatenate(row, axis=1))
     between = np.full((GAP, rows[0].shape[1], 3), 255, np.uint8)
     sheet = np.concatenate([x for row in rows for x in (row, between)][:-1], axis=0)
-    Image.fromarray(sheet).save(ROOT / "docs" / "shading_flip.png", optimize=True)
+    # a 256-colour PNG, dithered: a third of the bytes
+    small = Image.fromarray(sheet).quantize(256, dither=Image.Dither.FLOYDSTEINBERG)
+    small.save(ROOT / "docs" / "shading_flip.png", optimize=True)
 
 
 if __name__ == "__main__":
