@@ -3,9 +3,10 @@
 (Chiang et al. 2016 hair BSDF) on the gallery scenes, same camera and lights.
 
 Prints a table (scene × model: mean FLIP, lower is nearer; CPU frame time at that size,
-benchmarks/shading.py measures the ratio better) and writes ``docs/shading_flip.png``: Mitsuba | kajiya-kay | physical for a few scenes. The Mitsuba
-pictures are cached under ``out/flip/`` (keyed by scene, size and samples), so a rerun
-only renders the raster models. Needs the pbr extra and ``pip install flip-evaluator``.
+benchmarks/shading.py measures the ratio better) and writes ``docs/shading_flip.png``:
+Mitsuba | kajiya-kay | physical for a few scenes. The Mitsuba pictures are cached under
+``out/flip/`` (keyed by scene, size and samples), so a rerun only renders the raster
+models. Needs the pbr extra and ``pip install flip-evaluator``.
 
 Run: ``.venv/bin/python docs/make_flip_report.py [--size 320] [--spp 256]
 [--models kajiya-kay,marschner,physical] [--scenes wavy,curly] [--sheet]``
