@@ -386,7 +386,9 @@ def test_nothing_to_draw_raises():
         render_image(None)
     with pytest.raises(InputError, match="nothing to draw"):
         render_image(HairCurves(np.zeros((0, 3)), [0]))
-    with pytest.raises(ConfigError, match="should be 'kajiya-kay', 'scheuermann' or 'marschner'"):
+    with pytest.raises(
+        ConfigError, match="should be 'kajiya-kay', 'scheuermann', 'marschner' or 'physical'"
+    ):
         render_image(None, sphere(), shading="phong")
     with pytest.raises(InputError):
         render_image(np.zeros((4, 3)))  # not HairCurves

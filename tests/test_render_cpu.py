@@ -42,12 +42,15 @@ def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     return float(d.mean()), float(np.percentile(d, 99))
 
 
+@pytest.mark.parametrize("shading", [None, "physical"])  # the scene's own, and physical
 @pytest.mark.parametrize("path", GALLERY, ids=[p.stem for p in GALLERY])
 @pytest.mark.slow
-def test_the_gallery_looks_the_same_on_both_engines(path):
+def test_the_gallery_looks_the_same_on_both_engines(path, shading):
     scene = load_scene(path)
     mesh, curves = grow(scene)
     params = scene.render.replace("test", size=(320, 320))
+    if shading is not None:
+        params = params.replace("test", shading=shading, shading_params={})
     gl = render_scene(curves, mesh, params.replace("test", engine="opengl"))
     cpu = render_scene(curves, mesh, params.replace("test", engine="cpu"))
     mean, p99 = difference(cpu, gl)

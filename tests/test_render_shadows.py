@@ -88,7 +88,7 @@ def test_hair_behind_dense_hair_is_darker_with_shadows():
     assert brightness(shadowed, rows, front) > 0.5 * brightness(lit, rows, front)
 
 
-@pytest.mark.parametrize("model", ["kajiya-kay", "scheuermann", "marschner"])
+@pytest.mark.parametrize("model", ["kajiya-kay", "scheuermann", "marschner", "physical"])
 @pytest.mark.parametrize("width_px", [6.0, 0.5])
 def test_a_lone_strand_does_not_shadow_itself(model, width_px):
     width = width_px * FRONT.pixel_scale(SIZE[1])

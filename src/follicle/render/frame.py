@@ -19,11 +19,11 @@ from ..errors import InputError
 from .camera import Camera, Light, default_lights, frame_scene, hair_bounds, scene_bounds
 from .lod import lod_fraction, thin_out
 from .options import (
-    ANGLE_PARAMS,
     MAX_LIGHTS,
     ShadingValue,
     check_mesh,
     color3,
+    model_uniforms,
     parse_shading,
     point_attr,
     scalar_param,
@@ -65,10 +65,7 @@ class Frame:
     @property
     def model(self) -> dict[str, ShadingValue]:
         """The parameters as the shaders take them (``p_`` names, angles in radians)."""
-        return {
-            f"p_{k}": (np.radians(scalar_param(self.params, k)) if k in ANGLE_PARAMS else v)
-            for k, v in self.params.items()
-        }
+        return model_uniforms(self.settings.shading, self.params)
 
 
 def _clip_range(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[float, float]:

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..arrays import budget_runs
+from ..color import AZIMUTHAL_ROUGHNESS, absorption_from_color
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
 from ..io.mitsuba import save_mitsuba
@@ -56,7 +57,7 @@ from .options import MAX_SPP, background_rows, color3, parse_background, parse_s
 if TYPE_CHECKING:
     from .settings import RenderParams
 
-__all__ = ["render_mitsuba", "absorption_from_color", "VARIANT", "MAX_DEPTH"]
+__all__ = ["render_mitsuba", "VARIANT", "MAX_DEPTH"]
 
 VARIANT = "scalar_rgb"
 MAX_DEPTH = 24  # path length: light hair needs many bounces (Russian roulette after 5)

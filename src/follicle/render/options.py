@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..color import absorption_scale
 from ..errors import InputError
 from ..validate import number, whole
 
@@ -27,6 +28,7 @@ __all__ = [
     "MAX_STEP_PX",
     "DEFAULT_SHADOW_SIZE",
     "shading_params_for",
+    "model_uniforms",
     "color3",
     "parse_background",
     "background_rows",
@@ -44,7 +46,7 @@ __all__ = [
 RASTER_ENGINES = ("auto", "opengl", "cpu")  # follicle.render.engines: stills, frames, the viewer
 ENGINE_NAMES = (*RASTER_ENGINES, "mitsuba")  # every engine (follicle.render.backends.ENGINES)
 MAX_SPP = 1 << 16  # samples per pixel a path tracer may take
-SHADINGS = ("kajiya-kay", "scheuermann", "marschner")
+SHADINGS = ("kajiya-kay", "scheuermann", "marschner", "physical")
 MAX_SUBDIVISIONS = 16
 MAX_LIGHTS = 8
 MAX_SIZE = 8192
@@ -145,8 +147,43 @@ MODEL_PARAMS: dict[str, dict[str, Spec]] = {
         "eta": (1.55, 1.0, 3.0, "refractive index of the fibre"),
         "diffuse": (0.6, 0.0, 10.0, "sin(T, L) term standing in for multiple scattering"),
     },
+    # the defaults are those of Mitsuba's hair BSDF, which renders the reference
+    "physical": {
+        "roughness": (
+            0.3,
+            0.05,
+            1.0,
+            "longitudinal roughness β_m: R lobe width 0.726β + 0.812β² + 3.7β²⁰ rad,"
+            " TT half, TRT twice (Chiang 2016 §4.1)",
+        ),
+        "cuticle_tilt": (
+            2.0,
+            -10.0,
+            10.0,
+            "cuticle scale tilt α, degrees: R shifted by −2α, TT by α, TRT by 4α",
+        ),
+        "eta": (1.55, 1.0, 3.0, "refractive index of the fibre"),
+        "r": (1.0, 0.0, 100.0, "R (surface reflection) strength"),
+        "tt": (1.0, 0.0, 100.0, "TT (transmission) strength"),
+        "trt": (1.0, 0.0, 100.0, "TRT (internal reflection) strength"),
+        "backlit": (
+            0.0,
+            0.0,
+            1.0,
+            "TT share of the lights without shadows (all but the key), which would shine"
+            " through the head and the hair in front (Karis 2016's Backlit)",
+        ),
+        "scatter": (
+            2.0,
+            0.0,
+            10.0,
+            "multiple scattering strength, the soft look (Karis 2016): 1 returns a white"
+            " fibre's light once; 2, light bounced on through the hair volume (nearest"
+            " Mitsuba on the gallery)",
+        ),
+    },
 }
-ANGLE_PARAMS = ("alpha", "beta", "tt_width")  # degrees in, radians to the shaders
+ANGLE_PARAMS = ("alpha", "beta", "tt_width", "cuticle_tilt")  # degrees in, radians out
 
 
 def color3(value: object, name: str) -> np.ndarray:
@@ -226,6 +263,19 @@ def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str
             continue
         merged[key] = number(value, f"shading_params[{key!r}]", lo=lo, hi=hi)
     return merged
+
+
+def model_uniforms(shading: str, params: Mapping[str, ShadingValue]) -> dict[str, ShadingValue]:
+    """The parameters as the shaders take them: ``p_`` names, angles in radians; the
+    physical model also gets ``p_absorption``, k of σ_a = k·(ln C)² (Chiang 2016 §4.2,
+    :func:`follicle.color.absorption_scale`), the mapping Mitsuba's σ_a comes from."""
+    out: dict[str, ShadingValue] = {
+        f"p_{k}": (float(np.radians(scalar_param(params, k))) if k in ANGLE_PARAMS else v)
+        for k, v in params.items()
+    }
+    if shading == "physical":
+        out["p_absorption"] = absorption_scale()
+    return out
 
 
 def scalar_param(params: Mapping[str, ShadingValue], key: str) -> float:

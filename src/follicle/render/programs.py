@@ -23,6 +23,7 @@ MODEL_FILES = {
     "kajiya-kay": "shade_kajiya_kay.glsl",
     "scheuermann": "shade_scheuermann.glsl",
     "marschner": "shade_marschner.glsl",
+    "physical": "shade_physical.glsl",
 }
 _GS_OUT = ("VARYING out", "VARYING_NAME gs_out")
 _FS_IN = ("VARYING in", "VARYING_NAME fs_in")

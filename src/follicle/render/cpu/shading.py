@@ -3,7 +3,8 @@ lookups as the OpenGL shaders (``shaders/shade_*.glsl``, ``lights.glsl``,
 ``hair_radiance.glsl``, ``mesh_fs.glsl``), as numba functions over plain tuples.
 
 Kajiya-Kay (Almeida 2014 §3.3.1 eq. 3.8–3.9; Le Muzic 2012 §5.2.3), Scheuermann 2004
-(Almeida 2014 §3.3.1, Alg. 5–6) and the real-time Marschner et al. 2003 model; the key
+(Almeida 2014 §3.3.1, Alg. 5–6), the real-time Marschner et al. 2003 model and the
+physical one (Karis 2016's forms with Chiang et al. 2016's absorption); the key
 light's visibility through deep opacity maps (Yuksel & Keyser 2008) and the skin's
 shadow map with 2×2 percentage-closer filtering. The model's parameters come packed in
 one float64 array (:func:`pack_model`) in the order of :data:`PARAM_ORDER`.
@@ -43,6 +44,17 @@ PARAM_ORDER = {
     "kajiya-kay": _KK,
     "scheuermann": (*_KK, "shift_noise", "sparkle", "noise_frequency"),
     "marschner": ("alpha", "beta", "r", "tt", "trt", "tt_width", "eta", "diffuse"),
+    "physical": (
+        "roughness",
+        "cuticle_tilt",
+        "eta",
+        "r",
+        "tt",
+        "trt",
+        "scatter",
+        "absorption",
+        "backlit",
+    ),  # fmt: skip
 }
 _U32 = np.uint64(0xFFFFFFFF)
 
@@ -67,8 +79,9 @@ POWER_STEPS = 4096  # intervals of the specular power tables: error 1e-4 at p = 
 def pack_powers(shading: str, model: Mapping[str, ShadingValue]) -> np.ndarray:
     """The specular lobes' power tables, (2, POWER_STEPS + 1) float64: x^e over x in
     [0, 1] for the primary and secondary exponents (Kajiya-Kay: the shininesses;
-    Scheuermann: half of them, its lobes being (1 − cos²)^(p/2)); Marschner uses none."""
-    if shading == "marschner":
+    Scheuermann: half of them, its lobes being (1 − cos²)^(p/2)); the physical models
+    use none."""
+    if shading in ("marschner", "physical"):
         return np.zeros((2, POWER_STEPS + 1))
     half = 0.5 if shading == "scheuermann" else 1.0
     x = np.linspace(0.0, 1.0, POWER_STEPS + 1)
@@ -318,6 +331,112 @@ def _shade_marschner(prm, T, E, base, key, nl, ldir, lrad, amb):
     return (r, g, b)
 
 
+LOBE_CUT = -15.0  # a TT or TRT lobe whose exponent is below this adds < 1e-6: skipped
+
+
+@kernel(inline="always")
+def _schlick(f0, c):
+    """Schlick's Fresnel of the fibre at incidence cosine c."""
+    m = min(max(1.0 - c, 0.0), 1.0)
+    m2 = m * m
+    return f0 + (1.0 - f0) * m2 * m2 * m
+
+
+@kernel(inline="always")
+def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
+    """shade_physical.glsl: Karis 2016's real-time R, TT and TRT (Gaussian M_p in
+    sin θi + sin θr, his fitted N_p) with the absorption σa = k (ln C)² of Chiang 2016
+    §4.2 over the chords inside the fibre, under the irradiance π·radiance; plus Karis's
+    multiple scattering term, its key light seen through the hair as v^(1 − C); the
+    unshadowed lights' TT scaled by ``backlit``. A TT or
+    TRT lobe's M_p, N_p and transmittance share one exp per channel, skipped where the
+    exponent is below :data:`LOBE_CUT`."""
+    rho, tilt, eta, p_r, p_tt, p_trt, p_scatter, k_abs, backlit = (
+        prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8],
+    )  # fmt: skip
+    c0 = min(max(base[0], 1e-4), 1.0)
+    c1 = min(max(base[1], 1e-4), 1.0)
+    c2 = min(max(base[2], 1e-4), 1.0)
+    l0 = math.log(c0)
+    l1 = math.log(c1)
+    l2 = math.log(c2)
+    s0 = k_abs * l0 * l0
+    s1 = k_abs * l1 * l1
+    s2 = k_abs * l2 * l2
+    rho2 = rho * rho
+    rho10 = rho2 * rho2 * rho
+    rho10 *= rho10
+    beta = 0.726 * rho + 0.812 * rho2 + 3.7 * rho10 * rho10  # the R lobe's width
+    g = 0.5 / (beta * beta)  # exp(-g x²): the R lobe; TT 4g (β/2), TRT g/4 (2β)
+    norm = 1.0 / (beta * math.sqrt(2.0 * math.pi))  # R; TT 2·norm, TRT norm / 2
+    f0 = (1.0 - eta) / (1.0 + eta)
+    f0 *= f0
+    sin_r = min(max(dot(T, E), -1.0), 1.0)
+    cos_r = math.sqrt(1.0 - sin_r * sin_r)
+    Ep = added(E, scaled(T, -sin_r))
+    ep2 = dot(Ep, Ep)
+    Nf = scaled(Ep, 1.0 / math.sqrt(max(ep2, 1e-12)))
+    k0 = k1 = k2 = 1.0
+    if key < 1.0:
+        lk = math.log(max(key, 1e-6))
+        k0 = math.exp((1.0 - c0) * lk)
+        k1 = math.exp((1.0 - c1) * lk)
+        k2 = math.exp((1.0 - c2) * lk)
+    r = base[0] * amb[0]
+    gr = base[1] * amb[1]
+    b = base[2] * amb[2]
+    for i in range(nl):
+        L = (float(ldir[i, 0]), float(ldir[i, 1]), float(ldir[i, 2]))
+        sin_i = min(max(dot(T, L), -1.0), 1.0)
+        cos_i = math.sqrt(1.0 - sin_i * sin_i)
+        cos_d = max(math.sqrt(max(0.5 + 0.5 * (cos_i * cos_r + sin_i * sin_r), 0.0)), 0.2)
+        Lp = added(L, scaled(T, -sin_i))
+        cos_phi = dot(Lp, Ep) / math.sqrt(max(dot(Lp, Lp) * ep2, 1e-12))
+        cos_phi = min(max(cos_phi, -1.0), 1.0)
+        cos_half = math.sqrt(0.5 + 0.5 * cos_phi)
+        x = sin_i + sin_r
+        sin_d2 = 1.0 - cos_d * cos_d
+        cos_t = math.sqrt(1.0 - sin_d2 / (eta * eta))
+        a = cos_d / math.sqrt(eta * eta - sin_d2)  # 1 / η', the 2D (Bravais) index
+        xr = x + 2.0 * tilt
+        fr = _schlick(f0, math.sqrt(min(max(0.5 + 0.5 * dot(L, E), 0.0), 1.0)))
+        single = p_r * norm * math.exp(-g * xr * xr) * 0.25 * cos_half * fr
+        t0 = t1 = t2 = single
+        xt = x - tilt
+        e_tt = -4.0 * g * xt * xt - 3.65 * cos_phi - 3.98
+        tt_share = p_tt if i == 0 else p_tt * backlit
+        if e_tt > LOBE_CUT and tt_share > 0.0:
+            h = cos_half * (1.0 + a * (0.6 - 0.8 * cos_phi))
+            f_tt = _schlick(f0, cos_d * math.sqrt(max(1.0 - h * h, 0.0)))
+            w = tt_share * 2.0 * norm * (1.0 - f_tt) * (1.0 - f_tt)
+            l_tt = 2.0 * math.sqrt(max(1.0 - h * h * a * a, 0.0)) / cos_t
+            t0 += w * math.exp(e_tt - s0 * l_tt)
+            t1 += w * math.exp(e_tt - s1 * l_tt)
+            t2 += w * math.exp(e_tt - s2 * l_tt)
+        xt = x - 4.0 * tilt
+        e_trt = -0.25 * g * xt * xt + 17.0 * cos_phi - 16.78
+        if e_trt > LOBE_CUT and p_trt > 0.0:
+            f_trt = _schlick(f0, 0.5 * cos_d)
+            w = p_trt * 0.5 * norm * (1.0 - f_trt) * (1.0 - f_trt) * f_trt
+            l_trt = 4.0 * math.sqrt(1.0 - 0.75 * a * a) / cos_t
+            t0 += w * math.exp(e_trt - s0 * l_trt)
+            t1 += w * math.exp(e_trt - s1 * l_trt)
+            t2 += w * math.exp(e_trt - s2 * l_trt)
+        wrap = min(max((dot(Nf, L) + 1.0) * 0.25, 0.0), 1.0)
+        w = 1.0 - abs(sin_i)
+        scatter = 0.75 * p_scatter * (wrap + (w - wrap) * 0.33)
+        vis = math.pi * (key if i == 0 else 1.0)
+        if i == 0:
+            r += lrad[i, 0] * (vis * t0 + c0 * scatter * k0)
+            gr += lrad[i, 1] * (vis * t1 + c1 * scatter * k1)
+            b += lrad[i, 2] * (vis * t2 + c2 * scatter * k2)
+        else:
+            r += lrad[i, 0] * (vis * t0 + c0 * scatter)
+            gr += lrad[i, 1] * (vis * t1 + c1 * scatter)
+            b += lrad[i, 2] * (vis * t2 + c2 * scatter)
+    return (r, gr, b)
+
+
 # ----------------------------------------------------------------------------- shadows
 @kernel(inline="always")
 def _dom_opacity(first, layers, qx, qy, z, layer_depth):
@@ -419,6 +538,8 @@ def hair_radiance(
     key = key_visibility(P, width, 0, lvp, first, layers, skin, sh)
     if model == 2:
         rgb = _shade_marschner(prm, T, E, base, key, nl, ldir, lrad, amb)
+    elif model == 3:
+        rgb = _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb)
     else:
         rgb = _shade_tangent(model, prm, powers, T, N, E, base, t, seed, key, nl, ldir, lrad, amb)
     tt = 1.0 - min(max(t, 0.0), 1.0)
