@@ -10,10 +10,10 @@ from PIL import Image
 from scipy.ndimage import binary_dilation
 
 from follicle.cli import main
-from follicle.color import absorption_from_color
 from follicle.curves import HairCurves
 from follicle.errors import ConfigError, InputError, ResourceError
 from follicle.io.mitsuba import load_mitsuba
+from follicle.melanin import absorption_from_color
 from follicle.pipeline import groom_scene
 from follicle.render import Camera, Light, mitsuba, render_image, srgb_to_linear
 from follicle.render.mitsuba import render_mitsuba

@@ -24,14 +24,7 @@ __all__ = [
     "hue_distance1",
     "lerp_hsv",
     "lerp_hsv1",
-    "AZIMUTHAL_ROUGHNESS",
-    "absorption_scale",
-    "absorption_from_color",
 ]
-
-# β_n, the azimuthal roughness the colour → absorption mapping assumes: Mitsuba's hair
-# BSDF's default, with which the reference renders (follicle.render.mitsuba)
-AZIMUTHAL_ROUGHNESS = 0.3
 
 
 @kernel(inline="always")
@@ -202,24 +195,3 @@ def lerp_hsv(hsv1: object, hsv2: object, t: object) -> np.ndarray:
     b = np.ascontiguousarray(np.broadcast_to(b, shape)).reshape(-1, 3)
     tf = np.ascontiguousarray(np.broadcast_to(tt, shape[:-1] + (1,))).reshape(-1)
     return _lerp_hsv_kernel(readonly(a), readonly(b), readonly(tf)).reshape(shape)
-
-
-def absorption_scale(beta_n: float = AZIMUTHAL_ROUGHNESS) -> float:
-    """k of σ_a = k·(ln C)² (:func:`absorption_from_color`): 1 / P(β_n)², Chiang et al.
-    2016 §4.2, P(β) = 5.969 − 0.215β + 2.532β² − 10.73β³ + 5.574β⁴ + 0.245β⁵. The raster
-    engines' physical shading takes k as a number and applies it per shaded point."""
-    b = float(beta_n)
-    poly = 5.969 - 0.215 * b + 2.532 * b**2 - 10.73 * b**3 + 5.574 * b**4 + 0.245 * b**5
-    return 1.0 / (poly * poly)
-
-
-def absorption_from_color(color: object, beta_n: float = AZIMUTHAL_ROUGHNESS) -> np.ndarray:
-    """σ_a (relative to the fibre radius) giving a hair about ``color`` (linear RGB) under
-    multiple scattering, Chiang et al. 2016 §4.2: σ_a = (ln C / P(β_n))²
-    (:func:`absorption_scale`). Mitsuba's hair BSDF gets it per segment; the raster
-    engines' physical shading computes the same per shaded point.
-
-    C is clipped to [1e-4, 1]: white hair absorbs nothing, black gets a finite σ_a.
-    """
-    c = np.clip(np.asarray(color, dtype=np.float64), 1e-4, 1.0)
-    return np.asarray(np.log(c) ** 2 * absorption_scale(beta_n), dtype=np.float64)

@@ -38,6 +38,7 @@ from .rng import purpose_id, uniforms
 from .validate import number
 
 __all__ = [
+    "absorption_scale",
     "EUMELANIN_SIGMA_A",
     "PHEOMELANIN_SIGMA_A",
     "AZIMUTHAL_ROUGHNESS",
@@ -97,6 +98,12 @@ def absorption_from_concentrations(eumelanin: object, pheomelanin: object) -> np
     return eu[..., None] * EUMELANIN_SIGMA_A + pheo[..., None] * PHEOMELANIN_SIGMA_A
 
 
+def absorption_scale(beta_n: float = AZIMUTHAL_ROUGHNESS) -> float:
+    """k of σ_a = k·(ln C)² (:func:`absorption_from_color`): 1 / D(β_n)². The raster
+    engines' physical shading takes k as a number and applies it per shaded point."""
+    return 1.0 / _roughness_factor(beta_n) ** 2
+
+
 def absorption_from_color(color: object, beta_n: float = AZIMUTHAL_ROUGHNESS) -> np.ndarray:
     """σ_a giving a hair about ``color`` (linear RGB) under multiple scattering, Chiang
     et al. 2016 §4.2: σ_a = (ln C / D(β_n))².
@@ -104,7 +111,7 @@ def absorption_from_color(color: object, beta_n: float = AZIMUTHAL_ROUGHNESS) ->
     C is clipped to [1e-4, 1]: white hair absorbs nothing, black gets a finite σ_a.
     """
     c = np.clip(np.asarray(color, dtype=np.float64), _FLOOR, 1.0)
-    return (np.log(c) / _roughness_factor(beta_n)) ** 2
+    return np.log(c) ** 2 * absorption_scale(beta_n)
 
 
 def color_from_absorption(sigma_a: object, beta_n: float = AZIMUTHAL_ROUGHNESS) -> np.ndarray:

@@ -43,7 +43,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..arrays import budget_runs
-from ..color import AZIMUTHAL_ROUGHNESS, absorption_from_color
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
 from ..io.mitsuba import save_mitsuba

@@ -7,8 +7,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..color import absorption_scale
 from ..errors import InputError
+from ..melanin import absorption_scale
 from ..validate import number, whole
 
 __all__ = [
@@ -268,7 +268,7 @@ def parse_shading(shading: str, params: Mapping[str, object] | None) -> dict[str
 def model_uniforms(shading: str, params: Mapping[str, ShadingValue]) -> dict[str, ShadingValue]:
     """The parameters as the shaders take them: ``p_`` names, angles in radians; the
     physical model also gets ``p_absorption``, k of σ_a = k·(ln C)² (Chiang 2016 §4.2,
-    :func:`follicle.color.absorption_scale`), the mapping Mitsuba's σ_a comes from."""
+    :func:`follicle.melanin.absorption_scale`), the mapping Mitsuba's σ_a comes from."""
     out: dict[str, ShadingValue] = {
         f"p_{k}": (float(np.radians(scalar_param(params, k))) if k in ANGLE_PARAMS else v)
         for k, v in params.items()
