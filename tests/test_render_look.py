@@ -57,8 +57,9 @@ def test_dark_hair_keeps_its_colour_at_grazing_angles(default_groom):
 
 def scalp_showing(scene, mesh, curves) -> float:
     """Share of a green scalp's green excess that shows through the hair from above,
-    over the pixels where both the scalp and the hair are."""
-    green = dict(skin_color=(0.0, 0.6, 0.0), **TOP)
+    over the pixels where both the scalp and the hair are: the hair's own cover, the
+    scalp not tinted ([render].scalp_tint 0; tests/test_scalp.py measures the tint)."""
+    green = dict(skin_color=(0.0, 0.6, 0.0), scalp_tint=0.0, **TOP)
 
     def excess(rgb):
         f = rgb.astype(np.float64)

@@ -16,6 +16,7 @@ from .errors import InputError
 from .kernels import kernel
 
 __all__ = [
+    "lab_from_linear",
     "rgb_to_hsv",
     "hsv_to_rgb",
     "rgb_to_hsv1",
@@ -195,3 +196,24 @@ def lerp_hsv(hsv1: object, hsv2: object, t: object) -> np.ndarray:
     b = np.ascontiguousarray(np.broadcast_to(b, shape)).reshape(-1, 3)
     tf = np.ascontiguousarray(np.broadcast_to(tt, shape[:-1] + (1,))).reshape(-1)
     return _lerp_hsv_kernel(readonly(a), readonly(b), readonly(tf)).reshape(shape)
+
+
+# linear sRGB (Rec. 709 primaries) to CIE XYZ, D65 white (IEC 61966-2-1)
+_XYZ_FROM_LINEAR = np.array(
+    [
+        [0.4124564, 0.3575761, 0.1804375],
+        [0.2126729, 0.7151522, 0.0721750],
+        [0.0193339, 0.1191920, 0.9503041],
+    ]
+)
+
+
+def lab_from_linear(rgb: object) -> np.ndarray:
+    """CIELAB (L*, a*, b*) of linear sRGB colours (..., 3), D65 white (CIE 15:2004):
+    what colour differences (ΔE) are measured in."""
+    t = np.asarray(rgb, np.float64) @ _XYZ_FROM_LINEAR.T / _XYZ_FROM_LINEAR.sum(axis=1)
+    f = np.where(t > (6 / 29) ** 3, np.cbrt(t), t / (3 * (6 / 29) ** 2) + 4 / 29)
+    return np.stack(
+        [116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])],
+        axis=-1,
+    )

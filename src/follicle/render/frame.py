@@ -16,6 +16,7 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
+from . import scalp
 from .camera import Camera, Light, default_lights, frame_scene, hair_bounds, scene_bounds
 from .lod import lod_fraction, thin_out
 from .options import (
@@ -53,7 +54,7 @@ class Frame:
     light_radiance: np.ndarray  # (MAX_LIGHTS, 3) float32
     ambient: np.ndarray  # (3,) float64
     hair_color: np.ndarray
-    skin_color: np.ndarray
+    skin_colors: np.ndarray | None  # (V, 3) float32 linear RGB per skin vertex (scalp.py)
     curves: HairCurves | None  # None: no hair to draw
     mesh: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # vertices, faces, normals
     light: tuple[np.ndarray, np.ndarray, float, float] | None  # key light: direction,
@@ -148,6 +149,11 @@ def prepare_frame(
     hair, skin = drawable(curves, mesh)
     hair_color = color3(settings.hair_color, "hair_color")
     skin_color = color3(settings.skin_color, "skin_color")
+    skin_colors = None
+    if skin is not None:  # tinted by the roots of all the hair, before any is thinned out
+        skin_colors = scalp.skin_colors(
+            skin[0], skin_color, hair, hair_color, float(settings.scalp_tint)
+        )
     lights = settings.light_list()
     if camera is None:
         camera = settings.camera()
@@ -187,7 +193,7 @@ def prepare_frame(
         light_radiance=rads,
         ambient=ambient,
         hair_color=hair_color,
-        skin_color=skin_color,
+        skin_colors=skin_colors,
         curves=hair,
         mesh=skin,
         light=light,

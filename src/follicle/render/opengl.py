@@ -59,7 +59,7 @@ _HAIR_LAYOUT = (
     ("1f", "in_t"),
     ("1f", "in_seed"),
 )
-_MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"))
+_MESH_LAYOUT = (("3f", "in_position"), ("3f", "in_normal"), ("3f", "in_color"))
 
 
 class _Releasable(Protocol):
@@ -203,7 +203,8 @@ class Renderer(RasterRenderer):
                     f, f.curves, None if light is None else light[2], released
                 )
             if f.mesh is not None:
-                skin_vaos = self._mesh_arrays(f.mesh, released)
+                assert f.skin_colors is not None  # made with the mesh
+                skin_vaos = self._mesh_arrays(f.mesh, f.skin_colors, released)
             if light is not None:
                 frame.update(
                     self._shadow.render(
@@ -230,7 +231,7 @@ class Renderer(RasterRenderer):
             }
             use_framebuffer(self._hair_fbo)
             self._hair_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)  # and the shared depth
-            self._draw_opaque(skin_vaos, {**frame, **view}, f.skin_color, params["skin_wrap"])
+            self._draw_opaque(skin_vaos, {**frame, **view}, params["skin_wrap"])
             self._draw_hair(hair_vaos.get("colour", []), {**frame, **view, **hair_gs}, oit)
             self._composite()
             raw = self._out_fbo.read(components=4, dtype="f2")
@@ -322,12 +323,15 @@ class Renderer(RasterRenderer):
         return vaos
 
     def _mesh_arrays(
-        self, arrays: tuple[np.ndarray, np.ndarray, np.ndarray], released: list[_Releasable]
+        self,
+        arrays: tuple[np.ndarray, np.ndarray, np.ndarray],
+        colors: np.ndarray,
+        released: list[_Releasable],
     ) -> dict[str, moderngl.VertexArray]:
         ctx = self.ctx
         vertices, faces, normals = arrays
-        data = np.empty((len(vertices), 6), dtype="f4")
-        data[:, :3], data[:, 3:] = vertices, normals
+        data = np.empty((len(vertices), 9), dtype="f4")
+        data[:, :3], data[:, 3:6], data[:, 6:] = vertices, normals, colors
         vbo = ctx.buffer(data.tobytes())
         ibo = ctx.buffer(np.ascontiguousarray(faces, dtype="u4").tobytes())
         released += [vbo, ibo]
@@ -347,7 +351,6 @@ class Renderer(RasterRenderer):
         self,
         skin_vaos: dict[str, moderngl.VertexArray] | None,
         uniforms: dict[str, object],
-        skin_color: np.ndarray,
         wrap: ShadingValue,
     ) -> None:
         """Background (a full-screen triangle, no depth), then the skin."""
@@ -363,7 +366,7 @@ class Renderer(RasterRenderer):
             ctx.enable(ctx.DEPTH_TEST)
             ctx.depth_func = "<"
             vao = skin_vaos["mesh"]
-            set_uniforms(vao.program, {**uniforms, "skin_color": tuple(skin_color), "wrap": wrap})
+            set_uniforms(vao.program, {**uniforms, "wrap": wrap})
             vao.render(mode=ctx.TRIANGLES)
 
     def _draw_hair(

@@ -20,6 +20,7 @@ __all__ = [
     "DEFAULT_HAIR_WIDTH",
     "DEFAULT_HAIR_OPACITY",
     "DEFAULT_SKIN_COLOR",
+    "DEFAULT_SCALP_TINT",
     "DEFAULT_BACKGROUND",
     "COMMON_PARAMS",
     "MODEL_PARAMS",
@@ -59,6 +60,7 @@ DEFAULT_HAIR_COLOR = (0.16, 0.09, 0.045)  # linear RGB, a mid brown
 DEFAULT_HAIR_WIDTH = 80e-6  # diameter, metres
 DEFAULT_HAIR_OPACITY = 1.0
 DEFAULT_SKIN_COLOR = (0.42, 0.25, 0.18)  # linear RGB
+DEFAULT_SCALP_TINT = 0.8  # the skin under the hair this far towards the roots' colour
 # (top, bottom) of the gradient, linear RGB: every render's and [render].background_*'s
 DEFAULT_BACKGROUND = ((0.33, 0.36, 0.41), (0.08, 0.085, 0.1))
 

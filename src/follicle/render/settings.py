@@ -21,6 +21,7 @@ from .options import (
     DEFAULT_HAIR_COLOR,
     DEFAULT_HAIR_OPACITY,
     DEFAULT_HAIR_WIDTH,
+    DEFAULT_SCALP_TINT,
     DEFAULT_SHADOW_SIZE,
     DEFAULT_SKIN_COLOR,
     ENGINE_NAMES,
@@ -162,6 +163,11 @@ class RenderParams(StrictSection):
         DEFAULT_HAIR_OPACITY, description="opacity of hair whose curves have no opacity"
     )
     skin_color: RGB = Field(DEFAULT_SKIN_COLOR, description="linear RGB of the skin")
+    scalp_tint: Unit = Field(
+        DEFAULT_SCALP_TINT,
+        description="the skin under the hair blended towards the roots' colour, as game"
+        " engines paint the scalp (0: bare skin; raster engines)",
+    )
 
     @model_validator(mode="after")
     def _eye_and_target_together(self) -> RenderParams:

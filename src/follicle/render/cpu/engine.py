@@ -304,7 +304,7 @@ class CpuRenderer(RasterRenderer):
             normals,
             np.ascontiguousarray(faces, np.int64),
             np.asarray(f.camera.eye, np.float64),
-            np.asarray(f.skin_color, np.float64),
+            np.asarray(f.skin_colors, np.float64),
             scalar_param(f.params, "skin_wrap"),
             f.n_lights,
             f.light_dirs,

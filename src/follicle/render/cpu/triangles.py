@@ -119,7 +119,8 @@ def _skin_sample(
     f, b1, b2, vertices, normals, faces, eye, skin, wrap, nl, ldir, lrad, amb,
     lvp, dom_first, dom_layers, dom_skin, sh,
 ):  # fmt: skip
-    """The skin's radiance at barycentrics (b1, b2) of triangle f."""
+    """The skin's radiance at barycentrics (b1, b2) of triangle f, its colour
+    interpolated from the vertices' ``skin`` (V, 3) colours as the GPU's varyings are."""
     b0 = 1.0 - b1 - b2
     v0, v1, v2 = faces[f, 0], faces[f, 1], faces[f, 2]
     P = (
@@ -135,8 +136,13 @@ def _skin_sample(
         )
     )
     E = unit((eye[0] - P[0], eye[1] - P[1], eye[2] - P[2]))
+    color = (
+        b0 * skin[v0, 0] + b1 * skin[v1, 0] + b2 * skin[v2, 0],
+        b0 * skin[v0, 1] + b1 * skin[v1, 1] + b2 * skin[v2, 1],
+        b0 * skin[v0, 2] + b1 * skin[v1, 2] + b2 * skin[v2, 2],
+    )
     return skin_radiance(
-        P, N, E, skin, wrap, nl, ldir, lrad, amb, lvp, dom_first, dom_layers, dom_skin, sh
+        P, N, E, color, wrap, nl, ldir, lrad, amb, lvp, dom_first, dom_layers, dom_skin, sh
     )
 
 

@@ -3,9 +3,9 @@
 // shadow's edges filtered [render] skin_softness wide.
 in vec3 v_position;
 in vec3 v_normal;
+in vec3 v_color;  // the skin's colour here, tinted under the hair
 out vec4 frag_color;
 uniform vec4 eye;
-uniform vec3 skin_color;
 uniform float wrap;  // soft wrap-around lighting, a cheap stand-in for subsurface scattering
 
 void main() {
@@ -22,5 +22,5 @@ void main() {
         float nl = (dot(N, light_dir[i]) + wrap) / (1.0 + wrap);
         light += light_radiance[i] * (i == 0 ? key : 1.0) * max(nl, 0.0);
     }
-    frag_color = vec4(skin_color * light, 1.0);
+    frag_color = vec4(v_color * light, 1.0);
 }
