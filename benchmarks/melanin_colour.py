@@ -30,28 +30,13 @@ import time
 import numpy as np
 
 import follicle
+from follicle.color import lab_from_linear
 from follicle.groom.settings import GroomParams
 from follicle.render.camera import frame_scene
 from follicle.render.image import srgb_to_linear
 
 MELANIN = {"blond": 0.2, "brown": 0.6, "black": 0.95}
 TARGET = 5.0
-# linear sRGB (Rec. 709 primaries) to CIE XYZ, D65 white (IEC 61966-2-1)
-_XYZ = np.array(
-    [
-        [0.4124564, 0.3575761, 0.1804375],
-        [0.2126729, 0.7151522, 0.0721750],
-        [0.0193339, 0.1191920, 0.9503041],
-    ]
-)
-_WHITE = _XYZ.sum(axis=1)
-
-
-def lab(rgb: np.ndarray) -> np.ndarray:
-    """CIELAB of a linear sRGB colour (CIE 15:2004)."""
-    t = (_XYZ @ np.asarray(rgb, np.float64)) / _WHITE
-    f = np.where(t > (6 / 29) ** 3, np.cbrt(t), t / (3 * (6 / 29) ** 2) + 4 / 29)
-    return np.array([116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2])])
 
 
 def delta_e2000(lab1: np.ndarray, lab2: np.ndarray) -> float:
@@ -124,7 +109,7 @@ def hair_mask(curves, mesh, camera, size) -> np.ndarray:
 
 
 def mean_lab(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    return lab(srgb_to_linear(image[..., :3][mask] / 255.0).mean(axis=0))
+    return lab_from_linear(srgb_to_linear(image[..., :3][mask] / 255.0).mean(axis=0))
 
 
 def main() -> None:
