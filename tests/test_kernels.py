@@ -230,3 +230,28 @@ def test_importing_every_module_compiles_nothing_and_loads_no_numba():
     )
     heavy = modules_after(code)
     assert "numba" not in heavy and "llvmlite" not in heavy, heavy
+
+
+def test_a_package_kernel_is_kept_for_all_the_package_sources(tmp_path):
+    """A kernel inlines what it calls from other files: for the package's kernels the
+    index's stamp covers every source, so editing a callee's file compiles the caller
+    again; another module's kernel is kept for its own file."""
+    from follicle.kernels.cache import PACKAGE, kernel_stamp, source_digest, sources_digest
+
+    package = tmp_path / "pkg"
+    (package / "sub").mkdir(parents=True)
+    caller, callee = package / "caller.py", package / "sub" / "callee.py"
+    caller.write_text("from .sub.callee import f\n")
+    callee.write_text("def f(x):\n    return x\n")
+    before = kernel_stamp(str(caller), package)
+    assert before == sources_digest(package)
+    callee.write_text("def f(x):\n    return 2 * x\n")
+    from follicle.kernels import cache
+
+    cache._package_digest.cache_clear()  # a new process reads the sources again
+    assert kernel_stamp(str(caller), package) != before
+    outside = tmp_path / "kernmod.py"
+    outside.write_text("x = 1\n")
+    assert kernel_stamp(str(outside), package) == source_digest(str(outside))
+    own = PACKAGE / "render" / "cpu" / "steps.py"
+    assert kernel_stamp(str(own)) == sources_digest(PACKAGE)

@@ -22,7 +22,9 @@ things it does not do, and that a fresh install needs:
 
 An entry's key is numba's: the argument types, the codegen (target triple, CPU name and
 features) and hashes of the function's bytecode and closure; an index is kept only while
-its numba version and its source file's SHA-256 are the ones it was written with.
+its numba version and the sources' SHA-256 are the ones it was written with: for
+follicle's kernels every source file of the package (a kernel inlines what it calls from
+other files), for another's its own file (:func:`kernel_stamp`).
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ __all__ = [
     "shipped_level",
     "shipped_manifest",
     "source_digest",
+    "kernel_stamp",
 ]
 
 log = logging.getLogger("follicle")
@@ -109,6 +112,26 @@ def sources_digest(package: Path) -> str:
             continue
         digest.update(rel.encode() + b"\0" + hashlib.sha256(path.read_bytes()).digest())
     return digest.hexdigest()
+
+
+def kernel_stamp(source: str, package: Path = PACKAGE) -> str:
+    """What a kernel's index is kept for: for a kernel of the ``package`` (follicle), the
+    digest of all its sources (:func:`sources_digest`), because a kernel's machine code
+    holds the functions it calls from other files, inlined, and an edit there must
+    compile it again (keyed by its own file only, an upgrade or an edit of a callee left
+    it running the old code); for any other kernel, its own file's
+    (:func:`source_digest`)."""
+    path = Path(source).resolve()
+    if path.is_relative_to(package.resolve()):
+        return _package_digest(package.resolve())
+    return source_digest(source)
+
+
+@functools.lru_cache(maxsize=4)
+def _package_digest(package: Path) -> str:
+    """:func:`sources_digest` of ``package``, read once a process (a kernel module's
+    sources do not change while it runs)."""
+    return sources_digest(package)
 
 
 @functools.lru_cache(maxsize=1)
@@ -296,7 +319,7 @@ class KernelCache(_Cache):
         func = self._py_func
         source = os.path.abspath(func.__code__.co_filename)
         self._impl = _Impl(func)
-        stamp = source_digest(source)
+        stamp = kernel_stamp(source)
         base = self._impl.filename_base
         try:
             where = Path(source).parent.relative_to(PACKAGE)
