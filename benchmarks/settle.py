@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from follicle.cli import _DEMO_BODY, _DEMO_SETTLE
+from follicle.cli import _DEMO_SETTLE
 from follicle.pipeline import groom_inputs, groom_scene
 from follicle.scene import parse_scene
 from follicle.sim.settle import settle
@@ -33,8 +33,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    tables = {"groom": {"count": 20_000}, "sim": {"colliders": _DEMO_BODY}}
-    scene = parse_scene(tables, "benchmark")  # the demo's scene with settle 0
+    tables = {"groom": {"count": 20_000}}
+    scene = parse_scene(tables, "benchmark")  # the demo's scene (the bust) with settle 0
     inputs = groom_inputs(scene)
     groom = groom_scene(scene, inputs)
     grow = best(groom.generate, args.repeat)

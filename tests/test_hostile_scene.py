@@ -143,7 +143,11 @@ def _walk(
             missing += sub[1]
             continue
         ctx = {**base, **NEEDS.get((section, key), {})}
-        text = _valid(section, wrap({**ctx, key: "t.png"})) or isinstance(field.default, str)
+        text = (  # a text key, or a list of names ([groom].inherit): it takes no number
+            _valid(section, wrap({**ctx, key: "t.png"}))
+            or _valid(section, wrap({**ctx, key: ["t.png"]}))
+            or isinstance(field.default, str)
+        )
         sample = next((s for s in SAMPLES if _valid(section, wrap({**ctx, key: s}))), None)
         if sample is not None:
             found.append(((*prefix, key), wrap({**ctx, key: sample}), text))

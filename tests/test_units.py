@@ -131,7 +131,7 @@ def test_builtins_are_metres_and_take_no_other_units():
     with pytest.raises(ConfigError) as err:
         parse_scene({"mesh": {"units": "cm"}}, "s.toml")
     assert str(err.value) == (
-        "s.toml: [mesh].units: builtin:head is in metres; units apply to"
+        "s.toml: [mesh].units: builtin:bust is in metres; units apply to"
         ' files only: remove it (got "cm")'
     )
     with pytest.raises(ConfigError, match=r"^s\.toml: \[guides\]\.units: builtin:short is in"):

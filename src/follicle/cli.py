@@ -260,14 +260,6 @@ def main(verbose: int) -> None:
     logging.getLogger("follicle").setLevel(level)
 
 
-# the demo's body, for its long hair to rest on (the built-in head ends at the neck):
-# shoulders, a capsule across at the neck's foot, and the chest below, both on the
-# neck's axis and clear of the guides as grown (a guide grown inside a collider keeps
-# that depth: follicle.sim.solver.Solver)
-_DEMO_BODY = [
-    {"kind": "capsule", "a": [-0.19, -0.29, -0.01], "b": [0.19, -0.29, -0.01], "radius": 0.07},
-    {"kind": "capsule", "a": [0.0, -0.36, -0.01], "b": [0.0, -0.7, -0.01], "radius": 0.12},
-]
 _DEMO_SETTLE = 2.0  # s: the long hair comes to rest on the shoulders (README: Dynamics)
 
 
@@ -291,7 +283,7 @@ _DEMO_SETTLE = 2.0  # s: the long hair comes to rest on the shoulders (README: D
     "--size", type=(int, int), default=(960, 960), show_default=True, help="Image width and height."
 )
 def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) -> None:
-    """Grow hair on the built-in head, settled onto the shoulders, and render it:
+    """Grow long hair on the built-in bust, settled onto its shoulders, and render it:
     DIR/demo.png and DIR/demo.npz."""
     from .io.dispatch import save
     from .pipeline import grow, render_scene
@@ -303,7 +295,6 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
     tables = {
         "guides": {"path": guides},
         "groom": groom,
-        "sim": {"colliders": _DEMO_BODY},
         "render": {"size": list(size)},
     }
     scene = parse_scene(tables, "demo")

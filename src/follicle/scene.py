@@ -106,7 +106,11 @@ class MeshParams(StrictSection):
 
     _section: ClassVar[str] = "mesh"
 
-    path: str = Field("builtin:head", description="mesh file (OBJ/PLY/GLB/STL) or builtin:head")
+    path: str = Field(
+        "builtin:bust",
+        description="mesh file (OBJ/PLY/GLB/STL, USD, Alembic), builtin:bust (a head on"
+        " shoulders) or builtin:head (the head alone, older scenes')",
+    )
     units: UnitsSetting = Field("m", description=_UNITS_HELP)
     _units_fit_path = field_validator("units")(_units_apply)
     displacement: str | None = Field(
