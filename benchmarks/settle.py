@@ -8,10 +8,10 @@ figure is the best of the repeats, after one warm-up run of each (numba compiles
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
 
+from common import best_of
 from follicle.cli import _DEMO_SETTLE
 from follicle.pipeline import groom_inputs, groom_scene
 from follicle.scene import parse_scene
@@ -19,14 +19,9 @@ from follicle.sim.settle import settle
 
 
 def best(run, repeat: int) -> float:
-    """The shortest of ``repeat`` timed calls of ``run`` (after one untimed)."""
+    """The shortest of ``repeat`` timed calls of ``run``, after one untimed (numba)."""
     run()
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return min(times)
+    return best_of(run, repeat)
 
 
 def main() -> None:
