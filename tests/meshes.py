@@ -1,4 +1,4 @@
-"""Small meshes shared by the tests."""
+"""Small meshes shared by the tests, and what tests measure of meshes."""
 
 from __future__ import annotations
 
@@ -16,3 +16,22 @@ def plane(cells: int = 8) -> SkinMesh:
     q = [i * row + j for i in range(cells) for j in range(cells)]
     faces = [f for a in q for f in ([a, a + row, a + 1], [a + 1, a + row, a + row + 1])]
     return SkinMesh(verts, faces, uvs=verts[:, [0, 2]], name="plane")
+
+
+def winding_number(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Generalized winding number of a closed outward-wound mesh's ``triangles`` (F, 3, 3)
+    at ``points``: the triangles' solid angles over 4π (Van Oosterom and Strackee 1983),
+    1 inside and 0 outside: containment that needs no ray casting."""
+    out = np.empty(len(points))
+    for i, p in enumerate(points):
+        a, b, c = (triangles[:, k] - p for k in range(3))
+        la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+        det = np.einsum("ij,ij->i", a, np.cross(b, c))
+        den = (
+            la * lb * lc
+            + np.einsum("ij,ij->i", a, b) * lc
+            + np.einsum("ij,ij->i", b, c) * la
+            + np.einsum("ij,ij->i", c, a) * lb
+        )
+        out[i] = 2.0 * np.arctan2(det, den).sum() / (4 * np.pi)
+    return out

@@ -15,6 +15,7 @@ import follicle
 from follicle.groom.generator import load_texture
 from follicle.mesh.bust import BUST_DATA, bust_inside, bust_signed_distance
 from follicle.mesh.head import PARTING_TEXTURE, SCALP_TEXTURE
+from meshes import winding_number
 
 
 @pytest.fixture(scope="module")
@@ -29,25 +30,6 @@ def _welded(bust) -> trimesh.Trimesh:
 
 def _nearest(bust, point) -> int:
     return int(np.argmin(np.linalg.norm(bust.rest_vertices - np.asarray(point), axis=1)))
-
-
-def _winding_number(mesh: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
-    """Generalized winding number: the triangles' solid angles / 4π (Van Oosterom and
-    Strackee 1983); 1 inside a closed outward-wound mesh, 0 outside."""
-    tri = mesh.triangles
-    out = np.empty(len(points))
-    for i, p in enumerate(points):
-        a, b, c = (tri[:, k] - p for k in range(3))
-        la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
-        det = np.einsum("ij,ij->i", a, np.cross(b, c))
-        den = (
-            la * lb * lc
-            + np.einsum("ij,ij->i", a, b) * lc
-            + np.einsum("ij,ij->i", b, c) * la
-            + np.einsum("ij,ij->i", c, a) * lb
-        )
-        out[i] = 2.0 * np.arctan2(det, den).sum() / (4 * np.pi)
-    return out
 
 
 def test_the_bust_is_a_head_on_shoulders_of_the_built_in_heads_size(bust):
@@ -145,7 +127,7 @@ def test_signed_distance_agrees_with_the_mesh(bust):
     points = rng.uniform(lo - 0.02, hi + 0.02, size=(300, 3))
     d = bust_signed_distance(points)
     far = np.abs(d) > 0.002  # the mesh follows the field to well within 2 mm
-    inside = _winding_number(mesh, points[far]) > 0.5
+    inside = winding_number(mesh.triangles, points[far]) > 0.5
     assert far.sum() > 250
     assert np.array_equal(inside, d[far] < 0.0)
     assert np.array_equal(bust_inside(points[far]), inside)

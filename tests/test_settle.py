@@ -13,6 +13,7 @@ from follicle.groom.guides import load_guides
 from follicle.pipeline import groom_inputs, settle_guides, simulate_scene
 from follicle.scene import parse_scene, scene_from_toml
 from follicle.sim.settle import settle
+from meshes import winding_number
 
 SECONDS = 2.0
 # the built-in head ends at the neck: shoulders, a capsule across at the neck's foot, and
@@ -43,6 +44,18 @@ def grown():
 def settled(grown):
     scene = _scene()
     return settle(grown.guides, scene.sim, SECONDS)
+
+
+def _deepest_inside(mesh, p):
+    """How deep the deepest of points ``p`` is inside the skin, exactly: the closest
+    point of the mesh, signed by its face's normal (0: none inside)."""
+    tri, bary, dist = mesh.closest_points(p, pose="rest")
+    corners = mesh.rest_vertices[mesh.faces[tri]]
+    w = np.column_stack([1.0 - bary.sum(axis=1), bary])
+    q = np.einsum("pk,pka->pa", w, corners)
+    n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    inside = np.einsum("pa,pa->p", p - q, n) < 0.0
+    return float(np.max(np.where(inside, dist, 0.0)))
 
 
 def _points(guides):
@@ -81,16 +94,8 @@ def test_settling_keeps_lengths_and_leaves_nothing_inside(grown, settled):
     now = np.linalg.norm(np.diff(after, axis=1), axis=2)
     assert float(np.max(np.abs(now - rest) / rest)) <= 1e-3
     assert settled.stats["max_stretch"] <= 1e-3
-    # the skin, exactly: the closest point of the mesh, signed by its face's normal
-    mesh = grown.mesh
     p = after[:, 1:].reshape(-1, 3).astype(np.float64)
-    tri, bary, dist = mesh.closest_points(p, pose="rest")
-    corners = mesh.rest_vertices[mesh.faces[tri]]
-    w = np.column_stack([1.0 - bary.sum(axis=1), bary])
-    q = np.einsum("pk,pka->pa", w, corners)
-    n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    inside = np.einsum("pa,pa->p", p - q, n) < 0.0
-    assert float(np.max(np.where(inside, dist, 0.0))) < 5e-4  # the SDF's grid error
+    assert _deepest_inside(grown.mesh, p) < 5e-4  # the SDF's grid error
     # the capsules, by hand: distance to the axis segment minus the radius
     touching = 0
     for c in HEAD_BODY:
@@ -181,3 +186,28 @@ def test_nothing_to_settle_and_a_bad_seconds_option_are_one_line_errors(tmp_path
         main, ["settle", str(tmp_path / "s.toml"), "-o", str(tmp_path / "g.png")]
     )
     assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_the_demo_hair_rests_on_the_bust_without_stretch_or_entering_it():
+    """The demo's groom (the default skin, builtin:bust, whose shoulders take the place
+    of capsules): settled 2 s, its guides keep their lengths (max stretch ≤ 1e-3), no
+    vertex is inside the bust's mesh, and the long tips came down onto it."""
+    from follicle.cli import _DEMO_SETTLE
+    from follicle.mesh.bust import bust_signed_distance
+
+    scene = parse_scene({"groom": {"settle": _DEMO_SETTLE, "count": 200}}, "demo")
+    assert scene.mesh.path == "builtin:bust"
+    done = settle_guides(scene)
+    assert done.stats["max_stretch"] <= 1e-3
+    after = _points(done.guides)
+    near = after[:, 1:].reshape(-1, 3).astype(np.float64)
+    near = near[bust_signed_distance(near) < 0.003]  # the field, to pick candidates
+    assert len(near) > 0  # hair lies on the shoulders
+    mesh = done.guides.mesh
+    inside = winding_number(mesh.rest_vertices[mesh.faces], near) > 0.5
+    _, _, depth = mesh.closest_points(near[inside], pose="rest")
+    assert float(depth.max(initial=0.0)) < 5e-4  # the simulation's SDF grid error
+    grown = groom_inputs(scene.replace(groom=scene.groom.replace("test", settle=0.0)))
+    drop = _points(grown.guides)[:, -1, 1] - after[:, -1, 1]
+    assert drop.mean() > 0.005
