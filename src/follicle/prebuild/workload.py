@@ -111,7 +111,9 @@ def _attributed_guides(folder: Path) -> None:
     }
     n = curves.curve_count
     curve_data = {"stiffness": np.linspace(0.0, 1.0, n), "tag": np.arange(n, dtype=np.int32)}
-    save(HairCurves(curves.points, curves.offsets, point_data, curve_data), folder / "inherit.npz")
+    save(
+        HairCurves(curves.points, curves.offsets, point_data, curve_data), folder / "attributed.npz"
+    )
 
 
 # ---------------------------------------------------------------------------- tasks
@@ -170,7 +172,8 @@ def grow(folder: Path) -> None:
     _scene(
         folder,
         "inherit.toml",
-        guides={"path": "inherit.npz"},
+        mesh={"path": "builtin:head"},  # the guides' own skin (_attributed_guides)
+        guides={"path": "attributed.npz"},
         groom={
             **small,
             "inherit": ["color", "width", "knot", "stiffness", "tag"],
