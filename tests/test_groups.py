@@ -134,7 +134,7 @@ def test_builtin_guides_on_the_builtin_head_part_by_default():
     from follicle.sim.collision import clearance, colliders
 
     def deepest(groups: str | None) -> tuple[int, float]:
-        groom = groom_scene(Scene(groom={"groups": groups}))
+        groom = groom_scene(Scene(mesh={"path": "builtin:head"}, groom={"groups": groups}))
         hair = groom.generate(count=6000)
         sdf = SDF.from_mesh(groom.mesh.vertices, groom.mesh.faces)
         x = hair.points.reshape(hair.curve_count, -1, 3)
