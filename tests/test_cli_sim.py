@@ -13,6 +13,8 @@ from follicle.sim.motion import MOTIONS
 from glmark import gl
 
 SCENE = """\
+[mesh]
+path = "builtin:head"
 [guides]
 path = "builtin:short"
 [groom]

@@ -236,11 +236,11 @@ def test_zero_length_guide_is_refused():
 # --------------------------------------------------------------- skin, grooms, gusts
 @pytest.fixture(scope="module")
 def head_groom():
-    """The default scene's groom: the built-in head and its 300 long guides."""
+    """The built-in head's groom: its 300 long guides."""
     from follicle.pipeline import groom_scene
     from follicle.scene import Scene
 
-    return groom_scene(Scene())
+    return groom_scene(Scene(mesh={"path": "builtin:head"}))
 
 
 @pytest.mark.slow

@@ -345,7 +345,7 @@ def test_the_field_follows_a_rigid_skin_unbuilt_and_a_deforming_one_rebuilt(head
     from follicle.mesh.sdf import SDF
     from follicle.sim.simulator import Simulator
 
-    groom = groom_scene(Scene())
+    groom = groom_scene(Scene(mesh={"path": "builtin:head"}))  # the skin the frames move
     sim = Simulator(groom.guides, mesh=groom.mesh)
     built = sim.sdf.values
     rest = head.rest_vertices

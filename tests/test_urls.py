@@ -245,7 +245,10 @@ def test_a_skin_animation_url_is_fetched_like_every_url_input(served, tmp_path):
     folder, url, sent = served
     head = load_mesh(folder / "head.obj")
     _usd(folder / "anim.usdc", _frames(head.rest_vertices, 4), head.faces)
-    (tmp_path / "s.toml").write_text('[groom]\ncount = 50\n[guides]\npath = "builtin:short"\n')
+    skin = f'[mesh]\npath = "{folder / "head.obj"}"\n'  # the skin the animation moves
+    (tmp_path / "s.toml").write_text(
+        f'{skin}[groom]\ncount = 50\n[guides]\npath = "builtin:short"\n'
+    )
     warm()
     for tty in (False, True):
         out = run_cli(

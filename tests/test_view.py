@@ -179,7 +179,7 @@ def test_save_scene_reads_back_with_paths_for_the_new_folder(tmp_path):
     texture = back.groom.root_color["texture"]
     assert texture == "../../src/tint.png"  # relative to the new file's folder
     assert Path(back.resolve(texture)).resolve() == (src / "tint.png").resolve()
-    assert back.guides.path == "builtin:long" and back.mesh.path == "builtin:head"
+    assert back.guides.path == "builtin:long" and back.mesh.path == "builtin:bust"
     assert [p.name for p in out.parent.iterdir()] == ["saved.toml"]  # no temporary left
     with pytest.raises(FormatError, match="must end in .toml"):
         c.save_scene(tmp_path / "scene.txt")
