@@ -128,17 +128,26 @@ def main() -> None:
     parser.add_argument(
         "--unshadowed", action="store_true", help="also the CPU engine without shadows"
     )
+    parser.add_argument(
+        "--shading",
+        nargs="+",
+        default=["kajiya-kay", "physical"],
+        help="the raster engines' shading models, each a row",
+    )
+    parser.add_argument("--mesh", default="builtin:bust", help="the skin (builtin:head before)")
     args = parser.parse_args()
     for lab1, lab2, expected in _SHARMA:
         got = delta_e2000(np.array(lab1), np.array(lab2))
         assert abs(got - expected) < 1e-4, (lab1, lab2, got, expected)
 
-    mesh = follicle.load_mesh("builtin:head")
+    mesh = follicle.load_mesh(args.mesh)
     guides = follicle.load_guides("builtin:long", mesh)
     size = (args.size, args.size)
-    rasters: dict[str, dict] = {"cpu": {"engine": "cpu"}}
-    if args.opengl:
-        rasters["opengl"] = {"engine": "opengl"}
+    rasters: dict[str, dict] = {}
+    for shading in args.shading:
+        rasters[f"cpu {shading}"] = {"engine": "cpu", "shading": shading}
+        if args.opengl:
+            rasters[f"opengl {shading}"] = {"engine": "opengl", "shading": shading}
     for k in args.diffuse:
         rasters[f"cpu Kd={k:g}"] = {"engine": "cpu", "shading_params": {"diffuse": k}}
     if args.unshadowed:
@@ -148,7 +157,7 @@ def main() -> None:
         f" ΔE2000 target ≤ {TARGET:g}"
     )
     print(
-        f"{'hair':6} {'melanin':>7} {'engine':14} {'pixels':>7} {'raster L*a*b*':>22}"
+        f"{'hair':6} {'melanin':>7} {'engine':20} {'pixels':>7} {'raster L*a*b*':>22}"
         f" {'Mitsuba L*a*b*':>22} {'ΔE2000':>7}"
     )
     camera = None
@@ -170,7 +179,7 @@ def main() -> None:
             )
             de = delta_e2000(raster, ref)
             print(
-                f"{name:6} {melanin:7.2f} {engine:14} {int(mask.sum()):7d}"
+                f"{name:6} {melanin:7.2f} {engine:20} {int(mask.sum()):7d}"
                 f" {np.array2string(raster, precision=1, floatmode='fixed'):>22}"
                 f" {np.array2string(ref, precision=1, floatmode='fixed'):>22} {de:7.2f}"
                 f"{'' if de <= TARGET else '  (over target)'}"

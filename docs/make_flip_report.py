@@ -8,8 +8,12 @@ Mitsuba | kajiya-kay | physical for a few scenes. The Mitsuba pictures are cache
 ``out/flip/`` (keyed by scene, size and samples), so a rerun only renders the raster
 models. Needs the pbr extra and ``pip install flip-evaluator``.
 
+``--floor`` adds a column: FLIP between the reference and Mitsuba's picture with sampler
+seed 1, the path tracer's own noise at those samples (a raster engine without noise
+would come to about 1/√2 of it).
+
 Run: ``.venv/bin/python docs/make_flip_report.py [--size 320] [--spp 256]
-[--models kajiya-kay,marschner,physical] [--scenes wavy,curly] [--sheet]``
+[--models kajiya-kay,marschner,physical] [--scenes wavy,curly] [--sheet] [--floor]``
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import numpy as np
 from PIL import Image
 
 from follicle.pipeline import grow, render_scene
+from follicle.render.mitsuba import render_mitsuba
 from follicle.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -33,14 +38,17 @@ SHEET_MODELS = ("kajiya-kay", "physical")
 GAP = 4  # pixels between the pictures of the sheet
 
 
-def mitsuba_reference(name: str, scene, mesh, curves, size: int, spp: int) -> np.ndarray:
-    """Mitsuba's picture of ``scene``, from the cache or rendered (and cached)."""
-    path = CACHE / f"{name}_{size}_{spp}spp.png"
+def mitsuba_reference(
+    name: str, scene, mesh, curves, size: int, spp: int, seed: int = 0
+) -> np.ndarray:
+    """Mitsuba's picture of ``scene`` with sampler ``seed``, from the cache or rendered
+    (and cached)."""
+    path = CACHE / f"{name}_{size}_{spp}spp{f'_seed{seed}' if seed else ''}.png"
     if not path.is_file():
         path.parent.mkdir(parents=True, exist_ok=True)
-        params = scene.render.replace(size=(size, size), engine="mitsuba", spp=spp)
+        params = scene.render.replace(size=(size, size))
         start = time.perf_counter()
-        render_scene(curves, mesh, params, out=str(path))
+        render_mitsuba(curves, mesh, settings=params, spp=spp, seed=seed, out=str(path))
         print(f"  {name}: Mitsuba {spp} spp {time.perf_counter() - start:.0f} s", flush=True)
     return np.asarray(Image.open(path).convert("RGB"))
 
@@ -74,9 +82,17 @@ def main() -> None:
     parser.add_argument("--models", default=",".join(MODELS))
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--sheet", action="store_true", help="write docs/shading_flip.png")
+    parser.add_argument(
+        "--floor",
+        action="store_true",
+        help="also FLIP between the reference and Mitsuba's picture with another seed:"
+        " the path tracer's own noise at these samples",
+    )
     args = parser.parse_args()
     models = args.models.split(",")
     header = "| scene | " + " | ".join(f"{m} FLIP | {m} ms" for m in models) + " |"
+    if args.floor:
+        header = header.replace("| scene |", "| scene | Mitsuba seed 1 FLIP |")
     rows, totals, pictures = [], {m: [] for m in models}, {}
     for name in args.scenes.split(","):
         scene = load_scene(ROOT / "examples" / f"{name}.toml")
@@ -84,6 +100,10 @@ def main() -> None:
         ref = mitsuba_reference(name, scene, mesh, curves, args.size, args.spp)
         cells = []
         pictures[name] = {"mitsuba": ref}
+        if args.floor:
+            again = mitsuba_reference(name, scene, mesh, curves, args.size, args.spp, seed=1)
+            totals.setdefault("floor", []).append((flip(ref, again), 0.0))
+            cells.append(f"{totals['floor'][-1][0]:.3f}")
         for model in models:
             image, seconds = cpu_render(scene, mesh, curves, args.size, model)
             error = flip(ref, image)
@@ -95,12 +115,13 @@ def main() -> None:
     mean = {m: np.mean(np.array(v), axis=0) for m, v in totals.items()}
     rows.append(
         "| **mean** | "
+        + (f"**{mean['floor'][0]:.3f}** | " if args.floor else "")
         + " | ".join(f"**{mean[m][0]:.3f}** | {mean[m][1] * 1e3:.0f}" for m in models)
         + " |"
     )
     print(f"\n{args.size}×{args.size}, Mitsuba {args.spp} spp, CPU engine\n")
     print(header)
-    print("|---|" + "---:|" * (2 * len(models)))
+    print("|---|" + "---:|" * (2 * len(models) + args.floor))
     print("\n".join(rows))
     if "kajiya-kay" in mean:
         kk_flip, kk_time = mean["kajiya-kay"]

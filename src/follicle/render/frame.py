@@ -28,6 +28,7 @@ from .options import (
     parse_shading,
     point_attr,
     scalar_param,
+    see_through,
 )
 from .shadows import automatic_layer, light_projection
 from .strands import StrandTables
@@ -217,5 +218,7 @@ def hair_vertices(frame: Frame, tables: StrandTables, out: np.ndarray | None = N
     data[:, 0] = point_attr(pd, "width", (n,), float(s.hair_width))
     data[:, 1:4] = point_attr(pd, "color", (n, 3), frame.hair_color)
     data[:, 4] = point_attr(pd, "opacity", (n,), float(s.hair_opacity))
+    if s.shading == "physical":  # light hair lets the light behind it through
+        data[:, 4] *= 1.0 - see_through(data[:, 1:4], frame.params)
     data[:, 5], data[:, 6] = tables.param_and_seeds(curves.offsets)
     return data

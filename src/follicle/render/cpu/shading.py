@@ -54,6 +54,9 @@ PARAM_ORDER = {
         "scatter",
         "absorption",
         "backlit",
+        "translucency",
+        "clear",
+        "chord",
     ),  # fmt: skip
 }
 _U32 = np.uint64(0xFFFFFFFF)
@@ -348,12 +351,14 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
     sin θi + sin θr, his fitted N_p) with the absorption σa = k (ln C)² of Chiang 2016
     §4.2 over the chords inside the fibre, under the irradiance π·radiance; plus Karis's
     multiple scattering term, its key light seen through the hair as v^(1 − C); the
-    unshadowed lights' TT scaled by ``backlit``. A TT or
+    unshadowed lights' TT scaled by ``backlit``; the light divided by the fibre's opacity
+    left by ``translucency`` (:func:`follicle.render.options.see_through`). A TT or
     TRT lobe's M_p, N_p and transmittance share one exp per channel, skipped where the
     exponent is below :data:`LOBE_CUT`."""
     rho, tilt, eta, p_r, p_tt, p_trt, p_scatter, k_abs, backlit = (
         prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6], prm[7], prm[8],
     )  # fmt: skip
+    translucency, clear, chord = prm[9], prm[10], prm[11]
     c0 = min(max(base[0], 1e-4), 1.0)
     c1 = min(max(base[1], 1e-4), 1.0)
     c2 = min(max(base[2], 1e-4), 1.0)
@@ -382,9 +387,10 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
         k0 = math.exp((1.0 - c0) * lk)
         k1 = math.exp((1.0 - c1) * lk)
         k2 = math.exp((1.0 - c2) * lk)
-    r = base[0] * amb[0]
+    r = base[0] * amb[0]  # the ambient and multiple scattering: the hair volume's
     gr = base[1] * amb[1]
     b = base[2] * amb[2]
+    sr = sg = sb = 0.0  # single scattering: the fibre's own
     for i in range(nl):
         L = (float(ldir[i, 0]), float(ldir[i, 1]), float(ldir[i, 2]))
         sin_i = min(max(dot(T, L), -1.0), 1.0)
@@ -426,15 +432,32 @@ def _shade_physical(prm, T, E, base, key, nl, ldir, lrad, amb):
         w = 1.0 - abs(sin_i)
         scatter = 0.75 * p_scatter * (wrap + (w - wrap) * 0.33)
         vis = math.pi * (key if i == 0 else 1.0)
+        sr += lrad[i, 0] * vis * t0
+        sg += lrad[i, 1] * vis * t1
+        sb += lrad[i, 2] * vis * t2
         if i == 0:
-            r += lrad[i, 0] * (vis * t0 + c0 * scatter * k0)
-            gr += lrad[i, 1] * (vis * t1 + c1 * scatter * k1)
-            b += lrad[i, 2] * (vis * t2 + c2 * scatter * k2)
+            r += lrad[i, 0] * c0 * scatter * k0
+            gr += lrad[i, 1] * c1 * scatter * k1
+            b += lrad[i, 2] * c2 * scatter * k2
         else:
-            r += lrad[i, 0] * (vis * t0 + c0 * scatter)
-            gr += lrad[i, 1] * (vis * t1 + c1 * scatter)
-            b += lrad[i, 2] * (vis * t2 + c2 * scatter)
-    return (r, gr, b)
+            r += lrad[i, 0] * c0 * scatter
+            gr += lrad[i, 1] * c1 * scatter
+            b += lrad[i, 2] * c2 * scatter
+    # the fibre lets this share of what is behind it through: its opacity is scaled by
+    # 1 − share (render.frame.hair_vertices), so its own light (single scattering) is
+    # divided by 1 − share; the volume's (ambient, multiple scattering) is blended as is,
+    # the hair behind showing through adding the rest of it
+    d0 = translucency * clear * math.exp(-chord * s0)
+    d1 = translucency * clear * math.exp(-chord * s1)
+    d2 = translucency * clear * math.exp(-chord * s2)
+    share = 0.2126 * d0 + 0.7152 * d1 + 0.0722 * d2
+    keep = 1.0 / max(1.0 - share, 1e-3)
+    # the hair behind, seen through the fibre, is filtered by its colour (d per channel),
+    # where the blend lets the grey share through: the volume's light stands in for it
+    v0 = max(1.0 + (d0 - share) * keep, 0.0)
+    v1 = max(1.0 + (d1 - share) * keep, 0.0)
+    v2 = max(1.0 + (d2 - share) * keep, 0.0)
+    return (r * v0 + sr * keep, gr * v1 + sg * keep, b * v2 + sb * keep)
 
 
 # ----------------------------------------------------------------------------- shadows

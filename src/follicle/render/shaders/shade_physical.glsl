@@ -18,7 +18,10 @@
 // v^(1 - C) per channel (Zinke et al. 2008's forward scattering attenuation a_f^n with
 // the colour as the albedo a_f, simplified). The lights without shadows (all but the
 // key) would shine TT through the head and the hair in front of a strand: their TT is
-// scaled by p_backlit (Karis 2016's Backlit).
+// scaled by p_backlit (Karis 2016's Backlit). Light hair is translucent: a fibre lets the
+// share p_clear exp(-p_chord σa) (TT at normal incidence, options.see_through_fit) of
+// what is behind it through, times p_translucency; its opacity is scaled by 1 - share
+// (render.frame.hair_vertices), its single scattering divided by it (see the end).
 uniform float p_roughness;
 uniform float p_cuticle_tilt;  // radians
 uniform float p_eta;
@@ -28,6 +31,9 @@ uniform float p_trt;
 uniform float p_scatter;
 uniform float p_backlit;       // TT share of the lights without shadows
 uniform float p_absorption;    // k of σa = k (ln C)^2
+uniform float p_translucency;  // share of TT's see-through kept
+uniform float p_clear;         // a fibre's see-through: p_clear exp(-p_chord σa)
+uniform float p_chord;
 
 // a TT or TRT lobe whose exponent is below this adds < 1e-6: skipped
 #define LOBE_CUT -15.0
@@ -60,7 +66,8 @@ vec3 hair_shade(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed, 
     vec3 Nf = Ep * inversesqrt(max(ep2, 1e-12));
     // the key light through the hair for multiple scattering: v^(1 - C)
     vec3 key_ms = key < 1.0 ? exp((1.0 - colour) * log(max(key, 1e-6))) : vec3(1.0);
-    vec3 rgb = base * ambient;
+    vec3 rgb = base * ambient;  // the ambient and multiple scattering: the hair volume's
+    vec3 own = vec3(0.0);       // single scattering: the fibre's own
     for (int i = 0; i < n_lights; ++i) {
         vec3 L = light_dir[i];
         float sin_i = clamp(dot(T, L), -1.0, 1.0);
@@ -100,8 +107,16 @@ vec3 hair_shade(vec3 P, vec3 T, vec3 N, vec3 E, vec3 base, float t, float seed, 
         }
         float wrap = clamp((dot(Nf, L) + 1.0) * 0.25, 0.0, 1.0);
         float scatter = 0.75 * p_scatter * mix(wrap, 1.0 - abs(sin_i), 0.33);
-        rgb += light_radiance[i] * (PI * single * (i == 0 ? key : 1.0)
-                                    + colour * scatter * (i == 0 ? key_ms : vec3(1.0)));
+        own += light_radiance[i] * PI * single * (i == 0 ? key : 1.0);
+        rgb += light_radiance[i] * colour * scatter * (i == 0 ? key_ms : vec3(1.0));
     }
-    return rgb;
+    // the fibre lets this share of what is behind it through (options.see_through): its
+    // opacity is scaled by 1 - share (render.frame.hair_vertices), so its own light is
+    // divided by 1 - share; the volume's is blended as is, the hair behind showing
+    // through adding the rest of it. That hair is filtered by the fibre's colour (d per
+    // channel) where the blend lets the grey share through: the volume's light stands in
+    vec3 d = p_translucency * p_clear * exp(-p_chord * sigma);
+    float share = dot(d, vec3(0.2126, 0.7152, 0.0722));
+    float keep = 1.0 / max(1.0 - share, 1e-3);
+    return rgb * max(1.0 + (d - share) * keep, 0.0) + own * keep;
 }
