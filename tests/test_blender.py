@@ -13,6 +13,13 @@ target, colour, the curve type, the guides as their own object and the skin's
 vertices, triangles and UVs. What Blender keeps and drops of the attributes we write is
 printed and pinned for this bpy version (:data:`KEPT`).
 
+Hair coloured by melanin (``import_ours.py``, ``melanin_render.py``): a groom grown with
+per-hair melanin and redness and a dye, as the blender target's USD and Alembic, comes
+into Blender with ``melanin``, ``melanin_redness`` and ``dye`` curve attributes holding
+each hair's values (from USD; Alembic's are dropped: :data:`PIGMENTS_KEPT`), and Cycles'
+Principled Hair, fed by Attribute nodes of those names, renders a half-blond,
+half-black groom so, where one melanin in the shader renders both halves alike.
+
 Blender's hair into follicle (``make_hair.py``): a hair Curves object with a ``color``
 attribute, and legacy NURBS, poly and Bézier curves, on a Blender UV sphere, exported by
 Blender to USD and Alembic, read by follicle (Z up back to Y up: Blender's (x, y, z) is
