@@ -13,6 +13,13 @@ target, colour, the curve type, the guides as their own object and the skin's
 vertices, triangles and UVs. What Blender keeps and drops of the attributes we write is
 printed and pinned for this bpy version (:data:`KEPT`).
 
+Hair coloured by melanin (``import_ours.py``, ``melanin_render.py``): a groom grown with
+per-hair melanin and redness and a dye, as the blender target's USD and Alembic, comes
+into Blender with ``melanin``, ``melanin_redness`` and ``dye`` curve attributes holding
+each hair's values (from USD; Alembic's are dropped: :data:`PIGMENTS_KEPT`), and Cycles'
+Principled Hair, fed by Attribute nodes of those names, renders a half-blond,
+half-black groom so, where one melanin in the shader renders both halves alike.
+
 Blender's hair into follicle (``make_hair.py``): a hair Curves object with a ``color``
 attribute, and legacy NURBS, poly and Bézier curves, on a Blender UV sphere, exported by
 Blender to USD and Alembic, read by follicle (Z up back to Y up: Blender's (x, y, z) is
@@ -28,10 +35,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from PIL import Image
 
 import blender_env
 from blender_env import blender_python, run_blender
 from follicle.cli import main as follicle_cli
+from follicle.curves import HairCurves
 from follicle.io.alembic import save_abc
 from follicle.io.attributes import DEFAULT_WIDTH
 from follicle.io.dispatch import load_curves
@@ -469,6 +478,141 @@ def test_blender_opens_the_payloads_layout_as_the_groom(payloads):
             f"part {i}: hair points in Blender's world",
             "A Y-up (x, y, z) should land at (x, -z, y).",
         )
+
+
+# ------------------------------------------------------------------ hair coloured by melanin
+# A groom grown from melanin, each hair's own (random_melanin, random_redness) and dyed
+PIGMENT_KEYS = {
+    "melanin": 0.5,
+    "melanin_redness": 0.4,
+    "random_melanin": 0.8,
+    "random_redness": 0.5,
+    "dye": (1.0, 0.75, 0.55),
+}
+PIGMENT_FILES = ("blender.usdc", "blender.usda", "blender.abc")
+# What Blender 5.0.1's importers make of the pigments (measured: "name DOMAIN TYPE",
+# None: dropped). USD's uniform float primvars become FLOAT curve attributes and the
+# float3 dye a FLOAT_VECTOR one, which the shader's Attribute node reads by name; its
+# Alembic importer reads no attribute of curves but their widths.
+_USD_PIGMENTS = {
+    "melanin": "melanin CURVE FLOAT",
+    "melanin_redness": "melanin_redness CURVE FLOAT",
+    "dye": "dye CURVE FLOAT_VECTOR",
+}
+PIGMENTS_KEPT = {
+    "blender.usdc": _USD_PIGMENTS,
+    "blender.usda": _USD_PIGMENTS,
+    "blender.abc": dict.fromkeys(_USD_PIGMENTS),
+}
+BLOND, BLACK = 0.15, 0.9  # the two halves' melanin in the rendered groom
+RENDER_HAIRS = 1500
+
+
+@pytest.fixture(scope="module")
+def pigmented_groom():
+    scene = Scene()
+    return groom_scene(scene.replace(groom=scene.groom.replace(**PIGMENT_KEYS)))
+
+
+@pytest.fixture(scope="module")
+def pigmented(tmp_path_factory, blender, pigmented_groom):
+    """The melanin groom as the blender target's USD (crate and text) and Alembic, with
+    its guides, imported by Blender: (findings, arrays, the hair written)."""
+    folder = tmp_path_factory.mktemp("pigmented")
+    hair = pigmented_groom.generate(count=HAIRS)
+    for name in PIGMENT_FILES:
+        save = save_abc if name.endswith(".abc") else save_usd
+        save(hair, folder / name, guides=pigmented_groom.guides, target="blender")
+    report = run_blender(
+        blender, "import_ours.py", *(folder / n for n in PIGMENT_FILES), folder / "findings.json"
+    )
+    return report, dict(np.load(report["arrays"])), hair
+
+
+@pytest.mark.parametrize("name", PIGMENT_FILES)
+def test_blender_reads_each_hairs_pigments(pigmented, name):
+    """Blender makes a melanin groom's ``melanin``, ``melanin_redness`` (FLOAT) and
+    ``dye`` (FLOAT_VECTOR) curve attributes of the blender target's USD, under our names,
+    with every hair's own values (they differ hair to hair); its Alembic importer drops
+    them (pinned: :data:`PIGMENTS_KEPT`)."""
+    report, arrays, hair = pigmented
+    obj = _object((report, arrays), name, ("chunk_0000", "Hair_0000"))
+    found = _measured(
+        obj,
+        HairCurves(hair.points, hair.offsets, {}, {k: hair.curve_data[k] for k in _USD_PIGMENTS}),
+    )
+    print(f"\n[Blender {report['blender']}] {name} pigments: {found}")
+    assert found == PIGMENTS_KEPT[name], f"{name}: Blender made {found}"
+    if name.endswith(".abc"):
+        return
+    assert np.ptp(hair.curve_data["melanin"]) > 0.5, "the hairs' melanin should differ"
+    for key in _USD_PIGMENTS:
+        np.testing.assert_array_equal(
+            arrays[f"{obj['key']}/{key}"],
+            hair.curve_data[key],
+            err_msg=f"{name}: Blender's '{key}' of each hair",
+        )
+
+
+@pytest.fixture(scope="module")
+def halves(tmp_path_factory, blender, pigmented_groom):
+    """The melanin groom with the hairs left of its centre (mean X) blond and the rest
+    black, all else alike (redness 0.3, no dye, one grey ``color``), as the blender
+    target's USD with its guides (which have no pigments), rendered by Blender with
+    Cycles (``melanin_render.py``): per hair by Attribute nodes, then with one melanin
+    in the shader. (findings, the hair)."""
+    folder = tmp_path_factory.mktemp("halves")
+    hair = pigmented_groom.generate(count=RENDER_HAIRS)
+    x = np.add.reduceat(hair.points[:, 0].astype(np.float64), hair.offsets[:-1]) / hair.counts
+    mid = 0.5 * (float(hair.points[:, 0].min()) + float(hair.points[:, 0].max()))
+    curve_data = {
+        **hair.curve_data,
+        "melanin": np.where(x < mid, BLOND, BLACK).astype(np.float32),
+        "melanin_redness": np.full(hair.curve_count, 0.3, np.float32),
+        "dye": np.ones((hair.curve_count, 3), np.float32),
+    }
+    point_data = {**hair.point_data, "color": np.full((hair.point_count, 3), 0.2, np.float32)}
+    two = HairCurves(hair.points, hair.offsets, point_data, curve_data)
+    save_usd(two, folder / "halves.usdc", guides=pigmented_groom.guides, target="blender")
+    report = run_blender(
+        blender, "melanin_render.py", folder / "halves.usdc", folder / "halves.json"
+    )
+    return report, two
+
+
+def _half_brightness(png: str) -> tuple[float, float, int, int]:
+    """Mean brightness (0-1, of the PNG's RGB) of the hair pixels (alpha > 1/2) in the
+    left and right 40 % of the image, and how many there are."""
+    rgba = np.asarray(Image.open(png).convert("RGBA"), np.float64) / 255.0
+    hair = rgba[..., 3] > 0.5
+    width = rgba.shape[1]
+    cols = np.arange(width)[None, :]
+    left, right = hair & (cols < 0.4 * width), hair & (cols >= 0.6 * width)
+    value = rgba[..., :3].mean(axis=2)
+    return float(value[left].mean()), float(value[right].mean()), int(left.sum()), int(right.sum())
+
+
+def test_principled_hair_reads_each_hairs_melanin(halves, capsys):
+    """Blender's Principled Hair BSDF (Melanin concentration), its Melanin, Melanin
+    Redness and Tint fed by Attribute nodes ``melanin``, ``melanin_redness`` and ``dye``,
+    renders the blond half of the groom (melanin 0.15, image left: the camera looks
+    along +Y) much lighter than the black half (0.9); the same file with one melanin
+    in the shader renders both halves alike, so the difference is the attributes'."""
+    report, _ = halves
+    assert report["pigments"], "Blender made no melanin attributes of the groom"
+    got = {mode: _half_brightness(r["png"]) for mode, r in report["renders"].items()}
+    with capsys.disabled():
+        for mode, (lo, hi, n_lo, n_hi) in got.items():
+            print(
+                f"\n[Blender {report['blender']}] {mode}: blond half {lo:.3f} ({n_lo} px),"
+                f" black half {hi:.3f} ({n_hi} px), ratio {lo / max(hi, 1e-9):.2f}"
+            )
+    for *_, n_lo, n_hi in got.values():
+        assert min(n_lo, n_hi) > 200, f"too few hair pixels to compare: {n_lo}, {n_hi}"
+    blond, black = got["attributes"][:2]
+    assert blond > 2.0 * black, f"by attributes: blond {blond:.3f} is not ≫ black {black:.3f}"
+    left, right = got["constant"][:2]
+    assert 0.8 < left / right < 1.25, f"one melanin: halves {left:.3f} and {right:.3f} differ"
 
 
 # ------------------------------------------------------------------ Blender's hair into ours

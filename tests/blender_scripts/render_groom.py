@@ -1,17 +1,23 @@
 """Run by Blender's Python (bpy): render a follicle groom file in Blender with Cycles.
 
-    python render_groom.py GROOM.usdc OUT.png [--size 640] [--samples 16]
+    python render_groom.py GROOM.usdc OUT.png [--size 640] [--samples 16] [--melanin M]
 
 What a user would do with ``follicle grow … -o groom.usdc --target blender``: import
-it (File → Import, default settings), give the hair a Principled Hair BSDF whose colour
-is the hair's own (the ``displayColor`` attribute the importer made of our ``color``),
-give the skin a plain skin-toned Principled BSDF, hide the guides, and render with
-Cycles on the CPU: three area lights (key, fill, and a rim light behind, which hair
-needs to read as hair), a grey-blue world, a camera framing skin and hair from the
-front-left as follicle's own renderer does (its default view direction (0.35, 0.15, 1)
-in Y up is (0.35, -1, 0.15) in Blender's Z up), OpenImageDenoise on. docs/blender.png
-(the default scene's 20,000 hairs) is made so, from the repository root, after the
-Blender tests have made .venv-blender (or with any Python that has bpy 5.0.1):
+it (File → Import, default settings) and give the hair a Principled Hair BSDF (Chiang
+model). A groom grown from melanin comes in with per-hair ``melanin``,
+``melanin_redness`` (FLOAT) and ``dye`` (FLOAT_VECTOR) curve attributes: Attribute
+nodes of those names feed its Melanin, Melanin Redness and Tint (Melanin concentration
+parametrisation, Random Color 0: each hair's values are drawn already), so every hair
+has its own pigment; other hair takes its own colour (the ``displayColor`` attribute
+the importer made of our ``color``); ``--melanin M`` gives every hair melanin M. The
+skin gets a plain skin-toned Principled BSDF, the guides are hidden, and Cycles renders
+on the CPU: three area lights (key, fill, and a rim light behind, which hair needs to
+read as hair), a grey-blue world, a camera framing skin and hair from the front-left
+as follicle's own renderer does (its default view direction (0.35, 0.15, 1) in Y up is
+(0.35, -1, 0.15) in Blender's Z up), OpenImageDenoise on. docs/blender.png (the default
+scene: 20,000 hairs on the built-in bust, settled; it has no melanin) is made so, from
+the repository root, after the Blender tests have made .venv-blender (or with any
+Python that has bpy 5.0.1):
 
     printf '' > /tmp/default.toml   # an empty scene file: the default scene
     .venv/bin/follicle grow /tmp/default.toml --count 20000 --target blender \
@@ -19,12 +25,14 @@ Blender tests have made .venv-blender (or with any Python that has bpy 5.0.1):
     .venv-blender/bin/python tests/blender_scripts/render_groom.py /tmp/groom.usdc \
         docs/blender.png
 
-(16 samples: under a minute of rendering on two cores). It prints what it imported
-and the render time.
+(16 samples: 102 s of rendering on two shared cores, 2026-12-06). It prints what it
+imported, what colours the hair, and the render time. ``melanin_render.py`` uses its
+parts (it runs this file's functions, not its ``main``).
 """
 
 import argparse
 import math
+import os
 import sys
 import time
 
@@ -43,7 +51,8 @@ def _args():
         "--melanin",
         type=float,
         default=None,
-        help="colour the hair by melanin (0-1) instead of its own colour",
+        help="colour every hair by this melanin (0-1) instead of its own (its melanin"
+        " attributes if it has them, else its colour)",
     )
     return parser.parse_args(sys.argv[1:])
 
@@ -56,7 +65,29 @@ def _nodes(block):
     return block.node_tree
 
 
-def _hair_material(melanin):
+PIGMENTS = ("melanin", "melanin_redness", "dye")  # what a groom grown from melanin carries
+
+
+def is_hair(obj):
+    """Whether ``obj`` is hair: a Curves object other than the guides (data "Guides")."""
+    return obj.type == "CURVES" and obj.data.name != "Guides"
+
+
+def has_pigments(objects):
+    """Whether every hair Curves object of ``objects`` has follicle's per-hair ``melanin``
+    and ``melanin_redness`` (what the USD importer makes of a melanin groom's primvars)."""
+    hair = [o for o in objects if is_hair(o)]
+    return bool(hair) and all(
+        n in o.data.attributes for o in hair for n in ("melanin", "melanin_redness")
+    )
+
+
+def hair_material(melanin=None, pigments=False, dye=True):
+    """A Principled Hair BSDF (Chiang model). ``melanin`` (0-1): that melanin for every
+    hair; else with ``pigments`` each hair's own: Attribute nodes ``melanin``,
+    ``melanin_redness`` (and ``dye``, to the Tint, when ``dye``) into the Melanin
+    concentration parametrisation, Random Color 0 (the values are per hair already);
+    else the hair's own colour, the ``displayColor`` the importer made of ``color``."""
     mat = bpy.data.materials.new("follicle hair")
     _nodes(mat)
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
@@ -64,22 +95,34 @@ def _hair_material(melanin):
     hair = nodes.new("ShaderNodeBsdfHairPrincipled")
     out = nodes.new("ShaderNodeOutputMaterial")
     links.new(hair.outputs[0], out.inputs["Surface"])
+    hair.model = "CHIANG"
     hair.inputs["Roughness"].default_value = 0.25
     hair.inputs["Radial Roughness"].default_value = 0.5
     hair.inputs["Coat"].default_value = 0.1
+
+    def attribute(name, output, socket):
+        node = nodes.new("ShaderNodeAttribute")
+        node.attribute_name = name
+        links.new(node.outputs[output], hair.inputs[socket])
+
     if melanin is not None:
         hair.parametrization = "MELANIN"
         hair.inputs["Melanin"].default_value = melanin
         hair.inputs["Melanin Redness"].default_value = 0.6
+    elif pigments:
+        hair.parametrization = "MELANIN"
+        hair.inputs["Random Color"].default_value = 0.0
+        attribute("melanin", "Factor", "Melanin")
+        attribute("melanin_redness", "Factor", "Melanin Redness")
+        if dye:
+            attribute("dye", "Color", "Tint")
     else:
         hair.parametrization = "COLOR"  # direct colouring, from the hair's own colour
-        attr = nodes.new("ShaderNodeAttribute")
-        attr.attribute_name = "displayColor"
-        links.new(attr.outputs["Color"], hair.inputs["Color"])
+        attribute("displayColor", "Color", "Color")
     return mat
 
 
-def _skin_material():
+def skin_material():
     mat = bpy.data.materials.new("follicle skin")
     bsdf = _nodes(mat).nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (0.62, 0.38, 0.27, 1.0)
@@ -87,7 +130,7 @@ def _skin_material():
     return mat
 
 
-def _world_points(obj):
+def world_points(obj):
     if obj.type == "CURVES":
         n = len(obj.data.points)
         local = np.empty(n * 3, np.float32)
@@ -99,7 +142,7 @@ def _world_points(obj):
     return local.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
 
 
-def _area_light(name, location, target, energy, size):
+def area_light(name, location, target, energy, size):
     light = bpy.data.lights.new(name, "AREA")
     light.energy, light.size = energy, size
     obj = bpy.data.objects.new(name, light)
@@ -109,31 +152,75 @@ def _area_light(name, location, target, energy, size):
     return obj
 
 
-def main():
-    args = _args()
+def import_groom(path):
+    """An empty scene with ``path`` (USD or Alembic) imported as File → Import does."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    if args.groom.endswith(".abc"):
-        bpy.ops.wm.alembic_import(filepath=args.groom, as_background_job=False)
+    if path.endswith(".abc"):
+        bpy.ops.wm.alembic_import(filepath=path, as_background_job=False)
     else:
-        bpy.ops.wm.usd_import(filepath=args.groom)
-    hair_mat, skin_mat = _hair_material(args.melanin), _skin_material()
+        bpy.ops.wm.usd_import(filepath=path)
+
+
+def dress(hair_mat, skin_mat):
+    """``hair_mat`` on every hair Curves object, ``skin_mat`` (smooth) on every mesh, the
+    guides hidden (they are for grooming, not for the picture): the objects shown."""
     shown = []
     for obj in bpy.data.objects:
-        data_name = obj.data.name if obj.data is not None else ""
-        if obj.type == "CURVES" and data_name == "Guides":
-            obj.hide_render = True  # the guides are for grooming, not for the picture
-        elif obj.type == "CURVES":
+        if is_hair(obj):
             obj.data.materials.clear()
             obj.data.materials.append(hair_mat)
             shown.append(obj)
+        elif obj.type == "CURVES":
+            obj.hide_render = True
         elif obj.type == "MESH":
             obj.data.materials.clear()
             obj.data.materials.append(skin_mat)
             for poly in obj.data.polygons:
                 poly.use_smooth = True
             shown.append(obj)
-    print("render_groom: showing", [(o.name, o.type) for o in shown])
-    points = np.concatenate([_world_points(o) for o in shown])
+    return shown
+
+
+def world(color, strength):
+    """A plain world of ``color`` (linear RGB) at ``strength``."""
+    block = bpy.data.worlds.new("world")
+    background = _nodes(block).nodes["Background"]
+    background.inputs["Color"].default_value = (*color, 1)
+    background.inputs["Strength"].default_value = strength
+    bpy.context.scene.world = block
+
+
+def cycles(size, samples, out, denoise=True):
+    """Cycles on the CPU, ``size``² pixels, ``samples`` per pixel, hair as thick curves
+    with the transmission bounces it needs to light up, to the PNG ``out``."""
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.use_denoising = denoise
+    scene.cycles.max_bounces = 8
+    scene.cycles_curves.shape = "THICK"
+    scene.render.resolution_x = scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = os.path.abspath(out)  # Blender's own relative paths start at the .blend
+
+
+def main():
+    args = _args()
+    import_groom(args.groom)
+    pigments = args.melanin is None and has_pigments(bpy.data.objects)
+    hair_mat = hair_material(args.melanin, pigments)
+    shown = dress(hair_mat, skin_material())
+    print(
+        "render_groom: showing",
+        [(o.name, o.type) for o in shown],
+        "coloured by",
+        f"melanin {args.melanin}"
+        if args.melanin is not None
+        else ("each hair's melanin" if pigments else "displayColor"),
+    )
+    points = np.concatenate([world_points(o) for o in shown])
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre = 0.5 * (lo + hi)
     radius = 0.5 * float(np.linalg.norm(hi - lo))  # for the lights' placement and size
@@ -162,28 +249,14 @@ def main():
     scene.camera = cam
     r = radius
     c = centre
-    _area_light("key", (c[0] + 2.0 * r, c[1] - 2.5 * r, c[2] + 2.0 * r), c, 60.0 * r * r, r)
-    _area_light("fill", (c[0] - 3.0 * r, c[1] - 1.5 * r, c[2] + 0.3 * r), c, 18.0 * r * r, 2 * r)
-    _area_light("rim", (c[0] - 0.8 * r, c[1] + 3.0 * r, c[2] + 2.5 * r), c, 80.0 * r * r, r)
+    area_light("key", (c[0] + 2.0 * r, c[1] - 2.5 * r, c[2] + 2.0 * r), c, 60.0 * r * r, r)
+    area_light("fill", (c[0] - 3.0 * r, c[1] - 1.5 * r, c[2] + 0.3 * r), c, 18.0 * r * r, 2 * r)
+    area_light("rim", (c[0] - 0.8 * r, c[1] + 3.0 * r, c[2] + 2.5 * r), c, 80.0 * r * r, r)
 
-    world = bpy.data.worlds.new("world")
-    background = _nodes(world).nodes["Background"]
-    background.inputs["Color"].default_value = (0.2, 0.23, 0.28, 1)
-    background.inputs["Strength"].default_value = 0.6
-    scene.world = world
-
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = args.samples
-    scene.cycles.use_denoising = True
-    scene.cycles.max_bounces = 8  # hair needs a few transmission bounces to light up
-    scene.cycles_curves.shape = "THICK"
-    scene.render.resolution_x = scene.render.resolution_y = args.size
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "PNG"
+    world((0.2, 0.23, 0.28), 0.6)
+    cycles(args.size, args.samples, args.out)
     scene.view_settings.view_transform = "AgX"
     scene.view_settings.look = "AgX - Medium High Contrast"
-    scene.render.filepath = args.out
     start = time.perf_counter()
     bpy.ops.render.render(write_still=True)
     print(
@@ -192,4 +265,5 @@ def main():
     )
 
 
-main()
+if __name__ == "__main__":
+    main()
