@@ -1,9 +1,10 @@
 """Hair colour by melanin: do the raster engines and the path tracer draw the same hair?
 
 For blond, brown and black melanin (0.2, 0.6, 0.95) the default groom (``--count``
-hairs, 3,000 by default, on the built-in head and guides) is drawn by the CPU engine
-(and OpenGL through EGL with ``--opengl``) and by Mitsuba (``--spp`` samples per pixel),
-with the same camera, lights and background. The raster engines shade each hair with
+hairs, 3,000 by default, ``builtin:long`` on the bust, or ``--mesh builtin:head``) is
+drawn by the CPU engine (and OpenGL through EGL with ``--opengl``), once per shading
+model of ``--shading`` (Kajiya-Kay and physical by default), and by Mitsuba (``--spp``
+samples per pixel), with the same camera, lights and background. The raster engines shade each hair with
 its melanin's colour (:func:`follicle.melanin.melanin_color`); Mitsuba's ``hair`` BSDF
 takes the pigments' absorption σ_a itself (Chiang 2016 §4.2).
 
@@ -18,7 +19,8 @@ Kajiya-Kay diffuse weight K_d (default 0.6) or without shadows, against the same
 reference: how much of a difference is the raster shading's energy.
 
 Run: ``.venv/bin/python benchmarks/melanin_colour.py [--count 3000] [--size 384]
-[--spp 64] [--opengl] [--diffuse K ...] [--unshadowed]``.
+[--spp 64] [--opengl] [--shading kajiya-kay physical ...] [--mesh builtin:bust]
+[--diffuse K ...] [--unshadowed]``.
 """
 
 from __future__ import annotations
