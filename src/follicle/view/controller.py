@@ -360,15 +360,17 @@ class Controller:
         if self.brush != "length":
             strength = min(max(strength, 0.0), 1.0)
         ed = self.editor
-        count, groups = len(ed.points), ed.groups
+        count, groups, attributes = len(ed.points), ed.groups, ed.attributes
         changed = ed.stroke(
             self.brush, path, self.camera, self.brush_radius, strength, self.size,
             join=not self._first,
         )  # fmt: skip
         self._stroke, self._first = path[1], False
         if len(changed):
-            if len(ed.points) != count or ed.groups is not groups:
-                self.groom = self.groom.with_guides(ed.guides)  # new roots or groups
+            inherits = self.groom.params.inherit and ed.attributes is not attributes
+            if len(ed.points) != count or ed.groups is not groups or inherits:
+                # new roots or groups, or the hairs' inherited values cut or lengthened
+                self.groom = self.groom.with_guides(ed.guides)
                 self._grown = None  # other guides: every hair grows again
             self._changed.append(changed)
             self._preview = True
