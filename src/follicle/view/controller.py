@@ -620,7 +620,10 @@ class Controller:
 
     def release(self) -> None:
         """Free the renderer (a new one is made on the next draw) and drop an unfinished
-        recording (its file removed): the end of a viewer session."""
+        recording (its file removed) and a settle going on: the end of a viewer session."""
+        if self._settling is not None:
+            self._settling.cancel()
+            self._settling = None
         if self._video is not None:
             self._video.abort()
             self._video = None
