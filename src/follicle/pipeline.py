@@ -66,6 +66,11 @@ class GroomInputs:
     displacement: Texture | None
     settled: Settled | None = None
 
+    def made_for(self, scene: Scene) -> bool:
+        """Whether these are ``scene``'s inputs: its keys that they come from are those
+        they were made for (:func:`groom_inputs` would give them back)."""
+        return self.key == _inputs_key(scene)
+
 
 # [sim] keys a settle does not read: it holds the head still and pulls towards no pose
 _UNSETTLING = {
@@ -101,9 +106,9 @@ def groom_inputs(
     for ``[groom].settle`` s (:func:`follicle.sim.settle.settle`; ``progress(done,
     total)`` hears it); ``reuse`` itself when it was made for the same keys (see
     :class:`GroomInputs`)."""
-    key = _inputs_key(scene)
-    if reuse is not None and reuse.key == key:
+    if reuse is not None and reuse.made_for(scene):
         return reuse
+    key = _inputs_key(scene)
     mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
     spec, vertices = scene.groom.groups, scene.groom.group_vertices
     if spec is None and scene.guides.path.startswith("builtin:"):

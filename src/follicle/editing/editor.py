@@ -34,6 +34,7 @@ from ..mesh.texture import Texture
 from ..render.camera import Camera
 from ..render.options import parse_size
 from ..validate import file_path, number, positive
+from .attributes import Attributes
 from .strokes import load_strokes, save_strokes, stroke_camera, stroke_entry
 
 __all__ = ["GuideEditor", "replay", "replay_file"]
@@ -57,16 +58,18 @@ _RANGES = {"length": (-1.0, 1.0)}  # strength; others 0..1
 @dataclass(frozen=True)
 class _State:
     """One version of the guides: world positions at rest (S, V, 3) float64, each
-    root's triangle (S,) and barycentric coordinates (S, 2), and the interpolation
-    groups (a part brush paints them). ``loaded``: the guides the editor was given,
-    for the first state only — undone to it, the guides are those bytes, not the
-    float64 points rounded back to float32 (a step off where the rest shape's root
-    was added back)."""
+    root's triangle (S,) and barycentric coordinates (S, 2), the interpolation
+    groups (a part brush paints them) and the guides' own point and curve attributes
+    (a colour the hairs inherit), carried with the points. ``loaded``: the guides the
+    editor was given, for the first state only — undone to it, the guides are those
+    bytes, not the float64 points rounded back to float32 (a step off where the rest
+    shape's root was added back)."""
 
     points: np.ndarray
     triangles: np.ndarray
     bary: np.ndarray
     groups: InterpolationGroups
+    attributes: Attributes
     loaded: Guides | None = None
 
 
@@ -87,7 +90,8 @@ class GuideEditor:
         n = guides.vertex_count
         points = guides.rest_shapes(n).astype(np.float64) + guides.root_positions[:, None]
         triangles, bary = guides.triangles.copy(), guides.bary.copy()
-        self._state = _State(points, triangles, bary, guides.groups, guides)
+        attributes = Attributes.of(guides, n)
+        self._state = _State(points, triangles, bary, guides.groups, attributes, guides)
         self._margin = None if margin is None else number(margin, "margin", lo=0.0, unit="m")
         self._undo: list[_State] = []
         self._redo: list[_State] = []
@@ -103,8 +107,9 @@ class GuideEditor:
         """The guides as they are now."""
         if self._guides is None:
             s = self._state
-            data = {"root_triangle": s.triangles, "root_bary": s.bary}
-            curves = HairCurves.from_array(s.points.astype(np.float32), curve_data=data)
+            point, curve = s.attributes.data()
+            data = {**curve, "root_triangle": s.triangles, "root_bary": s.bary}
+            curves = HairCurves.from_array(s.points.astype(np.float32), point, data)
             self._guides = Guides(curves, self.mesh, s.points.shape[1], s.groups)
         return self._guides
 
@@ -112,6 +117,12 @@ class GuideEditor:
     def groups(self) -> InterpolationGroups:
         """The interpolation groups now (those of the guides given, until a part)."""
         return self._state.groups
+
+    @property
+    def attributes(self) -> Attributes:
+        """The guides' own attributes now (a new object after a stroke that changed
+        them: cut, length, add, delete)."""
+        return self._state.attributes
 
     @property
     def points(self) -> np.ndarray:
@@ -254,6 +265,7 @@ class GuideEditor:
         lengths = brushes.segment_lengths(points)
         normals = self._root_frames.normal[which]
         touched = np.zeros(len(which), bool)
+        attributes = s.attributes
         reach = np.empty(points.shape[:2])
         depth = np.empty(points.shape[:2])
         w, h = view.size
@@ -277,14 +289,17 @@ class GuideEditor:
                 step = np.linalg.norm(dabs[min(k + 1, len(dabs) - 1)] - dabs[k]) / radius
                 grow = 1.0 + strength * reach.max(axis=1) * (step if len(dabs) > 1 else 1.0)
                 total = lengths[hit].sum(axis=1)
-                points[hit] = brushes.resized(points[hit], total * np.maximum(grow[hit], 0.0))
+                points[hit], row, share = brushes.resized(
+                    points[hit], total * np.maximum(grow[hit], 0.0)
+                )
+                attributes = attributes.resized(which[hit], row, share)
                 lengths = brushes.segment_lengths(points)
             brushes.follow(points, lengths, self._skin, self._clearance, hits)
         changed = which[touched]
         if len(changed):
             edited = s.points.copy()
             edited[which] = points
-            self._commit(_State(edited, s.triangles, s.bary, s.groups))
+            self._commit(_State(edited, s.triangles, s.bary, s.groups, attributes))
         return changed
 
     def _cut(self, view: _View, line: np.ndarray) -> np.ndarray:
@@ -294,8 +309,9 @@ class GuideEditor:
         changed = np.flatnonzero(np.isfinite(at))
         if len(changed):
             points = s.points.copy()
-            points[changed] = brushes.resized(points[changed], at[changed])
-            self._commit(_State(points, s.triangles, s.bary, s.groups))
+            points[changed], row, share = brushes.resized(points[changed], at[changed])
+            attributes = s.attributes.resized(changed, row, share)
+            self._commit(_State(points, s.triangles, s.bary, s.groups, attributes))
         return changed
 
     def _delete(self, view: _View, line: np.ndarray, radius: float) -> np.ndarray:
@@ -311,7 +327,15 @@ class GuideEditor:
             raise InputError("delete: the stroke would remove every guide; keep at least one")
         if len(gone):
             keep = np.setdiff1d(np.arange(len(s.points)), gone)
-            self._commit(_State(s.points[keep], s.triangles[keep], s.bary[keep], s.groups))
+            self._commit(
+                _State(
+                    s.points[keep],
+                    s.triangles[keep],
+                    s.bary[keep],
+                    s.groups,
+                    s.attributes.rows(keep),
+                )
+            )
         return gone
 
     def _add(self, view: _View, dabs: np.ndarray) -> np.ndarray:
@@ -335,7 +359,7 @@ class GuideEditor:
         new = frame.position[:, None] + np.einsum("nva,nak->nvk", shape, _axes(frame))
         # the blend's segments are shorter than its neighbours' where they point apart
         target = np.einsum("nk,nk->n", weight, brushes.segment_lengths(s.points)[near].sum(2))
-        new = brushes.resized(new, target)
+        new, row, share = brushes.resized(new, target)
         brushes.follow(new, brushes.segment_lengths(new), self._skin, self._clearance)
         self._commit(
             _State(
@@ -343,6 +367,7 @@ class GuideEditor:
                 np.concatenate([s.triangles, triangles]),
                 np.concatenate([s.bary, bary]),
                 s.groups,
+                s.attributes.added(near, weight, row, share),
             )
         )
         return np.arange(len(s.points), len(s.points) + len(new))
@@ -392,7 +417,7 @@ class GuideEditor:
                 sub[:, 1:] += scale[..., None] * way[:, None, :]
                 brushes.follow(sub, lengths, self._skin, self._clearance)
             points[which] = sub
-        self._commit(_State(points, s.triangles, s.bary, groups or s.groups))
+        self._commit(_State(points, s.triangles, s.bary, groups or s.groups, s.attributes))
         return which
 
     def _parted_groups(self, view: _View, line: np.ndarray, radius: float):

@@ -217,7 +217,7 @@ def puff(points: np.ndarray, weight: np.ndarray, normals: np.ndarray, which: np.
 
 
 @kernel
-def _resized(points, lengths, out):
+def _resized(points, lengths, out, row, share):
     s, v = points.shape[:2]
     arc = np.empty(v)
     for g in range(s):
@@ -234,22 +234,29 @@ def _resized(points, lengths, out):
                 out[g, k, 0] = points[g, v - 1, 0] + extra * tx
                 out[g, k, 1] = points[g, v - 1, 1] + extra * ty
                 out[g, k, 2] = points[g, v - 1, 2] + extra * tz
+                row[g, k], share[g, k] = v - 2, 1.0  # the tip's own
                 continue
             while j + 1 < v - 1 and arc[j + 1] <= at:
                 j += 1
             span = arc[j + 1] - arc[j]
             f = (at - arc[j]) / span if span > 0.0 else 0.0
+            row[g, k], share[g, k] = j, f
             for c in range(3):
                 out[g, k, c] = points[g, j, c] + f * (points[g, j + 1, c] - points[g, j, c])
 
 
-def resized(points: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+def resized(points: np.ndarray, lengths: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each guide (V vertices) cut or extended to ``lengths`` (S,) metres (at least
     :data:`MIN_LENGTH`) and resampled to V vertices evenly spaced by arc length: cut
-    where its arc length reaches the new length, extended along its tip direction."""
+    where its arc length reaches the new length, extended along its tip direction.
+    Returns the points and where each new vertex lies on the old guide: between
+    vertices ``row`` and ``row + 1`` (S, V) at ``share`` (0..1) of the way, the tip
+    for a vertex past it — what carries the guide's point attributes along."""
     out = np.empty_like(points)
-    _resized(np.ascontiguousarray(points), np.asarray(lengths, np.float64), out)
-    return out
+    row = np.empty(points.shape[:2], np.int64)
+    share = np.empty(points.shape[:2], np.float64)
+    _resized(np.ascontiguousarray(points), np.asarray(lengths, np.float64), out, row, share)
+    return out, row, share
 
 
 def _crossing(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:

@@ -274,6 +274,9 @@ class Guides:
         guides' mesh in some pose, e.g. a Simulator's ``sim.pose``; None: the rest pose):
         each strand is carried to the rest pose through its root's frame, so interpolated
         hairs follow it (Šik 2012 §2.2.4: hairs blend root-local shapes).
+        The guides' point attributes come along resampled to the N vertices by arc length
+        (:meth:`point_attribute`, in their own type), their curve attributes as they are: a
+        settled guide keeps the colour the file gave it (``[groom].inherit``).
         """
         x = np.asarray(positions, dtype=np.float64)
         if x.ndim != 3 or x.shape[0] != self.count or x.shape[1] < 2 or x.shape[2] != 3:
@@ -294,8 +297,14 @@ class Guides:
         rest = np.stack([self.tangents, self.binormals, self.normals], axis=1)
         local = np.einsum("sna,ska->snk", x - cur.position[:, None], now)
         shapes = self.root_positions[:, None] + np.einsum("snk,ska->sna", local, rest)
-        data = {"root_triangle": self.triangles, "root_bary": self.bary}
-        return Guides(HairCurves.from_array(shapes, curve_data=data), self.mesh, groups=self.groups)
+        n = x.shape[1]
+        point = {
+            name: self.point_attribute(name, n).astype(values.dtype).reshape(-1, *values.shape[1:])
+            for name, values in self.curves.point_data.items()
+        }
+        data = {**self.curves.curve_data, "root_triangle": self.triangles, "root_bary": self.bary}
+        curves = HairCurves.from_array(shapes, point, data)
+        return Guides(curves, self.mesh, groups=self.groups)
 
     @property
     def count(self) -> int:

@@ -16,7 +16,7 @@ from ..curves import HairCurves
 from ..editing.editor import GuideEditor
 from ..errors import FollicleError, InputError
 from ..groom.brushes import BRUSHES
-from ..pipeline import framed_camera, groom_scene
+from ..pipeline import framed_camera, groom_inputs, groom_scene
 from ..render import Camera, CpuRenderer, Renderer, default_lights, make_renderer, save_png
 from ..render.options import parse_size
 from ..render.settings import RenderParams, light_table
@@ -29,6 +29,7 @@ from .controls import check_key
 from .gust import Gust, GustySimulator
 from .overlay import background, drawable, guide_curves, volume_overlay
 from .scenefile import save_scene
+from .settling import Settling
 
 __all__ = ["Controller", "Show", "QUALITIES"]
 
@@ -102,7 +103,10 @@ class Controller:
         self._fast: tuple[RenderParams, RenderParams] | None = None  # [render], fast's copy
         self._quality = "full"
         self.quality = quality
-        self.groom = groom_scene(scene)
+        self._inputs = groom_inputs(scene)  # the guides settled, as `follicle render` has them
+        self._settling: Settling | None = None  # the inputs made again after a change
+        self.status = ""  # what goes on in the background, for the panel
+        self.groom = groom_scene(scene, self._inputs)
         self.mesh = self.groom.mesh
         p = scene.sim
         self.pivot = motion_pivot(self.mesh, p.motion_pivot)
@@ -133,7 +137,16 @@ class Controller:
     def set_param(self, section: str, key: str, value: object) -> None:
         """Set scene key ``[section].key``: [sim] applies on the next step (keys that
         shape the model, e.g. ``vertices``, restart the simulation), [groom] regrows the
-        displayed hair, [render] the next frame. ConfigError names a bad key or value."""
+        displayed hair, [render] the next frame. ConfigError names a bad key or value.
+
+        A change of a key the groom's inputs come from — with ``[groom].settle`` > 0 the
+        settle seconds and the [sim] dynamics that settle the guides, and the density
+        and groups — reads and settles them again in the background
+        (:mod:`~follicle.view.settling`, as ``follicle render`` would for the scene now):
+        meanwhile :attr:`status` says so and the pose before stays; once done the
+        groom and the simulation rest on the new guides (hand strokes replayed on
+        them), from time 0, on the next :meth:`step_frame` (:meth:`wait_settled`
+        waits for it)."""
         check_key(section, key)
         new = getattr(self.scene, section).replace("viewer", **{key: value})
         self.scene = self.scene.replace(**{section: new})
@@ -149,6 +162,73 @@ class Controller:
         elif key in ("eye", "target", "fov"):
             self.camera = self._frame_camera()
         self.image = None
+        if section != "render":
+            self._resettle()
+
+    # ------------------------------------------------------------------ settling
+    def _resettle(self) -> None:
+        """Start making the groom's inputs again when the scene's keys no longer give
+        those in use (a job under way for an older scene is dropped)."""
+        if self._settling is not None:
+            self._settling.cancel()
+            self._settling = None
+        if self._inputs.made_for(self.scene):
+            self.status = ""
+            return
+        self._settling = Settling(self.scene, self._inputs, self._strokes())
+        self._status(self._settling)
+
+    def _status(self, job: Settling) -> None:
+        seconds = self.scene.groom.settle
+        what = f"settling the guides ({seconds:g} s)" if seconds > 0 else "reading the guides"
+        self.status = f"{what}: {100 * job.share:.0f} %; the pose before is shown until then"
+
+    def _strokes(self) -> list[dict[str, object]]:
+        return [] if self._editor is None else self._editor.log
+
+    @property
+    def settling(self) -> bool:
+        """Whether the groom's inputs are being made again (:meth:`set_param`)."""
+        return self._settling is not None
+
+    def wait_settled(self, timeout: float | None = None) -> bool:
+        """Wait (at most ``timeout`` s) until the groom rests on the inputs of the scene
+        as it is now (:meth:`set_param`); whether it does."""
+        while self._settling is not None:
+            if not self._settling.join(timeout):
+                return False
+            self._poll()
+        return True
+
+    def _poll(self) -> None:
+        """Take the background job's inputs once it has finished (not in the middle of
+        a stroke): the groom, the simulation and the editor rest on them, from time 0.
+        A job whose strokes are not the editor's now is run again."""
+        job = self._settling
+        if job is None or self._stroke is not None:
+            return
+        if not job.finished:
+            self._status(job)
+            return
+        self._settling = None
+        try:
+            result = job.result()
+        except FollicleError as exc:
+            self.status = f"the guides were not settled again: {exc}"
+            return
+        if result is None:
+            return
+        if job.log != self._strokes():  # strokes made meanwhile: replay them too
+            self._resettle()
+            return
+        inputs, editor = result
+        groom = groom_scene(self.scene, inputs)
+        self._inputs, self._editor = inputs, editor
+        self.groom = groom if editor is None else groom.with_guides(editor.guides)
+        self.sim = GustySimulator(self.groom.guides, self.scene.sim, self.gusts)
+        self._preview, self._grown, self._changed = False, None, []
+        self.status = ""
+        self.reset()
 
     def get_param(self, section: str, key: str) -> object:
         """The current value of ``[section].key``."""
@@ -360,15 +440,17 @@ class Controller:
         if self.brush != "length":
             strength = min(max(strength, 0.0), 1.0)
         ed = self.editor
-        count, groups = len(ed.points), ed.groups
+        count, groups, attributes = len(ed.points), ed.groups, ed.attributes
         changed = ed.stroke(
             self.brush, path, self.camera, self.brush_radius, strength, self.size,
             join=not self._first,
         )  # fmt: skip
         self._stroke, self._first = path[1], False
         if len(changed):
-            if len(ed.points) != count or ed.groups is not groups:
-                self.groom = self.groom.with_guides(ed.guides)  # new roots or groups
+            inherits = self.groom.params.inherit and ed.attributes is not attributes
+            if len(ed.points) != count or ed.groups is not groups or inherits:
+                # new roots or groups, or the hairs' inherited values cut or lengthened
+                self.groom = self.groom.with_guides(ed.guides)
                 self._grown = None  # other guides: every hair grows again
             self._changed.append(changed)
             self._preview = True
@@ -467,6 +549,7 @@ class Controller:
         """One frame of the viewer: a step when playing, then the render, recorded when
         :meth:`start_recording` is on."""
         start = time.perf_counter()
+        self._poll()
         if self.playing:
             self.step()
         image = self.draw()
@@ -537,7 +620,10 @@ class Controller:
 
     def release(self) -> None:
         """Free the renderer (a new one is made on the next draw) and drop an unfinished
-        recording (its file removed): the end of a viewer session."""
+        recording (its file removed) and a settle going on: the end of a viewer session."""
+        if self._settling is not None:
+            self._settling.cancel()
+            self._settling = None
         if self._video is not None:
             self._video.abort()
             self._video = None

@@ -34,7 +34,8 @@ def _f(key: str, lo: float = 0.0, hi: float = 1.0) -> Control:
 
 
 # Per section, in panel order. [sim] keys apply on the next step; [groom] keys regrow the
-# displayed hair; [render] keys apply on the next frame.
+# displayed hair; [render] keys apply on the next frame. With [groom].settle > 0, a change
+# of it or of the [sim] dynamics settles the guides again in the background.
 CONTROLS: dict[str, tuple[Control, ...]] = {
     "sim": (
         Control("solver", "choice"),
@@ -72,6 +73,7 @@ CONTROLS: dict[str, tuple[Control, ...]] = {
         Control("tip_color", "color"),
         _f("root_width", 1e-6, 4e-4),
         _f("tip_width", 1e-6, 4e-4),
+        _f("settle", 0.0, 10.0),
     ),
     "render": (
         Control("shading", "choice"),

@@ -105,6 +105,8 @@ class Panel:
             self._act(ctl.gust)
         if self.message:
             imgui.text_colored((1.0, 0.4, 0.3, 1.0), self.message)
+        if ctl.status:  # a settle going on in the background
+            imgui.text_colored((1.0, 0.8, 0.3, 1.0), ctl.status)
         if self.note:
             imgui.text_disabled(self.note)
         self._files(ctl)
