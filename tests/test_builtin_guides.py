@@ -177,8 +177,9 @@ def test_guides_stay_outside_the_bust_mesh(bust, name):
 def test_hair_grown_from_them_stays_outside_the_bust(bust, name):
     """20,000 hairs grown from each set, unsettled, against the exact mesh surface.
     Before, long hairs from the front hairline ended 12 mm inside the shoulders (their
-    guides' shapes turned into the hairs' root frames, 9-10° apart there); now hairs
-    rooted beyond the outermost guides at the temples still end up to 3.5 mm inside the
-    shoulders, and short hairs 2 mm inside the ears: ``[groom].settle`` rests them."""
+    guides' shapes turned into the hairs' root frames, 9° apart there, swing 30 cm tips
+    by centimetres); combed aside now, they miss them. Hairs rooted beyond the outermost
+    guides at the temples still end up to 3.5 mm inside the shoulders, and short hairs
+    2 mm inside the ears: ``[groom].settle`` rests them."""
     hair = follicle.Groom(bust, follicle.load_guides(f"builtin:{name}", bust)).generate(20000)
     assert skin_distance(bust, hair.points, bust_signed_distance).min() > -0.004

@@ -15,7 +15,6 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..curves import HairCurves
 from ..errors import InputError
@@ -51,8 +50,6 @@ _COUNT = 300
 _CLEARANCE = 0.003  # m kept between hair and head
 _MIN_DENSITY = 0.5
 _FACE_DEPTH = 0.1  # m in front of the head's centre where the side comb is strongest
-_FIT_NEIGHBOURS = 4  # guides whose root normals a guide is turned towards (_keep_hairs_out)
-_FIT_ROUNDS = 3
 
 SDF = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 # the built-in meshes with an analytic signed distance; their head centre is the origin
@@ -232,49 +229,6 @@ def _follow(targets: np.ndarray, sdf: SDF, clear: float) -> np.ndarray:
     return out
 
 
-def _turn(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(C, n, 3) vectors ``x`` turned about ``a`` × ``b`` by the angle from unit ``a`` to
-    unit ``b`` (C, 3) (Rodrigues' rotation formula)."""
-    axis = np.cross(a, b)
-    angle = np.arctan2(np.linalg.norm(axis, axis=1), np.sum(a * b, axis=1))
-    k = normalize(axis)[:, None]
-    c, s = np.cos(angle)[:, None, None], np.sin(angle)[:, None, None]
-    return x * c + np.cross(k, x) * s + k * np.sum(k * x, axis=2, keepdims=True) * (1.0 - c)
-
-
-def _keep_hairs_out(
-    strands: np.ndarray, roots: np.ndarray, normals: np.ndarray, sdf: SDF, clear: float
-) -> np.ndarray:
-    """Guides pushed off the skin so far that the hairs grown between them stay out too.
-
-    A hair takes its guides' shapes in its own root frame (Šik 2012 §2.2.4), so a guide's
-    shape is turned by the angle between its root normal and the hair's, which swings a
-    vertex r from the root by about r·sin(angle): centimetres at the tips of long hair
-    lying on the shoulders, where the skin's curvature at the hairline turns the frames
-    of neighbouring roots by 10–20°. Each guide is turned onto the root normal of each of
-    its nearest guides; where a turned vertex comes nearer the skin than ``clear``, the
-    guide's vertex moves out by the shortfall, and the strand is followed again with
-    equal segments. (Hairs beyond the outermost guides at the hairline still turn
-    further; their tips can end a few mm inside: ``[groom].settle`` rests them.)
-    """
-    k = min(_FIT_NEIGHBOURS + 1, len(roots))
-    near = cKDTree(roots).query(roots, k)[1][:, 1:]
-    for _ in range(_FIT_ROUNDS):
-        rel = strands - roots[:, None]
-        short = np.zeros(strands.shape[:2])
-        for j in range(near.shape[1]):
-            turned = roots[:, None] + _turn(rel, normals, normals[near[:, j]])
-            dist, _ = sdf(turned.reshape(-1, 3))
-            short = np.maximum(short, clear - dist.reshape(short.shape))
-        short[:, 0] = 0.0  # roots stay on the skin
-        if not (short > 0).any():
-            break
-        _, out = sdf(strands.reshape(-1, 3))
-        strands = strands + np.maximum(short, 0.0)[:, :, None] * out.reshape(strands.shape)
-        strands = _follow(strands, sdf, clear)
-    return strands
-
-
 def builtin_guides(name: str, mesh: SkinMesh | None = None, count: int = _COUNT) -> HairCurves:
     """Built-in guides 'long', 'short' or 'curly' (``count``, default 300) on ``mesh``.
 
@@ -304,7 +258,6 @@ def builtin_guides(name: str, mesh: SkinMesh | None = None, count: int = _COUNT)
     else:
         path = _march(surf.position, surf.normal, style, sdf, centre, _CLEARANCE, length)
         strands = _follow(path, sdf, _CLEARANCE)
-    strands = _keep_hairs_out(strands, surf.position, surf.normal, sdf, _CLEARANCE)
     curve_data = {
         "root_triangle": tri.astype(np.int64),
         "root_bary": bary.astype(np.float32),
