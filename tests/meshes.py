@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from follicle.mesh.skin import SkinMesh
@@ -35,3 +37,18 @@ def winding_number(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
         )
         out[i] = 2.0 * np.arctan2(det, den).sum() / (4 * np.pi)
     return out
+
+
+def skin_distance(mesh: SkinMesh, points: np.ndarray, rough: Callable[[np.ndarray], np.ndarray]):
+    """Signed distance (m, negative inside) from ``points`` to ``mesh``'s rest surface:
+    exact closest points, signed by the interpolated normal there, for the points that
+    ``rough`` (an approximate signed distance, e.g. the built-in mesh's field) puts
+    within 1 cm of the skin; ``rough`` itself for the rest."""
+    p = np.asarray(points, np.float64)
+    d = np.asarray(rough(p), np.float64).copy()
+    near = np.flatnonzero(d < 0.01)
+    tri, bary, dist = mesh.closest_points(p[near])
+    surf = mesh.evaluate(tri, np.clip(bary, 0.0, 1.0))
+    outside = np.sum((p[near] - surf.position) * surf.normal, axis=1) >= 0.0
+    d[near] = np.where(outside, dist, -dist)
+    return d

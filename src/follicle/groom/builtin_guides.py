@@ -49,6 +49,7 @@ BUILTIN_GUIDES = {
 _COUNT = 300
 _CLEARANCE = 0.003  # m kept between hair and head
 _MIN_DENSITY = 0.5
+_FACE_DEPTH = 0.1  # m in front of the head's centre where the side comb is strongest
 
 SDF = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 # the built-in meshes with an analytic signed distance; their head centre is the origin
@@ -110,8 +111,11 @@ def _analytic_sdf(mesh: SkinMesh) -> SDF | None:
     return None
 
 
-def _push_out(p: np.ndarray, prev: np.ndarray, seg: np.ndarray, sdf: SDF, clear: float):
-    """Move points closer than ``clear`` to the head out, keeping |p - prev| = seg (C, 1)."""
+def _push_out(
+    p: np.ndarray, prev: np.ndarray, seg: np.ndarray, sdf: SDF, clear: float | np.ndarray
+):
+    """Move points closer than ``clear`` (a number or (C,)) to the head out, keeping
+    |p - prev| = seg (C, 1)."""
     for _ in range(4):
         dist, normal = sdf(p)
         inside = dist < clear
@@ -127,9 +131,13 @@ def _comb_field(p: np.ndarray, centre: np.ndarray, parting_side: np.ndarray) -> 
 
     ``parting_side`` (C,) ±1 is the side of the parting each strand's root is on; the
     strand is combed at least half strength towards it, so one rooted on the parting line
-    itself does not slide straight down a steep forehead over the face.
+    itself does not slide straight down a steep forehead over the face. In front of the
+    head's centre (the face looks towards +Z) the side comb grows, up to three times at
+    :data:`_FACE_DEPTH`: hair from the front hairline is combed aside, clear of the
+    eyes, rather than falling down the face with gravity.
     """
     side = parting_side * np.maximum(np.tanh((p[:, 0] - centre[0]) / 0.015) * parting_side, 0.5)
+    side = side * (1.0 + 2.0 * np.clip((p[:, 2] - centre[2]) / _FACE_DEPTH, 0.0, 1.0))
     return np.stack([0.6 * side, np.zeros(len(p)), -0.5 * np.ones(len(p))], axis=1)
 
 
@@ -158,14 +166,15 @@ def _march(
     d = normalize(style.lift * normals + _comb_field(roots, centre, parting_side) + 0.5 * down)
     for i in range(1, count):
         prev = out[:, i - 1]
+        clear_i = clear + _helix_radius(style, i * seg[:, 0])
         dist, n_s = sdf(prev)
         want = style.gravity * down + style.comb * _comb_field(prev, centre, parting_side)
         hug = np.ones(len(prev)) if style.hug_all else np.clip(3.0 * n_s[:, 1], 0.0, 1.0)
-        hug = hug * (dist < clear + 0.02)
+        hug = hug * (dist < clear_i + 0.02)
         outward = np.maximum(np.sum(want * n_s, axis=1), 0.0)
         want = normalize(want - (hug * outward)[:, None] * n_s)
         d = normalize((1.0 - style.bend) * d + style.bend * want)
-        nxt = _push_out(prev + seg * d, prev, seg, sdf, clear)
+        nxt = _push_out(prev + seg * d, prev, seg, sdf, clear_i)
         d = normalize(nxt - prev)
         out[:, i] = nxt
     return out
@@ -187,6 +196,12 @@ def _transport_frames(path: np.ndarray, normal0: np.ndarray) -> tuple[np.ndarray
     return nvec, np.cross(tangent, nvec)
 
 
+def _helix_radius(style: _Style, arc: np.ndarray) -> np.ndarray:
+    """The curl's radius at arc length ``arc`` (m) along its axis: none at the root,
+    growing in over the first 3 cm."""
+    return style.curl_radius * np.clip(arc / 0.03, 0.0, 1.0) ** 2
+
+
 def _curl(path: np.ndarray, normal0: np.ndarray, style: _Style, phase: np.ndarray) -> np.ndarray:
     """Helix of ``curl_radius`` around the path (Almeida 2014 §3.1.2), growing in over the
     first 3 cm."""
@@ -194,7 +209,7 @@ def _curl(path: np.ndarray, normal0: np.ndarray, style: _Style, phase: np.ndarra
         [np.zeros((len(path), 1)), np.cumsum(np.linalg.norm(np.diff(path, axis=1), axis=2), 1)],
         axis=1,
     )
-    radius = style.curl_radius * np.clip(arc / 0.03, 0.0, 1.0) ** 2
+    radius = _helix_radius(style, arc)
     angle = 2 * np.pi * style.curl_turns * arc / arc[:, -1:] + phase[:, None]
     nv, bv = _transport_frames(path, normal0)
     offset = np.cos(angle)[:, :, None] * nv + np.sin(angle)[:, :, None] * bv
@@ -237,8 +252,7 @@ def builtin_guides(name: str, mesh: SkinMesh | None = None, count: int = _COUNT)
     rng = np.random.default_rng(20240601)  # fixed: the built-in sets never change
     length = style.length * (1.0 + 0.1 * rng.uniform(-1.0, 1.0, size=len(tri)))
     if style.curl_radius > 0:
-        axis_clear = style.curl_radius + _CLEARANCE
-        path = _march(surf.position, surf.normal, style, sdf, centre, axis_clear, length)
+        path = _march(surf.position, surf.normal, style, sdf, centre, _CLEARANCE, length)
         phase = rng.uniform(0.0, 2 * np.pi, size=len(tri))
         strands = _follow(_curl(path, surf.tangent, style, phase), sdf, _CLEARANCE)
     else:
