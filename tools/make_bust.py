@@ -256,7 +256,7 @@ def pictures(folder: Path) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--voxel", type=float, default=0.0014)
-    ap.add_argument("--triangles", type=int, default=34000)
+    ap.add_argument("--triangles", type=int, default=37000)
     ap.add_argument("--pictures", type=Path, default=None)
     ap.add_argument("--no-mesh", action="store_true", help="only render the pictures")
     ap.add_argument(
