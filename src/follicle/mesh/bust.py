@@ -92,7 +92,7 @@ _PRIMITIVES: tuple[tuple[str, str, tuple, float, bool], ...] = (
     ("add", "ell", ((0.0, -0.060, 0.018), (0.055, 0.048, 0.062)), 0.02, False),
     ("add", "cap", ((0.048, -0.052, -0.012), (0.020, -0.094, 0.056), 0.015), 0.03, True),
     ("add", "ell", ((0.0, -0.093, 0.070), (0.023, 0.019, 0.021)), 0.02, False),
-    ("add", "ell", ((0.0, -0.054, 0.066), (0.030, 0.028, 0.026)), 0.018, False),
+    ("add", "ell", ((0.0, -0.054, 0.068), (0.030, 0.028, 0.026)), 0.018, False),
     # eyes: shallow sockets, the eyeball under closed lids (upper and lower), soft brows
     ("sub", "ell", ((0.032, 0.012, 0.096), (0.015, 0.0080, 0.011)), 0.014, True),
     ("add", "ell", ((0.032, 0.0100, 0.0725), (0.0145, 0.0125, 0.0135)), 0.003, True),
@@ -103,16 +103,17 @@ _PRIMITIVES: tuple[tuple[str, str, tuple, float, bool], ...] = (
     ("add", "ell", ((0.0, -0.027, 0.101), (0.0092, 0.0085, 0.0090)), 0.006, False),
     ("add", "ell", ((0.0110, -0.031, 0.095), (0.0075, 0.0065, 0.0070)), 0.006, True),
     ("sub", "ell", ((0.0065, -0.0375, 0.0970), (0.0028, 0.0018, 0.0035)), 0.002, True),
-    # lips: upper, lower, the corners of the mouth
-    ("add", "ell", ((0.0, -0.0535, 0.0940), (0.0200, 0.0068, 0.0090)), 0.004, False),
-    ("add", "ell", ((0.0, -0.0640, 0.0915), (0.0175, 0.0075, 0.0095)), 0.004, False),
+    # lips: upper, lower, the line between them, the corners of the mouth
+    ("add", "ell", ((0.0, -0.0535, 0.0915), (0.0200, 0.0068, 0.0090)), 0.006, False),
+    ("add", "ell", ((0.0, -0.0640, 0.0895), (0.0175, 0.0075, 0.0095)), 0.006, False),
+    ("sub", "ell", ((0.006, -0.0598, 0.0990), (0.0150, 0.0014, 0.0035), (0.0, 14.0)), 0.002, True),
     ("sub", "ell", ((0.0215, -0.0595, 0.0920), (0.0025, 0.0018, 0.0040)), 0.003, True),
     # ears: the flap, a fleshy lobe, the tragus; the scapha and fossa carved behind the
     # helix rim, the antihelix ridge and its upper branch, the concha bowl in front
     ("add", "ell", EAR, 0.006, True),
     ("add", "ell", (_on_ear((0.0008, -0.024, 0.003)), (0.0055, 0.009, 0.008), _TILT), 0.004, True),
     ("add", "ell", (_on_ear((0.003, -0.008, 0.0145)), (0.003, 0.0045, 0.003), _TILT), 0.003, True),
-    ("sub", "ell", (_on_ear((0.008, 0.003, -0.001)), (0.0042, 0.0255, 0.0145), _TILT), 0.002, True),
+    ("sub", "ell", (_on_ear((0.008, 0.003, -0.001)), (0.0042, 0.0255, 0.0145), _TILT), 0.003, True),
     (
         "add",
         "cap",
@@ -131,7 +132,7 @@ _PRIMITIVES: tuple[tuple[str, str, tuple, float, bool], ...] = (
         "sub",
         "ell",
         (_on_ear((0.0062, -0.007, 0.004)), (0.0048, 0.0085, 0.0068), _TILT),
-        0.002,
+        0.003,
         True,
     ),
     # neck and its muscles
