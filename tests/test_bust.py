@@ -6,6 +6,7 @@ built-in guides grown on it."""
 from __future__ import annotations
 
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ import trimesh
 
 import follicle
 from follicle.groom.generator import load_texture
-from follicle.mesh.bust import BUST_DATA, bust_inside, bust_signed_distance
+from follicle.mesh.bust import BUST_DATA, UV_CENTRE, bust_inside, bust_signed_distance
 from follicle.mesh.head import PARTING_TEXTURE, SCALP_TEXTURE
 from meshes import winding_number
 
@@ -162,3 +163,28 @@ def test_no_hair_grows_on_or_beside_the_ears(bust):
     assert ear_distance(roots).min() >= 0.0095  # a root's interpolation, half a texel
     density = bust.textures[SCALP_TEXTURE].sample(bust.uvs)
     assert density[ear_distance(bust.rest_vertices) < 0.010].max() < 0.01  # bilinear taps
+
+
+def test_the_hair_bearing_scalp_keeps_its_surface():
+    """The face and ears may be remodelled, the scalp may not: guide roots, the shipped
+    hand-groomed guides and the settled demo sit on it. ``data/bust_scalp_radius.npz``
+    holds, for each scalp-map texel with density > 0, where the bust of commit 40444bc
+    (before the face was remodelled) met the texel's ray from the UV centre: the distance
+    along the ray in 10 µm steps, each row stored as differences along it (0 off the
+    scalp). The ray follows the UV map's definition (u the angle from +X over π,
+    v = 1/2 + atan2(z, y) / 2π). Every such point must lie within 0.5 mm of today's bust,
+    by its signed distance; and every texel the shipped scalp map gives hair has one."""
+    with np.load(Path(__file__).parent / "data" / "bust_scalp_radius.npz") as data:
+        radius = np.cumsum(data["radius_steps"], axis=1, dtype=np.int64) * 1e-5
+    with np.load(resources.files("follicle.mesh").joinpath(BUST_DATA)) as data:
+        hair = data["scalp"] > 0.0
+    n = len(hair)
+    assert radius.shape == (n, n) and hair.sum() > 20_000
+    assert np.all(radius[hair] > 0.0)  # no hair where the old bust had none
+    c = (np.arange(n) + 0.5) / n
+    u = np.broadcast_to(c[None, :], (n, n))[hair]
+    v = np.broadcast_to(1.0 - c[:, None], (n, n))[hair]  # rows run from v = 1 down
+    a, phi = np.pi * u, 2.0 * np.pi * (v - 0.5)
+    ray = np.stack([np.cos(a), np.sin(a) * np.cos(phi), np.sin(a) * np.sin(phi)], axis=1)
+    before = np.asarray(UV_CENTRE) + radius[hair][:, None] * ray
+    assert np.abs(bust_signed_distance(before)).max() < 0.0005

@@ -9,6 +9,14 @@ quadric decimation), lays out UVs and bakes the scalp map into ``data/bust.npz``
 :func:`builtin_bust` loads; :func:`bust_signed_distance_and_normal` evaluates the same
 field for combing guides.
 
+The face is a calm, neutral mannequin's: soft brows over shallow sockets, closed eyes (an
+upper lid over the eyeball and a lower lid, meeting in the lash line), cheekbones and
+full cheeks, a soft jaw and chin, a nose with its tip, wings and nostrils, slightly full
+lips with the corners of the mouth. Each ear is a tilted flap with a fleshy lobe and a
+tragus; the scapha and fossa are carved behind its helix rim, with the antihelix ridge
+and its upper branch standing in them and the concha bowl in front. Hair grows only on
+the scalp, which none of these parts reach.
+
 UVs: a spherical map about :data:`UV_CENTRE`, the head's centre on the line through the
 ears, with its poles in the ears (``u`` is the angle from +X over π) and its seam
 straight below the head (``v = 1/2 + atan2(z, y) / 2π`` about the centre: the crown at
@@ -48,6 +56,24 @@ UV_CENTRE = (0.0, -0.004, -0.012)  # centre of the UV map: its poles are in the 
 _CUT_SOFT = 0.006  # rounding of the cut's edge (m)
 # the right ear's flap: an ellipsoid (centre, semi-axes, (pitch, yaw)), mirrored for the left
 EAR = ((0.078, 0.0, -0.016), (0.0065, 0.031, 0.018), (-14.0, -22.0))
+_TILT = EAR[2]
+
+
+def _rotation(pitch: float, yaw: float) -> np.ndarray:
+    """The turn of a primitive by pitch about +X, then yaw about +Y: its columns are the
+    primitive's local axes in world coordinates."""
+    a, b = np.radians(pitch), np.radians(yaw)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+    ry = np.array([[np.cos(b), 0.0, np.sin(b)], [0.0, 1.0, 0.0], [-np.sin(b), 0.0, np.cos(b)]])
+    return ry @ rx
+
+
+def _on_ear(offset: tuple[float, float, float]) -> tuple[float, ...]:
+    """A point given in the right ear's flap frame (out, up, forwards from the centre of
+    :data:`EAR`) in world coordinates, so the ear's parts turn with the flap."""
+    centre, _, angles = EAR
+    return tuple(np.round(np.asarray(centre) + _rotation(*angles) @ np.asarray(offset), 6))
+
 
 # One primitive per row, applied in order: ("add" | "sub", shape, parameters, blend k in
 # metres, mirrored). A mirrored primitive is written for x > 0 and evaluated at |x|, so a
@@ -59,35 +85,56 @@ _PRIMITIVES: tuple[tuple[str, str, tuple, float, bool], ...] = (
     ("add", "ell", ((0.0, 0.018, -0.014), (0.074, 0.102, 0.097)), 0.0, False),
     ("add", "ell", ((0.0, 0.045, 0.020), (0.062, 0.075, 0.072)), 0.02, False),
     ("add", "ell", ((0.0, -0.018, 0.020), (0.063, 0.064, 0.067)), 0.02, False),
-    ("add", "ell", ((0.044, -0.008, 0.054), (0.019, 0.014, 0.020)), 0.022, True),
-    ("add", "ell", ((0.0, -0.060, 0.016), (0.053, 0.048, 0.060)), 0.02, False),
-    ("add", "cap", ((0.049, -0.056, -0.014), (0.017, -0.097, 0.060), 0.011), 0.026, True),
-    ("add", "ell", ((0.0, -0.094, 0.071), (0.021, 0.018, 0.020)), 0.016, False),
-    ("add", "ell", ((0.0, -0.056, 0.068), (0.029, 0.028, 0.025)), 0.016, False),
-    # eyes: sockets carved, closed lids (upper and lower) and the brows on top
-    ("sub", "ell", ((0.032, 0.011, 0.092), (0.017, 0.0095, 0.014)), 0.012, True),
-    ("add", "ell", ((0.032, 0.0105, 0.0715), (0.0140, 0.0115, 0.0130)), 0.004, True),
-    ("add", "ell", ((0.032, 0.0055, 0.0705), (0.0130, 0.0085, 0.0122)), 0.0025, True),
-    ("add", "ell", ((0.030, 0.030, 0.081), (0.021, 0.0065, 0.008), (0.0, 30.0)), 0.014, True),
+    # cheekbones and the fuller cheeks below them
+    ("add", "ell", ((0.040, -0.006, 0.058), (0.024, 0.016, 0.022), (0.0, 20.0)), 0.024, True),
+    ("add", "ell", ((0.037, -0.042, 0.049), (0.026, 0.028, 0.028)), 0.026, True),
+    # lower face, jaw, chin
+    ("add", "ell", ((0.0, -0.060, 0.018), (0.055, 0.048, 0.062)), 0.02, False),
+    ("add", "cap", ((0.048, -0.052, -0.012), (0.020, -0.094, 0.056), 0.015), 0.03, True),
+    ("add", "ell", ((0.0, -0.093, 0.070), (0.023, 0.019, 0.021)), 0.02, False),
+    ("add", "ell", ((0.0, -0.054, 0.068), (0.030, 0.028, 0.026)), 0.018, False),
+    # eyes: shallow sockets, the eyeball under closed lids (upper and lower), soft brows
+    ("sub", "ell", ((0.032, 0.012, 0.096), (0.015, 0.0080, 0.011)), 0.014, True),
+    ("add", "ell", ((0.032, 0.0100, 0.0725), (0.0145, 0.0125, 0.0135)), 0.003, True),
+    ("add", "ell", ((0.032, 0.0045, 0.0710), (0.0132, 0.0080, 0.0124)), 0.0025, True),
+    ("add", "ell", ((0.031, 0.030, 0.077), (0.020, 0.0050, 0.0055), (0.0, 25.0)), 0.016, True),
     # nose: bridge to tip, the tip, the wings, the nostrils
     ("add", "cone", ((0.0, 0.022, 0.088), (0.0, -0.024, 0.104), 0.0060, 0.0080), 0.01, False),
-    ("add", "ell", ((0.0, -0.027, 0.101), (0.0100, 0.0090, 0.0095)), 0.006, False),
+    ("add", "ell", ((0.0, -0.027, 0.101), (0.0092, 0.0085, 0.0090)), 0.006, False),
     ("add", "ell", ((0.0110, -0.031, 0.095), (0.0075, 0.0065, 0.0070)), 0.006, True),
-    ("sub", "ell", ((0.0065, -0.0370, 0.0980), (0.0030, 0.0020, 0.0040)), 0.002, True),
-    # lips: upper, lower, the corners of the mouth
-    ("add", "ell", ((0.0, -0.0535, 0.0920), (0.0210, 0.0055, 0.0080)), 0.004, False),
-    ("add", "ell", ((0.0, -0.0640, 0.0890), (0.0180, 0.0062, 0.0085)), 0.004, False),
-    ("sub", "ell", ((0.0235, -0.0600, 0.0900), (0.0030, 0.0030, 0.0040)), 0.004, True),
-    # ears: a tilted, flared flap with a hollow (concha) and a fossa above it
+    ("sub", "ell", ((0.0065, -0.0375, 0.0970), (0.0028, 0.0018, 0.0035)), 0.002, True),
+    # lips: upper, lower, the line between them, the corners of the mouth
+    ("add", "ell", ((0.0, -0.0535, 0.0915), (0.0200, 0.0068, 0.0090)), 0.006, False),
+    ("add", "ell", ((0.0, -0.0640, 0.0895), (0.0175, 0.0075, 0.0095)), 0.006, False),
+    ("sub", "ell", ((0.006, -0.0598, 0.0990), (0.0150, 0.0014, 0.0035), (0.0, 14.0)), 0.002, True),
+    ("sub", "ell", ((0.0215, -0.0595, 0.0920), (0.0025, 0.0018, 0.0040)), 0.003, True),
+    # ears: the flap, a fleshy lobe, the tragus; the scapha and fossa carved behind the
+    # helix rim, the antihelix ridge and its upper branch, the concha bowl in front
     ("add", "ell", EAR, 0.006, True),
+    ("add", "ell", (_on_ear((0.0008, -0.024, 0.003)), (0.0055, 0.009, 0.008), _TILT), 0.004, True),
+    ("add", "ell", (_on_ear((0.003, -0.008, 0.0145)), (0.003, 0.0045, 0.003), _TILT), 0.003, True),
+    ("sub", "ell", (_on_ear((0.008, 0.003, -0.001)), (0.0042, 0.0255, 0.0145), _TILT), 0.003, True),
     (
-        "sub",
-        "ell",
-        ((0.085, -0.006, -0.010), (0.0048, 0.0105, 0.0080), (-14.0, -22.0)),
+        "add",
+        "cap",
+        (_on_ear((0.0036, -0.012, -0.004)), _on_ear((0.0036, 0.010, -0.002)), 0.0022),
         0.003,
         True,
     ),
-    ("sub", "ell", ((0.085, 0.015, -0.018), (0.0035, 0.0090, 0.0060), (-14.0, -22.0)), 0.003, True),
+    (
+        "add",
+        "cap",
+        (_on_ear((0.0036, 0.010, -0.002)), _on_ear((0.0034, 0.016, 0.008)), 0.0018),
+        0.003,
+        True,
+    ),
+    (
+        "sub",
+        "ell",
+        (_on_ear((0.0062, -0.007, 0.004)), (0.0048, 0.0085, 0.0068), _TILT),
+        0.003,
+        True,
+    ),
     # neck and its muscles
     ("add", "cap", ((0.0, -0.050, -0.022), (0.0, -0.260, -0.006), 0.057), 0.025, False),
     ("add", "cap", ((0.045, -0.035, -0.020), (0.017, -0.205, 0.036), 0.012), 0.02, True),
@@ -107,14 +154,6 @@ def _smin(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
         return np.minimum(a, b)
     h = np.maximum(k - np.abs(a - b), 0.0) / k
     return np.minimum(a, b) - 0.25 * k * h * h
-
-
-def _rotation(pitch: float, yaw: float) -> np.ndarray:
-    """Rows: the local axes of a primitive turned by pitch about +X, then yaw about +Y."""
-    a, b = np.radians(pitch), np.radians(yaw)
-    rx = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
-    ry = np.array([[np.cos(b), 0.0, np.sin(b)], [0.0, 1.0, 0.0], [-np.sin(b), 0.0, np.cos(b)]])
-    return ry @ rx
 
 
 def _ellipsoid(p: np.ndarray, params: tuple) -> np.ndarray:
@@ -201,7 +240,7 @@ def _parting(n: int) -> Texture:
 
 
 def builtin_bust() -> SkinMesh:
-    """A new SkinMesh 'bust' (about 30k triangles, UVs, ``textures['scalp']``, its hair
+    """A new SkinMesh 'bust' (about 39k triangles, UVs, ``textures['scalp']``, its hair
     density, and ``textures['parting']``, the groups the built-in guides part along)."""
     verts, faces, uvs, scalp = _bust_arrays()
     textures = {
