@@ -4,9 +4,9 @@ For blond, brown and black melanin (0.2, 0.6, 0.95) the default groom (``--count
 hairs, 3,000 by default, ``builtin:long`` on the bust, or ``--mesh builtin:head``) is
 drawn by the CPU engine (and OpenGL through EGL with ``--opengl``), once per shading
 model of ``--shading`` (Kajiya-Kay and physical by default), and by Mitsuba (``--spp``
-samples per pixel), with the same camera, lights and background. The raster engines shade each hair with
-its melanin's colour (:func:`follicle.melanin.melanin_color`); Mitsuba's ``hair`` BSDF
-takes the pigments' absorption σ_a itself (Chiang 2016 §4.2).
+samples per pixel), with the same camera, lights and background. The raster engines
+shade each hair with its melanin's colour (:func:`follicle.melanin.melanin_color`);
+Mitsuba's ``hair`` BSDF takes the pigments' absorption σ_a itself (Chiang 2016 §4.2).
 
 Only hair pixels count: those the CPU engine draws the same over a black background and
 black skin as over a white background and white skin (the hair covers them wholly),

@@ -19,7 +19,7 @@ scene: 20,000 hairs on the built-in bust, settled; it has no melanin) is made so
 the repository root, after the Blender tests have made .venv-blender (or with any
 Python that has bpy 5.0.1):
 
-    printf '' > /tmp/default.toml   # an empty scene file: the default scene
+    printf '[groom]\nsettle = 2.0\n' > /tmp/default.toml   # the demo's scene: settled
     .venv/bin/follicle grow /tmp/default.toml --count 20000 --target blender \
         -o /tmp/groom.usdc
     .venv-blender/bin/python tests/blender_scripts/render_groom.py /tmp/groom.usdc \

@@ -288,14 +288,17 @@ class GuideEditor:
             else:  # length: a stroke one radius long changes it by strength × weight
                 step = np.linalg.norm(dabs[min(k + 1, len(dabs) - 1)] - dabs[k]) / radius
                 grow = 1.0 + strength * reach.max(axis=1) * (step if len(dabs) > 1 else 1.0)
-                total = lengths[hit].sum(axis=1)
-                points[hit], row, share = brushes.resized(
-                    points[hit], total * np.maximum(grow[hit], 0.0)
+                sized = hit & (grow != 1.0)  # the last dab of a stroke: no step, no change
+                total = lengths[sized].sum(axis=1)
+                points[sized], row, share = brushes.resized(
+                    points[sized], total * np.maximum(grow[sized], 0.0)
                 )
-                attributes = attributes.resized(which[hit], row, share)
+                attributes = attributes.resized(which[sized], row, share)
                 lengths = brushes.segment_lengths(points)
             brushes.follow(points, lengths, self._skin, self._clearance, hits)
-        changed = which[touched]
+        # a guide only the stroke's last dab reached is touched but not moved (comb and
+        # length act towards the next dab): it is not reported as changed
+        changed = which[touched & (points != s.points[which]).any(axis=(1, 2))]
         if len(changed):
             edited = s.points.copy()
             edited[which] = points
