@@ -25,7 +25,7 @@ Python that has bpy 5.0.1):
     .venv-blender/bin/python tests/blender_scripts/render_groom.py /tmp/groom.usdc \
         docs/blender.png
 
-(16 samples: 102 s of rendering on two shared cores, 2026-12-06). It prints what it
+(16 samples: 20–102 s of rendering on two shared cores, 2026-12-06). It prints what it
 imported, what colours the hair, and the render time. ``melanin_render.py`` uses its
 parts (it runs this file's functions, not its ``main``).
 """
