@@ -1,5 +1,5 @@
-"""Citations name the works (README § References), never the numbers of files that are
-not in the repository ("000 §2.2", "002 eq. 5.6")."""
+"""Citations name the works (the docs' References page), never the numbers of files
+that are not in the repository ("000 §2.2", "002 eq. 5.6")."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ SEED_NUMBER = re.compile(
 
 
 def _texts() -> list[Path]:
-    found = [ROOT / "README.md"]
-    for folder in ("src", "tests", "benchmarks", "examples", "docs"):
+    found = [ROOT / "README.md", ROOT / "CHANGELOG.md", ROOT / "mkdocs.yml"]
+    for folder in ("src", "tests", "benchmarks", "examples", "docs", "tools"):
         found += [
             p
             for p in (ROOT / folder).rglob("*")
@@ -38,9 +38,9 @@ def test_no_citation_names_a_seed_file_number():
     assert not bad, "cite the work (Šik 2012, Almeida 2014, Le Muzic 2012):\n" + "\n".join(bad)
 
 
-def test_the_readme_lists_every_work_cited():
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    references = readme[readme.index("## References") :]
+def test_the_references_page_lists_every_work_cited():
+    page = (ROOT / "docs" / "explanation" / "references.md").read_text(encoding="utf-8")
+    references = page[page.index("# References") :]
     for work in WORKS:
         assert f"**{work}**" in references, work
     cited = {w for p in _texts() for w in WORKS if w in p.read_text(encoding="utf-8")}
