@@ -239,7 +239,7 @@ _TARGET_OPTION = click.option(
     type=_LazyChoice(_target_names),
     default=None,
     help="The tool the USD / Alembic file is for: its attribute names, types and units"
-    " (default [output].target, else generic; README: Formats, Targets).",
+    " (default [output].target, else generic; docs: Formats › Targets).",
 )
 _SKIN_OPTION = click.option(
     "--skin/--no-skin",
@@ -392,7 +392,7 @@ def grow(
 def groom(
     strokes_path: str, guides: str | None, mesh: str | None, out: str, groups_out: str | None
 ) -> None:
-    """Replay a stroke log (brushes on the guides, README: Grooming by hand) headless
+    """Replay a stroke log (brushes on the guides, docs: Grooming by hand) headless
     and save the guides it makes."""
     from .editing.editor import replay_file
     from .export import curve_suffixes
@@ -479,7 +479,7 @@ def export(
     a.abc b.abc -o usd/ --to .usdc.
 
     Any extension `follicle info` reads (.npz, .hair, .tfx, .obj, .usd, .abc, …) to any
-    that `follicle grow -o` writes; README § Formats says what each format keeps. A
+    that `follicle grow -o` writes; the docs' Formats page says what each format keeps. A
     simulation cache exports alone, to animated USD or Alembic.
 
     Several IN are converted one after another, or one Dask task each with --scheduler,
@@ -554,7 +554,8 @@ def _finished(paths: list, noun: str = "files") -> Callable[[], str | None]:
 @click.option("--seed", type=int, default=None, help="Override [groom].seed.")
 def export_rib(scene_path: str, out: str, voxels: int, count: int | None, seed: int | None) -> None:
     """Write a RenderMan RIB that grows the scene's hair at render time: one
-    `Procedural "RunProgram"` per voxel, run by follicle-procedural (README § Formats)."""
+    `Procedural "RunProgram"` per voxel, run by follicle-procedural (docs: Formats ›
+    Render-time procedural)."""
     from .apps.procedural import export_rib as export
     from .scene import check_outputs, load_scene, scene_with
 
@@ -943,7 +944,7 @@ def view(
     hold_fps: float | None,
 ) -> None:
     """Live viewer: the scene's hair simulated and rendered in a window, with a parameter
-    panel (README § Viewer). Needs the view extra: pip install 'follicle[view]'."""
+    panel (docs: The viewer). Needs the view extra: pip install 'follicle[view]'."""
     from .errors import InputError
     from .scene import load_scene, scene_with
     from .view import view as run_viewer

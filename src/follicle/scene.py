@@ -141,12 +141,12 @@ class OutputParams(StrictSection):
     target: Literal[TARGET_NAMES] = Field(  # type: ignore[valid-type]
         "generic",
         description="the tool USD / Alembic output is written for: its attribute"
-        " names, types and units (README: Formats, Targets)",
+        " names, types and units (docs: Formats › Targets)",
     )
     layout: Literal["file", "payloads"] = Field(
         "file",
         description="USD from `follicle grow`: one file, or a root layer with one payload"
-        " per part file in CURVES.payloads/ (README: Beyond one machine)",
+        " per part file in CURVES.payloads/ (docs: Beyond one machine)",
     )
 
 

@@ -199,7 +199,7 @@ class GroomParams(StrictSection):
     kink_tip: Length = Field(0.0, description="(map) kink amplitude at the tip, m")
     kink_frequency: Vec3 = Field((60.0, 60.0, 60.0), description="kink noise frequency, 1/m")
     root_width: Annotated[Any, _prop(gt=0.0, le=0.1)] = Field(
-        240e-6, description="(map) diameter at root, m (3× a real hair: README, Rendering)"
+        240e-6, description="(map) diameter at root, m (3× a real hair: docs, Rendering)"
     )
     tip_width: Annotated[Any, _prop(gt=0.0, le=0.1)] = Field(
         90e-6, description="(map) diameter at tip, m"

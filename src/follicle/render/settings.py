@@ -108,7 +108,7 @@ class RenderParams(StrictSection):
     )
     shading_params: dict[str, float | Vec3] = Field(
         default_factory=dict,
-        description="the model's parameters, e.g. {specular = 0.3} (README: Rendering)",
+        description="the model's parameters, e.g. {specular = 0.3} (docs: Rendering)",
     )
     shadows: bool = Field(True, description="the key light casts hair and skin shadows")
     shadow_size: int = Field(

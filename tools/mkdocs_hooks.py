@@ -1,0 +1,26 @@
+"""MkDocs hooks (``hooks:`` in mkdocs.yml): add the generated reference pages
+(``reference/scene.md``, ``reference/cli.md``, from :mod:`docs_reference`) to the site
+before the navigation is built, so the nav and the strict link check see them."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from mkdocs.config.defaults import MkDocsConfig
+from mkdocs.structure.files import File, Files
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import docs_reference  # noqa: E402  (tools/ is not a package)
+
+GENERATED = {
+    "reference/scene.md": docs_reference.scene_reference,
+    "reference/cli.md": docs_reference.cli_reference,
+}
+
+
+def on_files(files: Files, config: MkDocsConfig) -> Files:
+    """The generated pages, written fresh on every build."""
+    for path, make in GENERATED.items():
+        files.append(File.generated(config, path, content=make()))
+    return files
