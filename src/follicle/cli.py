@@ -249,7 +249,13 @@ _SKIN_OPTION = click.option(
 )
 
 
-@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(
+    cls=_Group,
+    context_settings={"help_option_names": ["-h", "--help"]},
+    epilog="Documentation: docs/ in the source repository (start at docs/index.md, or"
+    " build the site with `mkdocs serve` there); every command and scene key is in its"
+    " Reference. `follicle COMMAND --help` for one command.",
+)
 @click.option("-v", "--verbose", count=True, help="Log what happens (-vv for debug).")
 @click.version_option(package_name="follicle")
 def main(verbose: int) -> None:
