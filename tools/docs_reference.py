@@ -274,6 +274,8 @@ def _option_row(param: click.Option) -> str:
     else:
         if isinstance(param.type, click.Tuple):
             kind = " ".join(t.name.upper() for t in param.type.types)
+        elif isinstance(param.type, click.Choice):
+            kind = " \\| ".join(f"`{c}`" for c in param.type.choices)
         else:
             kind = param.metavar or param.type.name.upper()
         if param.multiple:
@@ -289,7 +291,8 @@ def _option_row(param: click.Option) -> str:
         if not isinstance(default, (tuple, list))
         else f"`{' '.join(map(str, default))}`"
     )
-    return f"| {names} | {_cell(kind)} | {shown} | {_cell(param.help or '')} |"
+    kind = kind if isinstance(param.type, click.Choice) else _cell(kind)
+    return f"| {names} | {kind} | {shown} | {_cell(param.help or '')} |"
 
 
 def cli_reference() -> str:
@@ -325,6 +328,7 @@ def cli_reference() -> str:
             out += ["Arguments: " + ", ".join(f"`{p.human_readable_name}`" for p in arguments)]
             out += [""]
         options = [p for p in command.params if isinstance(p, click.Option)]
-        out += ["| option | value | default | description |", "|---|---|---|---|"]
-        out += [_option_row(p) for p in options]
+        if options:
+            out += ["| option | value | default | description |", "|---|---|---|---|"]
+            out += [_option_row(p) for p in options]
     return "\n".join(out) + "\n"
