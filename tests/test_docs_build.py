@@ -98,3 +98,42 @@ def test_the_readme_is_short_and_starts_with_the_two_commands():
     assert lines[3].endswith("follicle demo")
     text = "\n".join(lines)
     assert not re.search(r"\bissue \d+|\blanded\b|\btarget \d", text, re.IGNORECASE), "dev log"
+
+
+def _toml_blocks() -> list[tuple[Path, str]]:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    return [
+        (page, block)
+        for page in pages
+        for block in re.findall(r"```toml\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
+    ]
+
+
+def test_the_scenes_the_docs_show_are_valid_and_name_real_keys():
+    """Each TOML block of the docs is a scene the loader takes, and each key it names in
+    a comment (`# frizz_tip = 0.01`: what a reader may set) is a key of its table."""
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - Python 3.10, as follicle.scene reads TOML there
+        import tomli as tomllib
+
+    from follicle.scene import parse_scene
+    from tools.docs_reference import scene_tables
+
+    tables = {name.strip("[]"): model for name, model in scene_tables()}
+    blocks = _toml_blocks()
+    assert len(blocks) >= 2
+    named = 0
+    for page, block in blocks:
+        parse_scene(tomllib.loads(block), source=str(page))  # ConfigError names the key
+        table = None
+        for line in block.splitlines():
+            header = re.match(r"^(?:# )?\[\[?([a-z.]+)\]\]?", line)
+            if header:
+                table = header.group(1)
+            commented = re.match(r"^# ([a-z_]+) = ", line)
+            if commented:
+                assert table in tables, (page.name, line)
+                assert commented.group(1) in tables[table].model_fields, (page.name, table, line)
+                named += 1
+    assert named >= 30
