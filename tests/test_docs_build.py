@@ -117,8 +117,9 @@ def test_the_scenes_the_docs_show_are_valid_and_name_real_keys():
     else:  # pragma: no cover - Python 3.10, as follicle.scene reads TOML there
         import tomli as tomllib
 
-    from follicle.scene import parse_scene
     from tools.docs_reference import scene_tables
+
+    from follicle.scene import parse_scene
 
     tables = {name.strip("[]"): model for name, model in scene_tables()}
     blocks = _toml_blocks()
