@@ -33,6 +33,7 @@ def test_the_docs_build_strictly_with_the_generated_reference(site: Path):
     assert "follicle export-rib" in cli
     api = (site / "reference" / "api" / "index.html").read_text(encoding="utf-8")
     assert "HairCurves" in api and "from_polylines" in api  # a method's docstring
+    assert "generate</code>" in api and not re.search(r":(meth|class|func|data):<code>", api)
     errors = (site / "reference" / "errors" / "index.html").read_text(encoding="utf-8")
     assert "ResourceError" in errors and "more memory or time" in errors
 
