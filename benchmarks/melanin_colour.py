@@ -1,8 +1,8 @@
 """Hair colour by melanin: do the raster engines and the path tracer draw the same hair?
 
-For blond, brown and black melanin (0.2, 0.6, 0.95) the default groom (``--count``
-hairs, 3,000 by default, ``builtin:long`` on the bust, or ``--mesh builtin:head``) is
-drawn by the CPU engine (and OpenGL through EGL with ``--opengl``), once per shading
+For blond, brown and black melanin (0.2, 0.6, 0.95) the demo's groom (``--count``
+hairs, 20,000 by default, ``builtin:long`` on the bust, parted, the guides settled
+``--settle`` seconds as ``follicle demo`` does; or ``--mesh builtin:head``) is drawn by the CPU engine (and OpenGL through EGL with ``--opengl``), once per shading
 model of ``--shading`` (Kajiya-Kay and physical by default), and by Mitsuba (``--spp``
 samples per pixel), with the same camera, lights and background. The raster engines
 shade each hair with its melanin's colour (:func:`follicle.melanin.melanin_color`);
@@ -18,9 +18,9 @@ averaged, then CIELAB, D65) in each engine and their CIEDE2000 difference (Sharm
 Kajiya-Kay diffuse weight K_d (default 0.6) or without shadows, against the same
 reference: how much of a difference is the raster shading's energy.
 
-Run: ``.venv/bin/python benchmarks/melanin_colour.py [--count 3000] [--size 384]
+Run: ``.venv/bin/python benchmarks/melanin_colour.py [--count 20000] [--size 384]
 [--spp 64] [--opengl] [--shading kajiya-kay physical ...] [--mesh builtin:bust]
-[--diffuse K ...] [--unshadowed]``.
+[--settle 2] [--diffuse K ...] [--unshadowed]``.
 """
 
 from __future__ import annotations
@@ -32,8 +32,10 @@ import time
 import numpy as np
 
 import follicle
+from follicle.cli import _DEMO_SETTLE
 from follicle.color import lab_from_linear
-from follicle.groom.settings import GroomParams
+from follicle.pipeline import grow
+from follicle.scene import parse_scene
 from follicle.render.camera import frame_scene
 from follicle.render.image import srgb_to_linear
 
@@ -116,7 +118,10 @@ def mean_lab(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--count", type=int, default=3000)
+    parser.add_argument("--count", type=int, default=20000)
+    parser.add_argument(
+        "--settle", type=float, default=_DEMO_SETTLE, help="seconds the guides settle (0: none)"
+    )
     parser.add_argument("--size", type=int, default=384)
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--opengl", action="store_true", help="also the OpenGL engine (EGL)")
@@ -142,8 +147,6 @@ def main() -> None:
         got = delta_e2000(np.array(lab1), np.array(lab2))
         assert abs(got - expected) < 1e-4, (lab1, lab2, got, expected)
 
-    mesh = follicle.load_mesh(args.mesh)
-    guides = follicle.load_guides("builtin:long", mesh)
     size = (args.size, args.size)
     rasters: dict[str, dict] = {}
     for shading in args.shading:
@@ -164,8 +167,9 @@ def main() -> None:
     )
     camera = None
     for name, melanin in MELANIN.items():
-        groom = follicle.Groom(mesh, guides, GroomParams(count=args.count, melanin=melanin))
-        curves = groom.generate()
+        groom = {"count": args.count, "melanin": melanin, "settle": args.settle}
+        tables = {"mesh": {"path": args.mesh}, "guides": {"path": "builtin:long"}, "groom": groom}
+        mesh, curves = grow(parse_scene(tables, "melanin"))
         if camera is None:
             camera = frame_scene(curves, mesh, 30.0, 1.0)
         mask = hair_mask(curves, mesh, camera, size)
