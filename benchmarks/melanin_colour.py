@@ -2,8 +2,9 @@
 
 For blond, brown and black melanin (0.2, 0.6, 0.95) the demo's groom (``--count``
 hairs, 20,000 by default, ``builtin:long`` on the bust, parted, the guides settled
-``--settle`` seconds as ``follicle demo`` does; or ``--mesh builtin:head``) is drawn by the CPU engine (and OpenGL through EGL with ``--opengl``), once per shading
-model of ``--shading`` (Kajiya-Kay and physical by default), and by Mitsuba (``--spp``
+``--settle`` seconds as ``follicle demo`` does; or ``--mesh builtin:head``) is drawn
+by the CPU engine (and OpenGL through EGL with ``--opengl``), once per shading model of
+``--shading`` (Kajiya-Kay and physical by default), and by Mitsuba (``--spp``
 samples per pixel), with the same camera, lights and background. The raster engines
 shade each hair with its melanin's colour (:func:`follicle.melanin.melanin_color`);
 Mitsuba's ``hair`` BSDF takes the pigments' absorption σ_a itself (Chiang 2016 §4.2).
@@ -35,9 +36,9 @@ import follicle
 from follicle.cli import _DEMO_SETTLE
 from follicle.color import lab_from_linear
 from follicle.pipeline import grow
-from follicle.scene import parse_scene
 from follicle.render.camera import frame_scene
 from follicle.render.image import srgb_to_linear
+from follicle.scene import parse_scene
 
 MELANIN = {"blond": 0.2, "brown": 0.6, "black": 0.95}
 TARGET = 5.0
