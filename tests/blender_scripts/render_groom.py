@@ -54,7 +54,30 @@ def _args():
         help="colour every hair by this melanin (0-1) instead of its own (its melanin"
         " attributes if it has them, else its colour)",
     )
+    parser.add_argument(
+        "--eye",
+        type=float,
+        nargs=3,
+        default=None,
+        help="the camera's eye in follicle's coordinates (Y up, metres), as a scene's"
+        " [render] eye; with --target: that view instead of the framing one",
+    )
+    parser.add_argument("--target", type=float, nargs=3, default=None, help="what it looks at")
+    parser.add_argument("--fov", type=float, default=30.0, help="vertical field of view, degrees")
     return parser.parse_args(sys.argv[1:])
+
+
+def _z_up(p):
+    """A point of follicle's Y-up frame in Blender's Z-up one (USD import's conversion)."""
+    return np.array([p[0], -p[2], p[1]], dtype=np.float64)
+
+
+def _basis(back):
+    """(right, up, back) of a camera looking along −``back``, Z up."""
+    back = back / np.linalg.norm(back)
+    right = np.cross(back, [0.0, 0.0, 1.0])
+    right /= -np.linalg.norm(right)
+    return np.stack([right, np.cross(back, right), back])
 
 
 def _nodes(block):
@@ -228,30 +251,38 @@ def main():
     scene = bpy.context.scene
     cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
     scene.collection.objects.link(cam)
-    fov = math.radians(30.0)
+    fov = math.radians(args.fov)
     cam.data.angle = fov
-    back = np.array([0.35, -1.0, 0.15])  # from the centre towards the eye
-    back /= np.linalg.norm(back)
-    right = np.cross(back, [0.0, 0.0, 1.0])
-    right /= -np.linalg.norm(right)
-    up = np.cross(back, right)
-    rel = points - centre
-    across, height, depth = np.abs(rel @ right), np.abs(rel @ up), rel @ back
-    # the nearest eye distance d at which every point is inside the view (5 % border):
-    # |across| and |height| ≤ tan(fov / 2) · (d − depth)
-    half = math.tan(fov / 2) / 1.1
-    distance = float(np.max(np.maximum(across, height) / half + depth))
-    eye = centre + back * distance
+    framing = _basis(np.array([0.35, -1.0, 0.15]))  # from the centre towards the eye
+    if args.eye is not None and args.target is not None:
+        eye, look_at = _z_up(args.eye), _z_up(args.target)
+        view = _basis(eye - look_at)
+    else:
+        right, up, back = framing
+        rel = points - centre
+        across, height, depth = np.abs(rel @ right), np.abs(rel @ up), rel @ back
+        # the nearest eye distance d at which every point is inside the view (5 % border):
+        # |across| and |height| ≤ tan(fov / 2) · (d − depth)
+        half = math.tan(fov / 2) / 1.1
+        distance = float(np.max(np.maximum(across, height) / half + depth))
+        eye, look_at, view = centre + back * distance, centre, framing
     cam.location = eye.tolist()
     cam.rotation_euler = (
-        (Vector(centre.tolist()) - Vector(eye.tolist())).to_track_quat("-Z", "Y").to_euler()
+        (Vector(look_at.tolist()) - Vector(eye.tolist())).to_track_quat("-Z", "Y").to_euler()
     )
     scene.camera = cam
     r = radius
     c = centre
-    area_light("key", (c[0] + 2.0 * r, c[1] - 2.5 * r, c[2] + 2.0 * r), c, 60.0 * r * r, r)
-    area_light("fill", (c[0] - 3.0 * r, c[1] - 1.5 * r, c[2] + 0.3 * r), c, 18.0 * r * r, 2 * r)
-    area_light("rim", (c[0] - 0.8 * r, c[1] + 3.0 * r, c[2] + 2.5 * r), c, 80.0 * r * r, r)
+    # the lights sit as they do for the framing view, turned with the camera: they follow
+    # it, as follicle's camera-space lights do
+    turn = view.T @ framing
+    for name, offset, energy, size in (
+        ("key", (2.0, -2.5, 2.0), 60.0, 1.0),
+        ("fill", (-3.0, -1.5, 0.3), 18.0, 2.0),
+        ("rim", (-0.8, 3.0, 2.5), 80.0, 1.0),
+    ):
+        place = c + turn @ (np.array(offset) * r)
+        area_light(name, tuple(place), c, energy * r * r, size * r)
 
     world((0.2, 0.23, 0.28), 0.6)
     cycles(args.size, args.samples, args.out)
