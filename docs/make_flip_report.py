@@ -12,8 +12,14 @@ models. Needs the pbr extra and ``pip install flip-evaluator``.
 seed 1, the path tracer's own noise at those samples (a raster engine without noise
 would come to about 1/√2 of it).
 
+``--errors`` writes ``docs/shading_flip_errors.png`` (Mitsuba | physical | FLIP's error
+map, white = 1) for the sheet's scenes and prints where the error lies: its share in
+the pixels hair covers wholly, partly and not at all (the CPU engine's hair drawn over
+black and over white: covered where the two agree).
+
 Run: ``.venv/bin/python docs/make_flip_report.py [--size 320] [--spp 256]
-[--models kajiya-kay,marschner,physical] [--scenes wavy,curly] [--sheet] [--floor]``
+[--models kajiya-kay,marschner,physical] [--scenes wavy,curly] [--sheet] [--floor]
+[--errors]``
 """
 
 from __future__ import annotations
@@ -67,12 +73,55 @@ def cpu_render(scene, mesh, curves, size: int, model: str) -> tuple[np.ndarray, 
 
 
 def flip(reference: np.ndarray, test: np.ndarray) -> float:
+    return float(flip_map(reference, test).mean())
+
+
+def flip_map(reference: np.ndarray, test: np.ndarray) -> np.ndarray:
+    """FLIP's per-pixel error (H, W) of ``test`` against ``reference`` (sRGB uint8)."""
     import flip_evaluator
 
-    _, mean, _ = flip_evaluator.evaluate(
-        reference.astype(np.float32) / 255.0, test.astype(np.float32) / 255.0, "LDR"
+    error, _, _ = flip_evaluator.evaluate(
+        reference.astype(np.float32) / 255.0,
+        test.astype(np.float32) / 255.0,
+        "LDR",
+        applyMagma=False,
     )
-    return float(mean)
+    error = np.asarray(error, dtype=np.float64)
+    return error.reshape(error.shape[:2])
+
+
+def hair_cover(scene, mesh, curves, size: int) -> np.ndarray:
+    """How wholly hair covers each pixel (0..1): one less the largest channel difference
+    of the CPU engine's hair over black and over white (background and skin)."""
+    params = scene.render.replace(size=(size, size), engine="cpu", scalp_tint=0.0)
+    over = []
+    for v in (0.0, 1.0):
+        grey = [v, v, v]
+        p = params.replace(background_top=grey, background_bottom=grey, skin_color=grey)
+        over.append(render_scene(curves, mesh, p)[..., :3].astype(np.int16))
+    return 1.0 - np.abs(over[1] - over[0]).max(axis=-1) / 255.0
+
+
+def error_sheet(errors: dict, size: int) -> None:
+    """docs/shading_flip_errors.png: Mitsuba | physical | error map, a row a scene, and
+    where each scene's error lies."""
+    rows = []
+    for name, (ref, image, error, cover) in errors.items():
+        whole, none = cover > 0.9, cover <= 0.1
+        total = error.sum()
+        print(
+            f"{name}: FLIP {error.mean():.3f}; of the error {error[whole].sum() / total:.0%}"
+            f" where hair covers a pixel wholly ({int(whole.sum())} px, mean"
+            f" {error[whole].mean():.3f}), {error[~whole & ~none].sum() / total:.0%} partly,"
+            f" {error[none].sum() / total:.0%} where there is none"
+        )
+        grey = (np.clip(error, 0.0, 1.0) * 255).astype(np.uint8)
+        gap = np.full((size, GAP, 3), 255, np.uint8)
+        rows.append(np.concatenate([ref, gap, image, gap, np.stack([grey] * 3, -1)], axis=1))
+    between = np.full((GAP, rows[0].shape[1], 3), 255, np.uint8)
+    sheet = np.concatenate([x for row in rows for x in (row, between)][:-1], axis=0)
+    small = Image.fromarray(sheet).quantize(256, dither=Image.Dither.FLOYDSTEINBERG)
+    small.save(ROOT / "docs" / "shading_flip_errors.png", optimize=True)
 
 
 def main() -> None:
@@ -88,12 +137,13 @@ def main() -> None:
         help="also FLIP between the reference and Mitsuba's picture with another seed:"
         " the path tracer's own noise at these samples",
     )
+    parser.add_argument("--errors", action="store_true", help="write docs/shading_flip_errors.png")
     args = parser.parse_args()
     models = args.models.split(",")
     header = "| scene | " + " | ".join(f"{m} FLIP | {m} ms" for m in models) + " |"
     if args.floor:
         header = header.replace("| scene |", "| scene | Mitsuba seed 1 FLIP |")
-    rows, totals, pictures = [], {m: [] for m in models}, {}
+    rows, totals, pictures, errors = [], {m: [] for m in models}, {}, {}
     for name in args.scenes.split(","):
         scene = load_scene(ROOT / "examples" / f"{name}.toml")
         mesh, curves = grow(scene)
@@ -109,6 +159,9 @@ def main() -> None:
             error = flip(ref, image)
             totals[model].append((error, seconds))
             pictures[name][model] = image
+            if args.errors and model == "physical" and name in SHEET_SCENES:
+                cover = hair_cover(scene, mesh, curves, args.size)
+                errors[name] = (ref, image, flip_map(ref, image), cover)
             cells.append(f"{error:.3f} | {seconds * 1e3:.0f}")
         rows.append(f"| {name} | " + " | ".join(cells) + " |")
         print(rows[-1], flush=True)
@@ -131,6 +184,8 @@ def main() -> None:
             )
     if args.sheet:
         write_sheet(pictures, args.size)
+    if errors:
+        error_sheet(errors, args.size)
 
 
 def write_sheet(pictures: dict, size: int) -> None:
