@@ -1,7 +1,7 @@
 """Build ``src/follicle/mesh/data/bust.npz``, the built-in bust, from its signed distance
 field (:func:`follicle.mesh.bust.bust_field`); optionally render pictures of it.
 
-    .venv/bin/pip install scikit-image fast-simplification   # dev-only, not runtime
+    .venv/bin/pip install scikit-image fast-simplification shapely  # dev-only, not runtime
     .venv/bin/python tools/make_bust.py                       # writes the .npz
     .venv/bin/python tools/make_bust.py --no-mesh --pictures /tmp/bust  # the views
 
@@ -105,9 +105,52 @@ def surface(voxel: float, triangles: int) -> trimesh.Trimesh:
     v, f = fast_simplification.simplify(
         np.asarray(mesh.vertices), np.asarray(mesh.faces, dtype=np.int32), target_count=triangles
     )
-    mesh = trimesh.Trimesh(relax(project(v), f), f, process=True)
+    mesh = trimesh.Trimesh(unfold(relax(project(v), f), f), f, process=True)
     print(f"decimated: {len(mesh.faces)} triangles")
     return mesh
+
+
+def folded(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """The faces whose normal leans against the field's gradient at their centre (a
+    fold left by decimation and projection in tight places: ears, lids, nostrils; a
+    renderer shades them dark, Cycles as black specks): (F,) bool."""
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    normal = np.cross(b - a, c - a)
+    centre = (a + b + c) / 3
+    h = 1e-5
+    grad = np.stack(
+        [(bust_field(centre + h * e) - bust_field(centre - h * e)) / (2 * h) for e in np.eye(3)],
+        axis=1,
+    )
+    cos = np.sum(normal * grad, axis=1) / np.maximum(
+        np.linalg.norm(normal, axis=1) * np.linalg.norm(grad, axis=1), 1e-20
+    )
+    return cos < 0.2
+
+
+def unfold(v: np.ndarray, f: np.ndarray, rounds: int = 40) -> np.ndarray:
+    """Untangle :func:`folded` faces: their vertices and their neighbours' move to their
+    neighbours' mean and back onto the surface, a round at a time, until none is left."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(v, f, process=False)
+    adj = mesh.edges_sparse.astype(float)
+    adj = ((adj + adj.T) > 0).astype(float)
+    degree = np.asarray(adj.sum(axis=1)).ravel()
+    done = 0
+    while done < rounds:
+        bad = folded(v, f)
+        if not bad.any():
+            break
+        done += 1
+        moving = np.zeros(len(v), bool)
+        moving[f[bad].ravel()] = True
+        moving |= (adj @ moving.astype(float)) > 0  # and their neighbours
+        mean = (adj @ v) / degree[:, None]
+        v = v.copy()
+        v[moving] = project(mean[moving], steps=3)
+    print(f"unfolded: {int(folded(v, f).sum())} folded faces left after {done} rounds")
+    return v
 
 
 def relax(v: np.ndarray, f: np.ndarray, rounds: int = 4) -> np.ndarray:
