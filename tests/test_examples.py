@@ -260,10 +260,11 @@ def test_hand_groomed_is_combed_back_parted_and_has_a_fringe():
 
     points, roots, tips = ends(hair)
     points0, roots0, tips0 = ends(before)
-    # combed back: the hairs rooted on the sides end behind their roots
+    # combed back: the hairs rooted on the sides end 2 cm behind their roots (on the
+    # bust, the built-in short guides already end 1 cm behind for 96 %: 67 % at 2 cm)
     side, side0 = np.abs(roots[:, 0]) > 0.06, np.abs(roots0[:, 0]) > 0.06
-    back = np.mean(tips[side, 2] < roots[side, 2] - 0.01)
-    assert back > 0.93 and back > np.mean(tips0[side0, 2] < roots0[side0, 2] - 0.01) + 0.05
+    back = np.mean(tips[side, 2] < roots[side, 2] - 0.02)
+    assert back > 0.93 and back > np.mean(tips0[side0, 2] < roots0[side0, 2] - 0.02) + 0.05
 
     # the fringe: the hairs rooted at the front hairline right of the parting hang over
     # the forehead, and end on the cut at the brow (y = 3.5 cm), none past it
