@@ -203,9 +203,10 @@ def test_example_assets_are_small_and_reproducible(tmp_path):
 
 @pytest.mark.slow
 def test_parting_keeps_the_two_groups_apart():
-    scene, _, hair = grown("parting", 2000)
+    scene, groom, hair = grown("parting", 2000)
     assert scene.groom.groups == "builtin:parting"
-    rgb = load_texture("builtin:parting").sample(hair.curve_data["root_uv"])
+    # the skin's own map, in its UV layout (the bust's differs from the head's)
+    rgb = load_texture("builtin:parting", mesh=groom.mesh).sample(hair.curve_data["root_uv"])
     red = rgb[:, 0] > 0.5  # the head's right half (x < 0); blue is its left
     assert 0.3 < red.mean() < 0.7  # both groups grow hair
     roots = hair.points[hair.offsets[:-1]]
@@ -260,10 +261,11 @@ def test_hand_groomed_is_combed_back_parted_and_has_a_fringe():
 
     points, roots, tips = ends(hair)
     points0, roots0, tips0 = ends(before)
-    # combed back: the hairs rooted on the sides end behind their roots
+    # combed back: the hairs rooted on the sides end 2 cm behind their roots (on the
+    # bust, the built-in short guides already end 1 cm behind for 96 %: 67 % at 2 cm)
     side, side0 = np.abs(roots[:, 0]) > 0.06, np.abs(roots0[:, 0]) > 0.06
-    back = np.mean(tips[side, 2] < roots[side, 2] - 0.01)
-    assert back > 0.93 and back > np.mean(tips0[side0, 2] < roots0[side0, 2] - 0.01) + 0.05
+    back = np.mean(tips[side, 2] < roots[side, 2] - 0.02)
+    assert back > 0.93 and back > np.mean(tips0[side0, 2] < roots0[side0, 2] - 0.02) + 0.05
 
     # the fringe: the hairs rooted at the front hairline right of the parting hang over
     # the forehead, and end on the cut at the brow (y = 3.5 cm), none past it
