@@ -12,8 +12,8 @@ goes to the engine, so a problem shows here and not in the importer.
 # ## The groom
 #
 # A scene file: long hair on the built-in head, 2,000 hairs (a game groom has tens of
-# thousands; the steps are the same). `follicle info` prints it with every default
-# filled in — the keys your team will want to pin down.
+# thousands; the steps are the same). `follicle info groom.toml` would print it with
+# every default filled in: the keys your team will want to pin down.
 from pathlib import Path
 
 Path("groom.toml").write_text(
