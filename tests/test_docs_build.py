@@ -1,17 +1,26 @@
 """The docs site builds strictly (a warning, a broken link or anchor, a page left out of
-the navigation fails, as `mkdocs.yml` sets), its pages find every picture they show,
-and the README's and CHANGELOG's links point at files that exist."""
+the navigation, a failing tutorial fails, as `mkdocs.yml` and tools/mkdocs_hooks.py
+set), its pages find every picture they show — on disk, over HTTP from the served site,
+and in a real browser (headless Chromium) — and the README's and CHANGELOG's links
+point at files that exist."""
 
 from __future__ import annotations
 
+import functools
+import http.server
 import os
 import re
 import shutil
 import subprocess
 import sys
+import threading
+import urllib.error
+import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
-from urllib.parse import unquote, urlsplit
+from urllib.parse import unquote, urljoin, urlsplit
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,11 +63,15 @@ def test_every_picture_on_every_page_is_there(site: Path):
     assert pictures - shown == set(), "pictures in docs/ that no page shows"
 
 
-def _build(config_dir: Path, out: Path) -> subprocess.CompletedProcess:
+def _build(config_dir: Path, out: Path, tutorials: bool = True) -> subprocess.CompletedProcess:
+    """``mkdocs build --strict``; ``tutorials`` False builds their pages without running
+    them (FOLLICLE_DOCS_TUTORIALS=0, tools/mkdocs_hooks.py) where a test needs no more."""
+    env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
+    env["FOLLICLE_DOCS_TUTORIALS"] = "1" if tutorials else "0"
     return subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)],
         cwd=config_dir,
-        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+        env=env,
         capture_output=True,
         text=True,
         timeout=300,
@@ -75,9 +88,30 @@ def test_a_broken_link_fails_the_build(tmp_path: Path):
     (tmp_path / "src").symlink_to(ROOT / "src")
     page = tmp_path / "docs" / "how-to" / "grooming.md"
     page.write_text(page.read_text(encoding="utf-8") + "\n[gone](no-such-page.md)\n")
-    done = _build(tmp_path, tmp_path / "site")
+    done = _build(tmp_path, tmp_path / "site", tutorials=False)
     assert done.returncode != 0
     assert "no-such-page.md" in done.stderr + done.stdout
+
+
+@pytest.mark.slow
+def test_a_failing_tutorial_fails_the_build(tmp_path: Path):
+    """A tutorial is run by the build: one whose command fails stops the build, naming
+    the tutorial and the command."""
+    shutil.copytree(ROOT / "docs", tmp_path / "docs")
+    shutil.copytree(ROOT / "tools", tmp_path / "tools")
+    shutil.copy(ROOT / "mkdocs.yml", tmp_path)
+    (tmp_path / "src").symlink_to(ROOT / "src")
+    for script in (tmp_path / "docs" / "tutorials").glob("*.py"):
+        if script.name != "game_engines.py":
+            script.write_text('"""Stand-in\n\nNot run here."""\n', encoding="utf-8")
+    script = tmp_path / "docs" / "tutorials" / "game_engines.py"
+    text = script.read_text(encoding="utf-8")
+    script.write_text(
+        text.replace('groom_unity.abc --target unity")', 'groom_unity.abc --count -5")')
+    )
+    done = _build(tmp_path, tmp_path / "site")
+    assert done.returncode != 0
+    assert "game_engines.py" in done.stderr and "groom_unity.abc --count -5" in done.stderr
 
 
 def test_the_readme_and_changelog_link_to_files_that_exist():
@@ -139,3 +173,88 @@ def test_the_scenes_the_docs_show_are_valid_and_name_real_keys():
                 assert commented.group(1) in tables[table].model_fields, (page.name, table, line)
                 named += 1
     assert named >= 30
+
+
+class _Quiet(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, format: str, *args: object) -> None:  # noqa: A002 - the base's name
+        pass
+
+
+@pytest.fixture(scope="module")
+def served(site: Path) -> Iterator[str]:
+    """The built site served over HTTP on a free local port, as a browser would get it."""
+    handler = functools.partial(_Quiet, directory=str(site))
+    with http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler) as server:
+        thread = threading.Thread(target=server.serve_forever, daemon=True)
+        thread.start()
+        yield f"http://127.0.0.1:{server.server_address[1]}/"
+        server.shutdown()
+
+
+def _status(url: str) -> int:
+    try:
+        with urllib.request.urlopen(url, timeout=30) as answer:
+            return answer.status
+    except urllib.error.HTTPError as error:
+        return error.code
+
+
+_LOADED = re.compile(
+    r'<img[^>]*\ssrc="([^"]+)"|<script[^>]*\ssrc="([^"]+)"'
+    r'|<link(?=[^>]*\srel="stylesheet")[^>]*\shref="([^"]+)"'
+)
+
+
+@pytest.mark.slow
+def test_every_page_loads_its_pictures_scripts_and_stylesheets_over_http(site: Path, served: str):
+    """What a browser fetches for each page — every <img>, <script src> and stylesheet —
+    answers 200 from the served site (the tutorials' pictures, made by the build,
+    included); a page that names a missing file fails."""
+    fetched: dict[str, int] = {}
+    pages = sorted(site.rglob("*.html"))
+    for page in pages:
+        url = urljoin(served, page.relative_to(site).as_posix())
+        assert _status(url) == 200, url
+        for groups in _LOADED.findall(page.read_text(encoding="utf-8")):
+            ref = next(g for g in groups if g)
+            target = urljoin(url, ref)
+            if not target.startswith(served):
+                continue  # another site (none today): not ours to check offline
+            if target not in fetched:
+                fetched[target] = _status(target)
+            assert fetched[target] == 200, f"{page.relative_to(site)}: {ref}"
+    assert any(t.endswith(".js") for t in fetched) and any(t.endswith(".css") for t in fetched)
+    tutorial_pictures = [t for t in fetched if "/tutorials/" in t and t.endswith(".png")]
+    assert len(tutorial_pictures) >= 6, tutorial_pictures
+    assert _status(served + "no-such-page/") == 404  # the check can fail
+
+
+def _chromium() -> str | None:
+    found = shutil.which("chromium") or shutil.which("chromium-browser")
+    if found is None:
+        if os.environ.get("CI"):
+            pytest.fail("chromium is not on PATH under CI (.ci/run installs it)")
+        pytest.skip("chromium is not on PATH (Debian: apt-get install chromium)")
+    return found
+
+
+@pytest.mark.slow
+def test_a_real_browser_draws_the_home_page_and_a_tutorial(served: str, tmp_path: Path):
+    """Headless Chromium renders the home page and a tutorial to screenshots that are
+    not blank: the page's text, pictures and theme drew (a missing stylesheet or a
+    blank page gives one flat colour)."""
+    from PIL import Image
+
+    chromium = _chromium()
+    for name, path in (("home", ""), ("tutorial", "tutorials/own_mesh/")):
+        shot = tmp_path / f"{name}.png"
+        subprocess.run(
+            [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+             f"--screenshot={shot}", "--window-size=1280,900", served + path],
+            capture_output=True, timeout=120, check=False,
+        )  # fmt: skip
+        assert shot.is_file(), name
+        pixels = np.asarray(Image.open(shot).convert("L"), dtype=np.float64)
+        assert pixels.shape == (900, 1280)
+        assert pixels.std() > 20, (name, pixels.std())  # text and pictures, not a flat page
+        assert (pixels < 80).mean() > 0.005, name  # dark text or a picture drew
