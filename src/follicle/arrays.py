@@ -23,6 +23,7 @@ __all__ = [
     "as_points",
     "point_bounds",
     "rigid",
+    "rigid_fit",
     "empty_touched",
     "budget_runs",
     "FMA",
@@ -173,6 +174,20 @@ def rigid(
     world = m.copy()
     world[3] = (0.0, 0.0, 0.0, 1.0)
     return frozen(world), frozen(inverse)
+
+
+def rigid_fit(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, float]:
+    """The rigid 4×4 transform T (a proper rotation and a translation) that moves the
+    points ``source`` (V, 3) closest to ``target`` in least squares (Kabsch: the SVD of
+    their cross-covariance), and the largest distance left between T·source and target."""
+    a0, b0 = source.mean(axis=0), target.mean(axis=0)
+    u, _, vt = np.linalg.svd((source - a0).T @ (target - b0))
+    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
+    r = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    fit = np.eye(4)
+    fit[:3, :3], fit[:3, 3] = r, b0 - r @ a0
+    off = float(np.sqrt(np.max(np.sum((source @ r.T + fit[:3, 3] - target) ** 2, axis=1))))
+    return fit, off
 
 
 def budget_runs(costs: np.ndarray, budget: int) -> list[tuple[int, int]]:

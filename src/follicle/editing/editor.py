@@ -513,11 +513,10 @@ class GuideEditor:
             self._frames = (key[0], self.mesh.evaluate(*key, pose="rest"))
         return self._frames[1]
 
-    @cached_property
+    @property
     def _skin(self):
-        from ..mesh.sdf import SDF
-
-        return SDF.from_mesh(self.mesh.rest_vertices, self.mesh.faces)
+        """The rest skin's SDF, kept with the mesh: the groom's skin collision reads it too."""
+        return self.mesh.sdf()
 
     @cached_property
     def _clearance(self) -> float:

@@ -77,7 +77,9 @@ def segment_lengths(points: np.ndarray) -> np.ndarray:
 
 
 @kernel
-def _follow(points, lengths, which, use_skin, values, origin, inv_voxel, local_from_world, margin):
+def _follow(
+    points, lengths, which, use_skin, values, origin, inv_voxel, local_from_world, margin, tries
+):
     for g in range(len(which)):  # serial: a parallel launch costs more than 1,000 guides
         s = which[g]
         for i in range(1, points.shape[1]):
@@ -85,7 +87,7 @@ def _follow(points, lengths, which, use_skin, values, origin, inv_voxel, local_f
             dx = points[s, i, 0] - px
             dy = points[s, i, 1] - py
             dz = points[s, i, 2] - pz
-            for _ in range(_PUSH_TRIES + 1):
+            for _ in range(tries + 1):
                 norm = math.sqrt(dx * dx + dy * dy + dz * dz)
                 if norm == 0.0:  # no direction left: along the previous segment
                     if i >= 2:
@@ -115,17 +117,19 @@ def follow(
     skin: SDF | None,
     margin: float,
     which: np.ndarray | None = None,
+    tries: int = _PUSH_TRIES,
 ) -> None:
     """Rebuild the guides ``which`` (indices; None: all) in place from their roots: each
     vertex at its segment's length (``lengths``, (S, V − 1)) from the one before, along
-    the direction it has now, and at least ``margin`` outside ``skin`` (None: none)."""
+    the direction it has now, and at least ``margin`` outside ``skin`` (None: none), as
+    far as ``tries`` push-outs of a vertex get it."""
     if skin is None:
         grid = (np.ones((2, 2, 2), np.float32), np.zeros(3), 1.0, np.eye(4))
     else:
         grid = skin.sample_args
     lengths = np.ascontiguousarray(lengths, np.float64)
     which = np.arange(len(points)) if which is None else np.asarray(which, np.int64)
-    _follow(points, lengths, which, skin is not None, *grid, float(margin))
+    _follow(points, lengths, which, skin is not None, *grid, float(margin), int(tries))
 
 
 @kernel

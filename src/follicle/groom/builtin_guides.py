@@ -50,6 +50,15 @@ _COUNT = 300
 _CLEARANCE = 0.003  # m kept between hair and head
 _MIN_DENSITY = 0.5
 _FACE_DEPTH = 0.1  # m in front of the head's centre where the side comb is strongest
+# hanging hair: the face's half width (m, about the eyes' outer corners) where the side
+# comb grows, and how far beside it that extra comb fades out (gone beyond the temples)
+_FACE_HALF_WIDTH = 0.05
+_FACE_FADE = 0.04
+# hanging hair beside the face: the parting's side comb fades out from _SIDES_TOP +
+# _TOP_FADE above the head's centre (above the temples) down to _SIDES_TOP (just above
+# the ears, m)
+_SIDES_TOP = 0.02
+_TOP_FADE = 0.05
 
 SDF = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 # the built-in meshes with an analytic signed distance; their head centre is the origin
@@ -126,7 +135,9 @@ def _push_out(
     return p
 
 
-def _comb_field(p: np.ndarray, centre: np.ndarray, parting_side: np.ndarray) -> np.ndarray:
+def _comb_field(
+    p: np.ndarray, centre: np.ndarray, parting_side: np.ndarray, hangs: bool
+) -> np.ndarray:
     """Style direction: away from a centre parting and towards the back.
 
     ``parting_side`` (C,) ±1 is the side of the parting each strand's root is on; the
@@ -135,9 +146,24 @@ def _comb_field(p: np.ndarray, centre: np.ndarray, parting_side: np.ndarray) -> 
     head's centre (the face looks towards +Z) the side comb grows, up to three times at
     :data:`_FACE_DEPTH`: hair from the front hairline is combed aside, clear of the
     eyes, rather than falling down the face with gravity.
+
+    Hair that ``hangs`` (not lying on the whole head, as short hair does, which never
+    points out of it) is combed aside only where it would fall over the face: the
+    extra comb is strongest within :data:`_FACE_HALF_WIDTH` of the mid-plane and fades
+    out over :data:`_FACE_FADE` beside it, and the parting's own side comb fades out
+    below the top of the head (from :data:`_SIDES_TOP` + :data:`_TOP_FADE` above the
+    centre down to :data:`_SIDES_TOP`). Hair at the temples, sides and back then falls
+    down by the head instead of flaring out from it.
     """
     side = parting_side * np.maximum(np.tanh((p[:, 0] - centre[0]) / 0.015) * parting_side, 0.5)
-    side = side * (1.0 + 2.0 * np.clip((p[:, 2] - centre[2]) / _FACE_DEPTH, 0.0, 1.0))
+    front = np.clip((p[:, 2] - centre[2]) / _FACE_DEPTH, 0.0, 1.0)
+    if hangs:
+        over = np.abs(p[:, 0] - centre[0]) - _FACE_HALF_WIDTH
+        over = np.clip(1.0 - over / _FACE_FADE, 0.0, 1.0)
+        top = np.clip((p[:, 1] - centre[1] - _SIDES_TOP) / _TOP_FADE, 0.0, 1.0)
+        side = side * np.maximum(top, over * (1.0 + 2.0 * front))
+    else:
+        side = side * (1.0 + 2.0 * front)
     return np.stack([0.6 * side, np.zeros(len(p)), -0.5 * np.ones(len(p))], axis=1)
 
 
@@ -163,12 +189,18 @@ def _march(
     out = np.empty((len(roots), count, 3))
     out[:, 0] = roots
     parting_side = np.where(roots[:, 0] >= centre[0], 1.0, -1.0)
-    d = normalize(style.lift * normals + _comb_field(roots, centre, parting_side) + 0.5 * down)
+    d = normalize(
+        style.lift * normals
+        + _comb_field(roots, centre, parting_side, not style.hug_all)
+        + 0.5 * down
+    )
     for i in range(1, count):
         prev = out[:, i - 1]
         clear_i = clear + _helix_radius(style, i * seg[:, 0])
         dist, n_s = sdf(prev)
-        want = style.gravity * down + style.comb * _comb_field(prev, centre, parting_side)
+        want = style.gravity * down + style.comb * _comb_field(
+            prev, centre, parting_side, not style.hug_all
+        )
         hug = np.ones(len(prev)) if style.hug_all else np.clip(3.0 * n_s[:, 1], 0.0, 1.0)
         hug = hug * (dist < clear_i + 0.02)
         outward = np.maximum(np.sum(want * n_s, axis=1), 0.0)

@@ -2,7 +2,7 @@
 
 roots (DensitySampler on the rest mesh) ► interpolation group ► cut factor, early vertex
 culling ► interpolate (idw | barycentric | offset) ► scale ► curl ► clump ► frizz ►
-kink ► multi-strand fibres ► cut ► colour, width, opacity ► curve normals, vertex
+kink ► multi-strand fibres ► cut ► skin collision ► colour, width, opacity ► curve normals, vertex
 removal ► placed on the mesh's current pose ► HairCurves.
 
 All shaping happens in rest-pose root-local frames. Roots, groups, interpolation
@@ -21,17 +21,19 @@ import os
 import threading
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import DTypeLike
 
-from ..arrays import empty_touched
+from ..arrays import empty_touched, rigid_fit
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError
 from ..melanin import hair_pigments, melanin_color
 from ..mesh.displacement import displace
 from ..mesh.head import SCALP_TEXTURE, parting_texture, scalp_texture
 from ..mesh.sampling import DensitySampler
+from ..mesh.sdf import SDF
 from ..mesh.skin import SkinMesh, SurfacePoints
 from ..mesh.texture import Texture
 from ..rng import uniforms
@@ -49,12 +51,17 @@ from .knn import PointGrid
 from .properties import GroomProperties
 from .settings import GroomParams
 from .shape import _RAMP, _curl, _frizz, _kink, curl_phase
+from .skin_collision import keep_off_skin
 
 __all__ = ["Groom", "resolve_density", "load_texture"]
 
 log = logging.getLogger("follicle")
 
 CHUNK = 32768
+# skin collision on a pose whose vertices are off the best rigid motion of the rest
+# pose by at most this many voxels of its SDF moves the rest pose's field (distances
+# then off by no more than that): no field is built for a rigidly moved mesh
+_RIGID_REUSE = 0.01
 BUILTIN_TEXTURES = {"builtin:scalp": scalp_texture, "builtin:parting": parting_texture}
 # the output arrays: name -> (dtype, shape per vertex or per curve)
 _POINT_FIELDS = {
@@ -181,6 +188,14 @@ class _Bucket:
     shifts: np.ndarray | None  # (m, 4) hue etc. shifts of an inherited colour
 
 
+class _Placed(NamedTuple):
+    """Where a chunk's hairs are placed: the skin frames of their roots on the current
+    pose, and that pose's SDF when ``[groom].skin_collision`` keeps them off it."""
+
+    cur: SurfacePoints
+    skin: SDF | None
+
+
 class _Shaped:
     """A chunk's hairs shaped and finished (buckets), its skin frames on the current pose,
     and how many vertices and curves it adds to the output."""
@@ -273,6 +288,7 @@ class Groom:
         self._centre_roots: tuple[SurfacePoints, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._centre_shapes: np.ndarray | None = None
         self._inherit: tuple[Inherited, ...] = ()  # [groom].inherit, checked on the guides
+        self._inside_out: bool | None = None  # the guides grow on the skin's inner side
         self._lock = threading.RLock()
         self.params = params if params is not None else GroomParams()
 
@@ -734,6 +750,22 @@ class Groom:
         """The hairs of ``lay`` grown from ``guides`` and finished, with their skin frames
         on ``skin`` (None: the rest pose)."""
         props = self.properties.at(lay.rest.uv)
+        if self.displacement is not None:
+            cur = _turned(
+                displace(
+                    self.mesh if skin is None else skin,
+                    lay.triangles,
+                    lay.bary,
+                    self.displacement,
+                    self.displacement_scale,
+                ),
+                lay.turn,
+            )
+        elif skin is None:
+            cur = lay.rest  # the layout's frames, already turned
+        else:
+            cur = _turned(skin.evaluate(lay.triangles, lay.bary, pose="current"), lay.turn)
+        placed = _Placed(cur, self._skin_field(skin))
         buckets = []
         for g in np.unique(lay.group):
             sel = np.flatnonzero(lay.group == g)
@@ -741,20 +773,30 @@ class Groom:
             need = cut_plan(np.broadcast_to(props["cut"], lay.group.shape)[sel], n_total)
             for n in np.unique(need[need >= 2]):
                 rows = sel[need == n]
-                buckets.append(self._bucket(lay, props, rows, n_total, int(n), time, guides))
-        if self.displacement is not None:
-            cur = displace(
-                self.mesh if skin is None else skin,
-                lay.triangles,
-                lay.bary,
-                self.displacement,
-                self.displacement_scale,
-            )
-        elif skin is None:
-            return _Shaped(lay.rest, buckets)  # the layout's frames, already turned
-        else:
-            cur = skin.evaluate(lay.triangles, lay.bary, pose="current")
-        return _Shaped(_turned(cur, lay.turn), buckets)
+                buckets.append(
+                    self._bucket(lay, props, rows, n_total, int(n), time, guides, placed)
+                )
+        return _Shaped(cur, buckets)
+
+    def _skin_field(self, skin: SkinMesh | None) -> SDF | None:
+        """The SDF of the pose hairs are placed on (``skin``, None: the rest mesh) when
+        ``[groom].skin_collision`` is on, else None: the rest pose's, moved, for a rigidly
+        moved mesh; else built once per pose and kept with it (:meth:`SkinMesh.sdf`).
+        Under the lock, so chunks on several threads share one."""
+        if not self.params.skin_collision:
+            return None
+        with self._lock:
+            rest = self.mesh.sdf()
+            if self._inside_out is None:
+                self._inside_out = _grows_inside(rest, self.guides.curves)
+            if skin is None:
+                return _outside(rest, self._inside_out)
+            # a rigid motion of the rest pose moves its field (the hair then moves
+            # rigidly with the mesh, whatever the grid's axes); else the pose's own
+            fit, off = rigid_fit(self.mesh.rest_vertices, skin.vertices)
+            if off <= _RIGID_REUSE * rest.voxel:
+                return _outside(rest, self._inside_out).with_transform(fit)
+            return _outside(skin.sdf("current"), self._inside_out)
 
     def _bucket(
         self,
@@ -765,9 +807,10 @@ class Groom:
         n: int,
         time: float,
         guides: Guides,
+        placed: _Placed,
     ) -> _Bucket:
         """Hairs ``rows`` (one group, ``n`` of ``n_total`` vertices needed) shaped from
-        ``guides``, finished."""
+        ``guides``, finished for the skin they are ``placed`` on."""
         p = self.params
         pick = _run(rows)  # one run of rows (the common case): gathers below are views
 
@@ -830,7 +873,7 @@ class Groom:
                 _shared_row(p.kink_frequency),
                 t,
             )
-        return self._finish(local, rows, ids, prop, n_total, index, lay.guide_weight[pick])
+        return self._finish(local, rows, ids, prop, n_total, index, lay.guide_weight[pick], placed)
 
     def _curl(
         self,
@@ -865,10 +908,11 @@ class Groom:
         n_total: int,
         index: np.ndarray,
         weight: np.ndarray,
+        placed: _Placed,
     ) -> _Bucket:
-        """Fibres, cut, appearance (inherited from the guides weighted by ``index`` and
-        ``weight`` as far as ``[groom].inherit`` says), normals and vertex removal of
-        shaped hairs."""
+        """Fibres, cut, skin collision on the skin they are ``placed`` on, appearance
+        (inherited from the guides weighted by ``index`` and ``weight`` as far as
+        ``[groom].inherit`` says), normals and vertex removal of shaped hairs."""
         p = self.params
         m, n = local.shape[:2]
         values = hair_values(self._inherit, self.guides, index, weight, n_total, n)
@@ -899,6 +943,10 @@ class Groom:
             values = {k: v[parent] for k, v in values.items()}
         tcut = np.broadcast_to(per_curve("cut"), (len(local),))
         length, t_end = cut_in_place(local, tcut, n_total)
+        if placed.skin is not None:
+            cur = placed.cur
+            frame = (cur.position, cur.tangent, cur.binormal, cur.normal)
+            keep_off_skin(local, length, rows, frame, placed.skin, p.skin_clearance)
         if p.melanin is None:
             root, tip, mutant = (per_curve(k) for k in ("root_color", "tip_color", "mutant_color"))
             hue, sat, val, fraction = (
@@ -1058,6 +1106,28 @@ class Groom:
             point_data={k: fit(out[k], v) for k in {**_POINT_FIELDS, **points} if k != "points"},
             curve_data=curve_data | self._pigments(curve_data["hair_id"]),
         )
+
+
+def _grows_inside(skin: SDF, guides: HairCurves) -> bool:
+    """Whether most guides leave their roots towards the inner side of ``skin`` (their
+    first segment against the field's outward normal there): a mesh whose faces wind
+    the other way (its normals point into the head), or a sheet with hair on its back.
+    Skin collision then keeps hair on the side it grows on, rather than crushing every
+    hair onto the skin."""
+    first = guides.offsets[:-1][np.diff(guides.offsets) >= 2]
+    if len(first) == 0:
+        return False
+    roots = guides.points[first].astype(np.float64)
+    out = skin.distance_and_normal(roots)[1]
+    step = guides.points[first + 1].astype(np.float64) - roots
+    return float(np.median(np.sum(step * out, axis=1))) < 0.0
+
+
+def _outside(skin: SDF, inside_out: bool) -> SDF:
+    """``skin``, or its field negated when the hair grows on its inner side."""
+    if not inside_out:
+        return skin
+    return SDF(-skin.values, skin.origin, skin.voxel, skin.transform)
 
 
 def _subset(lay: _Layout, rows: np.ndarray) -> _Layout:

@@ -265,6 +265,19 @@ class GroomParams(StrictSection):
         " shoulders and rests, and that is the rest shape grown, rendered, exported and"
         " simulated from; at most 60; 0 = the guides as given",
     )
+    skin_collision: bool = Field(
+        True,
+        description="keep grown hairs off the skin: a hair with a vertex inside it or"
+        " nearer than skin_clearance is rebuilt from its root, each vertex pushed out"
+        " along the skin's normal (its SDF's) at its segment's length from the one"
+        " before, so lengths are kept; false = the hairs as interpolated",
+    )
+    skin_clearance: float = Field(
+        0.001,
+        ge=0,
+        le=0.1,
+        description="with skin_collision: distance kept between hair vertices and the skin, m",
+    )
     skip_threshold: Annotated[float, Field(gt=0.0, le=1.0)] | None = Field(
         None,
         description="drop a vertex whose tangent is within acos(threshold) of both"

@@ -28,6 +28,8 @@ from .texture import Texture
 if TYPE_CHECKING:
     import trimesh
 
+    from .sdf import SDF
+
 __all__ = ["SkinMesh", "SurfacePoints", "closest_weights", "MAX_COORDINATE"]
 
 _POSES = ("rest", "current")
@@ -445,6 +447,15 @@ class SkinMesh:
             return vtree, cKDTree(centres[used]), centres, radii, used
 
         return self._cached("trees", pose, make)
+
+    def sdf(self, pose: str = "rest") -> SDF:
+        """The grid signed distance field of this pose (:class:`follicle.mesh.sdf.SDF`,
+        the default voxel: the longest bounds axis / 64), built on first use and kept
+        with the pose's other derived data: the groom's skin collision and the guide
+        editor read the same field."""
+        from .sdf import SDF
+
+        return self._cached("sdf", pose, lambda v: SDF.from_mesh(v, self.faces))
 
     # ------------------------------------------------------------------ export
     def to_trimesh(self, pose: str = "rest") -> trimesh.Trimesh:

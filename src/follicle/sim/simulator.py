@@ -22,7 +22,7 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from ..arrays import rigid
+from ..arrays import rigid, rigid_fit
 from ..curves import HairCurves
 from ..errors import InputError, ResourceError, SimulationError
 from ..groom.guides import Guides
@@ -143,20 +143,6 @@ def _skin_field(vertices: np.ndarray, faces: np.ndarray, voxel: float | None) ->
         return SDF.from_mesh(vertices, faces, voxel_size=voxel)
     except (InputError, ResourceError) as exc:
         raise type(exc)(f"[sim].skin_voxel: {exc}") from None
-
-
-def _rigid_fit(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, float]:
-    """The rigid 4×4 transform T (a proper rotation and a translation) that moves the
-    points ``source`` (V, 3) closest to ``target`` in least squares (Kabsch: the SVD of
-    their cross-covariance), and the largest distance left between T·source and target."""
-    a0, b0 = source.mean(axis=0), target.mean(axis=0)
-    u, _, vt = np.linalg.svd((source - a0).T @ (target - b0))
-    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
-    r = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    fit = np.eye(4)
-    fit[:3, :3], fit[:3, 3] = r, b0 - r @ a0
-    off = float(np.sqrt(np.max(np.sum((source @ r.T + fit[:3, 3] - target) ** 2, axis=1))))
-    return fit, off
 
 
 def _orthonormal(tangent: np.ndarray, binormal: np.ndarray, normal: np.ndarray) -> np.ndarray:
@@ -317,7 +303,7 @@ class Simulator:
         from it are then off by no more: a skinned head that mostly turns); else a new
         field (its own frame), which costs ~80 ms on the built-in head's 64³ grid."""
         built, vertices = self._sdf_built
-        fit, off = _rigid_fit(vertices, pose.vertices)
+        fit, off = rigid_fit(vertices, pose.vertices)
         if off <= SDF_REUSE * built.voxel:
             return built.with_transform(fit)
         sdf = _skin_field(pose.vertices, pose.faces, self.params.skin_voxel)
