@@ -11,7 +11,7 @@ goes to the engine, so a problem shows here and not in the importer.
 # %%
 # ## The groom
 #
-# A scene file: long hair on the built-in head, 2,000 hairs (a game groom has tens of
+# A scene file: long hair on the built-in bust, 2,000 hairs (a game groom has tens of
 # thousands; the steps are the same). `follicle info groom.toml` would print it with
 # every default filled in: the keys your team will want to pin down.
 from pathlib import Path
@@ -19,7 +19,7 @@ from pathlib import Path
 Path("groom.toml").write_text(
     """
 [mesh]
-path = "builtin:head"
+path = "builtin:bust"
 
 [guides]
 path = "builtin:long"
@@ -39,7 +39,7 @@ tip_color = [0.07, 0.042, 0.022]
 sh("follicle render groom.toml -o groom.png --size 320 320")
 
 # %%
-# ![the groom on the built-in head](groom.png)
+# ![the groom on the built-in bust](groom.png)
 #
 # ## Unreal: USD and Alembic
 #

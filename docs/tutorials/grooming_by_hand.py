@@ -11,12 +11,12 @@ log that `follicle groom` replays into the same guides, byte for byte.
 # %%
 # ## Before
 #
-# The built-in head and its `builtin:short` guides, 4,000 hairs as they grow.
+# The built-in bust and its `builtin:short` guides, 4,000 hairs as they grow.
 import numpy as np
 
 import follicle
 
-mesh = follicle.load_mesh("builtin:head")
+mesh = follicle.load_mesh("builtin:bust")
 editor = follicle.GuideEditor(follicle.load_guides("builtin:short", mesh))
 look = follicle.Camera(eye=(0.35, 0.45, 0.55), target=(0.0, 0.04, 0.0), fov_y=30)
 before = follicle.Groom(mesh, editor.guides).generate(4000)
@@ -78,7 +78,7 @@ follicle.render_image(after, mesh=mesh, camera=look, size=(320, 320), out="after
 # replays it headless into a guides file (and the groups the parting painted), the
 # same bytes as the editor's own guides. Undo and redo (`editor.undo()`) edit the log
 # too.
-editor.save_strokes("strokes.json", mesh="builtin:head", guides="builtin:short")
+editor.save_strokes("strokes.json", mesh="builtin:bust", guides="builtin:short")
 editor.save("edited.npz")
 
 # %%
@@ -95,7 +95,7 @@ print("replayed guides identical to the editor's:", same)
 Path("groomed.toml").write_text(
     """
 [mesh]
-path = "builtin:head"
+path = "builtin:bust"
 
 [guides]
 path = "guides.npz"

@@ -12,13 +12,13 @@ command takes a scheduler's address for a real cluster, and `--vary` more values
 # %%
 # ## The base scene
 #
-# Curly hair on the built-in head, 1,000 hairs each (pictures at 160²).
+# Curly hair on the built-in bust, 1,000 hairs each (pictures at 160²).
 from pathlib import Path
 
 Path("curls.toml").write_text(
     """
 [mesh]
-path = "builtin:head"
+path = "builtin:bust"
 
 [guides]
 path = "builtin:curly"

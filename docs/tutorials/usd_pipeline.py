@@ -19,7 +19,7 @@ from pathlib import Path
 Path("groom.toml").write_text(
     """
 [mesh]
-path = "builtin:head"
+path = "builtin:bust"
 
 [guides]
 path = "builtin:long"
