@@ -127,14 +127,16 @@ def test_guides_far_from_the_mesh_warn_with_the_distance(caplog):
 def test_builtin_guides_on_the_builtin_head_part_by_default():
     """Unset groups on the built-in head with built-in guides mean builtin:parting: the
     hairs rooted on the mid-line then keep out of the skull; "none" turns groups off and
-    those hairs blend a left- and a right-combed guide into the head again."""
+    those hairs blend a left- and a right-combed guide into the head again. Skin
+    collision is off: it would push them out again, hiding what the groups do."""
     from follicle.mesh.sdf import SDF
     from follicle.pipeline import groom_scene
     from follicle.scene import Scene
     from follicle.sim.collision import clearance, colliders
 
     def deepest(groups: str | None) -> tuple[int, float]:
-        groom = groom_scene(Scene(mesh={"path": "builtin:head"}, groom={"groups": groups}))
+        groom = {"groups": groups, "skin_collision": False}
+        groom = groom_scene(Scene(mesh={"path": "builtin:head"}, groom=groom))
         hair = groom.generate(count=6000)
         sdf = SDF.from_mesh(groom.mesh.vertices, groom.mesh.faces)
         x = hair.points.reshape(hair.curve_count, -1, 3)

@@ -29,6 +29,7 @@ from ..groom import brushes
 from ..groom.groups import InterpolationGroups, color_label
 from ..groom.guides import Guides, load_guides
 from ..inputs import is_remote, is_url, remote_reach
+from ..mesh.sdf import skin_sdf
 from ..mesh.skin import SkinMesh
 from ..mesh.texture import Texture
 from ..render.camera import Camera
@@ -516,7 +517,7 @@ class GuideEditor:
     @property
     def _skin(self):
         """The rest skin's SDF, kept with the mesh: the groom's skin collision reads it too."""
-        return self.mesh.sdf()
+        return skin_sdf(self.mesh)
 
     @cached_property
     def _clearance(self) -> float:

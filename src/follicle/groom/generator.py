@@ -33,7 +33,7 @@ from ..melanin import hair_pigments, melanin_color
 from ..mesh.displacement import displace
 from ..mesh.head import SCALP_TEXTURE, parting_texture, scalp_texture
 from ..mesh.sampling import DensitySampler
-from ..mesh.sdf import SDF
+from ..mesh.sdf import SDF, skin_sdf
 from ..mesh.skin import SkinMesh, SurfacePoints
 from ..mesh.texture import Texture
 from ..rng import uniforms
@@ -781,12 +781,12 @@ class Groom:
     def _skin_field(self, skin: SkinMesh | None) -> SDF | None:
         """The SDF of the pose hairs are placed on (``skin``, None: the rest mesh) when
         ``[groom].skin_collision`` is on, else None: the rest pose's, moved, for a rigidly
-        moved mesh; else built once per pose and kept with it (:meth:`SkinMesh.sdf`).
+        moved mesh; else built once per pose and kept with it (:func:`skin_sdf`).
         Under the lock, so chunks on several threads share one."""
         if not self.params.skin_collision:
             return None
         with self._lock:
-            rest = self.mesh.sdf()
+            rest = skin_sdf(self.mesh)
             if self._inside_out is None:
                 self._inside_out = _grows_inside(rest, self.guides.curves)
             if skin is None:
@@ -796,7 +796,7 @@ class Groom:
             fit, off = rigid_fit(self.mesh.rest_vertices, skin.vertices)
             if off <= _RIGID_REUSE * rest.voxel:
                 return _outside(rest, self._inside_out).with_transform(fit)
-            return _outside(skin.sdf("current"), self._inside_out)
+            return _outside(skin_sdf(skin, "current"), self._inside_out)
 
     def _bucket(
         self,

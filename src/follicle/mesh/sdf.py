@@ -49,9 +49,9 @@ from ..errors import InputError, ResourceError
 from ..frames import normalize
 from ..kernels import kernel, prange
 from ..validate import positive, whole
-from .skin import closest_weights
+from .skin import SkinMesh, closest_weights
 
-__all__ = ["SDF", "sdf_sample", "sdf_lookup"]
+__all__ = ["SDF", "skin_sdf", "sdf_sample", "sdf_lookup"]
 
 _SQRT3 = math.sqrt(3.0)
 
@@ -359,6 +359,14 @@ def _grid_place(
     cy = min(max(uy, 0.0), sy - 1.0)
     cz = min(max(uz, 0.0), sz - 1.0)
     return ux, uy, uz, cx, cy, cz, min(int(cx), sx - 2), min(int(cy), sy - 2), min(int(cz), sz - 2)
+
+
+def skin_sdf(mesh: SkinMesh, pose: str = "rest") -> SDF:
+    """The grid signed distance field of ``mesh``'s ``pose`` (the default voxel: the
+    longest bounds axis / 64), built on first use and kept with the pose's other derived
+    data (:meth:`SkinMesh.derived`): the groom's skin collision and the guide editor read
+    the same field."""
+    return mesh.derived("sdf", pose, lambda v: SDF.from_mesh(v, mesh.faces))
 
 
 @kernel(inline="always")

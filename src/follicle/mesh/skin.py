@@ -28,8 +28,6 @@ from .texture import Texture
 if TYPE_CHECKING:
     import trimesh
 
-    from .sdf import SDF
-
 __all__ = ["SkinMesh", "SurfacePoints", "closest_weights", "MAX_COORDINATE"]
 
 _POSES = ("rest", "current")
@@ -193,7 +191,11 @@ class SkinMesh:
             return self.vertices
         raise InputError(f"pose={pose!r}; use one of {list(_POSES)}")
 
-    def _cached(self, what: str, pose: str, make: Callable[[np.ndarray], _T]) -> _T:
+    def derived(self, what: str, pose: str, make: Callable[[np.ndarray], _T]) -> _T:
+        """What ``make`` derives from the vertices of ``pose``, made once and kept with the
+        pose under the name ``what`` (the current pose's data is dropped when it moves);
+        one ``make`` per name. Other modules keep their own data of a pose here too
+        (:func:`follicle.mesh.sdf.skin_sdf`)."""
         self._verts(pose)  # validates pose
         if self.at_rest:
             pose = "rest"  # not posed: the current pose shares the rest pose's data
@@ -238,7 +240,7 @@ class SkinMesh:
             p0, p1, p2 = (v[self.faces[:, k]] for k in range(3))
             return frozen(np.cross(p1 - p0, p2 - p0))
 
-        return self._cached("face_cross", pose, make)
+        return self.derived("face_cross", pose, make)
 
     def face_areas(self, pose: str = "rest") -> np.ndarray:
         """Triangle areas (F,) float64; zero for degenerate triangles."""
@@ -248,7 +250,7 @@ class SkinMesh:
             areas[self.degenerate_faces] = 0.0
             return frozen(areas)
 
-        return self._cached("face_areas", pose, make)
+        return self.derived("face_areas", pose, make)
 
     def face_normals(self, pose: str = "rest") -> np.ndarray:
         """Unit face normals (F, 3) by the right-hand rule on (v0, v1, v2); zero if degenerate."""
@@ -258,7 +260,7 @@ class SkinMesh:
             n[self.degenerate_faces] = 0.0
             return frozen(n)
 
-        return self._cached("face_normals", pose, make)
+        return self.derived("face_normals", pose, make)
 
     def vertex_normals(self, pose: str = "rest") -> np.ndarray:
         """Area-weighted unit vertex normals (V, 3), welded across UV seams.
@@ -278,7 +280,7 @@ class SkinMesh:
             n[length <= 0] = (0.0, 1.0, 0.0)
             return frozen(n)
 
-        return self._cached("vertex_normals", pose, make)
+        return self.derived("vertex_normals", pose, make)
 
     def _area_weighted_sum(self, per_face: np.ndarray, pose: str) -> np.ndarray:
         """Sum of area × per-face vectors over the faces around each vertex, (V, 3)."""
@@ -292,7 +294,7 @@ class SkinMesh:
             _, inverse = np.unique(rest, axis=0, return_inverse=True)
             return frozen(inverse.reshape(-1).astype(np.int64))
 
-        return self._cached("weld", "rest", make)
+        return self.derived("weld", "rest", make)
 
     def face_uv_gradient(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per-face (∂X/∂u, ∂X/∂v, ok) of per-vertex ``values`` (V, k) linear on each face.
@@ -320,7 +322,7 @@ class SkinMesh:
 
     def face_uv_derivatives(self, pose: str = "rest") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per-face (dP/du, dP/dv, ok) of the positions; ok is False where undefined."""
-        return self._cached("face_uv_derivatives", pose, self.face_uv_gradient)
+        return self.derived("face_uv_derivatives", pose, self.face_uv_gradient)
 
     def face_normal_uv_derivatives(
         self, pose: str = "rest"
@@ -330,7 +332,7 @@ class SkinMesh:
         def make(_v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             return self.face_uv_gradient(self.vertex_normals(pose))
 
-        return self._cached("face_normal_uv_derivatives", pose, make)
+        return self.derived("face_normal_uv_derivatives", pose, make)
 
     def face_tangents(self, pose: str = "rest") -> np.ndarray:
         """Unit face tangents (F, 3): dP/du, else the edge v0→v1 projected off the normal."""
@@ -343,7 +345,7 @@ class SkinMesh:
             t = t - np.sum(t * n, axis=1, keepdims=True) * n
             return frozen(normalize(t))
 
-        return self._cached("face_tangents", pose, make)
+        return self.derived("face_tangents", pose, make)
 
     def vertex_tangents(self, pose: str = "rest") -> np.ndarray:
         """Area-weighted unit vertex tangents (V, 3), made orthogonal to the vertex normals."""
@@ -354,7 +356,7 @@ class SkinMesh:
             acc = acc - np.sum(acc * n, axis=1, keepdims=True) * n
             return frozen(normalize(acc))
 
-        return self._cached("vertex_tangents", pose, make)
+        return self.derived("vertex_tangents", pose, make)
 
     # ------------------------------------------------------------------ evaluation
     def _check_samples(self, triangles: object, bary: object) -> tuple[np.ndarray, np.ndarray]:
@@ -446,16 +448,7 @@ class SkinMesh:
             vtree = cKDTree(v[np.unique(self.faces[used])])
             return vtree, cKDTree(centres[used]), centres, radii, used
 
-        return self._cached("trees", pose, make)
-
-    def sdf(self, pose: str = "rest") -> SDF:
-        """The grid signed distance field of this pose (:class:`follicle.mesh.sdf.SDF`,
-        the default voxel: the longest bounds axis / 64), built on first use and kept
-        with the pose's other derived data: the groom's skin collision and the guide
-        editor read the same field."""
-        from .sdf import SDF
-
-        return self._cached("sdf", pose, lambda v: SDF.from_mesh(v, self.faces))
+        return self.derived("trees", pose, make)
 
     # ------------------------------------------------------------------ export
     def to_trimesh(self, pose: str = "rest") -> trimesh.Trimesh:
