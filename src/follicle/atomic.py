@@ -12,6 +12,7 @@ import os
 import shutil
 import socket
 import tempfile
+import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -22,6 +23,7 @@ from .validate import file_path
 __all__ = ["atomic_path", "temporary_folder", "pending_folders", "deliver", "remove_pending"]
 
 _PENDING: set[Path] = set()  # temporary outputs not yet renamed onto their targets
+_REMOVE_TRIES = 50  # removals of a pending folder another process still writes into
 
 
 def _umask() -> int:
@@ -127,7 +129,13 @@ def remove_pending() -> None:
     handler that is about to end the process)."""
     for tmp in list(_PENDING):
         if tmp.is_dir():
-            shutil.rmtree(tmp, ignore_errors=True)
+            # a process still writing into it (ffmpeg opening its file) may add an entry
+            # while the tree goes, and the folder stays: again, until it is gone
+            for _ in range(_REMOVE_TRIES):
+                shutil.rmtree(tmp, ignore_errors=True)
+                if not tmp.exists():
+                    break
+                time.sleep(0.02)
             continue
         with contextlib.suppress(OSError):
             tmp.unlink()
