@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import os
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -26,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from follicle import HairCurves, SkinMesh, save
 from follicle.pipeline import grow, render_scene
 from follicle.scene import load_scene
 
@@ -34,14 +34,14 @@ OUT = ROOT / "docs" / "three_renderers.png"
 GAP = 4  # pixels between pictures
 
 
-def cycles(scene_path: Path, scene, size: int, samples: int, folder: Path) -> np.ndarray:
-    """Blender's Cycles picture of the scene: grown and exported for the blender target by
-    ``follicle grow``, rendered by ``tests/blender_scripts/render_groom.py``."""
+def cycles(
+    name: str, curves: HairCurves, mesh: SkinMesh, scene, size: int, samples: int, folder: Path
+) -> np.ndarray:
+    """Blender's Cycles picture of the grown hair and its skin, exported for the blender
+    target, rendered by ``tests/blender_scripts/render_groom.py``."""
     blender = os.environ.get("FOLLICLE_BLENDER_PYTHON", str(ROOT / ".venv-blender/bin/python"))
-    groom, png = folder / f"{scene_path.stem}.usdc", folder / f"{scene_path.stem}.png"
-    follicle = [sys.executable, "-m", "follicle"]
-    subprocess.run([*follicle, "grow", str(scene_path), "-o", str(groom), "--target", "blender"],
-                   check=True, stdout=subprocess.DEVNULL)  # fmt: skip
+    groom, png = folder / f"{name}.usdc", folder / f"{name}.png"
+    save(curves, groom, target="blender", mesh=mesh)
     r = scene.render
     view = ["--eye", *map(str, r.eye), "--target", *map(str, r.target), "--fov", str(r.fov)]
     script = ROOT / "tests" / "blender_scripts" / "render_groom.py"
@@ -72,7 +72,7 @@ def main() -> None:
             t_ours = time.perf_counter() - start
             mitsuba = render_scene(curves, mesh, params.replace(engine="mitsuba", spp=args.spp))
             t_mitsuba = time.perf_counter() - start - t_ours
-            blender = cycles(path, scene, args.size, args.samples, Path(tmp))
+            blender = cycles(name, curves, mesh, scene, args.size, args.samples, Path(tmp))
             t_cycles = time.perf_counter() - start - t_ours - t_mitsuba
             print(
                 f"{name}: follicle CPU {t_ours:.1f} s, Mitsuba {args.spp} spp {t_mitsuba:.0f} s,"

@@ -85,13 +85,20 @@ def test_serial_and_cluster_batches_are_the_same_bytes_and_a_rerun_keeps_them(tm
 
 
 @pytest.mark.slow
-def test_the_cli_writes_the_manifest_and_refuses_a_bad_sweep_in_one_line(tmp_path) -> None:
+def test_the_cli_writes_the_manifest_and_refuses_a_bad_sweep_in_one_line(
+    tmp_path, monkeypatch
+) -> None:
     runner = CliRunner()
     args = ["batch", "-o", str(tmp_path / "b"), "--count", "200", "--size", "48", "32"]
     result = runner.invoke(main, [*args, "--seeds", "0:2", "--curves", "none"])
     assert result.exit_code == 0, result.output
     rows = list(csv.DictReader((tmp_path / "b" / "manifest.csv").open()))
     assert [r["seed"] for r in rows] == ["0", "1"] and "curves" not in rows[0]
+    # the manifest's path as the folder was given (here absolute); a relative one stays so
+    assert result.output.strip().endswith(f"2 variants → {tmp_path / 'b' / 'manifest.csv'}")
+    monkeypatch.chdir(tmp_path)
+    relative = runner.invoke(main, ["batch", "-o", "r", *args[3:], "--seeds", "0:1"])
+    assert relative.output.strip().endswith("1 variants → r/manifest.csv"), relative.output
     bad = runner.invoke(main, [*args, "--vary", "groom.nope=1"])
     assert bad.exit_code == 2 and "no key nope" in bad.output
 

@@ -176,9 +176,10 @@ def page(script: Path, ran: list[dict[str, str | int]] | None, folder: str) -> s
     text = [f"# {title.strip()}", "", intro.strip(), ""]
     text.append(
         f"*This page is [`{script.name}`]({script.name}), run by the docs build: every "
-        "command and its output below, and every picture, come from that run. To run it "
-        "yourself, in an empty folder: `python FOLLICLE/tools/docs_tutorials.py "
-        f"{script.name}`, FOLLICLE being follicle's repository (the runner gives the "
+        "command and its output below, and every picture, come from that run (its timings "
+        "are those of the machine that built the page). To run it yourself, in an empty "
+        f"folder: `python FOLLICLE/tools/docs_tutorials.py {script.name}`, FOLLICLE being "
+        "follicle's repository (the runner gives the "
         "script its `sh`).*\n"
     )
     for cell, output in zip(parts, outputs, strict=True):

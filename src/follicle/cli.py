@@ -685,7 +685,7 @@ def batch(
             yield report
 
     manifest = job.run(counted)
-    click.echo(f"{total:,} variants → {manifest}")
+    click.echo(f"{total:,} variants → {Path(out) / manifest.name}")  # as OUT was given
 
 
 @main.command()
