@@ -362,3 +362,14 @@ def test_check_passes_each_engines_own_export_and_says_which_reader(files):
     )
     code, lines = _check(files["generic"], "blender")
     assert code == 1 and "reads all of it" not in " ".join(lines)
+
+
+@pytest.mark.parametrize("ext", [".abc", ".usda"])
+def test_a_houdini_file_reads_back_with_follicles_names(tmp_path, hair, ext):
+    from follicle.io.dispatch import load_curves
+
+    path = save(hair, tmp_path / f"h{ext}", target="houdini")
+    back = load_curves(path)
+    np.testing.assert_array_equal(back.curve_data["hair_id"], hair.curve_data["hair_id"])
+    np.testing.assert_allclose(back.point_data["opacity"], hair.point_data["opacity"])
+    assert "id" not in back.curve_data and "Alpha" not in back.point_data
