@@ -37,11 +37,13 @@ Alembic declares no units and no up axis: follicle writes metres, +Y up. Attribu
 
 A ``target`` (:mod:`follicle.io.targets`) renames and types the attributes for the tool
 that opens the file and, Alembic declaring no units, scales to its units (Unreal:
-centimetres, guides flagged ``groom_guide``, and its groom schema's version,
+centimetres, guides flagged ``groom_guide``, each curve's ``groom_group_id``, no skin
+(its groom importer refuses a file with a mesh), and its groom schema's version,
 ``groom_version_major`` 1 and ``groom_version_minor`` 5, int16 scalar user properties
 of the top Xform ``/Groom``, where Unreal's importer reads groom-wide values (and its
 own exporter writes them); as arbGeomParams of a curves object it would take them for
-the strands' attributes).
+the strands' attributes; Unity: one curves object per interpolation group, widths and
+per-vertex UVs only, no guides).
 
 alembic3d writes in a child process (:mod:`follicle.io.alembic_sink`), fed one object
 at a time through a pipe: its C++ ends the process it runs in when a write fails (a
