@@ -36,6 +36,7 @@ from follicle.curves import HairCurves
 from follicle.groom.generator import Groom
 from follicle.io.alembic import save_abc, save_abc_cache
 from follicle.io.attributes import DEFAULT_WIDTH
+from follicle.io.targets import GUIDE_ID_BASE
 from follicle.pipeline import groom_scene
 from follicle.scene import load_scene
 from ogawa import POD_NAMES, Archive, Compound, Object, Property, parse_metadata
@@ -217,13 +218,14 @@ def _joined(objects: list[Object], name: str) -> np.ndarray:
 _SPEC = {
     "groom_id": ("int32", 1, "uni"),
     "groom_guide": ("int32", 1, "uni"),
+    "groom_group_id": ("int32", 1, "uni"),
     "groom_root_uv": ("float32", 2, "uni"),
     "groom_color": ("float32", 3, "vtx"),
     "groom_closest_guides": ("int32", 3, "uni"),
     "groom_guide_weights": ("float32", 3, "uni"),
 }
 VERSION = {"groom_version_major": 1, "groom_version_minor": 5}
-GUIDE_PARAMS = {"groom_guide", "groom_id", "groom_root_uv"}
+GUIDE_PARAMS = {"groom_guide", "groom_id", "groom_root_uv", "groom_group_id"}
 
 
 def _decode_everything(path: Path) -> int:
@@ -460,8 +462,8 @@ def test_curves_are_icurves_guides_apart_and_named_as_unreal_reads_them(grown, r
     archive = Archive(grown)
     guides, hair = _curves(archive)
     assert len(hair) == 1 and hair[0].full_name.startswith("/Groom/")
-    meshes = [o for o in archive.walk() if o.schema == "AbcGeom_PolyMesh_v1"]
-    assert [m.full_name.startswith("/Groom/Skin") for m in meshes] == [True]
+    # no mesh: Unreal's groom translator refuses a file with any PolyMesh (CanTranslate)
+    assert not [o for o in archive.walk() if o.schema == "AbcGeom_PolyMesh_v1"]
     for obj in (guides, *hair):
         params = obj.find(".geom/.arbGeomParams")
         assert isinstance(params, Compound) and params.children
@@ -515,7 +517,9 @@ def test_groom_id_root_uv_and_colour_are_the_hairs(grown, reference):
     ids = _param(hair, "groom_id", *_SPEC["groom_id"])
     assert ids.tolist() == ref.hair.curve_data["hair_id"].tolist() and ids.min() >= 0
     guide_ids = _param(guides, "groom_id", *_SPEC["groom_id"])
-    assert guide_ids.tolist() == list(range(ref.guides.curve_count))  # what closest names
+    # what closest names, apart from every hair's id
+    assert guide_ids.tolist() == list(range(GUIDE_ID_BASE, GUIDE_ID_BASE + ref.guides.curve_count))
+    assert not set(guide_ids.tolist()) & set(ids.tolist())
     assert len(set(guide_ids.tolist())) == len(guide_ids) and guide_ids.min() >= 0
     for obj, curves in ((hair, ref.hair), (guides, ref.guides)):
         np.testing.assert_array_equal(
@@ -541,7 +545,7 @@ def test_closest_guides_name_guides_by_groom_id_and_weights_sum_to_1(grown, refe
     guides, (hair,) = _curves(Archive(grown))
     closest = _param(hair, "groom_closest_guides", *_SPEC["groom_closest_guides"])
     weights = _param(hair, "groom_guide_weights", *_SPEC["groom_guide_weights"])
-    np.testing.assert_array_equal(closest, reference.closest)
+    np.testing.assert_array_equal(closest, GUIDE_ID_BASE + reference.closest)
     np.testing.assert_array_equal(weights, reference.weights)
     # Unreal looks each one up among the guides' groom_id (GroomIDToIndex)
     guide_ids = _param(guides, "groom_id", *_SPEC["groom_id"])
@@ -555,7 +559,9 @@ def test_every_chunk_is_an_icurves_of_the_schema(chunked, reference):
     assert len(hair) == 2
     assert [len(_geom(o, "nVertices")) for o in hair] == [70, reference.hair.curve_count - 70]
     assert _joined(hair, "groom_id").tolist() == reference.hair.curve_data["hair_id"].tolist()
-    np.testing.assert_array_equal(_joined(hair, "groom_closest_guides"), reference.closest)
+    np.testing.assert_array_equal(
+        _joined(hair, "groom_closest_guides"), GUIDE_ID_BASE + reference.closest
+    )
     assert set(_joined(hair, "groom_guide").tolist()) == {0}
     np.testing.assert_allclose(
         np.concatenate([_geom(o, "P") for o in hair]),

@@ -1074,7 +1074,7 @@ def check(source: str, target_name: str) -> None:
     Exit 0 when it opens as it is, 1 when problems were found, 2 when FILE cannot be
     read. `follicle export FILE -o OUT --target TARGET` writes what it reads.
     """
-    from .io.check import check_file
+    from .io.check import check_file, nothing_dropped
     from .io.targets import TARGETS
 
     target = TARGETS[target_name]
@@ -1083,10 +1083,7 @@ def check(source: str, target_name: str) -> None:
         click.echo(f"{source}: {line}".translate(_ESCAPES))
     if found:
         sys.exit(1)
-    click.echo(
-        f"{source}: {target.tool} reads all of it ({curves.curve_count:,} curves,"
-        f" {curves.point_count:,} points)".translate(_ESCAPES)
-    )
+    click.echo(f"{source}: {nothing_dropped(source, target, curves)}".translate(_ESCAPES))
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -108,7 +108,7 @@ def grow_file(
         return curves.curve_count, curves.point_count
     tally = [0, 0]
     groom = groom_scene(scene)
-    extras = writer_extras(path, target, groom.guides.curves, groom.mesh if skin else None)
+    extras = writer_extras(path, target, groom.guides, groom.mesh if skin else None)
     if layout == "payloads":
         from .io.usd_payloads import PART_HAIRS, save_usd_payloads
 

@@ -497,7 +497,7 @@ def _made_into(
             files["curves"] = f"hair{suffix}"
             path = folder / files["curves"]
             mesh = groom.mesh if skin else None
-            extras = writer_extras(path, target, groom.guides.curves, mesh)
+            extras = writer_extras(path, target, groom.guides, mesh)
             save(target_chunk(groom, curves, target), path, **extras)
         if image:
             files["image"] = "hair.png"

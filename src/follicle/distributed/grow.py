@@ -62,10 +62,15 @@ LAYOUTS = ("file", "payloads")  # how a grow's USD is laid out: one file, or a r
 
 def target_chunk(groom: Groom, chunk: HairCurves, target: str) -> HairCurves:
     """``chunk`` as the ``target`` tool reads it: for one that reads the binding (Unreal)
-    each hair also carries the three guides it blends most and their weights."""
+    each hair also carries the three guides it blends most and their weights; for one
+    that reads interpolation groups (Unreal, Unity) the group it grew in
+    (:func:`follicle.io.animation.with_groups`)."""
+    from ..io.animation import with_groups
     from ..io.targets import TARGETS
 
-    if "closest_guides" not in TARGETS[target].curve_names:
+    tool = TARGETS[target]
+    chunk = with_groups(chunk, groom.guides, tool)
+    if "closest_guides" not in tool.curve_names:
         return chunk
     index, weight = groom.guide_binding(chunk.curve_data["hair_id"])
     return HairCurves(
@@ -168,7 +173,7 @@ def grow(
                 if progress is not None:
                     progress(a + n, total)
 
-        extras = writer_extras(out, target, groom.guides.curves, groom.mesh if skin else None)
+        extras = writer_extras(out, target, groom.guides, groom.mesh if skin else None)
         chunks = _rechunked(written(), CHUNK) if total else iter([groom.generate(count=0)])
         # a local cluster's workers hold the other cores: the client's own kernels (the
         # parts' checks, the bounds) on its one, where a parallel kernel's join would
@@ -224,5 +229,5 @@ def _grow_payloads(
             if progress is not None:
                 progress(done, total)
         mesh = groom.mesh if skin else None
-        finish_payloads(out, staged, len(ranges), groom.guides.curves, mesh=mesh, target=target)
+        finish_payloads(out, staged, len(ranges), groom.guides, mesh=mesh, target=target)
     return total, points

@@ -24,7 +24,9 @@ Alembic declares no units and no up axis: follicle writes metres, +Y up. Attribu
   importer in its 3.x-4.x sources read it as the radius: hair twice as thick there);
 - ``N`` (``normal``), vertex scope (``normals=False`` leaves them out: renderers then
   draw round tubes rather than ribbons facing them);
-- ``uv``, uniform scope: ``curve_data['root_uv']``;
+- ``uv``, uniform scope: ``curve_data['root_uv']``; vertex scope when the curves have
+  ``point_data['uv']`` and no ``root_uv`` (the unity target: the root's UV on each of its
+  vertices, as Unity's importer sizes UVs per vertex);
 - arbGeomParams: ``color`` C3f (so are a target's ``Cd`` and ``groom_color``) and
   ``opacity`` float, vertex scope, and every other ``point_data`` array (vertex scope)
   and ``curve_data`` array (uniform scope) under its own name: floats of 1-3 components
@@ -35,11 +37,13 @@ Alembic declares no units and no up axis: follicle writes metres, +Y up. Attribu
 
 A ``target`` (:mod:`follicle.io.targets`) renames and types the attributes for the tool
 that opens the file and, Alembic declaring no units, scales to its units (Unreal:
-centimetres, guides flagged ``groom_guide``, and its groom schema's version,
+centimetres, guides flagged ``groom_guide``, each curve's ``groom_group_id``, no skin
+(its groom importer refuses a file with a mesh), and its groom schema's version,
 ``groom_version_major`` 1 and ``groom_version_minor`` 5, int16 scalar user properties
 of the top Xform ``/Groom``, where Unreal's importer reads groom-wide values (and its
 own exporter writes them); as arbGeomParams of a curves object it would take them for
-the strands' attributes).
+the strands' attributes; Unity: one curves object per interpolation group, widths and
+per-vertex UVs only, no guides).
 
 alembic3d writes in a child process (:mod:`follicle.io.alembic_sink`), fed one object
 at a time through a pipe: its C++ ends the process it runs in when a write fails (a
@@ -85,7 +89,7 @@ from . import guard_server
 from .alembic_archive import COLOR_NAMES, GROOM_VERSION_KEYS
 from .alembic_guard import check_archive, read_curves, read_mesh
 from .alembic_sink import send
-from .animation import Animation, target_guides
+from .animation import Animation, target_guides, with_groups
 from .attributes import column
 from .cache_writer import cache_writer
 from .curve_bounds import vertex_bounds
@@ -175,11 +179,18 @@ def _curves_arrays(
                 f"curve_data['root_uv']: expected shape ({curves.curve_count}, 2), got {uv.shape}"
             )
         arrays["uv"] = uv.astype(np.float32)
+    vertex_uv = curves.point_data.get("uv")
+    if uv is None and vertex_uv is not None and vertex_uv.shape == (curves.point_count, 2):
+        arrays["uv"] = vertex_uv.astype(np.float32)  # vertex scope (a target's, Unity's)
+    else:
+        vertex_uv = None
     params: list[list[str]] = []  # [name, kind, scope] of each arbGeomParam
     pd = curves.point_data
     for data, scope in ((pd, "Vertex"), (curves.curve_data, "Uniform")):
         for name, arr in sorted(data.items()):
-            if name in (("width", "normal") if data is pd else ("root_uv",)):
+            if name in (("width", "normal") if data is pd else ("root_uv",)) or (
+                data is pd and name == "uv" and vertex_uv is not None
+            ):
                 continue
             if (
                 data is pd
@@ -356,6 +367,21 @@ def _send_curves(sink: _Sink, path: str, curves: HairCurves, normals: bool) -> N
     sink.send({"op": "curves", "path": path, "params": params, "keep": False}, arrays)
 
 
+def _by_group(curves: Curves) -> Iterator[HairCurves]:
+    """The hair of every chunk gathered by ``curve_data['group']`` (its interpolation
+    group; all in one without it), groups in increasing order: Unity's hair package
+    makes a strand group of each curves object it finds (com.unity.demoteam.hair,
+    Editor/HairAssetBuilder.cs, BuildHairAssetAlembic), so one per chunk would split a
+    groom at every 32,768 hairs. The groom is held whole (a real-time groom is small)."""
+    whole = HairCurves.concatenate(list(as_chunks(curves)))
+    group = whole.curve_data.get("group")
+    if group is None:
+        yield whole
+        return
+    for g in np.unique(group):
+        yield whole[np.flatnonzero(group == g)]
+
+
 def save_abc(
     curves: Curves,
     path: str | os.PathLike[str],
@@ -373,12 +399,24 @@ def save_abc(
     ``target`` (see :mod:`follicle.io.targets`) names and types the attributes for the
     tool that opens the file and, Alembic declaring no units, writes points, widths and
     the skin in its units (Unreal: centimetres, guides flagged ``groom_guide = 1``, and
-    the groom schema's version on ``/Groom``)."""
+    the groom schema's version on ``/Groom``; no skin, which would make its groom
+    importer refuse the file). For Unity the hair is one curves object per
+    interpolation group (``curve_data['group']``), the root UVs per vertex, and no
+    guides (its hair package would take them for hair)."""
     out = _check_suffix(path)
     tool = get_target(target)
-    guide_curves = target_guides(guides, tool)
+    guide_curves = target_guides(guides, tool) if tool.guides else None
+    if guides is not None and not tool.guides:
+        log.info("%s: guides left out: %s would take them for hair", out, tool.reads)
+    if mesh is not None and not tool.alembic_mesh:
+        log.info("%s: skin left out: %s refuses an Alembic file with a mesh", out, tool.tool)
+        mesh = None
     skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
-    chunks = (for_target(chunk, tool) for chunk in as_chunks(curves))
+    grouped = (with_groups(chunk, guides, tool) for chunk in as_chunks(curves))
+    if tool.vertex_uv:  # Unity: one curves object (one strand group) per group
+        chunks: Iterator[HairCurves] = (for_target(g, tool) for g in _by_group(grouped))
+    else:
+        chunks = (for_target(chunk, tool) for chunk in grouped)
 
     def fill(sink: _Sink) -> None:
         if skin is not None:
@@ -460,6 +498,9 @@ def _send_cache(sink: _Sink, anim: Animation, skin: dict[str, np.ndarray] | None
 
 def _write_cache(out: Path, anim: Animation, mesh: SkinMesh | None, tool: Target) -> None:
     """The animation as one archive (see :func:`save_abc_cache`)."""
+    if mesh is not None and not tool.alembic_mesh:
+        log.info("%s: skin left out: %s refuses an Alembic file with a mesh", out, tool.tool)
+        mesh = None
     skin = None if mesh is None else _mesh_arrays(mesh, tool.scale)
     _write(out, lambda sink: _send_cache(sink, anim, skin), tool.groom_schema)
 

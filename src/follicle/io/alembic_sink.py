@@ -16,7 +16,8 @@ The protocol, on stdin: one JSON line per operation naming its arrays
 ``fps``/``start`` for a sampled one, ``user``: ``{name: int16}`` user properties),
 ``matrix`` (``path``; ``matrix``: a row-vector 4×4 sample), ``curves`` (``path``,
 ``fps``/``start``, ``keep``: hold it for more samples; ``points``, ``counts``,
-``bounds``, optional ``width``, ``normal``, ``uv``, ``velocities`` and ``params``:
+``bounds``, optional ``width``, ``normal``, ``uv`` (uniform scope, or vertex scope when
+it has one row a point), ``velocities`` and ``params``:
 ``[[name, kind, scope], …]`` with arrays ``param0``, …, kind one of
 :data:`_PARAM_TYPES`, scope ``Vertex``, ``Uniform`` or ``Constant``), ``sample``
 (``path``; ``points``, ``velocities``, ``bounds``, optional ``normal``), ``mesh``
@@ -185,8 +186,10 @@ class _Writer:
         sample.setCurvesNumVertices(self._values("int", arrays["counts"]))
         if "width" in arrays:
             sample.setWidths(self._param("float", arrays["width"], "Vertex"))
-        if "uv" in arrays:
-            sample.setUVs(self._param("v2f", arrays["uv"], "Uniform"))
+        if "uv" in arrays:  # per curve, or per vertex when there is one a vertex
+            per_vertex = len(arrays["uv"]) == len(arrays["points"]) != len(arrays["counts"])
+            scope = "Vertex" if per_vertex else "Uniform"
+            sample.setUVs(self._param("v2f", arrays["uv"], scope))
         schema.set(sample)
         arb = schema.getArbGeomParams()
         for i, (pname, kind, scope) in enumerate(op["params"]):

@@ -50,10 +50,31 @@ def as_guides(guides: object) -> HairCurves:
 
 def target_guides(guides: object | None, tool: Target, in_units: bool = True) -> HairCurves | None:
     """``guides`` (Guides or HairCurves; None for none) as a writer for ``tool`` stores
-    them: the conventional attributes, named, typed and (``in_units``) scaled for it."""
+    them: the conventional attributes, named, typed and (``in_units``) scaled for it;
+    for a tool that reads interpolation groups (Unreal's ``groom_group_id``) a Guides
+    object's ``group`` as ``curve_data['group']``."""
     if guides is None:
         return None
-    return for_target(conventional(as_guides(guides)), tool, "guides", in_units)
+    curves = conventional(as_guides(guides))
+    group = getattr(guides, "group", None)  # a Guides object's interpolation groups
+    if tool.groups and group is not None and "group" not in curves.curve_data:
+        curve_data = {**curves.curve_data, "group": np.asarray(group, np.int32)}
+        curves = HairCurves(curves.points, curves.offsets, curves.point_data, curve_data)
+    return for_target(curves, tool, "guides", in_units)
+
+
+def with_groups(curves: HairCurves, guides: object | None, tool: Target) -> HairCurves:
+    """Hair ``curves`` with the interpolation group each grew in, for a ``tool`` that
+    reads groups (Unreal's ``groom_group_id``, Unity's strand groups): from its root UV
+    through a Guides object's groups, as the generator finds it
+    (``curve_data['group']``); as they are when they have one, or have no root UVs, or
+    ``guides`` has no groups."""
+    groups = getattr(guides, "groups", None)
+    data = curves.curve_data
+    if not tool.groups or groups is None or "group" in data or "root_uv" not in data:
+        return curves
+    group = groups.group_of(data["root_uv"])
+    return HairCurves(curves.points, curves.offsets, curves.point_data, {**data, "group": group})
 
 
 def head_matrices(transforms: object) -> np.ndarray:

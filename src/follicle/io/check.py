@@ -6,7 +6,10 @@ USD and Alembic are read with their attributes as the file names and types them
 ``stored``), Alembic in the target's units (it declares none); other formats through
 :func:`follicle.io.dispatch.load_curves`. What the reader had to leave out or fix (its
 warnings) is part of the list, then :func:`follicle.io.targets.problems`, then, for a
-target with a container schema (Unreal), the curves that lack it.
+target with a container schema (Unreal), the curves that lack it; then what the
+target's importer does with the file's layout (:func:`_layout`): a format its hair
+importer does not read (Unity's hair package: Alembic only), guides it would take for
+hair (Unity), a mesh that makes it refuse the file (Unreal's groom translator).
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from .attributes import plausible_widths
 from .guard import curves_from_parts
 from .targets import Target, get_target, problems
 
-__all__ = ["check_file", "warnings_heard"]
+__all__ = ["check_file", "nothing_dropped", "warnings_heard"]
 
 log = logging.getLogger("follicle")
 
@@ -69,6 +72,43 @@ def _without_schema(parts: list[dict], source: Path, target: Target, alembic: bo
     ]
 
 
+def _layout(path: Path, suffix: str, parts: list[dict], target: Target) -> list[str]:
+    """What ``target``'s importer makes of the file's layout (see the module), one line
+    each; ``parts``: its hair curves objects (Alembic and USD)."""
+    from ..errors import FollicleError
+
+    t = target
+    if t.formats is not None and suffix not in t.formats:
+        return [
+            f"{t.tool} builds hair from {', '.join(t.formats)} files only ({t.reads}):"
+            f" it does not read this one; `follicle export --target {t.name}` to"
+            f" {t.formats[0]}"
+        ]
+    if suffix != ".abc":
+        return []
+    from .alembic import abc_parts, load_abc_mesh
+
+    out = []
+    if not t.guides:
+        with contextlib.suppress(FollicleError):
+            _, guides = abc_parts(path, guides=True, stored=True)
+            if guides and guides[0]["where"] not in {p["where"] for p in parts}:
+                out.append(
+                    f"guides ({guides[0]['where'].rsplit(': ', 1)[-1]}): {t.tool} takes every"
+                    " curves object for hair, so they would become a strand group of their"
+                    f" own; `follicle export --target {t.name}` leaves them out"
+                )
+    if not t.alembic_mesh:
+        with contextlib.suppress(FollicleError):
+            mesh = load_abc_mesh(path)
+            out.append(
+                f"a mesh ({mesh.name}): {t.tool}'s groom importer refuses an Alembic file"
+                f" with any PolyMesh in it; `follicle export --target {t.name}` leaves the"
+                " skin out"
+            )
+    return out
+
+
 def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[HairCurves, list[str]]:
     """(the curves of ``path`` as ``target`` reads them, what it would drop or refuse, one
     line each, without the file's name); FollicleError when the file cannot be read."""
@@ -82,6 +122,7 @@ def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[Hair
     suffix = Path(path).suffix.lower()
     alembic = suffix == ".abc"
     schema: list[str] = []
+    parts: list[dict] = []
     with warnings_heard() as heard:  # what the reader had to leave out or fix
         if suffix in USD_SUFFIXES or alembic:
             source, parts = (abc_parts if alembic else usd_parts)(path, stored=True)
@@ -92,5 +133,27 @@ def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[Hair
         else:
             curves = load_curves(path, units=t.meters_per_unit)
         plausible_widths(curves, path)
+        layout = _layout(Path(path), suffix, parts, t)
     found = [line.removeprefix(f"{path}: ") for line in heard]
-    return curves, found + problems(curves, t, alembic=alembic) + schema
+    return curves, found + problems(curves, t, alembic=alembic) + schema + layout
+
+
+def nothing_dropped(path: str | os.PathLike[str], target: Target | str, curves: HairCurves) -> str:
+    """The line `follicle check` prints when it found nothing ``target``'s importer
+    would drop in ``path`` (``curves``: as it read them): which reader that is. The
+    generic target promises no tool's importer: for Alembic it says that Blender's keeps
+    points and radius only (Blender's table, :data:`follicle.io.targets.TARGETS`)."""
+    from .targets import TARGETS
+
+    t = get_target(target)
+    size = f"({curves.curve_count:,} curves, {curves.point_count:,} points)"
+    if t.name != "generic":
+        return f"{t.tool} reads all of it {size}"
+    line = f"a USD or Alembic reader reads all of it {size}"
+    blender = TARGETS["blender"]
+    if Path(path).suffix.lower() == ".abc" and blender.alembic_reads is not None:
+        line += (
+            f"; {blender.alembic_importer} keeps only points and"
+            f" {', '.join(sorted(blender.alembic_reads))} (`--target blender`)"
+        )
+    return line

@@ -289,6 +289,28 @@ def _widened(data: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return {k: v.astype(np.int64) if v.dtype == np.int32 else v for k, v in data.items()}
 
 
+# another tool's name -> follicle's, per point and per curve: Houdini's (what the
+# houdini target writes, follicle.io.targets), taken when follicle's is not there
+_OURS_POINT = {"Alpha": "opacity"}
+_OURS_CURVE = {"id": "hair_id"}
+
+
+def _ours(
+    point_data: dict[str, np.ndarray], curve_data: dict[str, np.ndarray]
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """``point_data`` and ``curve_data`` with Houdini's ``Alpha`` (per point) and
+    ``id`` (per curve) under follicle's names, opacity and hair_id, where those are
+    not there already: a file written for Houdini reads back as follicle wrote it."""
+    out = []
+    for data, names in ((point_data, _OURS_POINT), (curve_data, _OURS_CURVE)):
+        data = dict(data)
+        for theirs, ours in names.items():
+            if theirs in data and ours not in data:
+                data[ours] = data.pop(theirs)
+        out.append(data)
+    return out[0], out[1]
+
+
 def _curves(part: dict, stored: bool = False) -> HairCurves:
     """One curves part from the child (``where``, ``points``, ``offsets``, ``point_data``,
     ``curve_data``) as HairCurves (FormatError if they are not valid curves), integers
@@ -298,6 +320,7 @@ def _curves(part: dict, stored: bool = False) -> HairCurves:
     point_data, curve_data = part["point_data"], part["curve_data"]
     if not stored:
         point_data, curve_data = _widened(point_data), _widened(curve_data)
+        point_data, curve_data = _ours(point_data, curve_data)
     counts = np.diff(offsets)
     if offsets.ndim == 1 and len(offsets) and (counts == 1).any():
         log.warning(

@@ -3,13 +3,17 @@
 follicle's own attribute names (``width`` diameters in metres, ``color``, ``root_uv``,
 ``hair_id`` int64, …) are what it reads back, but each tool that opens a groom looks for
 its own: Blender's hair tools look for ``surface_uv_coordinate`` and drop every int64
-attribute; Houdini calls colours ``Cd`` and binds guides to the skin with ``skinprim`` /
-``skinprimuv``; Unreal imports only ``groom_*`` attributes of its groom schema, in
-centimetres, at most 255 points a curve; Unity's hair package refuses a whole file for
-one curve with fewer than 2 points. A :class:`Target` says all of that as data, and
-:func:`for_target` turns one chunk of HairCurves into what the target reads — the same
-for every format, so a writer only adds what its container needs (USD: ``GroomAPI``;
-Alembic: the groom schema's version properties).
+attribute; Houdini calls colours ``Cd``, opacity ``Alpha``, ids ``id`` and binds guides to
+the skin with ``skinprim`` / ``skinprimuv``; Unreal imports only ``groom_*`` attributes
+of its groom schema, in centimetres, at most 255 points a curve; Unity's hair package
+refuses a whole file for one curve with fewer than 2 points. A :class:`Target` says all
+of that as data, and :func:`for_target` turns one chunk of HairCurves into what the
+target reads — the same for every format, so a writer only adds what its container
+needs (USD: ``GroomAPI``; Alembic: the groom schema's version properties).
+
+What each importer keeps is a table too (:attr:`Target.alembic_reads`, read from the
+importers' own sources, cited where each Target is made), so ``follicle check`` lists
+what it would drop rather than assume it reads everything.
 
 The table in the README (Formats → Targets) is :data:`TARGETS`, written out.
 """
@@ -35,6 +39,7 @@ __all__ = [
     "for_target",
     "problems",
     "MAX_UNREAL_POINTS",
+    "GUIDE_ID_BASE",
     "check_named",
     "writer_extras",
 ]
@@ -67,6 +72,11 @@ def writer_extras(path: str | os.PathLike[str], target: str, guides: object, mes
 log = logging.getLogger("follicle")
 
 MAX_UNREAL_POINTS = 255  # Unreal's groom builder stores a curve's point count in a byte
+# Unreal's groom_id of guide k: GUIDE_ID_BASE + k, apart from every hair's (its hair_id,
+# below it), as the schema's ids name one strand each (groom_closest_guides names guides
+# by it); ids are int32 in [0, INT_MAX] (Alembic for Grooms specification, Geometry
+# Parameters: groom_id, groom_closest_guides)
+GUIDE_ID_BASE = 2**30
 _INT32 = np.iinfo(np.int32)
 
 
@@ -89,7 +99,14 @@ class Target:
     prefix: str | None = None  # the tool reads only attributes named so (and widths)
     groom_schema: bool = False  # Unreal's: USD GroomAPI on the hair, Alembic's version keys
     alembic_reads: frozenset[str] | None = None  # what its Alembic importer keeps (None: all)
+    alembic_importer: str = ""  # that importer, as messages name it
     unused: frozenset[str] = frozenset()  # ours that it has no use for: not written
+    formats: tuple[str, ...] | None = None  # the only suffixes its hair importer reads
+    groups: bool = False  # each curve's interpolation group as curve_data['group']
+    vertex_uv: bool = False  # root_uv written per vertex as 'uv' (the root's on every one)
+    guides: bool = True  # the guides written beside the hair (False: left out)
+    alembic_mesh: bool = True  # a skin mesh in its Alembic files (False: left out)
+    only: frozenset[str] | None = None  # the attributes written (None: all it reads)
 
     @property
     def scale(self) -> float:
@@ -108,15 +125,21 @@ TARGETS: dict[str, Target] = {
             "Blender",
             "Blender 4–5 hair curves (its hair tools' attribute names)",
             curve_names={"root_uv": "surface_uv_coordinate"},
-            alembic_reads=frozenset({"width"}),  # measured, bpy 5.0.1
+            # measured, bpy 5.0.1 (tests/test_blender.py): its Alembic curves importer
+            # keeps the points and radius (width / 2) only
+            alembic_reads=frozenset({"width"}),
+            alembic_importer="Blender's Alembic importer",
             unused=frozenset({"normal"}),
         ),  # its hair is round tubes: USD import drops them
         Target(
             "houdini",
             "Houdini",
             "Houdini SOPs and Solaris (its groom attribute names)",
-            point_names={"color": "Cd"},
-            curve_names={"root_uv": "uv"},
+            # Houdini's own names: Cd and Alpha (colour, opacity) and uv
+            # (sidefx.com/docs/houdini/model/attributes.html); id, a guide's or strand's
+            # unique id (Epic's MetaHuman for Houdini, "HDA reference": @id → groom_id)
+            point_names={"color": "Cd", "opacity": "Alpha"},
+            curve_names={"root_uv": "uv", "hair_id": "id", "guide_id": "id"},
             int32=False,
             houdini_skin=True,
         ),
@@ -129,6 +152,7 @@ TARGETS: dict[str, Target] = {
                 "root_uv": "groom_root_uv",
                 "hair_id": "groom_id",
                 "guide_id": "groom_id",
+                "group": "groom_group_id",
                 "closest_guides": "groom_closest_guides",
                 "guide_weights": "groom_guide_weights",
             },
@@ -137,8 +161,32 @@ TARGETS: dict[str, Target] = {
             guide_flag="groom_guide",
             prefix="groom_",
             groom_schema=True,
+            groups=True,
+            # FAlembicHairTranslator::CanTranslate (Engine/Plugins/Runtime/HairStrands/
+            # Source/AlembicHairImporter/Private/AlembicHairTranslator.cpp): "Any PolyMesh
+            # will cause the Alembic to be rejected by this translator"
+            alembic_mesh=False,
         ),
-        Target("unity", "Unity", "Unity's hair package (com.unity.demoteam.hair)", int32=False),
+        Target(
+            "unity",
+            "Unity",
+            "Unity's hair package (com.unity.demoteam.hair), through its Alembic importer",
+            # com.unity.formats.alembic: Source/abci/Importer/aiCurves.cpp and
+            # Documentation~/curves.md read positions, nVertices, width, UV and
+            # velocities only; AlembicCurvesElement.cs sizes UVs per vertex
+            # (uvs.ResizeDiscard(positionCount)); com.unity.demoteam.hair:
+            # Editor/HairAssetBuilder.cs reads the root UV as UVs[i * vertexCount] and
+            # builds a strand group of every AlembicCurves it finds (guides included),
+            # from Alembic only (BuildHairAssetAlembic)
+            int32=False,
+            alembic_reads=frozenset({"width", "uv"}),
+            alembic_importer="Unity's Alembic importer (com.unity.formats.alembic)",
+            formats=(".abc",),
+            groups=True,
+            vertex_uv=True,
+            guides=False,
+            only=frozenset({"width", "uv"}),
+        ),
     )
 }
 TARGET_NAMES = tuple(TARGETS)
@@ -226,6 +274,20 @@ def _houdini_skin(curve_data: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return out
 
 
+def _vertex_uv(curves: HairCurves) -> HairCurves:
+    """``root_uv`` (per curve) as ``point_data['uv']``: the root's UV on each of its
+    vertices, so that whichever vertex an importer takes for the root (Unity's hair
+    package: the first of each resampled strand, ``UVs[i * vertexCount]``) has it."""
+    curve_data = dict(curves.curve_data)
+    uv = curve_data.pop("root_uv", None)
+    if uv is None:
+        return curves
+    per_vertex = np.repeat(np.asarray(uv, np.float32), curves.counts, axis=0)
+    return HairCurves(
+        curves.points, curves.offsets, {**curves.point_data, "uv": per_vertex}, curve_data
+    )
+
+
 def for_target(
     curves: HairCurves, target: Target | str, role: str = "hair", in_units: bool = True
 ) -> HairCurves:
@@ -233,13 +295,16 @@ def for_target(
     in its units (``in_units=False`` keeps metres, for a format that declares its unit,
     like USD's ``metersPerUnit``, which the tool converts from). ``role`` is "hair" or
     "guides": guides get widths (DEFAULT_WIDTH when they have none) and the target's
-    guide flag (1; hair gets 0) with their index as their id (Unreal binds each hair to
-    the ids its ``groom_closest_guides`` name, and :meth:`Groom.guide_binding` gives
-    guide indices)."""
+    guide flag (1; hair gets 0) with ``GUIDE_ID_BASE`` + their index as their id, apart
+    from every hair's (Unreal binds each hair to the ids its ``groom_closest_guides``
+    name, which :meth:`Groom.guide_binding` gives as guide indices: they are moved by the
+    same base)."""
     t = get_target(target)
     if role not in ("hair", "guides"):
         raise InputError(f"role: expected 'hair' or 'guides', got {role!r}")
     curves = _sized(curves, t, role)
+    if t.vertex_uv:
+        curves = _vertex_uv(curves)
     point_data = {k: v for k, v in curves.point_data.items() if k not in t.unused}
     curve_data = {k: v for k, v in curves.curve_data.items() if k not in t.unused}
     if role == "guides" and "width" not in point_data:
@@ -254,17 +319,38 @@ def for_target(
         curve_data = _houdini_skin(curve_data)
     if t.guide_flag is not None:
         curve_data[t.guide_flag] = np.full(curves.curve_count, role == "guides", np.int32)
-        if role == "guides":  # its id is what the hair's closest guides name: the index
-            curve_data["guide_id"] = np.arange(curves.curve_count, dtype=np.int32)
+        if role == "guides":  # its id is what the hair's closest guides name
+            curve_data["guide_id"] = GUIDE_ID_BASE + np.arange(curves.curve_count, dtype=np.int32)
+        else:
+            _apart_from_guides(curve_data)
     point_data = {t.point_names.get(k, k): v for k, v in point_data.items()}
     curve_data = {t.curve_names.get(k, k): v for k, v in curve_data.items()}
     if t.prefix is not None:  # what the tool would drop anyway is not written
         point_data = {k: v for k, v in point_data.items() if k.startswith(t.prefix) or k == "width"}
         curve_data = {k: v for k, v in curve_data.items() if k.startswith(t.prefix)}
+    if t.only is not None:
+        point_data = {k: v for k, v in point_data.items() if k in t.only}
+        curve_data = {k: v for k, v in curve_data.items() if k in t.only}
     if t.int32:
         point_data = _narrow_ints(point_data, "point attribute")
         curve_data = _narrow_ints(curve_data, "curve attribute")
     return HairCurves(points.astype(np.float32, copy=False), curves.offsets, point_data, curve_data)
+
+
+def _apart_from_guides(curve_data: dict[str, np.ndarray]) -> None:
+    """A hair chunk's ``closest_guides`` (guide indices) as the guides' ids
+    (``GUIDE_ID_BASE`` + index), in place; InputError when a ``hair_id`` reaches the
+    guides' ids (more than 2**30 hairs), which would make them ambiguous."""
+    ids = curve_data.get("hair_id")
+    if ids is not None and len(ids) and int(np.max(ids)) >= GUIDE_ID_BASE:
+        raise InputError(
+            f"curve_data['hair_id']: ids up to {int(np.max(ids)):,} reach the guides' ids"
+            f" ({GUIDE_ID_BASE:,} and up) in Unreal's groom_id; number the hairs below"
+            f" {GUIDE_ID_BASE:,}"
+        )
+    closest = curve_data.get("closest_guides")
+    if closest is not None:
+        curve_data["closest_guides"] = GUIDE_ID_BASE + np.asarray(closest, np.int32)
 
 
 def problems(curves: HairCurves, target: Target | str, alembic: bool = False) -> list[str]:
@@ -274,13 +360,22 @@ def problems(curves: HairCurves, target: Target | str, alembic: bool = False) ->
     (:func:`follicle.io.attributes.plausible_widths`)."""
     t = get_target(target)
     out = []
+    if alembic and t.vertex_uv and "root_uv" in curves.curve_data:
+        out.append(
+            f"root UVs one per curve ('root_uv'): {t.alembic_importer} sizes UVs per vertex"
+            f" and {t.tool}'s hair package takes vertex i·n's as hair i's root UV, so every"
+            f" hair but the first gets another's; `follicle export --target {t.name}`"
+            " writes them per vertex"
+        )
     if alembic and t.alembic_reads is not None:
-        lost = sorted((set(curves.point_data) | set(curves.curve_data)) - t.alembic_reads)
+        keep = t.alembic_reads | ({"root_uv"} if t.vertex_uv else set())
+        lost = sorted((set(curves.point_data) | set(curves.curve_data)) - keep)
         if lost:
+            hint = "; write USD for it" if t.formats is None else ""
             out.append(
-                f"{t.tool}'s Alembic importer keeps only points and"
+                f"{t.alembic_importer} keeps only points and"
                 f" {', '.join(sorted(t.alembic_reads))}: {', '.join(lost)} would be"
-                " dropped; write USD for it"
+                f" dropped{hint}"
             )
     counts = curves.counts
     if t.max_points is not None and (counts > t.max_points).any():
@@ -298,7 +393,7 @@ def problems(curves: HairCurves, target: Target | str, alembic: bool = False) ->
                     f"'{k}' is {v.dtype}: {t.tool} drops 64-bit integer attributes (write int32)"
                 )
     for ours, theirs in {**t.point_names, **t.curve_names}.items():
-        if theirs not in data and ours in data and (ours, theirs) != ("guide_id", "groom_id"):
+        if theirs not in data and ours in data and ours != "guide_id":
             out.append(f"'{ours}' is there but {t.tool} reads '{theirs}'")
     if t.prefix is not None:
         ignored = sorted(k for k in data if not k.startswith(t.prefix) and k != "width")

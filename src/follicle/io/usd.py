@@ -59,7 +59,7 @@ from ..atomic import atomic_path
 from ..curves import HairCurves
 from ..errors import FileAccessError, FormatError
 from ..inputs import input_file
-from .animation import Animation, target_guides
+from .animation import Animation, target_guides, with_groups
 from .attributes import column
 from .cache_writer import cache_writer
 from .curve_bounds import catmull_rom_bounds
@@ -350,7 +350,10 @@ def save_usd(
     out = _check_suffix(path)
     tool = get_target(target)
     guide_curves = target_guides(guides, tool, in_units=False)
-    chunks = (for_target(chunk, tool, in_units=False) for chunk in as_chunks(curves))
+    chunks = (
+        for_target(with_groups(chunk, guides, tool), tool, in_units=False)
+        for chunk in as_chunks(curves)
+    )
     with _writing(out), atomic_path(out) as tmp:
         _finish(
             out,

@@ -41,7 +41,7 @@ from ..atomic import _umask, atomic_path, temporary_folder
 from ..curves import HairCurves
 from ..errors import FileAccessError, FormatError
 from ..validate import file_path
-from .animation import target_guides
+from .animation import target_guides, with_groups
 from .stream import Curves, as_chunks
 from .targets import Target, for_target, get_target
 from .usd import HAIR_PATH, SUFFIXES, _define_curves, _finish, _groom_stage, _writing
@@ -252,6 +252,7 @@ def save_usd_payloads(
     with temporary_folder(out, "payloads") as staged:
         parts = 0
         for i, chunk in enumerate(as_chunks(curves)):
+            chunk = with_groups(chunk, guides, get_target(target))
             save_usd_part(chunk, part_file(staged, i), normals, target)
             parts = i + 1
         return finish_payloads(out, staged, parts, guides, normals, mesh, target)
