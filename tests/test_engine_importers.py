@@ -222,6 +222,23 @@ def test_one_uv_a_curve_gives_unitys_hair_package_other_hairs_uvs(files, groom, 
     assert wrong.mean() > 0.9
 
 
+def test_unity_reads_positions_in_metres_and_diameters_in_centimetres(files, hair):
+    """The hair package's Alembic defaults (Runtime/HairAsset.Settings.cs:
+    ``alembicScalePositions = DataInMeters``, ``alembicScaleDiameters =
+    DataInCentimeters``): each vertex's width times 0.01 is the hair's width in metres,
+    the positions are metres as they are."""
+    mine = {tuple(r): i for i, r in enumerate(np.round(hair.points[hair.offsets[:-1]], 6))}
+    for group in _unity_strand_groups(files["unity"]):
+        for s in group:
+            ends = np.append(s["offsets"], len(s["positions"]))
+            for a, b in zip(ends[:-1], ends[1:], strict=True):
+                i = mine[tuple(np.round(s["positions"][a], 6))]
+                ours = slice(hair.offsets[i], hair.offsets[i + 1])
+                np.testing.assert_array_equal(s["positions"][a:b], hair.points[ours])
+                metres = s["widths"][a:b, 0] * np.float32(0.01)
+                np.testing.assert_allclose(metres, hair.point_data["width"][ours], rtol=1e-6)
+
+
 def test_unity_file_holds_what_its_importer_keeps(files):
     for obj in _curves(files["unity"]):
         schema = AbcGeom.ICurves(obj, EXISTING).getSchema()

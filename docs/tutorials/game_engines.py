@@ -44,11 +44,12 @@ sh("follicle render groom.toml -o groom.png --size 320 320")
 # ## Unreal: USD and Alembic
 #
 # `--target unreal` names the attributes as Unreal's groom schema does
-# (`groom_color`, `groom_root_uv`, `groom_id`), puts the guides inside the groom with
-# `groom_guide` = 1 and each hair's three closest guides and weights, applies the
-# `GroomAPI` schema in USD and writes Alembic in centimetres with the groom version
-# properties. `follicle check` reads the file back as the engine would and lists what
-# it would drop or refuse; it exits 0 when nothing.
+# (`groom_color`, `groom_root_uv`, `groom_id`, `groom_group_id`: the interpolation
+# group each hair grew in), puts the guides inside the groom with `groom_guide` = 1 and
+# ids of their own (from 2³⁰, never a hair's) and each hair's three closest guides and
+# weights, applies Unreal's `GroomAPI` in USD and writes Alembic in centimetres with the
+# groom version properties. `follicle check` reads the file back as the engine would
+# and lists what it would drop or refuse; it exits 0 when nothing.
 sh("follicle grow groom.toml -o groom_unreal.usdc --target unreal")
 sh("follicle check groom_unreal.usdc --target unreal")
 sh("follicle grow groom.toml -o groom_unreal.abc --target unreal")
@@ -56,14 +57,20 @@ sh("follicle check groom_unreal.abc --target unreal")
 
 # %%
 # In Unreal: drag `groom_unreal.abc` into the Content Browser (the Groom plugins
-# enabled), or import the USD with the USD Importer; the skin arrives beside the hair
-# for binding (`--no-skin` leaves it out).
+# enabled), or import the USD with the USD Importer. The Alembic file holds hair and
+# guides only — Unreal's Alembic groom importer refuses a file that holds a mesh — while
+# the USD file carries the skin beside the hair for binding (`--no-skin` leaves it out).
 #
 # ## Unity
 #
-# Unity's hair package imports Alembic. `--target unity` keeps metres and the
-# attributes as they are; `check` confirms every curve has the points the package
-# needs.
+# Unity's hair package imports Alembic through Unity's Alembic importer, which keeps
+# points, widths, UVs and velocities only. `--target unity` writes just those, in the
+# units the hair package reads by default (points in metres, widths in centimetres):
+# each hair's root UV on every one of its vertices (the package reads a root's UV at
+# `UVs[i * vertexCount]`), one curves object per interpolation group, and no guides
+# (the package would make a strand group of them). `check` confirms it. In the hair
+# asset, choose "Preserve" under the Alembic groups for one strand group per
+# interpolation group.
 sh("follicle grow groom.toml -o groom_unity.abc --target unity")
 sh("follicle check groom_unity.abc --target unity")
 

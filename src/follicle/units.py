@@ -113,15 +113,19 @@ def units_for(path: str | os.PathLike[str], units: object, key: str | None = "un
     return mpu
 
 
-def scale_curves(curves: HairCurves, factor: float) -> HairCurves:
-    """``curves`` with points and ``point_data['width']`` (a diameter) times ``factor``;
-    other attributes (colours, normals, UVs, …) carry no length and are kept."""
-    if factor == 1.0:
+def scale_curves(
+    curves: HairCurves, factor: float, width_factor: float | None = None
+) -> HairCurves:
+    """``curves`` with points times ``factor`` and ``point_data['width']`` (a diameter)
+    times ``width_factor`` (default ``factor``: a file whose widths have their points'
+    unit); other attributes (colours, normals, UVs, …) carry no length and are kept."""
+    width_factor = factor if width_factor is None else width_factor
+    if factor == 1.0 and width_factor == 1.0:
         return curves
     point_data = dict(curves.point_data)
     if "width" in point_data:
         width = point_data["width"]
-        point_data["width"] = (width * np.float64(factor)).astype(width.dtype)
+        point_data["width"] = (width * np.float64(width_factor)).astype(width.dtype)
     points = (curves.points * np.float64(factor)).astype(np.float32)
     return HairCurves(points, curves.offsets, point_data, curves.curve_data)
 

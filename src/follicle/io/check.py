@@ -128,7 +128,8 @@ def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[Hair
             source, parts = (abc_parts if alembic else usd_parts)(path, stored=True)
             curves = curves_from_parts(parts, source, stored=True)
             if alembic:  # no unit of its own: the target's (Unreal: centimetres)
-                curves = scale_curves(curves, t.meters_per_unit)
+                widths = t.width_meters_per_unit or t.meters_per_unit  # Unity's: centimetres
+                curves = scale_curves(curves, t.meters_per_unit, widths)
             schema = _without_schema(parts, source, t, alembic)
         else:
             curves = load_curves(path, units=t.meters_per_unit)

@@ -93,6 +93,7 @@ class Target:
     curve_names: dict[str, str] = field(default_factory=dict)
     int32: bool = True  # 64-bit integer attributes written as int32 (dropped if too big)
     meters_per_unit: float = 1.0
+    width_meters_per_unit: float | None = None  # the widths' unit when not the points'
     max_points: int | None = None
     guide_flag: str | None = None  # an int attribute, 1 on guides and 0 on hair
     houdini_skin: bool = False  # root_triangle / root_bary → skinprim / skinprimuv
@@ -112,6 +113,11 @@ class Target:
     def scale(self) -> float:
         """File units per metre: points and widths are multiplied by it."""
         return 1.0 / self.meters_per_unit
+
+    @property
+    def width_scale(self) -> float:
+        """File width units per metre: widths are multiplied by it."""
+        return 1.0 / (self.width_meters_per_unit or self.meters_per_unit)
 
 
 TARGETS: dict[str, Target] = {
@@ -186,6 +192,10 @@ TARGETS: dict[str, Target] = {
             vertex_uv=True,
             guides=False,
             only=frozenset({"width", "uv"}),
+            # the hair package reads Alembic positions in metres and diameters in
+            # centimetres by default (HairAsset: alembicScalePositions = DataInMeters,
+            # alembicScaleDiameters = DataInCentimeters)
+            width_meters_per_unit=0.01,
         ),
     )
 }
@@ -309,12 +319,13 @@ def for_target(
     curve_data = {k: v for k, v in curves.curve_data.items() if k not in t.unused}
     if role == "guides" and "width" not in point_data:
         point_data["width"] = np.full(curves.point_count, DEFAULT_WIDTH, np.float32)
+    points = curves.points
+    if in_units and t.width_scale != 1.0 and "width" in point_data:
+        point_data["width"] = np.asarray(point_data["width"], np.float32) * np.float32(
+            t.width_scale
+        )
     if in_units and t.scale != 1.0:
-        if "width" in point_data:
-            point_data["width"] = np.asarray(point_data["width"], np.float32) * np.float32(t.scale)
         points = np.asarray(curves.points, np.float64) * t.scale
-    else:
-        points = curves.points
     if t.houdini_skin:
         curve_data = _houdini_skin(curve_data)
     if t.guide_flag is not None:
