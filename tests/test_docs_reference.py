@@ -142,6 +142,18 @@ def test_the_cli_reference_has_every_command_of_the_help():
     assert "| `--seed` | INTEGER |" in grow
 
 
+def test_the_cli_reference_shows_each_commands_examples():
+    """The example lines `follicle render --help` ends with (its output, the oracle) are
+    the render section's bash block."""
+    shown = CliRunner().invoke(main, ["render", "--help"]).output
+    examples = [x.strip() for x in shown[shown.index("Examples:") :].splitlines()[1:] if x]
+    assert len(examples) == 2 and examples[0].startswith("follicle render ")
+    page = ref.cli_reference()
+    render = page[page.index("## `follicle render`") :]
+    render = render[: render.index("## `follicle", 5)]
+    assert "```bash\n" + "\n".join(examples) + "\n```" in render
+
+
 # the unit of each key whose description stated one before units became part of the
 # schema (", m" at its end, read by the reference then), and of those that had it in
 # words ("turns per metre", "per second") or not at all (a camera position)

@@ -257,6 +257,17 @@ def _help_text(text: str) -> str:
     return "\n\n".join(" ".join(p.split()) for p in paragraphs if p)
 
 
+def _examples(command: click.Command) -> list[str]:
+    """A command's example lines (its epilog's ``Example:`` block, follicle.cli._examples)
+    as a ``bash`` block, or nothing where it has none."""
+    lines = (command.epilog or "").replace("\b", "").splitlines()
+    start = next((i for i, x in enumerate(lines) if x.strip() in ("Example:", "Examples:")), None)
+    if start is None:
+        return []
+    found = [x.strip() for x in lines[start + 1 :] if x.strip()]
+    return ["```bash", *found, "```", ""]
+
+
 def _option_row(param: click.Option) -> str:
     names = ", ".join(f"`{n}`" for n in (*param.opts, *param.secondary_opts))
     if param.is_flag:
@@ -303,6 +314,7 @@ def cli_reference() -> str:
         "",
         _help_text(main.help or ""),
         "",
+        *_examples(main),
         "| option | value | default | description |",
         "|---|---|---|---|",
         *(_option_row(p) for p in main.params if isinstance(p, click.Option)),
@@ -313,6 +325,7 @@ def cli_reference() -> str:
         sub = click.Context(command, info_name=name, parent=ctx)
         out += ["", f"## `follicle {name}`", "", "```text", command.get_usage(sub), "```", ""]
         out += [_help_text(command.help or ""), ""]
+        out += _examples(command)
         arguments = [p for p in command.params if isinstance(p, click.Argument)]
         if arguments:
             out += ["Arguments: " + ", ".join(f"`{p.human_readable_name}`" for p in arguments)]
