@@ -15,13 +15,13 @@ here: the docs build runs them (tests/test_docs_build.py).
 
 from __future__ import annotations
 
-import os
 import re
-import shlex
 from pathlib import Path
 
 import click
 import pytest
+
+from cli_lines import follicle_args
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
@@ -93,12 +93,10 @@ def _commands() -> list[tuple[str, str]]:
     for page in PAGES:
         for block in _blocks(page, "bash") + _blocks(page, "sh"):
             for line in block.replace("\\\n", " ").splitlines():
-                line = line.split(" #")[0].split("&&")[-1].strip()
-                words = shlex.split(line.replace("[", " ").replace("]", " "))
-                while words and (re.match(r"^\w+=", words[0]) or words[0].endswith("/python")):
-                    words.pop(0)  # VAR=value, .venv/bin/python -m …
-                if words and os.path.basename(words[0]) == "follicle":
-                    found.append((str(page.relative_to(ROOT)), " ".join(words[1:])))
+                # [--count N]: optional words, checked as words
+                args = follicle_args(line.replace("[", " ").replace("]", " "))
+                if args is not None:
+                    found.append((str(page.relative_to(ROOT)), " ".join(args)))
     return found
 
 

@@ -5,12 +5,14 @@ pages it writes carry the schema's real types, defaults, ranges and units."""
 from __future__ import annotations
 
 import click
+import pytest
 from click.testing import CliRunner
 from pydantic import BaseModel, Field
 from tools import docs_reference as ref
 
 from follicle.cli import main
 from follicle.scene import Scene
+from follicle.settings import measured_in, unit_of
 
 
 def test_every_scene_key_has_a_description():
@@ -140,11 +142,126 @@ def test_the_cli_reference_has_every_command_of_the_help():
     assert "| `--seed` | INTEGER |" in grow
 
 
-def test_units_as_descriptions_state_them():
-    assert ref.unit_of("frizz amplitude at the tip, m") == "m"
-    assert ref.unit_of("gravity, m/s² (each component within ±100)") == "m/s²"
-    assert ref.unit_of("offset rotate: largest random tilt, ± degrees") == "degrees"
-    assert ref.unit_of("style length, m: how long a strand stands out") == "m"
-    assert ref.unit_of("air drag b of −b·v (Le Muzic 2012 eq. 5.3), 1/s") == "1/s"
-    assert ref.unit_of("number of hairs") == ""
-    assert ref.unit_of("share of tangential speed lost in contact, mostly") == ""
+def test_the_cli_reference_shows_each_commands_examples():
+    """The example lines `follicle render --help` ends with (its output, the oracle) are
+    the render section's bash block."""
+    shown = CliRunner().invoke(main, ["render", "--help"]).output
+    examples = [x.strip() for x in shown[shown.index("Examples:") :].splitlines()[1:] if x]
+    assert len(examples) == 2 and examples[0].startswith("follicle render ")
+    page = ref.cli_reference()
+    render = page[page.index("## `follicle render`") :]
+    render = render[: render.index("## `follicle", 5)]
+    assert "```bash\n" + "\n".join(examples) + "\n```" in render
+
+
+# the unit of each key whose description stated one before units became part of the
+# schema (", m" at its end, read by the reference then), and of those that had it in
+# words ("turns per metre", "per second") or not at all (a camera position)
+UNITS = {
+    "[groom]": {
+        **dict.fromkeys(["offset_angle", "hue_variation", "strand_twist"], "degrees"),
+        **dict.fromkeys(
+            ["curl_radius", "frizz_root", "frizz_tip", "kink_root", "kink_tip", "root_width"]
+            + ["tip_width", "strand_splay_root", "strand_splay_centre", "strand_splay_tip"]
+            + ["strand_offset", "skin_clearance"],
+            "m",
+        ),
+        **dict.fromkeys(
+            ["frizz_frequency", "kink_frequency", "curl_frequency", "curl_frequency_tip"], "1/m"
+        ),
+        **dict.fromkeys(["root_color", "tip_color", "mutant_color", "dye"], "linear RGB"),
+        "frizz_speed": "m/s",
+        "settle": "s",
+    },
+    "[sim]": {
+        **dict.fromkeys(["substep", "wind_gust_period", "motion_period"], "s"),
+        **dict.fromkeys(["gravity", "wind"], "m/s²"),
+        **dict.fromkeys(["drag", "damping"], "1/s"),
+        **dict.fromkeys(["cone_angle", "motion_amplitude"], "degrees"),
+        **dict.fromkeys(["shape_hold", "collision_margin", "skin_voxel", "motion_pivot"], "m"),
+        "wind_frequency": "1/m",
+        "wind_drift": "m/s",
+    },
+    "[[sim.colliders]]": dict.fromkeys(["centre", "a", "b", "radius"], "m"),
+    "[render]": {
+        **dict.fromkeys(["size", "lod"], "pixels"),
+        **dict.fromkeys(["eye", "target", "hair_width"], "m"),
+        **dict.fromkeys(
+            ["background_top", "background_bottom", "hair_color", "skin_color"], "linear RGB"
+        ),
+        "fov": "degrees",
+    },
+    "[[render.lights]]": {"color": "linear RGB"},
+}
+# the numbers without a unit: counts, shares, stiffnesses, factors, directions (their
+# length does not matter) and the [mesh] / [guides] units themselves
+NO_UNIT = {
+    "[mesh]": {"units", "displacement_scale"},
+    "[guides]": {"units"},
+    "[groom]": {"density", "cut", "scale", "random_scale", "clump_root", "clump_tip"}
+    | {"clump_profile", "clump_noise", "frizz_direction", "frizz_blend"}
+    | {"saturation_variation", "value_variation", "mutant_fraction", "melanin"}
+    | {"melanin_redness", "random_melanin", "random_redness", "root_opacity", "tip_opacity"}
+    | {"strand_aspect", "strand_randomize", "skip_threshold"},
+    "[sim]": {"wind_turbulence", "wind_gust", "stretch_stiffness", "stretch_limit"}
+    | {"stretch_limit_damping", "bend_stiffness", "bend_scale", "bend_attenuation"}
+    | {"shape_local", "shape_global", "shape_global_range", "dftl_damping", "friction"}
+    | {"volume_friction", "volume_repulsion"},
+    "[[sim.colliders]]": {"normal"},
+    "[render]": {"shading_params", "hair_opacity", "scalp_tint"},
+    "[[render.lights]]": {"direction", "intensity"},
+}
+
+
+def test_every_key_with_a_unit_has_it_in_its_schema_and_the_reference_shows_it():
+    page = ref.scene_reference()
+    tables = dict(ref.scene_tables())
+    for table, units in UNITS.items():
+        for key, unit in units.items():
+            field = tables[table].model_fields[key]
+            assert unit_of(field) == unit, (table, key)
+            assert field.json_schema_extra == {"unit": unit}, (table, key)
+            assert _row(page, table, key)[4] == unit, (table, key)
+            # said once: the description no longer ends in its unit
+            assert not (field.description or "").endswith(f", {unit}"), (table, key)
+
+
+def test_every_number_has_a_unit_or_is_listed_as_having_none():
+    """A new number key (a float, a vector, a textured property) fails here until it gets
+    a unit (measured_in) or joins NO_UNIT; a listed key that gains a unit fails too."""
+    numbers: dict[str, set[str]] = {}
+    with_unit: dict[str, set[str]] = {}
+    for table, model in ref.scene_tables():
+        for key, field in model.model_fields.items():
+            if field.exclude:
+                continue
+            kind, _ = ref._type_and_range(field.annotation, list(field.metadata))
+            if unit_of(field):
+                with_unit.setdefault(table, set()).add(key)
+            elif "number" in kind:
+                numbers.setdefault(table, set()).add(key)
+    assert numbers == NO_UNIT
+    assert with_unit == {table: set(units) for table, units in UNITS.items()}
+
+
+def test_the_schema_carries_the_unit_and_a_typo_is_refused():
+    from follicle.sim.settings import SimParams
+
+    schema = SimParams.model_json_schema()["properties"]
+    assert schema["gravity"]["unit"] == "m/s²"
+    assert "unit" not in schema["iterations"]
+    assert measured_in("m") == {"unit": "m"}
+    with pytest.raises(ValueError, match="unknown unit 'metres'"):
+        measured_in("metres")
+
+
+def test_info_prints_each_unit_before_the_description():
+    """`follicle info` (no scene: the defaults) shows the units the schema gives."""
+    shown = CliRunner().invoke(main, ["info"]).output.splitlines()
+    assert "frizz_tip = 0.0  # [m] (map) frizz amplitude at the tip" in shown
+    assert (
+        "gravity = [0.0, -9.81, 0.0]  # [m/s²] gravity (each component within ±100, about 10 g)"
+        in shown
+    )
+    assert "fov = 30.0  # [degrees] vertical field of view" in shown
+    assert "iterations = 8  # constraint iterations per substep" in shown

@@ -4,16 +4,14 @@ click group, written as Markdown when the site is built (``tools/mkdocs_hooks.py
 the reference cannot drift from the code.
 
 Each key's type, default and range come from its pydantic field (its annotation, its
-``ge``/``gt``/``le``/``lt`` constraints, a textured property's bounds); its unit is the
-one its description states after a comma (``"frizz amplitude at the tip, m"``), the
-project's convention for units. ``missing_scene_descriptions`` and
-``missing_cli_descriptions`` list what has no description; ``tests/test_docs_reference.py``
-fails on any.
+``ge``/``gt``/``le``/``lt`` constraints, a textured property's bounds); its unit from
+the field's schema (``json_schema_extra=measured_in("m")``, :mod:`follicle.settings`).
+``missing_scene_descriptions`` and ``missing_cli_descriptions`` list what has no
+description; ``tests/test_docs_reference.py`` fails on any.
 """
 
 from __future__ import annotations
 
-import re
 import types
 import typing
 from collections.abc import Iterator
@@ -24,30 +22,19 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
+from follicle.settings import unit_of
+
 __all__ = [
     "scene_tables",
     "missing_scene_descriptions",
     "missing_cli_descriptions",
     "scene_reference",
     "cli_reference",
-    "unit_of",
 ]
 
-# a unit as descriptions state it: after a comma, optionally "±", before the end, a
-# space, ";", ":" or "(" (m/s² before m/s before m: the longest first)
-_UNIT = re.compile(r",\s*(?:± )?(m/s²|m/s|1/m|1/s|m|s|degrees|pixels)(?=$|[\s;:(),])")
 # click ≥ 8.2 marks an option without a default by a sentinel, older click by None
 _UNSET = getattr(click.core, "UNSET", None)
 _BOUND_SIGNS = (("ge", "≥"), ("gt", ">"), ("le", "≤"), ("lt", "<"))
-
-
-def unit_of(description: str) -> str:
-    """The unit a key's description states (``", m"``, ``", m/s²"``, ``"linear RGB"``),
-    or "" where it states none."""
-    found = _UNIT.search(description)
-    if found:
-        return found.group(1)
-    return "linear RGB" if "linear RGB" in description else ""
 
 
 def scene_tables() -> list[tuple[str, type[BaseModel]]]:
@@ -238,8 +225,10 @@ def scene_reference() -> str:
         " out takes its default; `follicle info scene.toml` prints a scene with every"
         " default filled in. *(map)* marks a property that takes a number, a texture path"
         ' or a table `{value = …, texture = "map.png", wrap = "repeat"}`: the value at'
-        " a root is value × texture(uv) (Šik 2012 §2.2.2). Units are metres, seconds and"
-        " degrees unless the unit column says otherwise; colours are linear RGB.",
+        " a root is value × texture(uv) (Šik 2012 §2.2.2). The unit column gives each"
+        " key's unit, from the schema (follicle works in metres, seconds and degrees;"
+        " a colour's is its colour space); a number without one is a count, a share or"
+        " a factor.",
         "",
         "See [Scene files](../how-to/scene-files.md) for how a scene is written.",
     ]
@@ -252,7 +241,8 @@ def scene_reference() -> str:
         for key, field in _keys(model):
             kind, rng = _type_and_range(field.annotation, list(field.metadata))
             desc = field.description or ""
-            row = (f"`{key}`", _cell(kind), f"`{_default(field)}`", _cell(rng), unit_of(desc))
+            unit = unit_of(field)
+            row = (f"`{key}`", _cell(kind), f"`{_default(field)}`", _cell(rng), _cell(unit))
             out.append("| " + " | ".join(row) + f" | {_cell(desc)} |")
     return "\n".join(out) + "\n"
 
@@ -265,6 +255,17 @@ def _help_text(text: str) -> str:
     paragraphs kept."""
     paragraphs = [p.strip() for p in text.replace("\b", "").split("\n\n")]
     return "\n\n".join(" ".join(p.split()) for p in paragraphs if p)
+
+
+def _examples(command: click.Command) -> list[str]:
+    """A command's example lines (its epilog's ``Example:`` block, follicle.cli._examples)
+    as a ``bash`` block, or nothing where it has none."""
+    lines = (command.epilog or "").replace("\b", "").splitlines()
+    start = next((i for i, x in enumerate(lines) if x.strip() in ("Example:", "Examples:")), None)
+    if start is None:
+        return []
+    found = [x.strip() for x in lines[start + 1 :] if x.strip()]
+    return ["```bash", *found, "```", ""]
 
 
 def _option_row(param: click.Option) -> str:
@@ -313,6 +314,7 @@ def cli_reference() -> str:
         "",
         _help_text(main.help or ""),
         "",
+        *_examples(main),
         "| option | value | default | description |",
         "|---|---|---|---|",
         *(_option_row(p) for p in main.params if isinstance(p, click.Option)),
@@ -323,6 +325,7 @@ def cli_reference() -> str:
         sub = click.Context(command, info_name=name, parent=ctx)
         out += ["", f"## `follicle {name}`", "", "```text", command.get_usage(sub), "```", ""]
         out += [_help_text(command.help or ""), ""]
+        out += _examples(command)
         arguments = [p for p in command.params if isinstance(p, click.Argument)]
         if arguments:
             out += ["Arguments: " + ", ".join(f"`{p.human_readable_name}`" for p in arguments)]

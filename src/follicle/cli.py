@@ -1,5 +1,8 @@
 """The ``follicle`` command: demo, grow, groom, settle, export, check, export-rib, simulate,
-render, view, info, warm.
+render, view, info, warm, docs.
+
+Every command's help ends with example lines (:func:`_examples`), real commands that
+tests/test_cli_help.py parses with the command's own parser.
 
 Bad input (a FollicleError) prints one line naming the file/key and exits 2, with no
 traceback and no output file. Progress bars show on a terminal only; ``-v`` logs.
@@ -233,6 +236,15 @@ def _scheduler_option(what: str, per: str, same: str, reach: str = "") -> Callab
     )
 
 
+def _examples(*lines: str) -> str:
+    """A command's epilog: its example lines, kept as written (click's ``\\b`` block: no
+    rewrapping), each with an optional ``# comment`` and at most 74 characters: indented
+    by 4, they fit the 78 columns click fills on an 80-column terminal. They run from the
+    repository's root (``examples/…``); some read what another writes (wavy.npz, sim.npz)."""
+    title = "Examples:" if len(lines) > 1 else "Example:"
+    return "\b\n" + title + "\n" + "\n".join(f"  {line}" for line in lines)
+
+
 _TARGET_OPTION = click.option(
     "--target",
     "target_name",
@@ -252,9 +264,10 @@ _SKIN_OPTION = click.option(
 @click.group(
     cls=_Group,
     context_settings={"help_option_names": ["-h", "--help"]},
-    epilog="Documentation: docs/ in the source repository (start at docs/index.md, or"
-    " build the site with `mkdocs serve` there); every command and scene key is in its"
-    " Reference. `follicle COMMAND --help` for one command.",
+    epilog="`follicle COMMAND --help` for one command, with examples. `follicle docs` says"
+    " where the documentation is: tutorials, how-to guides and a reference of every"
+    " command and scene key (with its type, default, range and unit).\n\n"
+    + _examples("follicle demo                     # long hair on a bust: follicle-demo/"),
 )
 @click.option("-v", "--verbose", count=True, help="Log what happens (-vv for debug).")
 @click.version_option(package_name="follicle")
@@ -269,7 +282,13 @@ def main(verbose: int) -> None:
 _DEMO_SETTLE = 2.0  # s: the long hair comes to rest on the shoulders (README: Dynamics)
 
 
-@main.command()
+@main.command(
+    short_help="Grow and render long hair on the built-in bust.",
+    epilog=_examples(
+        "follicle demo --out demo",
+        "follicle demo --out short --guides builtin:short --size 640 640",
+    ),
+)
 @click.option(
     "--out",
     "out_dir",
@@ -314,7 +333,13 @@ def demo(out_dir: str, count: int | None, guides: str, size: tuple[int, int]) ->
     click.echo(f"{curves.curve_count:,} hairs → {out / 'demo.png'}, {out / 'demo.npz'}")
 
 
-@main.command()
+@main.command(
+    short_help="Grow the hair of a scene file and save the curves.",
+    epilog=_examples(
+        "follicle grow examples/wavy.toml -o wavy.npz --count 5000",
+        "follicle grow examples/wavy.toml -o wavy.usdc --target blender",
+    ),
+)
 @click.argument("scene_path", metavar="SCENE", type=click.Path())
 @click.option(
     "-o",
@@ -379,7 +404,10 @@ def grow(
     click.echo(f"{hairs:,} hairs, {points:,} points → {job.path}")
 
 
-@main.command()
+@main.command(
+    short_help="Replay a brush stroke log and save the guides.",
+    epilog=_examples("follicle groom examples/hand_groomed.strokes.json -o guides.usda"),
+)
 @click.argument("strokes_path", metavar="STROKES", type=click.Path())
 @click.option("--guides", default=None, help="Guides to start from (default: the log's).")
 @click.option(
@@ -417,7 +445,10 @@ def groom(
     click.echo(f"{entries:,} strokes, {editor.guides.count:,} guides → {out}")
 
 
-@main.command()
+@main.command(
+    short_help="Settle a scene's guides under gravity and save them.",
+    epilog=_examples("follicle settle examples/long_straight.toml -o settled.usda --seconds 2"),
+)
 @click.argument("scene_path", metavar="SCENE", type=click.Path())
 @click.option(
     "-o",
@@ -445,7 +476,13 @@ def settle(scene_path: str, out: str, seconds: float | None) -> None:
     )
 
 
-@main.command()
+@main.command(
+    short_help="Convert curves or a mesh to another format.",
+    epilog=_examples(
+        "follicle export wavy.npz -o wavy.abc --target houdini",
+        "follicle export builtin:bust -o bust.obj            # the skin mesh alone",
+    ),
+)
 @click.argument("sources", metavar="IN...", nargs=-1, required=True, type=click.Path())
 @click.option(
     "-o",
@@ -540,7 +577,11 @@ def _finished(paths: list, noun: str = "files") -> Callable[[], str | None]:
     return note
 
 
-@main.command("export-rib")
+@main.command(
+    "export-rib",
+    short_help="Write a RenderMan RIB that grows hair at render time.",
+    epilog=_examples("follicle export-rib examples/wavy.toml -o wavy.rib --voxels 8"),
+)
 @click.argument("scene_path", metavar="SCENE", type=click.Path())
 @click.option(
     "-o",
@@ -578,7 +619,13 @@ def export_rib(scene_path: str, out: str, voxels: int, count: int | None, seed: 
     )
 
 
-@main.command()
+@main.command(
+    short_help="Grow, export and render many variants of scenes.",
+    epilog=_examples(
+        "follicle batch examples/wavy.toml -o out --vary groom.frizz_tip=0:0.004:3",
+        "follicle batch -o seeds --seeds 0:4 --count 2000 --size 320 320",
+    ),
+)
 @click.argument("scene_paths", metavar="[SCENE]...", nargs=-1, type=click.Path())
 @click.option(
     "-o",
@@ -688,7 +735,10 @@ def batch(
     click.echo(f"{total:,} variants → {Path(out) / manifest.name}")  # as OUT was given
 
 
-@main.command()
+@main.command(
+    short_help="Simulate a scene's guides under a head animation.",
+    epilog=_examples("follicle simulate examples/long_straight.toml --motion turn -o sim.npz"),
+)
 @click.argument("scene_paths", metavar="SCENE...", nargs=-1, required=True, type=click.Path())
 @click.option(
     "-o",
@@ -777,7 +827,13 @@ def _simulated(scene: Scene, run: SimRun, target: str) -> str:
     )
 
 
-@main.command()
+@main.command(
+    short_help="Render a scene, curves file or cache to PNG or MP4.",
+    epilog=_examples(
+        "follicle render examples/wavy.toml -o wavy.png --size 640 640",
+        "follicle render sim.npz -o frames/ --frames 0:24      # a PNG per frame",
+    ),
+)
 @click.argument("source", metavar="SCENE|CURVES|CACHE", type=click.Path())
 @click.option(
     "-o",
@@ -891,7 +947,13 @@ def render(
     )
 
 
-@main.command()
+@main.command(
+    short_help="Live viewer with a parameter panel (view extra).",
+    epilog=_examples(
+        "follicle view examples/long_straight.toml",
+        "follicle view examples/wavy.toml --offscreen --frames 9 --screenshot v.png",
+    ),
+)
 @click.argument("scene_path", metavar="[SCENE]", type=click.Path(), required=False)
 @click.option(
     "--frames",
@@ -981,7 +1043,13 @@ def view(
     )
 
 
-@main.command()
+@main.command(
+    short_help="Print a scene with its defaults, or describe a file.",
+    epilog=_examples(
+        "follicle info examples/wavy.toml   # every key: value, [unit], meaning",
+        "follicle info wavy.npz",
+    ),
+)
 @click.argument("source", metavar="SCENE|CURVES", type=click.Path(), required=False)
 def info(source: str | None) -> None:
     """Print a scene with every default filled in, or describe a curves file."""
@@ -1000,7 +1068,10 @@ def info(source: str | None) -> None:
     click.echo(scene_to_toml(load_scene(source)), nl=False)
 
 
-@main.command()
+@main.command(
+    short_help="Compile follicle's kernels for this machine now.",
+    epilog=_examples("follicle warm --jobs 2"),
+)
 @click.option(
     "--jobs", type=int, default=None, help="Processes compiling at once (default: the CPUs)."
 )
@@ -1058,7 +1129,13 @@ def warm(jobs: int | None, force: bool) -> None:
     )
 
 
-@main.command()
+@main.command(
+    short_help="List what a tool would drop or refuse in a hair file.",
+    epilog=_examples(
+        "follicle check wavy.abc --target houdini   # exit 0: Houdini reads it all",
+        "follicle check wavy.usdc --target unreal   # exit 1: what Unreal drops",
+    ),
+)
 @click.argument("source", metavar="FILE", type=click.Path())
 @click.option(
     "--target",
@@ -1084,6 +1161,17 @@ def check(source: str, target_name: str) -> None:
     if found:
         sys.exit(1)
     click.echo(f"{source}: {nothing_dropped(source, target, curves)}".translate(_ESCAPES))
+
+
+@main.command(short_help="Say where the documentation is.", epilog=_examples("follicle docs"))
+def docs() -> None:
+    """Say where follicle's documentation is, one fact a line: its site, the Markdown
+    source of a source checkout and the mkdocs command that serves it as the site, and
+    the help that comes with the commands."""
+    from .docs_location import checkout, site_url, where_lines
+
+    for line in where_lines(site_url(), checkout()):
+        click.echo(line.translate(_ESCAPES))
 
 
 if __name__ == "__main__":  # pragma: no cover

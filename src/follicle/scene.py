@@ -38,7 +38,7 @@ from .groom.settings import GroomParams, PropertyTag
 from .inputs import check_apart, input_file, is_remote, is_url, remote_reach
 from .io.targets import TARGET_NAMES
 from .render.settings import LightParams, RenderParams
-from .settings import StrictSection, format_errors, shown
+from .settings import StrictSection, format_errors, shown, unit_of
 from .sim.settings import ColliderParams, SimParams
 from .units import UNITS, metres_per_unit, units_for
 from .validate import file_path
@@ -395,7 +395,9 @@ def _toml_value(value: Any) -> str:
 
 
 def scene_to_toml(scene: Scene, comments: bool = True) -> str:
-    """The scene as TOML text with every default filled in (unset values commented out)."""
+    """The scene as TOML text with every default filled in (unset values commented out),
+    each key followed by its unit in brackets and its description as a comment
+    (``comments``): ``frizz_tip = 0.0  # [m] (map) frizz amplitude at the tip``."""
     out: list[str] = []
     for section, field in Scene.model_fields.items():
         if field.exclude:
@@ -404,7 +406,9 @@ def scene_to_toml(scene: Scene, comments: bool = True) -> str:
         out.append(f"[{section}]")
         for key, sub in type(model).model_fields.items():
             value = getattr(model, key)
-            note = f"  # {sub.description}" if comments and sub.description else ""
+            unit = unit_of(sub)
+            text = f"[{unit}] {sub.description}" if unit else sub.description
+            note = f"  # {text}" if comments and text else ""
             if value is None:
                 out.append(f"# {key} = (unset){note}")
             else:

@@ -1,5 +1,6 @@
 """What every settings section is made of: the frozen, validated base classes, the
-shared value types (Unit, RGB, Vec3, …) and the error text that names ``[section].key``.
+shared value types (Unit, RGB, Vec3, …), the unit a key is measured in
+(:func:`measured_in`) and the error text that names ``[section].key``.
 
 The sections live beside the subsystem they configure (``groom.settings``,
 ``sim.settings``, ``render.settings``); :mod:`follicle.scene` puts them together into a
@@ -12,6 +13,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Annotated, ClassVar, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic.config import JsonDict
+from pydantic.fields import FieldInfo
 
 from .errors import ConfigError
 
@@ -25,6 +28,9 @@ __all__ = [
     "Component",
     "RGB",
     "Vec3",
+    "UNITS",
+    "measured_in",
+    "unit_of",
     "format_errors",
     "not_bool",
     "shown",
@@ -38,6 +44,28 @@ Component = Annotated[float, Field(ge=-1e6, le=1e6)]
 # items stay strict (a number, not true or "1")
 RGB = Annotated[tuple[Unit, Unit, Unit], Field(strict=False)]
 Vec3 = Annotated[tuple[Component, Component, Component], Field(strict=False)]
+
+# the units a scene key is measured in (follicle works in metres, seconds and degrees);
+# a colour's "unit" is its colour space
+UNITS = ("m", "m/s", "m/s²", "1/m", "1/s", "s", "degrees", "pixels", "linear RGB")
+
+
+def measured_in(unit: str) -> JsonDict:
+    """A key's unit, part of its schema: ``Field(0.0, description="frizz amplitude",
+    json_schema_extra=measured_in("m"))``. The docs' reference shows it in its unit
+    column, ``follicle info`` after each key's description, and the JSON schema
+    (``model_json_schema()``) as ``"unit"``; one of :data:`UNITS`."""
+    if unit not in UNITS:
+        raise ValueError(f"unknown unit {unit!r}; one of {', '.join(UNITS)}")
+    return {"unit": unit}
+
+
+def unit_of(field: FieldInfo) -> str:
+    """The unit of a key's field (:func:`measured_in`), or "" for a number without one
+    (a count, a share, a stiffness)."""
+    extra = field.json_schema_extra
+    unit = extra.get("unit", "") if isinstance(extra, dict) else ""
+    return unit if isinstance(unit, str) else ""
 
 
 class Section(BaseModel):

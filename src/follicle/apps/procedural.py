@@ -351,8 +351,29 @@ def serve(requests: BinaryIO, out: BinaryIO, errors: TextIO | None = None) -> No
         out.flush()
 
 
-def main() -> None:
-    """``follicle-procedural``: serve RunProgram requests on stdin and stdout."""
+_HELP = f"""usage: {PROGRAM}
+
+Serve RenderMan RunProgram requests: read '<detail> <frame file> <voxel>' lines on
+stdin and write each voxel's hair as RIB, then the byte 0xFF, on stdout, until EOF.
+The renderer runs it for the RIB that `follicle export-rib` writes (docs: Formats ›
+Render-time procedural; `follicle docs` says where the docs are).
+
+Example (voxel 84 of `follicle export-rib examples/wavy.toml -o wavy.rib`):
+  printf '100 wavy.follicle.z 84\\n' | {PROGRAM} > voxel84.rib
+"""
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``follicle-procedural``: serve RunProgram requests on stdin and stdout. The renderer
+    gives it no arguments; ``--help`` says what it does, any other argument is refused
+    (exit 2) rather than left waiting on stdin."""
+    args = sys.argv[1:] if argv is None else argv
+    if args in (["-h"], ["--help"]):
+        sys.stdout.write(_HELP)
+        return
+    if args:
+        sys.stderr.write(f"{PROGRAM}: takes no arguments (got {args[0]!r}); see {PROGRAM} --help\n")
+        raise SystemExit(2)
     serve(sys.stdin.buffer, sys.stdout.buffer, sys.stderr)
 
 

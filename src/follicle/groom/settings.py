@@ -10,7 +10,7 @@ from typing import Annotated, Any, ClassVar, Literal, TypeAlias
 from pydantic import Field, GetCoreSchemaHandler, PlainValidator, field_validator, model_validator
 from pydantic_core import core_schema
 
-from ..settings import RGB, StrictSection, Unit, Vec3, shown
+from ..settings import RGB, StrictSection, Unit, Vec3, measured_in, shown
 
 __all__ = ["GroomParams", "PropertyTag", "MELANIN_KEYS", "COLOR_KEYS"]
 
@@ -163,7 +163,11 @@ class GroomParams(StrictSection):
         "rotate", description="offset: turn the guide shape by random angles, or shift it"
     )
     offset_angle: float = Field(
-        10.0, ge=0, le=90, description="offset rotate: largest random tilt, ± degrees"
+        10.0,
+        ge=0,
+        le=90,
+        description="offset rotate: largest random tilt, either way",
+        json_schema_extra=measured_in("degrees"),
     )
     vertices: int | None = Field(
         None, ge=2, le=256, description="vertices per hair; unset = as many as the guides have"
@@ -175,12 +179,20 @@ class GroomParams(StrictSection):
     random_scale: Fraction = Field(
         0.0, description="(map) random shortening: scale × (1 − random_scale·ξ)"
     )
-    curl_radius: Length = Field(0.0, description="(map) curl helix radius, m (0: no curl)")
+    curl_radius: Length = Field(
+        0.0, description="(map) curl helix radius (0: no curl)", json_schema_extra=measured_in("m")
+    )
     curl_frequency: Annotated[Any, _prop(ge=-10000.0, le=10000.0)] = Field(
-        40.0, description="(map) curl turns per metre of hair at the root"
+        40.0,
+        description="(map) curl turns per metre of hair at the root",
+        json_schema_extra=measured_in("1/m"),
     )
     curl_frequency_tip: float | None = Field(
-        None, ge=-10000, le=10000, description="curl turns per metre at the tip; unset = root"
+        None,
+        ge=-10000,
+        le=10000,
+        description="curl turns per metre at the tip; unset = root",
+        json_schema_extra=measured_in("1/m"),
     )
     clump_count: int = Field(0, ge=0, le=1_000_000, description="clumps (0: no clumping)")
     clump_root: Fraction = Field(0.0, description="(map) pull towards the clump centre at roots")
@@ -189,30 +201,64 @@ class GroomParams(StrictSection):
         1.0, gt=0, le=10, description="shape of the pull from root to tip: t^profile"
     )
     clump_noise: Fraction = Field(0.2, description="(map) random weakening of each hair's pull")
-    frizz_root: Length = Field(0.0, description="(map) frizz amplitude at the root, m")
-    frizz_tip: Length = Field(0.0, description="(map) frizz amplitude at the tip, m")
-    frizz_frequency: Vec3 = Field((20.0, 20.0, 20.0), description="frizz noise frequency, 1/m")
+    frizz_root: Length = Field(
+        0.0, description="(map) frizz amplitude at the root", json_schema_extra=measured_in("m")
+    )
+    frizz_tip: Length = Field(
+        0.0, description="(map) frizz amplitude at the tip", json_schema_extra=measured_in("m")
+    )
+    frizz_frequency: Vec3 = Field(
+        (20.0, 20.0, 20.0),
+        description="frizz noise frequency",
+        json_schema_extra=measured_in("1/m"),
+    )
     frizz_direction: Vec3 = Field((0.0, 1.0, 0.0), description="animated frizz: noise drift")
-    frizz_speed: float = Field(0.0, ge=0, le=1000, description="animated frizz: drift, m/s")
+    frizz_speed: float = Field(
+        0.0,
+        ge=0,
+        le=1000,
+        description="animated frizz: drift speed",
+        json_schema_extra=measured_in("m/s"),
+    )
     frizz_blend: Fraction = Field(0.0, description="(map) share of animated frizz")
-    kink_root: Length = Field(0.0, description="(map) kink amplitude at the root, m")
-    kink_tip: Length = Field(0.0, description="(map) kink amplitude at the tip, m")
-    kink_frequency: Vec3 = Field((60.0, 60.0, 60.0), description="kink noise frequency, 1/m")
+    kink_root: Length = Field(
+        0.0, description="(map) kink amplitude at the root", json_schema_extra=measured_in("m")
+    )
+    kink_tip: Length = Field(
+        0.0, description="(map) kink amplitude at the tip", json_schema_extra=measured_in("m")
+    )
+    kink_frequency: Vec3 = Field(
+        (60.0, 60.0, 60.0), description="kink noise frequency", json_schema_extra=measured_in("1/m")
+    )
     root_width: Annotated[Any, _prop(gt=0.0, le=0.1)] = Field(
-        240e-6, description="(map) diameter at root, m (3× a real hair: docs, Rendering)"
+        240e-6,
+        description="(map) diameter at root (3× a real hair: docs, Rendering)",
+        json_schema_extra=measured_in("m"),
     )
     tip_width: Annotated[Any, _prop(gt=0.0, le=0.1)] = Field(
-        90e-6, description="(map) diameter at tip, m"
+        90e-6, description="(map) diameter at tip", json_schema_extra=measured_in("m")
     )
-    root_color: Color = Field((0.03, 0.017, 0.009), description="(map) linear RGB at the root")
-    tip_color: Color = Field((0.085, 0.05, 0.025), description="(map) linear RGB at the tip")
+    root_color: Color = Field(
+        (0.03, 0.017, 0.009),
+        description="(map) colour at the root",
+        json_schema_extra=measured_in("linear RGB"),
+    )
+    tip_color: Color = Field(
+        (0.085, 0.05, 0.025),
+        description="(map) colour at the tip",
+        json_schema_extra=measured_in("linear RGB"),
+    )
     hue_variation: Annotated[Any, _prop(ge=0.0, le=180.0)] = Field(
-        0.0, description="(map) per-hair hue shift, ± degrees"
+        0.0, description="(map) per-hair hue shift, ±", json_schema_extra=measured_in("degrees")
     )
     saturation_variation: Fraction = Field(0.0, description="(map) per-hair saturation shift, ±")
     value_variation: Fraction = Field(0.0, description="(map) per-hair value shift, ±")
     mutant_fraction: Fraction = Field(0.0, description="(map) share of hairs in mutant_color")
-    mutant_color: Color = Field((0.8, 0.8, 0.8), description="(map) linear RGB of mutant hairs")
+    mutant_color: Color = Field(
+        (0.8, 0.8, 0.8),
+        description="(map) colour of mutant hairs",
+        json_schema_extra=measured_in("linear RGB"),
+    )
     melanin: float | None = Field(
         None,
         ge=0.0,
@@ -225,7 +271,9 @@ class GroomParams(StrictSection):
         0.0, description="with melanin: share of pheomelanin (red), 0 brown–black, 1 red"
     )
     dye: RGB = Field(
-        (1.0, 1.0, 1.0), description="with melanin: linear RGB dye on the pigment (white: none)"
+        (1.0, 1.0, 1.0),
+        description="with melanin: dye on the pigment (white: none)",
+        json_schema_extra=measured_in("linear RGB"),
     )
     random_melanin: Unit = Field(
         0.0,
@@ -237,17 +285,27 @@ class GroomParams(StrictSection):
     root_opacity: Fraction = Field(1.0, description="(map) opacity at the root")
     tip_opacity: Fraction = Field(1.0, description="(map) opacity at the tip")
     strand_count: int = Field(1, ge=1, le=64, description="fibres per hair strand (1: plain)")
-    strand_splay_root: Length = Field(0.0, description="(map) strand radius at the root, m")
-    strand_splay_centre: Length = Field(0.002, description="(map) strand radius mid-way, m")
-    strand_splay_tip: Length = Field(0.001, description="(map) strand radius at the tip, m")
+    strand_splay_root: Length = Field(
+        0.0, description="(map) strand radius at the root", json_schema_extra=measured_in("m")
+    )
+    strand_splay_centre: Length = Field(
+        0.002, description="(map) strand radius mid-way", json_schema_extra=measured_in("m")
+    )
+    strand_splay_tip: Length = Field(
+        0.001, description="(map) strand radius at the tip", json_schema_extra=measured_in("m")
+    )
     strand_twist: Annotated[Any, _prop(ge=-36000.0, le=36000.0)] = Field(
-        0.0, description="(map) strand twist from root to tip, degrees"
+        0.0,
+        description="(map) strand twist from root to tip",
+        json_schema_extra=measured_in("degrees"),
     )
     strand_aspect: Annotated[Any, _prop(ge=0.0, le=100.0)] = Field(
         1.0, description="(map) strand cross-section: binormal / normal radius"
     )
     strand_offset: Annotated[Any, _prop(ge=-10.0, le=10.0)] = Field(
-        0.0, description="(map) strand tips pushed along the curve normal (t³), m"
+        0.0,
+        description="(map) strand tips pushed along the curve normal (t³)",
+        json_schema_extra=measured_in("m"),
     )
     strand_randomize: Fraction = Field(0.0, description="(map) random shortening of fibres")
     inherit: Annotated[tuple[str, ...], Field(strict=False, max_length=64)] = Field(
@@ -260,10 +318,11 @@ class GroomParams(StrictSection):
         0.0,
         ge=0,
         le=60,
-        description="seconds of [sim] dynamics (gravity, the skin and [[sim.colliders]],"
-        " the head still) the guides run before growing: long hair falls onto the"
+        description="how long the guides run [sim] dynamics (gravity, the skin and"
+        " [[sim.colliders]], the head still) before growing: long hair falls onto the"
         " shoulders and rests, and that is the rest shape grown, rendered, exported and"
         " simulated from; at most 60; 0 = the guides as given",
+        json_schema_extra=measured_in("s"),
     )
     skin_collision: bool = Field(
         True,
@@ -276,7 +335,8 @@ class GroomParams(StrictSection):
         0.001,
         ge=0,
         le=0.1,
-        description="with skin_collision: distance kept between hair vertices and the skin, m",
+        description="with skin_collision: distance kept between hair vertices and the skin",
+        json_schema_extra=measured_in("m"),
     )
     skip_threshold: Annotated[float, Field(gt=0.0, le=1.0)] | None = Field(
         None,

@@ -14,7 +14,7 @@ import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
 
 from ..errors import ConfigError, InputError
-from ..settings import RGB, StrictSection, Unit, Vec3, not_bool, shown
+from ..settings import RGB, StrictSection, Unit, Vec3, measured_in, not_bool, shown
 from .camera import DEFAULT_FOV, Camera, Light
 from .options import (
     DEFAULT_BACKGROUND,
@@ -76,7 +76,11 @@ class LightParams(StrictSection):
         description="direction in camera space (x right, y up, z towards the viewer;"
         " the light follows the camera) or world space",
     )
-    color: RGB = Field((1.0, 1.0, 1.0), description="linear RGB")
+    color: RGB = Field(
+        (1.0, 1.0, 1.0),
+        description="colour of the light",
+        json_schema_extra=measured_in("linear RGB"),
+    )
     intensity: float = Field(1.0, ge=0, le=1000, description="scales the colour")
 
     @model_validator(mode="after")
@@ -96,7 +100,9 @@ class RenderParams(StrictSection):
     size: Annotated[
         tuple[Annotated[int, Field(ge=1, le=MAX_SIZE)], Annotated[int, Field(ge=1, le=MAX_SIZE)]],
         Field(strict=False),
-    ] = Field((960, 960), description="image width and height, pixels")
+    ] = Field(
+        (960, 960), description="image width and height", json_schema_extra=measured_in("pixels")
+    )
     engine: Literal[ENGINE_NAMES] = Field(  # type: ignore[valid-type]
         "auto",
         description="engine: auto (OpenGL on a GPU, follicle's CPU strand rasterizer on a"
@@ -147,22 +153,55 @@ class RenderParams(StrictSection):
         description="level of detail: draw a share of the hairs, widened to keep their"
         " coverage, so that they are at most this many pixels wide (from the hair's"
         " on-screen width); 0 = every hair",
+        json_schema_extra=measured_in("pixels"),
     )
-    eye: Vec3 | None = Field(None, description="camera position; unset = framed automatically")
-    target: Vec3 | None = Field(None, description="camera target; unset = framed automatically")
-    fov: float = Field(DEFAULT_FOV, gt=1, lt=170, description="vertical field of view, degrees")
-    background_top: RGB = Field(DEFAULT_BACKGROUND[0], description="background gradient top")
-    background_bottom: RGB = Field(DEFAULT_BACKGROUND[1], description="background gradient bottom")
+    eye: Vec3 | None = Field(
+        None,
+        description="camera position; unset = framed automatically",
+        json_schema_extra=measured_in("m"),
+    )
+    target: Vec3 | None = Field(
+        None,
+        description="camera target; unset = framed automatically",
+        json_schema_extra=measured_in("m"),
+    )
+    fov: float = Field(
+        DEFAULT_FOV,
+        gt=1,
+        lt=170,
+        description="vertical field of view",
+        json_schema_extra=measured_in("degrees"),
+    )
+    background_top: RGB = Field(
+        DEFAULT_BACKGROUND[0],
+        description="background gradient top",
+        json_schema_extra=measured_in("linear RGB"),
+    )
+    background_bottom: RGB = Field(
+        DEFAULT_BACKGROUND[1],
+        description="background gradient bottom",
+        json_schema_extra=measured_in("linear RGB"),
+    )
     hair_color: RGB = Field(
-        DEFAULT_HAIR_COLOR, description="linear RGB of hair whose curves have no colour"
+        DEFAULT_HAIR_COLOR,
+        description="colour of hair whose curves have no colour",
+        json_schema_extra=measured_in("linear RGB"),
     )
     hair_width: float = Field(
-        DEFAULT_HAIR_WIDTH, gt=0, le=1, description="diameter of hair whose curves have no width, m"
+        DEFAULT_HAIR_WIDTH,
+        gt=0,
+        le=1,
+        description="diameter of hair whose curves have no width",
+        json_schema_extra=measured_in("m"),
     )
     hair_opacity: Unit = Field(
         DEFAULT_HAIR_OPACITY, description="opacity of hair whose curves have no opacity"
     )
-    skin_color: RGB = Field(DEFAULT_SKIN_COLOR, description="linear RGB of the skin")
+    skin_color: RGB = Field(
+        DEFAULT_SKIN_COLOR,
+        description="colour of the skin",
+        json_schema_extra=measured_in("linear RGB"),
+    )
     scalp_tint: Unit = Field(
         DEFAULT_SCALP_TINT,
         description="the skin under the hair blended towards the roots' colour, as game"

@@ -7,7 +7,7 @@ from typing import Annotated, ClassVar, Literal, get_args
 
 from pydantic import Field, model_validator
 
-from ..settings import StrictSection, Unit, Vec3
+from ..settings import StrictSection, Unit, Vec3, measured_in
 
 __all__ = ["SimParams", "ColliderParams", "MAX_ACCELERATION", "MIN_NORMAL", "SHAPES"]
 
@@ -43,10 +43,20 @@ class ColliderParams(StrictSection):
     normal: the side the hair stays on) that the hair cannot enter."""
 
     kind: ShapeKind = Field("sphere", description=" or ".join(SHAPES))
-    centre: Vec3 = Field((0.0, 0.0, 0.0), description="sphere centre, or a point on the plane, m")
-    a: Vec3 = Field((0.0, 0.0, 0.0), description="capsule axis start, m")
-    b: Vec3 = Field((0.0, 0.0, 0.0), description="capsule axis end, m")
-    radius: float = Field(0.1, gt=0, le=100, description="radius, m")
+    centre: Vec3 = Field(
+        (0.0, 0.0, 0.0),
+        description="sphere centre, or a point on the plane",
+        json_schema_extra=measured_in("m"),
+    )
+    a: Vec3 = Field(
+        (0.0, 0.0, 0.0), description="capsule axis start", json_schema_extra=measured_in("m")
+    )
+    b: Vec3 = Field(
+        (0.0, 0.0, 0.0), description="capsule axis end", json_schema_extra=measured_in("m")
+    )
+    radius: float = Field(
+        0.1, gt=0, le=100, description="radius", json_schema_extra=measured_in("m")
+    )
     normal: Vec3 = Field(
         (0.0, 1.0, 0.0), description="plane normal, towards the side the hair stays on"
     )
@@ -81,31 +91,48 @@ class SimParams(StrictSection):
         1 / 120,
         gt=0,
         le=1 / 30,
-        description="internal fixed time step, s"
+        description="internal fixed time step"
         " (at most 1/30: longer steps let the skin sweep through the hair)",
+        json_schema_extra=measured_in("s"),
     )
     iterations: int = Field(8, ge=1, le=200, description="constraint iterations per substep")
     vertices: int | None = Field(
         None, ge=2, le=256, description="vertices per simulated strand; unset = the guides'"
     )
     gravity: Acceleration = Field(
-        (0.0, -9.81, 0.0), description="gravity, m/s² (each component within ±100, about 10 g)"
+        (0.0, -9.81, 0.0),
+        description="gravity (each component within ±100, about 10 g)",
+        json_schema_extra=measured_in("m/s²"),
     )
-    damping: float = Field(0.5, ge=0, le=100, description="velocity damping per second")
+    damping: float = Field(
+        0.5,
+        ge=0,
+        le=100,
+        description="velocity damping: speed × exp(−damping·t)",
+        json_schema_extra=measured_in("1/s"),
+    )
     drag: float = Field(
-        0.0, ge=0, le=1000, description="air drag b of −b·v (Le Muzic 2012 eq. 5.3), 1/s"
+        0.0,
+        ge=0,
+        le=1000,
+        description="air drag b of −b·v (Le Muzic 2012 eq. 5.3)",
+        json_schema_extra=measured_in("1/s"),
     )
     wind: Acceleration = Field(
         (0.0, 0.0, 0.0),
-        description="wind acceleration w of Le Muzic"
-        " 2012 eq. 5.2, m/s² (each component within ±100)",
+        description="wind acceleration w of Le Muzic 2012 eq. 5.2 (each component within ±100)",
+        json_schema_extra=measured_in("m/s²"),
     )
     wind_turbulence: float = Field(
         0.5, ge=0, le=10, description="noise added to the wind, relative to its strength"
     )
-    wind_frequency: float = Field(4.0, ge=0, le=1000, description="turbulence frequency, 1/m")
+    wind_frequency: float = Field(
+        4.0, ge=0, le=1000, description="turbulence frequency", json_schema_extra=measured_in("1/m")
+    )
     wind_drift: Vec3 = Field(
-        (1.0, 0.0, 0.0), description="speed the turbulence pattern drifts with, m/s"
+        (1.0, 0.0, 0.0),
+        description="speed the turbulence pattern drifts with",
+        json_schema_extra=measured_in("m/s"),
     )
     wind_gust: float = Field(
         0.0,
@@ -113,7 +140,9 @@ class SimParams(StrictSection):
         le=100,
         description="gusts: the wind × (1 + gust·g(t)), g a smooth noise in [0, 1]; 0 = steady",
     )
-    wind_gust_period: float = Field(2.0, gt=0, le=1000, description="typical gust length, s")
+    wind_gust_period: float = Field(
+        2.0, gt=0, le=1000, description="typical gust length", json_schema_extra=measured_in("s")
+    )
     stretch_stiffness: Unit = Field(1.0, description="PBD distance constraint stiffness")
     stretch_limit: float | None = Field(
         1e-4,
@@ -137,7 +166,11 @@ class SimParams(StrictSection):
         1.0, ge=0, le=100, description="bending weakens along the strand: k / (1 + att·(i−1))"
     )
     cone_angle: float = Field(
-        180.0, gt=0, le=180, description="largest turn between segments, degrees; 180 = off"
+        180.0,
+        gt=0,
+        le=180,
+        description="largest turn between segments; 180 = off",
+        json_schema_extra=measured_in("degrees"),
     )
     shape_local: Unit = Field(
         0.0, description="stiffness towards each segment's rest direction (local shape)"
@@ -156,14 +189,19 @@ class SimParams(StrictSection):
         0.12,
         ge=0,
         le=10,
-        description="style length, m: how long a strand stands out level and keeps its"
+        description="style length: how long a strand stands out level and keeps its"
         " groomed shape (it sags a tenth of this at its tip; longer strands sag as"
         " (length / this)³, so long hair falls and swings). What trades style for"
         " softness: lower is softer; 0 = off",
+        json_schema_extra=measured_in("m"),
     )
     dftl_damping: Unit = Field(0.9, description="DFTL velocity correction s (Almeida 2014 eq. 3.1)")
     collision_margin: float = Field(
-        0.002, ge=0, le=1, description="distance kept from colliders, m"
+        0.002,
+        ge=0,
+        le=1,
+        description="distance kept from colliders",
+        json_schema_extra=measured_in("m"),
     )
     friction: Unit = Field(0.3, description="share of tangential speed lost in contact")
     colliders: list[ColliderParams] = Field(
@@ -177,7 +215,8 @@ class SimParams(StrictSection):
         None,
         gt=0,
         le=1,
-        description="skin SDF voxel size, m; unset = the mesh's longest side / 64",
+        description="skin SDF voxel size; unset = the mesh's longest side / 64",
+        json_schema_extra=measured_in("m"),
     )
     volume_friction: Unit = Field(
         0.05,
@@ -197,10 +236,20 @@ class SimParams(StrictSection):
     motion: Literal["none", "turn", "nod", "shake"] = Field(
         "none", description="`follicle simulate`: the built-in head animation"
     )
-    motion_amplitude: float = Field(40.0, ge=0, le=180, description="head animation angle, degrees")
-    motion_period: float = Field(2.0, gt=0, le=100, description="head animation period, s")
+    motion_amplitude: float = Field(
+        40.0,
+        ge=0,
+        le=180,
+        description="head animation angle",
+        json_schema_extra=measured_in("degrees"),
+    )
+    motion_period: float = Field(
+        2.0, gt=0, le=100, description="head animation period", json_schema_extra=measured_in("s")
+    )
     motion_pivot: Vec3 | None = Field(
-        None, description="head animation pivot; unset = the neck (bottom centre of the mesh)"
+        None,
+        description="head animation pivot; unset = the neck (bottom centre of the mesh)",
+        json_schema_extra=measured_in("m"),
     )
     skin_animation: str | None = Field(
         None,
