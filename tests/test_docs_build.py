@@ -1,12 +1,14 @@
 """The docs site builds strictly (a warning, a broken link or anchor, a page left out of
-the navigation, a failing tutorial fails, as `mkdocs.yml` and tools/mkdocs_hooks.py
-set), its pages find every picture they show — on disk, over HTTP from the served site,
-and in a real browser (headless Chromium) — and the README's and CHANGELOG's links
+the navigation, a failing tutorial or example fails, as `mkdocs.yml` and
+tools/mkdocs_hooks.py set), its pages find every picture they show — on disk, over HTTP
+from the served site, and in a real browser (headless Chromium) —, the gallery shows a
+picture the build rendered for every example, and the README's and CHANGELOG's links
 point at files that exist."""
 
 from __future__ import annotations
 
 import functools
+import html
 import http.server
 import os
 import re
@@ -63,11 +65,15 @@ def test_every_picture_on_every_page_is_there(site: Path):
     assert pictures - shown == set(), "pictures in docs/ that no page shows"
 
 
-def _build(config_dir: Path, out: Path, tutorials: bool = True) -> subprocess.CompletedProcess:
-    """``mkdocs build --strict``; ``tutorials`` False builds their pages without running
-    them (FOLLICLE_DOCS_TUTORIALS=0, tools/mkdocs_hooks.py) where a test needs no more."""
+def _build(
+    config_dir: Path, out: Path, tutorials: bool = True, gallery: bool = True
+) -> subprocess.CompletedProcess:
+    """``mkdocs build --strict``; ``tutorials`` (``gallery``) False builds the tutorials'
+    (the gallery's) pages without running them (FOLLICLE_DOCS_TUTORIALS=0,
+    FOLLICLE_DOCS_GALLERY=0, tools/docs_runs.py) where a test needs no more."""
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
     env["FOLLICLE_DOCS_TUTORIALS"] = "1" if tutorials else "0"
+    env["FOLLICLE_DOCS_GALLERY"] = "1" if gallery else "0"
     return subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)],
         cwd=config_dir,
@@ -88,7 +94,7 @@ def test_a_broken_link_fails_the_build(tmp_path: Path):
     (tmp_path / "src").symlink_to(ROOT / "src")
     page = tmp_path / "docs" / "how-to" / "grooming.md"
     page.write_text(page.read_text(encoding="utf-8") + "\n[gone](no-such-page.md)\n")
-    done = _build(tmp_path, tmp_path / "site", tutorials=False)
+    done = _build(tmp_path, tmp_path / "site", tutorials=False, gallery=False)
     assert done.returncode != 0
     assert "no-such-page.md" in done.stderr + done.stdout
 
@@ -109,9 +115,77 @@ def test_a_failing_tutorial_fails_the_build(tmp_path: Path):
     script.write_text(
         text.replace('groom_unity.abc --target unity")', 'groom_unity.abc --count -5")')
     )
-    done = _build(tmp_path, tmp_path / "site")
+    done = _build(tmp_path, tmp_path / "site", gallery=False)
     assert done.returncode != 0
     assert "game_engines.py" in done.stderr and "groom_unity.abc --count -5" in done.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("scene", "file", "old", "new", "command"),
+    [
+        # the scene itself: its render fails (a negative hair count)
+        ("curly", "curly.toml", "count = 13000", "count = -5",
+         "follicle render examples/curly.toml -o curly.png --size 360 360 --engine cpu"),
+        # a script the scene's comment says to run first: the build runs it too
+        ("hand_groomed", "hand_groomed.py", "    groom(editor)\n", "    groom(editor)\n    1 / 0\n",
+         ".venv/bin/python examples/hand_groomed.py"),
+    ],
+)  # fmt: skip
+def test_a_failing_example_fails_the_build(tmp_path: Path, scene, file, old, new, command):
+    """The gallery's examples are run by the build: one whose command fails stops the
+    build, naming the scene and the command (the other scenes are left out here)."""
+    shutil.copytree(ROOT / "docs", tmp_path / "docs")
+    shutil.copytree(ROOT / "tools", tmp_path / "tools")
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    shutil.copy(ROOT / "mkdocs.yml", tmp_path)
+    (tmp_path / "src").symlink_to(ROOT / "src")
+    for other in (tmp_path / "examples").glob("*.toml"):
+        if other.stem != scene:
+            other.unlink()
+    broken = tmp_path / "examples" / file
+    text = broken.read_text(encoding="utf-8")
+    assert old in text
+    broken.write_text(text.replace(old, new), encoding="utf-8")
+    done = _build(tmp_path, tmp_path / "site", tutorials=False)
+    assert done.returncode != 0
+    assert f"examples/{scene}.toml" in done.stderr and f"`{command}` exited" in done.stderr
+
+
+# the gallery's pictures: its page shows each example's, from examples/NAME.png in the site
+_GALLERY_PICTURE = re.compile(r'<img[^>]*\ssrc="\.\./examples/([\w-]+)\.png"')
+
+
+@pytest.mark.slow
+def test_the_gallery_shows_every_example_rendered_by_the_build(site: Path):
+    """The gallery page shows one picture per scene of examples/, each made by this build
+    (no examples/ pictures are in docs/), 360² and a real render: something covers much
+    of it (pixels far from the background's colour in the corner) and the middle has the
+    fine detail of strands (a blank, flat or gradient picture has none), with the
+    command that made it and the scene file's text."""
+    from PIL import Image
+
+    scenes = sorted(p.stem for p in (ROOT / "examples").glob("*.toml"))
+    assert len(scenes) >= 7
+    assert not list((ROOT / "docs").rglob("examples/*.png")), "gallery pictures are built"
+    page = (site / "gallery" / "index.html").read_text(encoding="utf-8")
+    shown = _GALLERY_PICTURE.findall(page)
+    assert sorted(shown) == scenes  # each once
+    text = html.unescape(re.sub(r"<[^>]+>", "", page))
+    for name in scenes:
+        command = f"follicle render examples/{name}.toml -o {name}.png --size 360 360 --engine cpu"
+        assert command in text, name
+        seed = re.search(r"^seed = \d+$", (ROOT / "examples" / f"{name}.toml").read_text(), re.M)
+        assert seed and seed.group(0) in text, name  # the scene file's text, shown
+        with Image.open(site / "examples" / f"{name}.png") as img:
+            assert img.size == (360, 360), name
+            rgb = np.asarray(img.convert("RGB"), dtype=np.int16)
+        covered = (np.abs(rgb - rgb[0, 0]).max(axis=2) > 40).mean()
+        assert covered > 0.3, (name, covered)
+        grey = rgb.mean(axis=2)
+        detail = np.abs(np.diff(grey[90:270, 90:270], axis=1)).mean()
+        assert detail > 2.0, (name, detail)
+    assert ".venv/bin/python examples/hand_groomed.py" in text  # a scene's script, run
 
 
 def test_the_readme_and_changelog_link_to_files_that_exist():
@@ -239,14 +313,14 @@ def _chromium() -> str | None:
 
 
 @pytest.mark.slow
-def test_a_real_browser_draws_the_home_page_and_a_tutorial(served: str, tmp_path: Path):
-    """Headless Chromium renders the home page and a tutorial to screenshots that are
-    not blank: the page's text, pictures and theme drew (a missing stylesheet or a
+def test_a_real_browser_draws_the_home_page_a_tutorial_and_the_gallery(served: str, tmp_path: Path):
+    """Headless Chromium renders the home page, a tutorial and the gallery to screenshots
+    that are not blank: the page's text, pictures and theme drew (a missing stylesheet or a
     blank page gives one flat colour)."""
     from PIL import Image
 
     chromium = _chromium()
-    for name, path in (("home", ""), ("tutorial", "tutorials/own_mesh/")):
+    for name, path in (("home", ""), ("tutorial", "tutorials/own_mesh/"), ("gallery", "gallery/")):
         shot = tmp_path / f"{name}.png"
         subprocess.run(
             [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",

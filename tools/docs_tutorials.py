@@ -16,8 +16,9 @@ fails the build, as does a cell that raises.
 
 ``run(script, workdir)`` runs a script cell by cell in a child process
 (``python tools/docs_tutorials.py SCRIPT [OUT.json]``, in ``workdir``: how a reader
-runs a tutorial too, in an empty folder), and ``page(script, ran, folder)`` writes its
-Markdown.
+runs a tutorial too, in an empty folder), ``run_shown`` also reads the pictures its
+page shows, and ``page(script, ran, folder)`` writes its Markdown. The conventions
+shared with the gallery (commands, pool, skip, errors) are :mod:`docs_runs`'s.
 """
 
 from __future__ import annotations
@@ -26,7 +27,6 @@ import ast
 import contextlib
 import io
 import json
-import os
 import re
 import subprocess
 import sys
@@ -34,11 +34,12 @@ import traceback
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-__all__ = ["Cell", "TutorialError", "cells", "page", "pictures_named", "run"]
+from docs_runs import PICTURE, RunError, argv, child_env, not_made
+
+__all__ = ["Cell", "TutorialError", "cells", "page", "pictures_named", "run", "run_shown"]
 
 _CUT = re.compile(r"^# %%(?:\s*\[(\w+)\])?\s*$")
 _SH = re.compile(r"""^sh\((?P<q>["'])(?P<cmd>.*?)(?P=q)(?:,\s*expect=(?P<rc>\d+))?\)\s*$""")
-_PICTURE = re.compile(r"!\[[^\]]*\]\(([^)\s]+\.(?:png|jpg|gif|svg))\)")
 
 
 # the once-per-machine notice of a cold numba cache: the page shows what a reader sees
@@ -46,7 +47,7 @@ _PICTURE = re.compile(r"!\[[^\]]*\]\(([^)\s]+\.(?:png|jpg|gif|svg))\)")
 _COMPILING = "compiling follicle's kernels for this machine, once"
 
 
-class TutorialError(RuntimeError):
+class TutorialError(RunError):
     """A tutorial that failed: the script, the cell and the traceback or the reason."""
 
 
@@ -103,15 +104,10 @@ def cells(source: str) -> tuple[str, list[Cell]]:
 
 
 def sh(command: str, expect: int = 0) -> None:
-    """Run ``command`` (split as a shell would, no shell features) and print what it
-    printed; raise when it exits other than ``expect``. ``follicle`` is the one beside
-    this Python."""
-    import shlex
-
-    args = shlex.split(command)
-    if args[0] == "follicle":
-        args[0] = str(Path(sys.executable).with_name("follicle"))
-    done = subprocess.run(args, capture_output=True, text=True, timeout=600)
+    """Run ``command`` (split as a shell would, no shell features; ``follicle`` is the
+    one beside this Python: :func:`docs_runs.argv`) and print what it printed; raise
+    when it exits other than ``expect``."""
+    done = subprocess.run(argv(command), capture_output=True, text=True, timeout=600)
     printed = (done.stdout + done.stderr).splitlines()
     print("\n".join(ln for ln in printed if _COMPILING not in ln))
     if done.returncode != expect:
@@ -142,14 +138,10 @@ def run(script: Path, workdir: Path, timeout: float = 600) -> list[dict[str, str
     """Run ``script`` in a child process in ``workdir``; its cells with their output.
     Raises TutorialError with the failing cell's traceback."""
     out = workdir / ".cells.json"
-    env = {
-        **os.environ,
-        "PATH": os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")]),
-    }
     done = subprocess.run(
         [sys.executable, str(Path(__file__).resolve()), str(script.resolve()), str(out)],
         cwd=workdir,
-        env=env,
+        env=child_env(),
         capture_output=True,
         text=True,
         timeout=timeout,
@@ -161,9 +153,20 @@ def run(script: Path, workdir: Path, timeout: float = 600) -> list[dict[str, str
     return json.loads(out.read_text(encoding="utf-8"))
 
 
+def run_shown(script: Path, workdir: Path) -> tuple[list[dict[str, str | int]], dict[str, bytes]]:
+    """:func:`run`, and the pictures the page shows, read from ``workdir`` (name ->
+    PNG bytes). Raises TutorialError when one the prose names was not made."""
+    ran = run(script, workdir)
+    shown = pictures_named("\n".join(str(c["prose"]) for c in ran))
+    missing = [p for p in shown if not (workdir / p).is_file()]
+    if missing:
+        raise TutorialError(f"tutorial {script.name} shows {missing} but did not make them")
+    return ran, {p: (workdir / p).read_bytes() for p in shown}
+
+
 def pictures_named(markdown: str) -> list[str]:
     """The relative picture paths a page's Markdown shows."""
-    return [p for p in _PICTURE.findall(markdown) if "://" not in p and not p.startswith("../")]
+    return [p for p in PICTURE.findall(markdown) if "://" not in p and not p.startswith("../")]
 
 
 def page(script: Path, ran: list[dict[str, str | int]] | None, folder: str) -> str:
@@ -187,9 +190,9 @@ def page(script: Path, ran: list[dict[str, str | int]] | None, folder: str) -> s
             continue
         prose = cell.prose
         if ran is None:
-            prose = _PICTURE.sub(lambda m: _beside(m, None), prose)
+            prose = PICTURE.sub(lambda m: _beside(m, None), prose)
         else:
-            prose = _PICTURE.sub(lambda m: _beside(m, folder), prose)
+            prose = PICTURE.sub(lambda m: _beside(m, folder), prose)
         if prose:
             text += [prose, ""]
         if cell.code:
@@ -215,7 +218,7 @@ def _beside(match: re.Match[str], folder: str | None) -> str:
     if name.startswith("../") or "://" in name:
         return match.group(0)
     if folder is None:
-        return f"*(picture `{name}`: made when the tutorials run)*"
+        return not_made(name, "the tutorials")
     return match.group(0).replace(f"({name})", f"({folder}/{name})")
 
 

@@ -1,19 +1,19 @@
 """MkDocs hooks (``hooks:`` in mkdocs.yml): add the generated reference pages
-(``reference/scene.md``, ``reference/cli.md``, from :mod:`docs_reference`) and the
-tutorials' pages and pictures (each ``tutorials/NAME.py`` run, :mod:`docs_tutorials`) to
-the site before the navigation is built, so the nav and the strict link check see them;
-and show
-the docstrings' Sphinx roles (``:meth:`replace```) as the code they name, since
-mkdocstrings renders a docstring's Markdown and leaves the role's prefix as text."""
+(``reference/scene.md``, ``reference/cli.md``, from :mod:`docs_reference`), the
+tutorials' pages and pictures (each ``tutorials/NAME.py`` run, :mod:`docs_tutorials`) and
+the gallery's examples (each ``examples/NAME.toml`` rendered into ``gallery.md``, its
+picture at ``examples/NAME.png``, :mod:`docs_gallery`) to the site before the navigation
+is built, so the nav and the strict link check see them; the tutorials and the examples
+run side by side in one pool (:mod:`docs_runs`: ``FOLLICLE_DOCS_JOBS``,
+``FOLLICLE_DOCS_TUTORIALS=0`` / ``FOLLICLE_DOCS_GALLERY=0`` to build without running
+them), and one that fails fails the build. And show the docstrings' Sphinx roles
+(``:meth:`replace```) as the code they name, since mkdocstrings renders a docstring's
+Markdown and leaves the role's prefix as text."""
 
 from __future__ import annotations
 
-import hashlib
-import os
 import re
 import sys
-import tempfile
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from mkdocs.config.defaults import MkDocsConfig
@@ -22,56 +22,83 @@ from mkdocs.structure.files import File, Files
 from mkdocs.structure.pages import Page
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import docs_reference  # noqa: E402  (tools/ is not a package)
+import docs_gallery  # noqa: E402  (tools/ is not a package)
+import docs_reference  # noqa: E402
 import docs_tutorials  # noqa: E402
+from docs_runs import RunError, in_fresh_folder, in_pool, once, skipped  # noqa: E402
 
 GENERATED = {
     "reference/scene.md": docs_reference.scene_reference,
     "reference/cli.md": docs_reference.cli_reference,
 }
+GALLERY = "gallery.md"
 
 
 def on_files(files: Files, config: MkDocsConfig) -> Files:
-    """The generated pages, written fresh on every build."""
+    """The generated pages and pictures, written fresh on every build; a tutorial or
+    an example that fails fails the build."""
     for path, make in GENERATED.items():
         files.append(File.generated(config, path, content=make()))
-    scripts = sorted(Path(config.docs_dir, "tutorials").glob("*.py"))
-    skip = os.environ.get("FOLLICLE_DOCS_TUTORIALS") == "0"
-    with ThreadPoolExecutor(int(os.environ.get("FOLLICLE_DOCS_JOBS", "2"))) as pool:
-        runs = list(pool.map(lambda s: None if skip else _ran(s), scripts))
-    for script, ran in zip(scripts, runs, strict=True):
-        files.append(_tutorial(config, script, ran))
-        for name, data in (ran or (None, {}))[1].items():
-            files.append(File.generated(config, f"tutorials/{script.stem}/{name}", content=data))
+    try:
+        _add_runs(files, config)
+    except RunError as error:
+        raise PluginError(str(error)) from None
     return files
 
 
-# script text's SHA-256 -> (cells, pictures): `mkdocs serve` reruns only a changed script
-_RUNS: dict[str, tuple[list, dict[str, bytes]]] = {}
+def _add_runs(files: Files, config: MkDocsConfig) -> None:
+    """Run the tutorials and the examples (side by side, in one pool) and add their
+    pages and pictures to ``files``: each tutorial's page with its pictures beside it,
+    the gallery page in place of the hand-written one, the examples' pictures."""
+    root = Path(config.config_file_path).parent
+    scripts = sorted(Path(config.docs_dir, "tutorials").glob("*.py"))
+    found = docs_gallery.examples(root)
+    tasks = [] if skipped("tutorials") else [_tutorial_run(s) for s in scripts]
+    tasks += [] if skipped("gallery") else [_example_run(root, e) for e in found]
+    runs = iter(in_pool(tasks))
+    for script in scripts:
+        ran = None if skipped("tutorials") else next(runs)
+        text = docs_tutorials.page(script, None if ran is None else ran[0], script.stem)
+        files.append(File.generated(config, f"tutorials/{script.stem}.md", content=text))
+        for name, data in (ran or (None, {}))[1].items():
+            files.append(File.generated(config, f"tutorials/{script.stem}/{name}", content=data))
+    pictures = None if skipped("gallery") else {e.name: next(runs) for e in found}
+    written = files.get_file_from_path(GALLERY)
+    if written is None:
+        raise docs_gallery.ExampleError(f"docs/{GALLERY} is missing: the gallery's page")
+    files.remove(written)
+    text = docs_gallery.page(written.content_string, root, found, pictures)
+    files.append(File.generated(config, GALLERY, content=text))
+    for name, data in (pictures or {}).items():
+        files.append(File.generated(config, f"examples/{name}.png", content=data))
 
 
-def _ran(script: Path) -> tuple[list, dict[str, bytes]]:
-    """Run a tutorial in a fresh folder: its cells' outputs and the pictures its page
-    shows (a PluginError, failing the build, when it fails or a picture is missing)."""
-    key = hashlib.sha256(script.read_bytes()).hexdigest()
-    if key not in _RUNS:
-        with tempfile.TemporaryDirectory(prefix=f"tutorial-{script.stem}-") as work:
-            try:
-                ran = docs_tutorials.run(script, Path(work))
-            except docs_tutorials.TutorialError as error:
-                raise PluginError(str(error)) from None
-            shown = docs_tutorials.pictures_named("\n".join(str(c["prose"]) for c in ran))
-            missing = [p for p in shown if not (Path(work) / p).is_file()]
-            if missing:
-                raise PluginError(f"tutorial {script.name} shows {missing} but did not make them")
-            _RUNS[key] = (ran, {p: (Path(work) / p).read_bytes() for p in shown})
-    return _RUNS[key]
+def _tutorial_run(script: Path):
+    """A task running tutorial ``script`` in a fresh folder: its cells' outputs and the
+    pictures its page shows (rerun by ``mkdocs serve`` only when the script changed)."""
+    return lambda: once(
+        [b"tutorial", script.read_bytes()],
+        lambda: in_fresh_folder(
+            f"tutorial-{script.stem}-", lambda work: docs_tutorials.run_shown(script, work)
+        ),
+    )
 
 
-def _tutorial(config: MkDocsConfig, script: Path, ran: tuple | None) -> File:
-    """The page of a tutorial, ``tutorials/NAME.md`` beside its script."""
-    text = docs_tutorials.page(script, None if ran is None else ran[0], script.stem)
-    return File.generated(config, f"tutorials/{script.stem}.md", content=text)
+def _example_run(root: Path, example: docs_gallery.Example):
+    """A task running ``example`` in a fresh folder: its picture's PNG bytes (rerun by
+    ``mkdocs serve`` only when a file of ``examples/`` changed)."""
+    return lambda: once(
+        [b"example", example.name.encode(), *docs_gallery.depends(root)],
+        lambda: in_fresh_folder(
+            f"example-{example.name}-", lambda work: docs_gallery.run(example, root, work)
+        ),
+    )
+
+
+def on_page_markdown(markdown: str, page: Page, config: MkDocsConfig, files: Files) -> str:
+    """A page's Markdown with the gallery's pictures replaced by a note when the build
+    does not run the examples (``FOLLICLE_DOCS_GALLERY=0``): they are not there."""
+    return docs_gallery.unrendered(markdown, page.file.src_uri) if skipped("gallery") else markdown
 
 
 # ":meth:" before the <code> span its backticks became
