@@ -50,7 +50,9 @@ def test_what_a_target_writes_is_what_it_reads(hair, name):
     np.testing.assert_allclose(out.points, hair.points * scale, rtol=1e-6, atol=1e-7)
     # Unity's hair package reads Alembic diameters in centimetres, positions in metres
     widths = 100.0 if name in ("unreal", "unity") else 1.0
-    np.testing.assert_allclose(out.point_data["width"], hair.point_data["width"] * widths, rtol=1e-6)
+    np.testing.assert_allclose(
+        out.point_data["width"], hair.point_data["width"] * widths, rtol=1e-6
+    )
 
 
 @pytest.mark.slow

@@ -23,11 +23,10 @@ from __future__ import annotations
 import posixpath
 import re
 import shutil
-import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-from docs_runs import PICTURE, RunError, argv, child_env, not_made
+from docs_runs import PICTURE, RunError, argv, not_made, run_child
 
 __all__ = [
     "MARK",
@@ -135,14 +134,7 @@ def run(example: Example, root: Path, workdir: Path, timeout: float = 600) -> by
         root / "examples", workdir / "examples", ignore=shutil.ignore_patterns("__pycache__")
     )
     for command in example.commands:
-        done = subprocess.run(
-            argv(command),
-            cwd=workdir,
-            env=child_env(),
-            capture_output=True,
-            text=True,
-            timeout=timeout,
-        )
+        done = run_child(argv(command), workdir, timeout)
         if done.returncode != 0:
             raise ExampleError(
                 f"example examples/{example.name}.toml: `{command}` exited {done.returncode}:\n"

@@ -23,6 +23,7 @@ import hashlib
 import os
 import re
 import shlex
+import subprocess
 import sys
 import tempfile
 from collections.abc import Callable, Sequence
@@ -72,6 +73,13 @@ def child_env() -> dict[str, str]:
     first on ``PATH`` (a script that calls ``follicle`` gets this install's)."""
     path = os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])
     return {**os.environ, "PATH": path}
+
+
+def run_child(args: list[str], workdir: Path, timeout: float) -> subprocess.CompletedProcess:
+    """``args`` run in ``workdir`` with :func:`child_env`, its output captured as text."""
+    return subprocess.run(
+        args, cwd=workdir, env=child_env(), capture_output=True, text=True, timeout=timeout
+    )
 
 
 def skipped(part: str) -> bool:

@@ -34,7 +34,7 @@ import traceback
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from docs_runs import PICTURE, RunError, argv, child_env, not_made
+from docs_runs import PICTURE, RunError, argv, not_made, run_child
 
 __all__ = ["Cell", "TutorialError", "cells", "page", "pictures_named", "run", "run_shown"]
 
@@ -138,14 +138,8 @@ def run(script: Path, workdir: Path, timeout: float = 600) -> list[dict[str, str
     """Run ``script`` in a child process in ``workdir``; its cells with their output.
     Raises TutorialError with the failing cell's traceback."""
     out = workdir / ".cells.json"
-    done = subprocess.run(
-        [sys.executable, str(Path(__file__).resolve()), str(script.resolve()), str(out)],
-        cwd=workdir,
-        env=child_env(),
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
+    script_args = [str(Path(__file__).resolve()), str(script.resolve()), str(out)]
+    done = run_child([sys.executable, *script_args], workdir, timeout)
     if done.returncode != 0:
         raise TutorialError(
             f"tutorial {script.name} failed:\n{done.stdout[-4000:]}{done.stderr[-6000:]}"
