@@ -1,0 +1,93 @@
+"""Run by Blender's Python (bpy): import follicle's hair cards (.glb) and render them.
+
+    python render_cards.py CARDS.glb VIEWS.json OUT_DIR FINDINGS.json
+
+What a user would do with ``follicle cards … -o hair_cards.glb``: File → Import → glTF
+2.0 with the default settings. Written to FINDINGS: the objects the importer made (name,
+vertices, faces, material, its blend method), and for each view of VIEWS (a list of
+``{"name", "eye", "target", "up", "fov_y", "size"}`` in follicle's Y up metres) the
+path of a Cycles render of the finest level (the other levels hidden) on a transparent
+film, lit by the world alone (a uniform white: each texel's colour as it is, so the
+picture's colour is the atlas's), RGBA PNG. glTF is Y up; Blender's importer turns a
+point (x, y, z) into (x, −z, y), and so are the cameras placed here.
+"""
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import bpy
+from mathutils import Matrix, Vector
+
+
+def _blender(v):
+    """follicle's Y up (x, y, z) as Blender's Z up."""
+    return Vector((v[0], -v[2], v[1]))
+
+
+def _camera(view):
+    eye, target = _blender(view["eye"]), _blender(view["target"])
+    forward = (target - eye).normalized()
+    up = _blender(view["up"])
+    right = forward.cross(up).normalized()
+    up = right.cross(forward)
+    data = bpy.data.cameras.new(view["name"])
+    data.sensor_fit = "VERTICAL"
+    data.angle_y = math.radians(view["fov_y"])
+    data.clip_start = 0.01
+    data.clip_end = 100.0
+    cam = bpy.data.objects.new(view["name"], data)
+    bpy.context.scene.collection.objects.link(cam)
+    rot = Matrix((right, up, -forward)).transposed().to_4x4()
+    cam.matrix_world = Matrix.Translation(eye) @ rot
+    return cam
+
+
+def main():
+    glb, views_path, out_dir, findings_path = sys.argv[-4:]
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=glb)
+    found = {"objects": []}
+    for obj in bpy.data.objects:
+        if obj.type != "MESH":
+            continue
+        mat = obj.active_material
+        found["objects"].append(
+            {
+                "name": obj.name,
+                "vertices": len(obj.data.vertices),
+                "faces": len(obj.data.polygons),
+                "material": mat.name if mat else None,
+                "images": sorted(i.name for i in bpy.data.images),
+            }
+        )
+        finest = obj.name.startswith("cards_LOD0")
+        obj.hide_render = not finest
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 16
+    scene.cycles.use_denoising = False
+    scene.render.film_transparent = True
+    scene.view_settings.view_transform = "Standard"
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_mode = "RGBA"
+    world = bpy.data.worlds.new("white")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 1, 1, 1)
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
+    scene.world = world
+    found["renders"] = {}
+    for view in json.loads(Path(views_path).read_text()):
+        scene.camera = _camera(view)
+        scene.render.resolution_x = scene.render.resolution_y = view["size"]
+        scene.render.resolution_percentage = 100
+        out = str(Path(out_dir) / f"blender_{view['name']}.png")
+        scene.render.filepath = out
+        bpy.ops.render.render(write_still=True)
+        found["renders"][view["name"]] = out
+    Path(findings_path).write_text(json.dumps(found, indent=1))
+
+
+main()
