@@ -318,3 +318,12 @@ def test_follicle_cards_is_the_package_and_calling_it_makes_cards(groom) -> None
     mesh, curves = groom
     made = follicle.cards(curves[:300], mesh, counts=(30,), lods=1, atlas=128)
     assert isinstance(made, follicle.cards.HairCards) and len(made.rects[0]) == 30
+
+
+def test_default_counts_fit_small_grooms() -> None:
+    from follicle.cards.settings import default_counts
+
+    assert default_counts(3, 20_000) == (2000, 600, 150)
+    assert default_counts(3, 300) == (75, 37, 18)
+    assert default_counts(5, 100_000) == (2000, 600, 150, 37, 9)
+    assert default_counts(2, 3) == (1, 1)

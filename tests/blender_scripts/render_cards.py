@@ -5,8 +5,9 @@
 What a user would do with ``follicle cards … -o hair_cards.glb``: File → Import → glTF
 2.0 with the default settings. Written to FINDINGS: the objects the importer made (name,
 vertices, faces, material, its blend method), and for each view of VIEWS (a list of
-``{"name", "eye", "target", "up", "fov_y", "size"}`` in follicle's Y up metres) the
-path of a Cycles render of the finest level (the other levels hidden) on a transparent
+``{"name", "eye", "target", "up", "fov_y", "size"}`` in follicle's Y up metres, and
+optionally ``"lod"``, 0 when not given) the path of a Cycles render of that level (the
+other levels hidden) on a transparent
 film, lit by the world alone (a uniform white: each texel's colour as it is, so the
 picture's colour is the atlas's), RGBA PNG. glTF is Y up; Blender's importer turns a
 point (x, y, z) into (x, −z, y), and so are the cameras placed here.
@@ -49,9 +50,14 @@ def main():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=glb)
     found = {"objects": []}
+    scene = bpy.context.scene
     for obj in bpy.data.objects:
         if obj.type != "MESH":
             continue
+        if scene.collection not in obj.users_collection:
+            # a coarser level (MSFT_lod) is no node of the scene: the importer puts it
+            # in an "Orphan Nodes" collection, which does not render
+            scene.collection.objects.link(obj)
         mat = obj.active_material
         found["objects"].append(
             {
@@ -62,9 +68,6 @@ def main():
                 "images": sorted(i.name for i in bpy.data.images),
             }
         )
-        finest = obj.name.startswith("cards_LOD0")
-        obj.hide_render = not finest
-    scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = 16
@@ -80,6 +83,9 @@ def main():
     scene.world = world
     found["renders"] = {}
     for view in json.loads(Path(views_path).read_text()):
+        for obj in bpy.data.objects:
+            if obj.type == "MESH":
+                obj.hide_render = obj.name != f"cards_LOD{view.get('lod', 0)}"
         scene.camera = _camera(view)
         scene.render.resolution_x = scene.render.resolution_y = view["size"]
         scene.render.resolution_percentage = 100

@@ -87,7 +87,7 @@ def make_cards(
 
     bands = lod_bands(params.atlas, params.lods, params.reserve)
     fitted = []
-    for lod, count in enumerate(params.card_counts):
+    for lod, count in enumerate(params.card_counts(len(curves))):
         labels = cluster_hairs(curves, count, params.seed + lod)
         strips = fit_strips(samples, labels, count, normals, width.max(axis=1))
         rects = pack(strips.width, strips.length, params.atlas, bands[lod], params.padding, lod)

@@ -14,13 +14,15 @@ __all__ = ["DEFAULT_COUNTS", "CardParams", "default_counts"]
 DEFAULT_COUNTS = (2000, 600, 150)  # cards of LOD 0, 1, 2; each further level a quarter
 
 
-def default_counts(lods: int) -> tuple[int, ...]:
-    """Cards per level for ``lods`` levels: :data:`DEFAULT_COUNTS`, then a quarter more
-    each further level (at least 1)."""
+def default_counts(lods: int, hairs: int) -> tuple[int, ...]:
+    """Cards per level for ``lods`` levels of ``hairs`` hairs: :data:`DEFAULT_COUNTS`,
+    then a quarter more each further level, each at most a quarter of the hairs at the
+    finest level and half as many again each coarser one (at least 1), so a small groom
+    gets cards of a few hairs each rather than an error."""
     counts = list(DEFAULT_COUNTS[:lods])
     while len(counts) < lods:
         counts.append(max(counts[-1] // 4, 1))
-    return tuple(counts)
+    return tuple(min(c, max(hairs >> (2 + lod), 1)) for lod, c in enumerate(counts))
 
 
 class CardParams(StrictSection):
@@ -37,7 +39,10 @@ class CardParams(StrictSection):
 
     lods: int = Field(3, ge=1, le=8, description="levels of detail")
     counts: tuple[Annotated[int, Field(ge=1, le=1_000_000)], ...] | None = Field(
-        None, strict=False, description="cards per level (default 2000, 600, 150, ...)"
+        None,
+        strict=False,
+        description="cards per level (default 2000, 600, 150, ..., at most a quarter of the"
+        " hairs at LOD 0, an eighth at LOD 1 ...)",
     )
     atlas: int = Field(2048, ge=64, le=16384, description="the atlas's side, texels")
     padding: int = Field(4, ge=0, le=64, description="empty texels around each card")
@@ -65,7 +70,7 @@ class CardParams(StrictSection):
             )
         return self
 
-    @property
-    def card_counts(self) -> tuple[int, ...]:
-        """The cards of each level: ``counts``, or :func:`default_counts`."""
-        return self.counts if self.counts is not None else default_counts(self.lods)
+    def card_counts(self, hairs: int) -> tuple[int, ...]:
+        """The cards of each level for ``hairs`` hairs: ``counts``, or
+        :func:`default_counts`."""
+        return self.counts if self.counts is not None else default_counts(self.lods, hairs)

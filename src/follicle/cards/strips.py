@@ -2,13 +2,16 @@
 curve, lying on the skin, as wide as its hairs spread.
 
 The centre curve is the mean of the members' arc-length samples (station k of every
-member at the same fraction of its length). The strip's frame starts from the mean skin
-normal at the members' roots and is carried along the centre curve by rotation
-minimizing frames (Šik 2012 §2.2.8; Wang et al. 2008), so a card lies flat on the head
-where it grows and does not twist; its across direction is tangent × normal. A member's
-point at station k has card coordinates (across, depth): its offset from the centre
-there along the across direction and along the normal. The card's width is twice the
-largest |across| of its members plus their widest hair, so its texture holds every hair.
+member at the same fraction of its length), lifted along the skin normal to the
+members' outer layer (:data:`OUTER_LAYER`): seen from outside, the outermost hairs draw
+the groom's outline, and a flat card at the layer's middle would fall inside it. The
+strip's frame starts from the mean skin normal at the members' roots and is carried
+along the centre curve by rotation minimizing frames (Šik 2012 §2.2.8; Wang et al.
+2008), so a card lies flat on the head where it grows and does not twist; its across
+direction is tangent × normal. A member's point at station k has card coordinates
+(across, depth): its offset from the centre there along the across direction and along
+the normal. The card's width is twice the largest |across| of its members plus their
+widest hair, so its texture holds every hair.
 """
 
 from __future__ import annotations
@@ -19,7 +22,9 @@ import numpy as np
 
 from ..frames import normalize, rotation_minimizing_frames
 
-__all__ = ["Strips", "fit_strips", "card_coordinates", "strip_mesh"]
+__all__ = ["OUTER_LAYER", "Strips", "fit_strips", "card_coordinates", "strip_mesh"]
+
+OUTER_LAYER = 0.8  # the strip's height over the skin: this quantile of its members' depths
 
 
 class Strips(NamedTuple):
@@ -75,6 +80,16 @@ def fit_strips(
         np.zeros(k),
     )
     across, depth = card_coordinates(samples, labels, strips)
+    # the strip lifted off the skin to its members' outer layer: the outermost hairs
+    # make the groom's silhouette, and a flat card cannot carry the layer's depth
+    order = np.argsort(labels, kind="stable")
+    ends = np.searchsorted(labels[order], np.arange(k + 1))
+    flat = depth[order]
+    lift = np.array(
+        [np.quantile(flat[a:b], OUTER_LAYER) for a, b in zip(ends[:-1], ends[1:], strict=True)]
+    )
+    strips.centre[:] += lift[:, None, None] * strips.normal
+    depth -= lift[labels][:, None]
     spread = np.zeros(k)
     np.maximum.at(spread, labels, np.abs(across).max(axis=1))
     widest = np.zeros(k)
