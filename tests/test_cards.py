@@ -277,7 +277,7 @@ def test_bad_input_names_the_option(groom) -> None:
         make_cards(curves, mesh, CardParams(counts=(3000,), lods=1))
     with pytest.raises(InputError, match=r"--atlas\) 64: .*--atlas 128.*--counts"):
         make_cards(curves, mesh, CardParams(counts=(1500,), lods=1, atlas=64))
-    with pytest.raises(InputError, match=r"\.glb"):
+    with pytest.raises(InputError, match=r"\.glb.*\.usda"):
         write_cards(make_cards(curves[:50], mesh, CardParams(counts=(5,), lods=1)), "x.gltf")
     with pytest.raises(InputError, match="two or more points"):
         make_cards(curves[:0], mesh)
@@ -327,3 +327,32 @@ def test_default_counts_fit_small_grooms() -> None:
     assert default_counts(3, 300) == (75, 37, 18)
     assert default_counts(5, 100_000) == (2000, 600, 150, 37, 9)
     assert default_counts(2, 3) == (1, 1)
+
+
+def test_the_usd_reads_back(made, tmp_path: Path) -> None:
+    """usd-core reads the stage: a mesh per level with the written triangles and UVs
+    (v flipped: USD's st counts up from the bottom), a material alpha-masked by the
+    colour PNG beside the stage, the same picture as the .glb's colour."""
+    from PIL import Image
+    from pxr import Usd, UsdGeom, UsdShade
+
+    path = write_cards(made, tmp_path / "cards.usda")
+    stage = Usd.Stage.Open(str(path))
+    assert UsdGeom.GetStageUpAxis(stage) == "Y"
+    for lod, mesh in enumerate(made.meshes):
+        prim = UsdGeom.Mesh(stage.GetPrimAtPath(f"/Cards/LOD{lod}"))
+        points = np.array(prim.GetPointsAttr().Get())
+        assert np.array_equal(points, mesh.positions)
+        assert list(prim.GetFaceVertexIndicesAttr().Get()) == mesh.indices.reshape(-1).tolist()
+        st = np.array(UsdGeom.PrimvarsAPI(prim).GetPrimvar("st").Get())
+        assert np.allclose(st[:, 1], 1.0 - mesh.uvs[:, 1])
+        bound = UsdShade.MaterialBindingAPI(prim.GetPrim()).ComputeBoundMaterial()[0]
+        assert bound.GetPath() == "/Cards/Looks/hair_cards"
+    surface = UsdShade.Shader(stage.GetPrimAtPath("/Cards/Looks/hair_cards/surface"))
+    assert surface.GetInput("opacityThreshold").Get() == pytest.approx(made.params.alpha_cutoff)
+    file = UsdShade.Shader(stage.GetPrimAtPath("/Cards/Looks/hair_cards/color")).GetInput("file")
+    png = tmp_path / file.Get().path
+    assert png.name == "cards_color.png"
+    assert Image.open(png).size == (ATLAS, ATLAS) and Image.open(png).mode == "RGBA"
+    for name in ("depth", "attribute", "tangent"):
+        assert (tmp_path / f"cards_{name}.png").is_file()

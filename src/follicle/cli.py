@@ -1109,7 +1109,8 @@ def _card_counts(ctx: click.Context, param: click.Parameter, value: str | None) 
     default="hair_cards.glb",
     show_default=True,
     type=click.Path(dir_okay=False),
-    help="glTF binary file to write (.glb).",
+    help="File to write: glTF binary (.glb), or USD (.usd, .usda, .usdc) with the atlas's"
+    " PNGs beside it.",
 )
 @click.option("--lods", type=int, default=None, help="Levels of detail (default 3).")
 @click.option(
@@ -1132,7 +1133,7 @@ def cards(
 ) -> None:
     """Grow a scene's hair and turn it into hair cards for game engines: textured strips
     per level of detail and their atlas (colour and coverage, depth, tangent,
-    root-to-tip, seed), written as glTF binary."""
+    root-to-tip, seed), written as glTF binary or USD."""
     from .cards import CardParams
     from .cards import cards as make
     from .pipeline import grow

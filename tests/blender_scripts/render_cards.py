@@ -1,16 +1,16 @@
 """Run by Blender's Python (bpy): import follicle's hair cards (.glb) and render them.
 
-    python render_cards.py CARDS.glb VIEWS.json OUT_DIR FINDINGS.json
+    python render_cards.py CARDS.glb|CARDS.usda VIEWS.json OUT_DIR FINDINGS.json
 
 What a user would do with ``follicle cards … -o hair_cards.glb``: File → Import → glTF
-2.0 with the default settings. Written to FINDINGS: the objects the importer made (name,
-vertices, faces, material, its blend method), and for each view of VIEWS (a list of
-``{"name", "eye", "target", "up", "fov_y", "size"}`` in follicle's Y up metres, and
-optionally ``"lod"``, 0 when not given) the path of a Cycles render of that level (the
-other levels hidden) on a transparent
-film, lit by the world alone (a uniform white: each texel's colour as it is, so the
-picture's colour is the atlas's), RGBA PNG. glTF is Y up; Blender's importer turns a
-point (x, y, z) into (x, −z, y), and so are the cameras placed here.
+2.0 (or Universal Scene Description, for a .usd/.usda/.usdc) with the default settings.
+Written to FINDINGS: the objects the importer made (name, vertices, faces, material,
+the images loaded), and for each view of VIEWS (a list of ``{"name", "eye", "target",
+"up", "fov_y", "size"}`` in follicle's Y up metres, and optionally ``"lod"``, 0 when not
+given) the path of a Cycles render of that level (the other levels hidden) on a
+transparent film, lit by a uniform white world, RGBA PNG. Both files are Y up;
+Blender's importers turn a point (x, y, z) into (x, −z, y), and so are the cameras
+placed here.
 """
 
 import json
@@ -48,7 +48,10 @@ def _camera(view):
 def main():
     glb, views_path, out_dir, findings_path = sys.argv[-4:]
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.import_scene.gltf(filepath=glb)
+    if glb.lower().endswith(".glb"):
+        bpy.ops.import_scene.gltf(filepath=glb)
+    else:  # USD: the coarser levels are invisible, and not imported by default
+        bpy.ops.wm.usd_import(filepath=glb)
     found = {"objects": []}
     scene = bpy.context.scene
     for obj in bpy.data.objects:
@@ -85,7 +88,7 @@ def main():
     for view in json.loads(Path(views_path).read_text()):
         for obj in bpy.data.objects:
             if obj.type == "MESH":
-                obj.hide_render = obj.name != f"cards_LOD{view.get('lod', 0)}"
+                obj.hide_render = not obj.name.endswith(f"LOD{view.get('lod', 0)}")
         scene.camera = _camera(view)
         scene.render.resolution_x = scene.render.resolution_y = view["size"]
         scene.render.resolution_percentage = 100

@@ -179,13 +179,24 @@ def atlas_images(cards: HairCards) -> dict[str, bytes]:
 
 
 def write_cards(cards: HairCards, path: str | Path) -> Path:
-    """Write ``cards`` as glTF binary (.glb) to ``path``, atomically."""
+    """Write ``cards`` to ``path``, atomically: glTF binary (.glb), or USD (.usd, .usda,
+    .usdc) with the atlas's maps as PNGs beside it."""
     path = Path(path)
-    if path.suffix.lower() != ".glb":
-        raise InputError(f"{path}: cards are written as glTF binary; name the output *.glb")
-    extras = {
-        "depth_range_m": cards.depth_range,
-        "cards_per_lod": [len(r) for r in cards.rects],
-    }
-    write_glb(path, cards.meshes, atlas_images(cards), cards.params.alpha_cutoff, extras)
+    suffix = path.suffix.lower()
+    images = atlas_images(cards)
+    if suffix == ".glb":
+        extras = {
+            "depth_range_m": cards.depth_range,
+            "cards_per_lod": [len(r) for r in cards.rects],
+        }
+        write_glb(path, cards.meshes, images, cards.params.alpha_cutoff, extras)
+    elif suffix in (".usd", ".usda", ".usdc"):
+        from .usd import write_usd
+
+        write_usd(path, cards.meshes, images, cards.params.alpha_cutoff)
+    else:
+        raise InputError(
+            f"{path}: cards are written as glTF binary (.glb) or USD (.usd, .usda, .usdc);"
+            " name the output so"
+        )
     return path
