@@ -356,3 +356,33 @@ def test_the_usd_reads_back(made, tmp_path: Path) -> None:
     assert Image.open(png).size == (ATLAS, ATLAS) and Image.open(png).mode == "RGBA"
     for name in ("depth", "attribute", "tangent"):
         assert (tmp_path / f"cards_{name}.png").is_file()
+
+
+def test_clusters_keep_clumps_whole_and_follow_the_seed(groom) -> None:
+    """With ``clump_id`` on the curves, every clump's hairs share one card; without, the
+    clusters come from the hairs' shape, the same for a seed and not for another."""
+    from follicle.cards.clusters import cluster_hairs
+
+    _, curves = groom
+    roots = curves.points[curves.offsets[:-1]]
+    clumps = np.floor(roots[:, 0] / 0.01).astype(np.int64) * 1000 + np.floor(roots[:, 2] / 0.01)
+    tagged = follicle.HairCurves(
+        curves.points,
+        curves.offsets,
+        point_data=curves.point_data,
+        curve_data={**curves.curve_data, "clump_id": clumps.astype(np.int64)},
+    )
+    n_clumps = len(np.unique(clumps))
+    assert n_clumps > 100
+    labels = cluster_hairs(tagged, 100, seed=1)
+    assert len(np.unique(labels)) == 100
+    for clump in np.unique(clumps):
+        assert len(np.unique(labels[clumps == clump])) == 1
+    plain = cluster_hairs(curves, 100, seed=1)
+    assert np.array_equal(plain, cluster_hairs(curves, 100, seed=1))
+    assert not np.array_equal(plain, cluster_hairs(curves, 100, seed=2))
+    # each hair's card is the one whose hairs it runs beside: its nearest card centre
+    # by root is its own for most hairs
+    centres = np.stack([roots[plain == k].mean(axis=0) for k in range(100)])
+    nearest = np.argmin(np.linalg.norm(roots[:, None] - centres[None], axis=2), axis=1)
+    assert np.mean(nearest == plain) > 0.6
