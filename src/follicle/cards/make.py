@@ -103,7 +103,9 @@ def make_cards(
         x = r[:, 0, None] + (across / strips.width[labels, None] + 0.5) * r[:, 2, None]
         y = r[:, 1, None] + r[:, 3, None] * t[None, :]
         xs.append(np.stack([x, y, np.zeros_like(x)], axis=2))
-        ws.append(np.maximum(width * scale[:, None], params.strand_texels))
+        # at least strand_texels wide at the root, tapering as the hair does
+        taper = width / np.maximum(width[:, :1], 1e-12)
+        ws.append(np.maximum(width * scale[:, None], params.strand_texels * taper))
         depths.append(depth / depth_range)
         along = (strips.length[labels, None] * t[None, :]) * np.ones_like(across)
         card = np.stack([across, along, depth], axis=2)

@@ -30,10 +30,11 @@ class CardParams(StrictSection):
     and padding, the strips' segments, the hairs' least width in the atlas, the alpha
     test's cutoff, and the seed of the clustering.
 
-    A hair is drawn into the atlas at least ``strand_texels`` wide, as Unreal's card
-    generator draws strands at a width of its own unless told to take the groom's: a
-    card's texel stands for a few millimetres, so hairs drawn at their own tenth of a
-    millimetre would leave the coverage too thin for the alpha test to keep."""
+    A hair is drawn into the atlas at least ``strand_texels`` wide at its root (and
+    tapering as it does towards the tip), as Unreal's card generator draws strands at a
+    width of its own unless told to take the groom's: a card's texel stands for a few
+    millimetres, so hairs drawn at their own tenth of a millimetre would leave the
+    coverage too thin for the alpha test to keep."""
 
     _section = "cards"
 
@@ -54,7 +55,8 @@ class CardParams(StrictSection):
         1.0,
         ge=0.0,
         le=16.0,
-        description="least width of a hair drawn into the atlas, texels (0: its own)",
+        description="least width of a hair's root drawn into the atlas, texels, the rest"
+        " tapering as the hair does (0: its own width)",
     )
     alpha_cutoff: float = Field(
         0.2, ge=0.0, le=1.0, description="coverage below which a card texel is not drawn"
