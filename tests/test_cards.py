@@ -84,6 +84,14 @@ def test_the_cards_atlas_is_packed_without_overlaps(made) -> None:
     cov = made.maps["coverage"]
     assert cov[~inside].max() == 0.0
     assert cov[inside].mean() > 0.2  # and they fill them
+    # the colour is padded out from the hairs: a texel beside a covered one, covered or
+    # not, has a hair's colour (no black halo for a filtered lookup to blend in)
+    hair = cov > 0
+    beside = np.zeros_like(hair)
+    beside[1:-1, 1:-1] = hair[:-2, 1:-1] | hair[2:, 1:-1] | hair[1:-1, :-2] | hair[1:-1, 2:]
+    color = made.maps["color"]
+    assert color[beside & ~hair].min(axis=1).min() > 0.0
+    assert np.all(color[beside & ~hair].max(axis=1) <= color[hair].max(axis=1).max())
 
 
 def _nearest_on_polyline(points: np.ndarray, line: np.ndarray) -> tuple:

@@ -143,6 +143,7 @@ def make_cards(
     coverage[~inside] = 0.0
     for values in (col, attr, tan):
         values[~inside] = 0.0
+    col = _edge_padded(col, coverage > 0.0, params.padding + 2)
     meshes = [
         LodMesh(*strip_mesh(strips, rects, params.atlas, params.segments))
         for _, strips, rects in fitted
@@ -156,6 +157,26 @@ def make_cards(
         depth_range,
         params,
     )
+
+
+def _edge_padded(color: np.ndarray, known: np.ndarray, passes: int) -> np.ndarray:
+    """``color`` (S, S, 3) with the texels no hair covers given their covered
+    neighbours' mean colour, grown ``passes`` texels out (edge padding, as texture
+    bakers do): a mip-mapped or filtered lookup at a card's edge then blends its hair
+    with hair-coloured texels, not with black ones, while the coverage there stays 0."""
+    color = color.copy()
+    known = known.copy()
+    for _ in range(passes):
+        total = np.zeros_like(color)
+        count = np.zeros(known.shape, np.float32)
+        for axis in (0, 1):
+            for step in (1, -1):
+                total += np.roll(color * known[..., None], step, axis=axis)
+                count += np.roll(known, step, axis=axis)
+        fill = ~known & (count > 0)
+        color[fill] = total[fill] / count[fill, None]
+        known |= fill
+    return color
 
 
 def _unit8(x: np.ndarray) -> np.ndarray:
