@@ -37,6 +37,11 @@ COMMANDS = [
     (["grow", "s.toml", "-o", "h.npz"], "growing hair", "300 hairs"),
     (["settle", "s.toml", "--seconds", "0.2", "-o", "g.npz"], "settling guides", "→ g.npz"),
     (["grow", "s.toml", "-o", "h.hair"], "growing hair", "→ h.hair"),
+    (
+        ["cards", "s.toml", "-o", "c.glb", "--counts", "30,10,3", "--atlas", "256"],
+        "growing hair",
+        "→ c.glb",
+    ),
     (["render", "s.toml", "-o", "s.png"], "rendering", "→ s.png"),
     (
         ["render", "s.toml", "--engine", "mitsuba", "--spp", "2", "-o", "m.png"],

@@ -1,5 +1,6 @@
 # The public API of follicle: what type checkers and editors see, and the table
 # follicle/__init__.py imports each name from on its first use (follicle.lazy).
+from . import cards as cards
 from . import render as render
 from .curves import HairCurves as HairCurves
 from .distributed.batch import plan_batch as plan_batch

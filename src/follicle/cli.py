@@ -1174,5 +1174,67 @@ def docs() -> None:
         click.echo(line.translate(_ESCAPES))
 
 
+def _card_counts(ctx: click.Context, param: click.Parameter, value: str | None) -> tuple | None:
+    """``--counts 2000,600,150`` as whole numbers."""
+    if value is None:
+        return None
+    try:
+        return tuple(int(v) for v in value.split(","))
+    except ValueError:
+        raise click.BadParameter(
+            f"{value!r}: give whole numbers separated by commas, e.g. 2000,600,150"
+        ) from None
+
+
+@main.command()
+@click.argument("scene_path", metavar="SCENE", type=click.Path())
+@click.option(
+    "-o",
+    "--out",
+    default="hair_cards.glb",
+    show_default=True,
+    type=click.Path(dir_okay=False),
+    help="File to write: glTF binary (.glb), or USD (.usd, .usda, .usdc) with the atlas's"
+    " PNGs beside it.",
+)
+@click.option("--lods", type=int, default=None, help="Levels of detail (default 3).")
+@click.option(
+    "--counts",
+    callback=_card_counts,
+    default=None,
+    help="Cards per level, finest first (default 2000,600,150).",
+)
+@click.option("--atlas", type=int, default=2048, show_default=True, help="Atlas side, texels.")
+@click.option("--count", type=int, default=None, help="Override [groom].count.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the clustering.")
+def cards(
+    scene_path: str,
+    out: str,
+    lods: int | None,
+    counts: tuple | None,
+    atlas: int,
+    count: int | None,
+    seed: int,
+) -> None:
+    """Grow a scene's hair and turn it into hair cards for game engines: textured strips
+    per level of detail and their atlas (colour and coverage, depth, tangent,
+    root-to-tip, seed), written as glTF binary or USD."""
+    from .cards import CardParams
+    from .cards import cards as make
+    from .pipeline import grow
+    from .scene import load_scene, scene_with
+
+    scene = scene_with(load_scene(scene_path), "groom", {"count": count})
+    if lods is None:
+        lods = len(counts) if counts is not None else 3
+    params = CardParams(lods=lods, counts=counts, atlas=atlas, seed=seed)
+    with _step("grow"), _progress("growing hair") as progress:
+        mesh, curves = grow(scene, progress)
+    with _step("cards"):
+        made = make(curves, mesh, out=out, params=params)
+    per_lod = " / ".join(f"{len(r):,}" for r in made.rects)
+    click.echo(f"{curves.curve_count:,} hairs → {per_lod} cards, {atlas}² atlas → {out}")
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

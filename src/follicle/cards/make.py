@@ -1,0 +1,225 @@
+"""Hair to cards: cluster, fit the strips, pack the atlas, bake it, for every level of
+detail (:func:`make_cards`), and write them (:func:`write_cards`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ..curves import HairCurves
+from ..errors import InputError
+from ..frames import normalize
+from ..render.image import encode_srgb8
+from ..rng import uniforms
+from .atlas import lod_bands, pack
+from .bake import bake
+from .clusters import arc_samples, cluster_hairs
+from .gltf import LodMesh, png_bytes, write_glb
+from .settings import CardParams
+from .strips import Strips, card_coordinates, fit_strips, strip_mesh
+
+__all__ = ["HairCards", "make_cards", "write_cards"]
+
+STATIONS_PER_SEGMENT = 4  # hair samples baked per strip segment
+DEFAULT_COLOR = (0.3, 0.3, 0.3)  # linear RGB of hair without a colour
+
+
+class HairCards(NamedTuple):
+    """Cards for each level of detail and their atlas.
+
+    ``meshes``, ``labels`` (each hair's card), ``strips`` and ``rects`` (K, 4: x, y,
+    w, h texels) per level; ``maps``: the atlas's float32 maps, (S, S) ``coverage``
+    and (S, S, 3) ``color`` (linear RGB), ``tangent`` (card space, unit),
+    ``attribute`` (depth −1..1 of ``depth_range`` metres, root-to-tip, seed)."""
+
+    meshes: list[LodMesh]
+    labels: list[np.ndarray]
+    strips: list[Strips]
+    rects: list[np.ndarray]
+    maps: dict[str, np.ndarray]
+    depth_range: float
+    params: CardParams
+
+
+def _skin_normals(curves: HairCurves, mesh: object | None) -> np.ndarray:
+    """The skin normal at each root: the mesh's, where the curves say where their roots
+    are on it; else away from the roots' centre (a head's outward direction)."""
+    roots = curves.points[curves.offsets[:-1]].astype(np.float64)
+    data = curves.curve_data
+    if mesh is not None and "root_triangle" in data and "root_bary" in data:
+        return mesh.evaluate(data["root_triangle"], data["root_bary"]).normal  # type: ignore[attr-defined]
+    return normalize(roots - roots.mean(axis=0))
+
+
+def _check(curves: HairCurves) -> None:
+    if not isinstance(curves, HairCurves):
+        raise InputError(f"curves: expected follicle.HairCurves, got {type(curves).__name__}")
+    if len(curves) == 0 or np.any(curves.counts < 2):
+        raise InputError(
+            "curves: cards need hairs of two or more points each; grow the groom first"
+        )
+
+
+def make_cards(
+    curves: HairCurves, mesh: object | None = None, params: CardParams | None = None
+) -> HairCards:
+    """Cards of ``curves`` (grown on ``mesh``, whose normals orient them) by ``params``."""
+    params = params if params is not None else CardParams()
+    _check(curves)
+    m = params.segments * STATIONS_PER_SEGMENT + 1
+    pd = curves.point_data
+    n_points = curves.point_count
+    extra = np.column_stack(
+        [
+            pd.get("width", np.full(n_points, 1e-4)),
+            pd.get("opacity", np.ones(n_points)),
+            pd.get("color", np.broadcast_to(DEFAULT_COLOR, (n_points, 3))),
+        ]
+    )
+    samples, more = arc_samples(curves, m, extra)
+    width, opacity, color = more[..., 0], more[..., 1], more[..., 2:5]
+    normals = _skin_normals(curves, mesh)
+    ids = curves.curve_data.get("hair_id", np.arange(len(curves)))
+    seed = uniforms(params.seed, np.asarray(ids, np.int64), "card seed", 1)[:, 0]
+    t = np.linspace(0.0, 1.0, m)
+
+    bands = lod_bands(params.atlas, params.lods, params.reserve)
+    fitted = []
+    for lod, count in enumerate(params.card_counts(len(curves))):
+        labels = cluster_hairs(curves, count, params.seed + lod)
+        strips = fit_strips(samples, labels, count, normals, width.max(axis=1))
+        rects = pack(strips.width, strips.length, params.atlas, bands[lod], params.padding, lod)
+        fitted.append((labels, strips, rects))
+    depth_range = max(float(s.depth.max()) for _, s, _ in fitted) or 1.0
+
+    # every level's hairs in texel space, one set of strands for the rasterizer
+    xs, ws, depths, tangents = [], [], [], []
+    for labels, strips, rects in fitted:
+        across, depth = card_coordinates(samples, labels, strips)
+        r = rects[labels].astype(np.float64)
+        scale = r[:, 2] / strips.width[labels]  # texels per metre across the card
+        x = r[:, 0, None] + (across / strips.width[labels, None] + 0.5) * r[:, 2, None]
+        y = r[:, 1, None] + r[:, 3, None] * t[None, :]
+        xs.append(np.stack([x, y, np.zeros_like(x)], axis=2))
+        # at least strand_texels wide at the root, tapering as the hair does
+        taper = width / np.maximum(width[:, :1], 1e-12)
+        ws.append(np.maximum(width * scale[:, None], params.strand_texels * taper))
+        depths.append(depth / depth_range)
+        along = (strips.length[labels, None] * t[None, :]) * np.ones_like(across)
+        card = np.stack([across, along, depth], axis=2)
+        tangents.append(normalize(np.gradient(card, axis=1)))
+    levels = len(fitted)
+    n = len(curves) * levels
+    points = np.concatenate(xs).reshape(-1, 3).astype(np.float32)
+    offsets = np.arange(0, n * m + 1, m, dtype=np.int64)
+
+    def flat(parts: list[np.ndarray]) -> np.ndarray:
+        """The levels' per-station arrays as one (n·m, E) per-point array."""
+        return np.concatenate(parts).reshape(n * m, -1)
+
+    attribute = np.stack(
+        [
+            np.concatenate(depths),
+            np.broadcast_to(t, (n, m)),
+            np.repeat(np.tile(seed, levels)[:, None], m, axis=1),
+        ],
+        axis=2,
+    )
+    coverage, (col, attr, tan) = bake(
+        points,
+        offsets,
+        flat(ws)[:, 0],
+        np.tile(opacity, (levels, 1)).reshape(-1),
+        [np.tile(color, (levels, 1, 1)).reshape(-1, 3), attribute.reshape(-1, 3), flat(tangents)],
+        params.atlas,
+    )
+    # a hair drawn at the least width reaches up to half of it past its card's edge:
+    # the atlas keeps only what lies on the cards (the padding stays empty)
+    inside = np.zeros(coverage.shape, bool)
+    for x0, y0, w, h in np.concatenate([f[2] for f in fitted]):
+        inside[y0 : y0 + h, x0 : x0 + w] = True
+    coverage[~inside] = 0.0
+    for values in (col, attr, tan):
+        values[~inside] = 0.0
+    col = _edge_padded(col, coverage > 0.0, params.padding + 2)
+    meshes = [
+        LodMesh(*strip_mesh(strips, rects, params.atlas, params.segments))
+        for _, strips, rects in fitted
+    ]
+    return HairCards(
+        meshes,
+        [f[0] for f in fitted],
+        [f[1] for f in fitted],
+        [f[2] for f in fitted],
+        {"coverage": coverage, "color": col, "attribute": attr, "tangent": tan},
+        depth_range,
+        params,
+    )
+
+
+def _edge_padded(color: np.ndarray, known: np.ndarray, passes: int) -> np.ndarray:
+    """``color`` (S, S, 3) with the texels no hair covers given their covered
+    neighbours' mean colour, grown ``passes`` texels out (edge padding, as texture
+    bakers do): a mip-mapped or filtered lookup at a card's edge then blends its hair
+    with hair-coloured texels, not with black ones, while the coverage there stays 0."""
+    color = color.copy()
+    known = known.copy()
+    for _ in range(passes):
+        total = np.zeros_like(color)
+        count = np.zeros(known.shape, np.float32)
+        for axis in (0, 1):
+            for step in (1, -1):
+                total += np.roll(color * known[..., None], step, axis=axis)
+                count += np.roll(known, step, axis=axis)
+        fill = ~known & (count > 0)
+        color[fill] = total[fill] / count[fill, None]
+        known |= fill
+    return color
+
+
+def _unit8(x: np.ndarray) -> np.ndarray:
+    """Values in 0..1 to 8 bits (rounded)."""
+    return np.round(np.clip(x, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def atlas_images(cards: HairCards) -> dict[str, bytes]:
+    """The atlas's maps as PNGs: ``color`` (sRGB, coverage as alpha), ``depth`` (0.5 on
+    the card, 0 and 1 at ∓ ``depth_range``), ``attribute`` (root-to-tip, seed,
+    coverage) and ``tangent`` (card space: across, along, out of the card; 0.5 + t/2)."""
+    maps = cards.maps
+    cov = maps["coverage"]
+    rgb = encode_srgb8(np.concatenate([maps["color"], np.ones_like(cov)[..., None]], axis=2))
+    color = np.concatenate([rgb[..., :3], _unit8(cov)[..., None]], axis=2)
+    attr = maps["attribute"]
+    return {
+        "color": png_bytes(color),
+        "depth": png_bytes(_unit8(0.5 + 0.5 * attr[..., 0])),
+        "attribute": png_bytes(_unit8(np.stack([attr[..., 1], attr[..., 2], cov], axis=2))),
+        "tangent": png_bytes(_unit8(0.5 + 0.5 * maps["tangent"])),
+    }
+
+
+def write_cards(cards: HairCards, path: str | Path) -> Path:
+    """Write ``cards`` to ``path``, atomically: glTF binary (.glb), or USD (.usd, .usda,
+    .usdc) with the atlas's maps as PNGs beside it."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    images = atlas_images(cards)
+    if suffix == ".glb":
+        extras = {
+            "depth_range_m": cards.depth_range,
+            "cards_per_lod": [len(r) for r in cards.rects],
+        }
+        write_glb(path, cards.meshes, images, cards.params.alpha_cutoff, extras)
+    elif suffix in (".usd", ".usda", ".usdc"):
+        from .usd import write_usd
+
+        write_usd(path, cards.meshes, images, cards.params.alpha_cutoff)
+    else:
+        raise InputError(
+            f"{path}: cards are written as glTF binary (.glb) or USD (.usd, .usda, .usdc);"
+            " name the output so"
+        )
+    return path

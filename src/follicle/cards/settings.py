@@ -1,0 +1,78 @@
+"""The settings of a cards build, an immutable value (:class:`CardParams`)."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import Field, model_validator
+
+from ..errors import ConfigError
+from ..settings import StrictSection
+
+__all__ = ["DEFAULT_COUNTS", "CardParams", "default_counts"]
+
+DEFAULT_COUNTS = (2000, 600, 150)  # cards of LOD 0, 1, 2; each further level a quarter
+
+
+def default_counts(lods: int, hairs: int) -> tuple[int, ...]:
+    """Cards per level for ``lods`` levels of ``hairs`` hairs: :data:`DEFAULT_COUNTS`,
+    then a quarter more each further level, each at most a quarter of the hairs at the
+    finest level and half as many again each coarser one (at least 1), so a small groom
+    gets cards of a few hairs each rather than an error."""
+    counts = list(DEFAULT_COUNTS[:lods])
+    while len(counts) < lods:
+        counts.append(max(counts[-1] // 4, 1))
+    return tuple(min(c, max(hairs >> (2 + lod), 1)) for lod, c in enumerate(counts))
+
+
+class CardParams(StrictSection):
+    """How hair becomes cards: levels of detail and their card counts, the atlas's size
+    and padding, the strips' segments, the hairs' least width in the atlas, the alpha
+    test's cutoff, and the seed of the clustering.
+
+    A hair is drawn into the atlas at least ``strand_texels`` wide at its root (and
+    tapering as it does towards the tip), as Unreal's card generator draws strands at a
+    width of its own unless told to take the groom's: a card's texel stands for a few
+    millimetres, so hairs drawn at their own tenth of a millimetre would leave the
+    coverage too thin for the alpha test to keep."""
+
+    _section = "cards"
+
+    lods: int = Field(3, ge=1, le=8, description="levels of detail")
+    counts: tuple[Annotated[int, Field(ge=1, le=1_000_000)], ...] | None = Field(
+        None,
+        strict=False,
+        description="cards per level (default 2000, 600, 150, ..., at most a quarter of the"
+        " hairs at LOD 0, an eighth at LOD 1 ...)",
+    )
+    atlas: int = Field(2048, ge=64, le=16384, description="the atlas's side, texels")
+    padding: int = Field(4, ge=0, le=64, description="empty texels around each card")
+    segments: int = Field(6, ge=1, le=64, description="quads along a card")
+    reserve: float = Field(
+        0.5, ge=0.0, le=0.75, description="share of the atlas left to the coarser levels"
+    )
+    strand_texels: float = Field(
+        1.0,
+        ge=0.0,
+        le=16.0,
+        description="least width of a hair's root drawn into the atlas, texels, the rest"
+        " tapering as the hair does (0: its own width)",
+    )
+    alpha_cutoff: float = Field(
+        0.2, ge=0.0, le=1.0, description="coverage below which a card texel is not drawn"
+    )
+    seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the clustering")
+
+    @model_validator(mode="after")
+    def _counts_per_level(self) -> CardParams:
+        if self.counts is not None and len(self.counts) != self.lods:
+            raise ConfigError(
+                f"cards: counts (--counts) gives {len(self.counts)} levels for lods (--lods)"
+                f" {self.lods}; give one count per level, e.g. --counts 2000,600,150"
+            )
+        return self
+
+    def card_counts(self, hairs: int) -> tuple[int, ...]:
+        """The cards of each level for ``hairs`` hairs: ``counts``, or
+        :func:`default_counts`."""
+        return self.counts if self.counts is not None else default_counts(self.lods, hairs)
