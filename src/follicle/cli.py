@@ -1186,7 +1186,13 @@ def _card_counts(ctx: click.Context, param: click.Parameter, value: str | None) 
         ) from None
 
 
-@main.command()
+@main.command(
+    short_help="Turn a scene's hair into hair cards with LODs (glTF, USD).",
+    epilog=_examples(
+        "follicle cards examples/long_straight.toml -o hair_cards.glb",
+        "follicle cards examples/wavy.toml -o cards.usda --counts 600,150",
+    ),
+)
 @click.argument("scene_path", metavar="SCENE", type=click.Path())
 @click.option(
     "-o",
