@@ -35,11 +35,14 @@ LAYERS = [
         "kernels",
         "lazy",
         "progress",
+        "docs_location",  # where the docs are (the CLI's `follicle docs`): imports nothing of ours
     },
     {"mesh"},
     {"io"},
     {"groom", "sim", "render"},
-    {"scene", "editing"},  # editing: guides brushed through a camera (groom and render)
+    # editing: guides brushed through a camera (groom and render); cards: hair baked into
+    # an atlas by the CPU engine's strand kernels (render)
+    {"scene", "editing", "cards"},
     {"pipeline", "distributed", "export", "render_job", "simulate_job"},
     {"cli", "view", "apps", "__init__", "__main__"},
     {"prebuild"},  # runs the commands (cli) to compile every kernel; started as a process

@@ -201,6 +201,9 @@ def grow(folder: Path) -> None:
         _follicle(folder, "export", f"features{suffix}", "-o", f"again{suffix}.npz")
     _follicle(folder, "grow", "short.toml", "-o", "short.usdc", "--target", "unreal")
     _follicle(folder, "check", "short.usdc", "--target", "unreal")
+    _follicle(
+        folder, "cards", "short.toml", "-o", "cards.glb", "--counts", "20,6", "--atlas", "256"
+    )
     _follicle(folder, "export-rib", "short.toml", "-o", "short.rib", "--voxels", "2")
     _follicle(folder, "export", "builtin:head", "-o", "head.obj")
     _scene(folder, "mesh.toml", mesh={"path": "head.obj", "units": "cm"}, groom=small)
