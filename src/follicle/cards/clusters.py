@@ -16,74 +16,13 @@ import numpy as np
 
 from ..curves import HairCurves
 from ..errors import InputError
-from ..kernels import kernel, prange
+from ..groom.guides import resample_arclength
 
-__all__ = ["GROUP_KEYS", "arc_samples", "cluster_hairs"]
+__all__ = ["GROUP_KEYS", "cluster_hairs"]
 
 GROUP_KEYS = ("clump_id", "guide_id")  # curve_data keys that group hairs, first found used
 SHAPE_SAMPLES = 4  # points per hair that describe it to the clustering: root .. tip
 ITERATIONS = 12  # Lloyd iterations (the labels settle in fewer on grooms)
-
-
-@kernel(inline="always")
-def _seg_len(points, i):
-    """Length of the polyline's piece from vertex i to i + 1."""
-    x = float(points[i + 1, 0]) - float(points[i, 0])
-    y = float(points[i + 1, 1]) - float(points[i, 1])
-    z = float(points[i + 1, 2]) - float(points[i, 2])
-    return np.sqrt(x * x + y * y + z * z)
-
-
-@kernel(parallel=True)
-def _arc_samples(points, offsets, n, extra):
-    """Each curve's polyline at ``n`` evenly spaced fractions of its arc length, and its
-    per-vertex ``extra`` (P, E) interpolated alike."""
-    m = len(offsets) - 1
-    e = extra.shape[1]
-    out = np.empty((m, n, 3), np.float64)
-    more = np.empty((m, n, e), np.float64)
-    for c in prange(m):
-        a, b = offsets[c], offsets[c + 1]
-        total = 0.0
-        for i in range(a, b - 1):
-            total += _seg_len(points, i)
-        i = a
-        walked = 0.0  # arc length at vertex i
-        for k in range(n):
-            s = total * k / (n - 1)
-            while i < b - 2:
-                seg = _seg_len(points, i)
-                if walked + seg >= s:
-                    break
-                walked += seg
-                i += 1
-            u = 0.0
-            j = i
-            if b - a >= 2:
-                seg = _seg_len(points, i)
-                u = min(max((s - walked) / seg, 0.0), 1.0) if seg > 0.0 else 0.0
-                j = i + 1
-            for d in range(3):
-                out[c, k, d] = points[i, d] + (points[j, d] - points[i, d]) * u
-            for d in range(e):
-                more[c, k, d] = extra[i, d] + (extra[j, d] - extra[i, d]) * u
-    return out, more
-
-
-def arc_samples(
-    curves: HairCurves, n: int, extra: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """(C, n, 3) float64: every hair's points at n fractions 0, 1/(n-1) .. 1 of its
-    length along its polyline (root first); and ``extra`` (P, E) per-vertex values at
-    the same places (C, n, E)."""
-    if extra is None:
-        extra = np.zeros((curves.point_count, 0))
-    return _arc_samples(
-        np.ascontiguousarray(curves.points, np.float32),
-        np.ascontiguousarray(curves.offsets, np.int64),
-        int(n),
-        np.ascontiguousarray(extra, np.float64),
-    )
 
 
 def _groups(curves: HairCurves) -> np.ndarray | None:
@@ -147,7 +86,7 @@ def cluster_hairs(
         raise InputError(
             f"{option}: {count:,} cards for {n:,} hairs; ask for at most one card a hair"
         )
-    shape = arc_samples(curves, SHAPE_SAMPLES)[0].reshape(n, -1)
+    shape = resample_arclength(curves, SHAPE_SAMPLES, what="hair").reshape(n, -1)
     groups = _groups(curves)
     if groups is None or groups.max() + 1 < count:
         return _kmeans(shape, np.ones(n), count, seed)

@@ -11,11 +11,12 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
+from ..groom.guides import resample_arclength, resample_attribute
 from ..render.image import encode_srgb8
 from ..rng import uniforms
 from .atlas import lod_bands, pack
 from .bake import bake
-from .clusters import arc_samples, cluster_hairs
+from .clusters import cluster_hairs
 from .gltf import LodMesh, png_bytes, write_glb
 from .settings import CardParams
 from .strips import Strips, card_coordinates, fit_strips, strip_mesh
@@ -78,7 +79,10 @@ def make_cards(
             pd.get("color", np.broadcast_to(DEFAULT_COLOR, (n_points, 3))),
         ]
     )
-    samples, more = arc_samples(curves, m, extra)
+    samples = resample_arclength(curves, m, what="hair")
+    more = resample_attribute(
+        HairCurves(curves.points, curves.offsets, {"extra": extra}), "extra", m, what="hair"
+    )
     width, opacity, color = more[..., 0], more[..., 1], more[..., 2:5]
     normals = _skin_normals(curves, mesh)
     ids = curves.curve_data.get("hair_id", np.arange(len(curves)))

@@ -107,22 +107,26 @@ def _nearest_kernel(points, offsets, s_new, out):
     return -1
 
 
-def _zero_length(bad: int) -> None:
+def _zero_length(bad: int, what: str) -> None:
     if bad >= 0:
-        raise InputError(f"guide {bad} has zero length; remove it or give it a shape")
+        raise InputError(f"{what} {bad} has zero length; remove it or give it a shape")
 
 
-def resample_arclength(curves: HairCurves, vertices: int) -> np.ndarray:
-    """Every curve resampled to ``vertices`` points evenly spaced by arc length, (C, n, 3)."""
+def resample_arclength(curves: HairCurves, vertices: int, what: str = "guide") -> np.ndarray:
+    """Every curve resampled to ``vertices`` points evenly spaced by arc length, (C, n, 3);
+    InputError naming the first curve of zero length (a ``what``: guide, hair)."""
     vertices = whole(vertices, "vertices", 2, what="a whole number of vertices per curve")
     out = np.empty((curves.curve_count, vertices, 3), dtype=np.float64)
     points = np.ascontiguousarray(curves.points, dtype=np.float64)
     offsets = np.ascontiguousarray(curves.offsets, dtype=np.int64)
-    _zero_length(_resample_kernel(points, offsets, points, np.linspace(0.0, 1.0, vertices), out))
+    s_new = np.linspace(0.0, 1.0, vertices)
+    _zero_length(_resample_kernel(points, offsets, points, s_new, out), what)
     return out
 
 
-def resample_attribute(curves: HairCurves, name: str, vertices: int) -> np.ndarray:
+def resample_attribute(
+    curves: HairCurves, name: str, vertices: int, what: str = "guide"
+) -> np.ndarray:
     """Point attribute ``name`` of every curve at ``vertices`` points evenly spaced by arc
     length, as :func:`resample_arclength` places the points: (C, n, *shape).
 
@@ -139,11 +143,12 @@ def resample_attribute(curves: HairCurves, name: str, vertices: int) -> np.ndarr
     if values.dtype.kind == "f":
         out = np.empty((curves.curve_count, vertices, flat.shape[1]), dtype=np.float64)
         _zero_length(
-            _resample_kernel(points, offsets, np.ascontiguousarray(flat, np.float64), s_new, out)
+            _resample_kernel(points, offsets, np.ascontiguousarray(flat, np.float64), s_new, out),
+            what,
         )
     else:
         near = np.empty((curves.curve_count, vertices), dtype=np.int64)
-        _zero_length(_nearest_kernel(points, offsets, s_new, near))
+        _zero_length(_nearest_kernel(points, offsets, s_new, near), what)
         out = flat[near]
     return out.reshape(curves.curve_count, vertices, *shape)
 
