@@ -318,6 +318,13 @@ def test_cli_writes_cards_and_refuses_a_small_atlas(tmp_path: Path) -> None:
     lines = bad.output.strip().splitlines()
     assert len(lines) == 1 and "--atlas" in lines[0], bad.output
     assert isinstance(bad.exception, SystemExit)
+    # a wrong output name is refused before any hair is grown: here the scene's mesh is
+    # missing too, and the error is the output's
+    nomesh = tmp_path / "nomesh.toml"
+    nomesh.write_text('[mesh]\npath = "missing.obj"\n')
+    wrong = CliRunner().invoke(main, ["cards", str(nomesh), "-o", str(tmp_path / "c.obj")])
+    assert wrong.exit_code == 2 and "c.obj: cards are written as glTF" in wrong.output, wrong.output
+    assert not list(tmp_path.glob("c*"))
 
 
 def test_follicle_cards_is_the_package_and_calling_it_makes_cards(groom) -> None:

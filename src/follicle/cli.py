@@ -1225,11 +1225,12 @@ def cards(
     """Grow a scene's hair and turn it into hair cards for game engines: textured strips
     per level of detail and their atlas (colour and coverage, depth, tangent,
     root-to-tip, seed), written as glTF binary or USD."""
-    from .cards import CardParams
+    from .cards import CardParams, card_path
     from .cards import cards as make
     from .pipeline import grow
     from .scene import load_scene, scene_with
 
+    card_path(out)  # before the hair is grown
     scene = scene_with(load_scene(scene_path), "groom", {"count": count})
     if lods is None:
         lods = len(counts) if counts is not None else 3

@@ -15,10 +15,10 @@ import types
 from pathlib import Path
 
 from ..curves import HairCurves
-from .make import HairCards, make_cards, write_cards
+from .make import HairCards, card_path, make_cards, write_cards
 from .settings import CardParams
 
-__all__ = ["CardParams", "HairCards", "cards", "make_cards", "write_cards"]
+__all__ = ["CardParams", "HairCards", "card_path", "cards", "make_cards", "write_cards"]
 
 
 def cards(
@@ -34,6 +34,8 @@ def cards(
     ``mesh`` is the skin the hair grew on (its normals lay the cards flat on it);
     ``settings`` change keys of ``params`` (:class:`CardParams`: ``lods``, ``counts``,
     ``atlas``, ``padding``, ``segments``, ``reserve``, ``alpha_cutoff``, ``seed``)."""
+    if out is not None:  # before any work
+        card_path(out)
     params = params if params is not None else CardParams()
     if settings:
         params = params.replace("cards", **settings)

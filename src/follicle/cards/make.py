@@ -21,7 +21,7 @@ from .gltf import LodMesh, png_bytes, write_glb
 from .settings import CardParams
 from .strips import Strips, card_coordinates, fit_strips, strip_mesh
 
-__all__ = ["HairCards", "make_cards", "write_cards"]
+__all__ = ["HairCards", "card_path", "make_cards", "write_cards"]
 
 STATIONS_PER_SEGMENT = 4  # hair samples baked per strip segment
 DEFAULT_COLOR = (0.3, 0.3, 0.3)  # linear RGB of hair without a colour
@@ -205,25 +205,31 @@ def atlas_images(cards: HairCards) -> dict[str, bytes]:
     }
 
 
+def card_path(path: str | Path) -> Path:
+    """``path`` as a cards output: InputError unless it names glTF binary or USD (checked
+    by the command and :func:`follicle.cards` before any hair is grown or baked)."""
+    path = Path(path)
+    if path.suffix.lower() not in (".glb", ".usd", ".usda", ".usdc"):
+        raise InputError(
+            f"{path}: cards are written as glTF binary (.glb) or USD (.usd, .usda, .usdc);"
+            " name the output so"
+        )
+    return path
+
+
 def write_cards(cards: HairCards, path: str | Path) -> Path:
     """Write ``cards`` to ``path``, atomically: glTF binary (.glb), or USD (.usd, .usda,
     .usdc) with the atlas's maps as PNGs beside it."""
-    path = Path(path)
-    suffix = path.suffix.lower()
+    path = card_path(path)
     images = atlas_images(cards)
-    if suffix == ".glb":
+    if path.suffix.lower() == ".glb":
         extras = {
             "depth_range_m": cards.depth_range,
             "cards_per_lod": [len(r) for r in cards.rects],
         }
         write_glb(path, cards.meshes, images, cards.params.alpha_cutoff, extras)
-    elif suffix in (".usd", ".usda", ".usdc"):
+    else:
         from .usd import write_usd
 
         write_usd(path, cards.meshes, images, cards.params.alpha_cutoff)
-    else:
-        raise InputError(
-            f"{path}: cards are written as glTF binary (.glb) or USD (.usd, .usda, .usdc);"
-            " name the output so"
-        )
     return path
