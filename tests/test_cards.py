@@ -243,20 +243,52 @@ def _card_mask(made, lod: int, camera, size: int) -> np.ndarray:
     return mask
 
 
-@pytest.mark.parametrize(
-    "view, direction, up",
-    [
-        ("front", (0, 0, 1), (0, 1, 0)),
-        ("side", (1, 0, 0), (0, 1, 0)),
-        ("top", (0, 1, 1e-3), (0, 0, -1)),
-    ],
-)
-def test_cards_silhouette_matches_the_strands(groom, view, direction, up) -> None:
-    """LOD 0 from three views against the strand render of the same groom (hairs four
-    times as wide, so 2,000 of them cover as a full head does): intersection over union
-    of the cards' alpha-tested pixels and the strands' pixels of coverage ≥ ½."""
+VIEWS = [
+    ("front", (0, 0, 1), (0, 1, 0)),
+    ("side", (1, 0, 0), (0, 1, 0)),
+    ("top", (0, 1, 1e-3), (0, 0, -1)),
+]
+
+
+def _iou(curves, made, direction, up, size: int) -> float:
+    """LOD 0's alpha-tested pixels against the strands' pixels of coverage ≥ ½."""
     from follicle.render.camera import fit_camera
 
+    camera = fit_camera(curves.points[::5], direction=direction, up=up)
+    strands = _strand_alpha(curves, camera, size) >= 0.5
+    cards = _card_mask(made, 0, camera, size)
+    assert strands.mean() > 0.2  # the hair fills a good part of the picture
+    return float((strands & cards).sum() / (strands | cards).sum())
+
+
+@pytest.fixture(scope="module")
+def default_cards() -> tuple:
+    """The default 20,000-hair groom and its cards, every setting the default."""
+    from follicle.pipeline import grow
+    from follicle.scene import parse_scene
+
+    mesh, curves = grow(parse_scene({"groom": {"count": 20000}}, "test"))
+    return curves, make_cards(curves, mesh)
+
+
+@pytest.mark.slow  # 20,000 hairs into 2,750 cards, 72,000 triangles rasterized in Python
+@pytest.mark.parametrize("view, direction, up", VIEWS)
+def test_default_cards_silhouette_matches_the_strands(default_cards, view, direction, up):
+    """The default groom's LOD 0 through a mip-mapped sampler (as an engine samples it)
+    from three views against the strand render; Blender's render of the same cards is
+    held to the issue's 0.9 in test_blender_cards."""
+    curves, made = default_cards
+    iou = _iou(curves, made, direction, up, 240)
+    # measured 0.912 front, 0.916 side, 0.918 top
+    assert iou >= 0.88, f"{view}: IoU {iou:.3f}"
+
+
+@pytest.mark.parametrize("view, direction, up", VIEWS)
+def test_sparse_cards_silhouette_matches_the_strands(groom, view, direction, up) -> None:
+    """A sparse groom — 2,000 hairs drawn four times as wide, a handful of hairs a card —
+    through a mip-mapped sampler: a card's texels there average to less than the default
+    cutoff of ½ and would vanish at a distance, so such a groom takes a lower
+    ``alpha_cutoff`` (docs: Hair cards); at 0.2 the silhouettes match."""
     mesh, curves = groom
     thick = follicle.HairCurves(
         curves.points,
@@ -264,15 +296,10 @@ def test_cards_silhouette_matches_the_strands(groom, view, direction, up) -> Non
         point_data={**curves.point_data, "width": curves.point_data["width"] * 4},
         curve_data=curves.curve_data,
     )
-    made = make_cards(thick, mesh, CardParams(counts=(300,), lods=1, atlas=2048))
-    size = 160
-    camera = fit_camera(curves.points[::5], direction=direction, up=up)
-    strands = _strand_alpha(thick, camera, size) >= 0.5
-    cards = _card_mask(made, 0, camera, size)
-    iou = (strands & cards).sum() / (strands | cards).sum()
-    assert strands.mean() > 0.2  # the hair fills a good part of the picture
-    # measured 0.84 front, 0.88 side, 0.83 top: short of the issue's 0.9 (docs: Hair cards)
-    assert iou >= 0.75, f"{view}: IoU {iou:.3f}"
+    params = CardParams(counts=(300,), lods=1, atlas=2048, alpha_cutoff=0.2, strand_texels=1.0)
+    iou = _iou(thick, make_cards(thick, mesh, params), direction, up, 160)
+    # measured 0.86 front, 0.88 side, 0.82 top (0.55, 0.59, 0.67 at the default cutoff)
+    assert iou >= 0.8, f"{view}: IoU {iou:.3f}"
 
 
 def test_bad_input_names_the_option(groom) -> None:

@@ -1210,36 +1210,47 @@ def _card_counts(ctx: click.Context, param: click.Parameter, value: str | None) 
     default=None,
     help="Cards per level, finest first (default 2000,600,150).",
 )
-@click.option("--atlas", type=int, default=2048, show_default=True, help="Atlas side, texels.")
+@click.option("--atlas", type=int, default=None, help="Atlas side, texels (default 2048).")
+@click.option(
+    "--target",
+    type=_choices("CardParams", "target"),
+    default=None,
+    help="The textures' layout: generic (the glTF material and maps) or unreal (also"
+    " PNGs for the groom cards' texture slots beside the file); default generic.",
+)
 @click.option("--count", type=int, default=None, help="Override [groom].count.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the clustering.")
+@click.option("--seed", type=int, default=None, help="Seed of the clustering (default 0).")
 def cards(
     scene_path: str,
     out: str,
     lods: int | None,
     counts: tuple | None,
-    atlas: int,
+    atlas: int | None,
+    target: str | None,
     count: int | None,
-    seed: int,
+    seed: int | None,
 ) -> None:
     """Grow a scene's hair and turn it into hair cards for game engines: textured strips
     per level of detail and their atlas (colour and coverage, depth, tangent,
-    root-to-tip, seed), written as glTF binary or USD."""
-    from .cards import CardParams, card_path
+    root-to-tip, seed), written as glTF binary or USD. The scene's [cards] section sets
+    what the options do not."""
+    from .cards import card_path
     from .cards import cards as make
     from .pipeline import grow
     from .scene import load_scene, scene_with
 
     card_path(out)  # before the hair is grown
     scene = scene_with(load_scene(scene_path), "groom", {"count": count})
-    if lods is None:
-        lods = len(counts) if counts is not None else 3
-    params = CardParams(lods=lods, counts=counts, atlas=atlas, seed=seed)
+    if lods is None and counts is not None:
+        lods = len(counts)
+    options = {"lods": lods, "counts": counts, "atlas": atlas, "target": target, "seed": seed}
+    scene = scene_with(scene, "cards", options)
     with _step("grow"), _progress("growing hair") as progress:
         mesh, curves = grow(scene, progress)
     with _step("cards"):
-        made = make(curves, mesh, out=out, params=params)
+        made = make(curves, mesh, out=out, params=scene.cards)
     per_lod = " / ".join(f"{len(r):,}" for r in made.rects)
+    atlas = scene.cards.atlas
     click.echo(f"{curves.curve_count:,} hairs → {per_lod} cards, {atlas}² atlas → {out}")
 
 

@@ -1,4 +1,4 @@
-"""Scene files: TOML with [mesh] [guides] [groom] [sim] [render] [output] sections.
+"""Scene files: TOML with [mesh] [guides] [groom] [sim] [render] [output] [cards] sections.
 
 Every section is a pydantic model that forbids unknown keys, so a typo is an error
 naming the key instead of a silently ignored setting. Relative paths are resolved
@@ -8,7 +8,7 @@ default filled in (``follicle info``).
 This is the composition root of the settings: each section lives beside its subsystem
 (``GroomParams`` in :mod:`follicle.groom.settings`, ``SimParams`` and ``ColliderParams``
 in :mod:`follicle.sim.settings`, ``RenderParams`` and ``LightParams`` in
-:mod:`follicle.render.settings`, the base classes in :mod:`follicle.settings`); the
+:mod:`follicle.render.settings`, ``CardParams`` in :mod:`follicle.cards.settings`, the base classes in :mod:`follicle.settings`); the
 scene puts them together, and every name is importable from here as well.
 """
 
@@ -33,6 +33,7 @@ from pydantic import (
 )
 from pydantic.fields import FieldInfo
 
+from .cards.settings import CardParams
 from .errors import ConfigError, FileAccessError
 from .groom.settings import GroomParams, PropertyTag
 from .inputs import check_apart, input_file, is_remote, is_url, remote_reach
@@ -159,6 +160,7 @@ class Scene(StrictSection):
     sim: SimParams = Field(default_factory=SimParams)
     render: RenderParams = Field(default_factory=RenderParams)
     output: OutputParams = Field(default_factory=OutputParams)
+    cards: CardParams = Field(default_factory=CardParams)
     base_dir: Path | str = Field(
         Path("."), exclude=True, description="folder relative paths start in (or a URL)"
     )

@@ -7,8 +7,11 @@ What a user would do with ``follicle cards … -o hair_cards.glb``: File → Imp
 Written to FINDINGS: the objects the importer made (name, vertices, faces, material,
 the images loaded), and for each view of VIEWS (a list of ``{"name", "eye", "target",
 "up", "fov_y", "size"}`` in follicle's Y up metres, and optionally ``"lod"``, 0 when not
-given) the path of a Cycles render of that level (the other levels hidden) on a
-transparent film, lit by a uniform white world, RGBA PNG. Both files are Y up;
+given, and ``"unlit"``) the path of a Cycles render of that level (the other levels
+hidden) on a transparent film, lit by a uniform white world, RGBA PNG; an unlit view
+shows each card's texture colour as it is (the imported material's base colour texture
+wired to an emission of strength 1, its alpha test kept), for comparing colours without
+comparing lighting. Both files are Y up;
 Blender's importers turn a point (x, y, z) into (x, −z, y), and so are the cameras
 placed here.
 """
@@ -43,6 +46,27 @@ def _camera(view):
     rot = Matrix((right, up, -forward)).transposed().to_4x4()
     cam.matrix_world = Matrix.Translation(eye) @ rot
     return cam
+
+
+def _unlit_surfaces():
+    """Each imported material's output, lit (its Principled BSDF) and unlit (the base
+    colour's link as an emission, mixed with transparency by the BSDF's alpha link)."""
+    outputs = []
+    for mat in bpy.data.materials:
+        if not mat.use_nodes:
+            continue
+        tree = mat.node_tree
+        bsdf = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+        out = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+        emit = tree.nodes.new("ShaderNodeEmission")
+        emit.inputs["Strength"].default_value = 1.0
+        tree.links.new(bsdf.inputs["Base Color"].links[0].from_socket, emit.inputs["Color"])
+        mix = tree.nodes.new("ShaderNodeMixShader")
+        tree.links.new(bsdf.inputs["Alpha"].links[0].from_socket, mix.inputs["Fac"])
+        tree.links.new(tree.nodes.new("ShaderNodeBsdfTransparent").outputs[0], mix.inputs[1])
+        tree.links.new(emit.outputs[0], mix.inputs[2])
+        outputs.append((tree, out, bsdf.outputs[0], mix.outputs[0]))
+    return outputs
 
 
 def main():
@@ -85,7 +109,10 @@ def main():
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
     scene.world = world
     found["renders"] = {}
+    surfaces = _unlit_surfaces()
     for view in json.loads(Path(views_path).read_text()):
+        for tree, out, lit, unlit in surfaces:
+            tree.links.new(unlit if view.get("unlit") else lit, out.inputs["Surface"])
         for obj in bpy.data.objects:
             if obj.type == "MESH":
                 obj.hide_render = not obj.name.endswith(f"LOD{view.get('lod', 0)}")

@@ -18,6 +18,7 @@ from .atlas import lod_bands, pack
 from .bake import bake
 from .clusters import cluster_hairs
 from .gltf import LodMesh, png_bytes, write_glb
+from .usd import write_maps, write_usd
 from .settings import CardParams
 from .strips import Strips, card_coordinates, fit_strips, strip_mesh
 
@@ -33,7 +34,9 @@ class HairCards(NamedTuple):
     ``meshes``, ``labels`` (each hair's card), ``strips`` and ``rects`` (K, 4: x, y,
     w, h texels) per level; ``maps``: the atlas's float32 maps, (S, S) ``coverage``
     and (S, S, 3) ``color`` (linear RGB), ``tangent`` (card space, unit),
-    ``attribute`` (depth −1..1 of ``depth_range`` metres, root-to-tip, seed)."""
+    ``attribute`` (depth −1..1 of ``depth_range`` metres, root-to-tip, seed) and
+    ``root_uv`` (S, S, 2: the hairs' roots' UV on the skin, 0 where the curves carry
+    none)."""
 
     meshes: list[LodMesh]
     labels: list[np.ndarray]
@@ -131,12 +134,19 @@ def make_cards(
         ],
         axis=2,
     )
-    coverage, (col, attr, tan) = bake(
+    root_uv = np.zeros((len(curves), 3))
+    root_uv[:, :2] = curves.curve_data.get("root_uv", root_uv[:, :2])
+    coverage, (col, attr, tan, uv) = bake(
         points,
         offsets,
         flat(ws)[:, 0],
         np.tile(opacity, (levels, 1)).reshape(-1),
-        [np.tile(color, (levels, 1, 1)).reshape(-1, 3), attribute.reshape(-1, 3), flat(tangents)],
+        [
+            np.tile(color, (levels, 1, 1)).reshape(-1, 3),
+            attribute.reshape(-1, 3),
+            flat(tangents),
+            np.repeat(np.tile(root_uv, (levels, 1)), m, axis=0),
+        ],
         params.atlas,
     )
     # a hair drawn at the least width reaches up to half of it past its card's edge:
@@ -145,7 +155,7 @@ def make_cards(
     for x0, y0, w, h in np.concatenate([f[2] for f in fitted]):
         inside[y0 : y0 + h, x0 : x0 + w] = True
     coverage[~inside] = 0.0
-    for values in (col, attr, tan):
+    for values in (col, attr, tan, uv):
         values[~inside] = 0.0
     col = _edge_padded(col, coverage > 0.0, params.padding + 2)
     meshes = [
@@ -157,7 +167,13 @@ def make_cards(
         [f[0] for f in fitted],
         [f[1] for f in fitted],
         [f[2] for f in fitted],
-        {"coverage": coverage, "color": col, "attribute": attr, "tangent": tan},
+        {
+            "coverage": coverage,
+            "color": col,
+            "attribute": attr,
+            "tangent": tan,
+            "root_uv": uv[..., :2],
+        },
         depth_range,
         params,
     )
@@ -189,19 +205,43 @@ def _unit8(x: np.ndarray) -> np.ndarray:
 
 
 def atlas_images(cards: HairCards) -> dict[str, bytes]:
-    """The atlas's maps as PNGs: ``color`` (sRGB, coverage as alpha), ``depth`` (0.5 on
-    the card, 0 and 1 at ∓ ``depth_range``), ``attribute`` (root-to-tip, seed,
-    coverage) and ``tangent`` (card space: across, along, out of the card; 0.5 + t/2)."""
+    """The atlas's maps as PNGs in the layout of ``cards.params.target``, the first
+    always ``color`` (sRGB, coverage as alpha: the glTF and USD material's texture).
+
+    generic: ``depth`` (0.5 on the card, 0 and 1 at ∓ ``depth_range``), ``attribute``
+    (root-to-tip, seed, coverage) and ``tangent`` (card space: across, along, out of the
+    card; 0.5 + t/2).
+
+    unreal: the textures of the groom cards' slots as Unreal's card shaders read them
+    (Engine/Shaders/Private/HairStrands/HairCardsAttributeCommon.ush: its Depth, Coverage,
+    Tangent and Attribute textures): ``depth`` R, the depth the engine adds to the
+    pixel's, in its units, centimetres, behind the card (hairs in front of it 0, at most
+    1 cm); ``coverage`` R; ``tangent`` RGB in the card's tangent space (U across, V
+    along, the face normal) as 0.5 + t/2; ``attribute`` RGBA: the roots' UV on the skin
+    (RG), the coordinate along the hair from root 0 to tip 1 (B) and a seed (A). The
+    colour is the Material slot's texture."""
     maps = cards.maps
     cov = maps["coverage"]
     rgb = encode_srgb8(np.concatenate([maps["color"], np.ones_like(cov)[..., None]], axis=2))
     color = np.concatenate([rgb[..., :3], _unit8(cov)[..., None]], axis=2)
     attr = maps["attribute"]
+    tangent = png_bytes(_unit8(0.5 + 0.5 * maps["tangent"]))
+    if cards.params.target == "unreal":
+        behind_cm = -attr[..., 0] * cards.depth_range * 100.0
+        return {
+            "color": png_bytes(color),
+            "depth": png_bytes(_unit8(behind_cm)),
+            "coverage": png_bytes(_unit8(cov)),
+            "tangent": tangent,
+            "attribute": png_bytes(
+                _unit8(np.concatenate([maps["root_uv"], attr[..., 1:3]], axis=2))
+            ),
+        }
     return {
         "color": png_bytes(color),
         "depth": png_bytes(_unit8(0.5 + 0.5 * attr[..., 0])),
         "attribute": png_bytes(_unit8(np.stack([attr[..., 1], attr[..., 2], cov], axis=2))),
-        "tangent": png_bytes(_unit8(0.5 + 0.5 * maps["tangent"])),
+        "tangent": tangent,
     }
 
 
@@ -219,17 +259,19 @@ def card_path(path: str | Path) -> Path:
 
 def write_cards(cards: HairCards, path: str | Path) -> Path:
     """Write ``cards`` to ``path``, atomically: glTF binary (.glb), or USD (.usd, .usda,
-    .usdc) with the atlas's maps as PNGs beside it."""
+    .usdc) with the atlas's maps as PNGs beside it (``NAME_color.png`` …); for the
+    unreal target, a .glb's maps are also written beside it, the textures Unreal's
+    groom editor takes for its card slots."""
     path = card_path(path)
     images = atlas_images(cards)
     if path.suffix.lower() == ".glb":
+        if cards.params.target == "unreal":
+            write_maps(path, images)
         extras = {
             "depth_range_m": cards.depth_range,
             "cards_per_lod": [len(r) for r in cards.rects],
         }
         write_glb(path, cards.meshes, images, cards.params.alpha_cutoff, extras)
     else:
-        from .usd import write_usd
-
         write_usd(path, cards.meshes, images, cards.params.alpha_cutoff)
     return path

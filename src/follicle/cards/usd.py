@@ -20,7 +20,7 @@ from .gltf import LodMesh
 if TYPE_CHECKING:
     from pxr import UsdShade
 
-__all__ = ["write_usd"]
+__all__ = ["write_maps", "write_usd"]
 
 
 def _texture(stage, material, name: str, file: str, st) -> UsdShade.Shader:
@@ -37,6 +37,13 @@ def _texture(stage, material, name: str, file: str, st) -> UsdShade.Shader:
     return tex
 
 
+def write_maps(path: Path, images: dict[str, bytes]) -> None:
+    """The PNG ``images`` beside ``path``, each as ``STEM_NAME.png``, atomically."""
+    for name, png in images.items():
+        with atomic_path(path.with_name(f"{path.stem}_{name}.png")) as tmp:
+            tmp.write_bytes(png)
+
+
 def write_usd(
     path: Path, lods: list[LodMesh], images: dict[str, bytes], alpha_cutoff: float
 ) -> None:
@@ -44,9 +51,7 @@ def write_usd(
     first the colour with coverage as alpha) beside it."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
-    for name, png in images.items():
-        with atomic_path(path.with_name(f"{path.stem}_{name}.png")) as tmp:
-            tmp.write_bytes(png)
+    write_maps(path, images)
     with atomic_path(path) as tmp:
         args = {"format": "usdc"} if path.suffix.lower() == ".usd" else {}
         stage = Usd.Stage.Open(Sdf.Layer.CreateNew(str(tmp), args))
