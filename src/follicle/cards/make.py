@@ -18,9 +18,9 @@ from .atlas import lod_bands, pack
 from .bake import bake
 from .clusters import cluster_hairs
 from .gltf import LodMesh, png_bytes, write_glb
-from .usd import write_maps, write_usd
 from .settings import CardParams
 from .strips import Strips, card_coordinates, fit_strips, strip_mesh
+from .usd import write_maps, write_usd
 
 __all__ = ["HairCards", "card_path", "make_cards", "write_cards"]
 
