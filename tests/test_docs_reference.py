@@ -158,6 +158,7 @@ def test_the_cli_reference_shows_each_commands_examples():
 # schema (", m" at its end, read by the reference then), and of those that had it in
 # words ("turns per metre", "per second") or not at all (a camera position)
 UNITS = {
+    "[guides]": {"length": "m", "lift": "degrees"},
     "[groom]": {
         **dict.fromkeys(["offset_angle", "hue_variation", "strand_twist"], "degrees"),
         **dict.fromkeys(
@@ -197,7 +198,7 @@ UNITS = {
 # length does not matter) and the [mesh] / [guides] units themselves
 NO_UNIT = {
     "[mesh]": {"units", "displacement_scale"},
-    "[guides]": {"units"},
+    "[guides]": {"units", "comb", "gravity"},
     "[groom]": {"density", "cut", "scale", "random_scale", "clump_root", "clump_tip"}
     | {"clump_profile", "clump_noise", "frizz_direction", "frizz_blend"}
     | {"saturation_variation", "value_variation", "mutant_fraction", "melanin"}

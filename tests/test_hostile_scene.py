@@ -18,7 +18,7 @@ import struct
 import sys
 import zlib
 from pathlib import Path
-from typing import Any, get_args
+from typing import Any, Literal, get_args, get_origin
 
 import numpy as np
 import pytest
@@ -147,6 +147,7 @@ def _walk(
             _valid(section, wrap({**ctx, key: "t.png"}))
             or _valid(section, wrap({**ctx, key: ["t.png"]}))
             or isinstance(field.default, str)
+            or _names(field.annotation)  # an optional choice ([guides].generate)
         )
         sample = next((s for s in SAMPLES if _valid(section, wrap({**ctx, key: s}))), None)
         if sample is not None:
@@ -154,6 +155,15 @@ def _walk(
         elif not text:
             missing.append(f"[{section}]." + ".".join(map(str, (*prefix, key))))
     return found, missing
+
+
+def _names(annotation: Any) -> bool:
+    """Whether a key's type is a choice of names (a Literal of strings), alone or in a
+    union (with None: a choice that may be unset): it takes no number."""
+    kinds = (annotation, *get_args(annotation))
+    return any(
+        get_origin(k) is Literal and all(isinstance(v, str) for v in get_args(k)) for k in kinds
+    )
 
 
 def _numbers(value: Any, at: tuple = ()) -> list[tuple]:

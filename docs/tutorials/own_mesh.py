@@ -27,7 +27,9 @@ print(
 # `load_mesh` converts the file's units to metres (follicle works in metres, +Y up);
 # `units="cm"` says what the file is in. `builtin:short` guides grow on any mesh: 300
 # roots spread evenly, each guide marched along the normal and combed back. The groom
-# interpolates 3,000 hairs between them.
+# interpolates 3,000 hairs between them. (Guides made for this mesh alone, straight out
+# or combed your way, are `follicle.generate_guides`: see
+# [Your own mesh: generated guides](../how-to/own-mesh.md).)
 import follicle
 
 mesh = follicle.load_mesh("creature.obj", units="cm")

@@ -18,6 +18,7 @@ from .export import plan_settle as plan_settle
 from .groom.generator import Groom as Groom
 from .groom.guides import Guides as Guides
 from .groom.guides import load_guides as load_guides
+from .groom.starter import generate_guides as generate_guides
 from .io.dispatch import load_curves as load_curves
 from .io.dispatch import save as save
 from .io.mesh_load import load_mesh as load_mesh

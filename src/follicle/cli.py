@@ -1,4 +1,4 @@
-"""The ``follicle`` command: demo, grow, groom, settle, export, check, export-rib, simulate,
+"""The ``follicle`` command: demo, grow, groom, settle, guides, export, check, export-rib, simulate,
 render, view, info, warm, docs.
 
 Every command's help ends with example lines (:func:`_examples`), real commands that
@@ -474,6 +474,35 @@ def settle(scene_path: str, out: str, seconds: float | None) -> None:
         f" {done.seconds:g} s: max stretch {done.stats['max_stretch']:.2e}, max penetration"
         f" {done.stats['max_penetration'] * 1000:.2f} mm → {out}"
     )
+
+
+@main.command(
+    "guides",
+    short_help="Write a scene's guides (read or generated) to a file.",
+    epilog=_examples(
+        "follicle guides examples/wavy.toml -o guides.usda  # to edit, then read",
+        "follicle guides examples/wavy.toml -o guides.npz",
+    ),
+)
+@click.argument("scene_path", metavar="SCENE", type=click.Path())
+@click.option(
+    "-o",
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Guides file to write (.usda, .npz, .abc, …: any curves format); it loads back"
+    " as [guides] path.",
+)
+def guides_command(scene_path: str, out: str) -> None:
+    """Write the guides a scene grows its hair from ([guides] path, or generated on its
+    mesh by [guides] generate) to a curves file, to edit in the viewer or Blender and
+    read back as [guides] path = OUT."""
+    from .export import plan_guides
+
+    job = plan_guides(scene_path, out)
+    with _step("guides"):
+        guides = job.run()
+    click.echo(f"{guides.count:,} guides × {guides.vertex_count} vertices → {out}")
 
 
 @main.command(

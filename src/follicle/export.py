@@ -1,9 +1,10 @@
-"""``follicle grow``, ``follicle settle`` and ``follicle export`` as library calls.
+"""``follicle grow``, ``settle``, ``guides`` and ``export`` as library calls.
 
-:func:`plan_grow`, :func:`plan_settle` and :func:`plan_export` take a command's options
-as keywords, check everything before any work (formats, targets, that no output
-replaces an input) and return a job (:class:`GrowJob`, :class:`SettleJob`,
-:class:`ExportJob`) whose ``run`` writes and returns what the command prints. Beneath
+:func:`plan_grow`, :func:`plan_settle`, :func:`plan_guides` and :func:`plan_export`
+take a command's options as keywords, check everything before any work (formats,
+targets, that no output replaces an input) and return a job (:class:`GrowJob`,
+:class:`SettleJob`, :class:`GuidesJob`, :class:`ExportJob`) whose ``run`` writes and
+returns what the command prints. Beneath
 them: :func:`grow_file` (one process or a Dask cluster, one file or a payloads
 layout), :func:`export_targets` (where each input goes), :func:`export_skin` (a mesh
 alone) and :func:`export_cache` (a simulation cache as animated USD or Alembic).
@@ -29,6 +30,7 @@ from .validate import check_suffix
 
 if TYPE_CHECKING:
     from .groom.generator import Groom
+    from .groom.guides import Guides
     from .scene import Scene
     from .sim.settle import Settled
 
@@ -37,6 +39,8 @@ __all__ = [
     "GrowJob",
     "plan_settle",
     "SettleJob",
+    "plan_guides",
+    "GuidesJob",
     "grow_file",
     "grown_chunks",
     "curve_suffixes",
@@ -230,6 +234,44 @@ def plan_settle(
         )
     check_outputs([path], scene_path, scene)
     return SettleJob(scene, path)
+
+
+@dataclass(frozen=True)
+class GuidesJob:
+    """A checked write of ``scene``'s guides (read or generated, not settled) to ``path``,
+    a curves file that loads back as ``[guides] path``. Made by :func:`plan_guides`."""
+
+    scene: Scene
+    path: str
+
+    def run(self) -> Guides:
+        """The scene's guides on its mesh (:func:`follicle.pipeline.scene_guides`), written
+        (atomically, as every writer does); returns them."""
+        from .groom.generator import resolve_density
+        from .io.dispatch import save
+        from .io.mesh_load import load_mesh
+        from .pipeline import scene_guides
+
+        scene = self.scene
+        mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
+        guides = scene_guides(
+            scene, mesh, resolve_density(mesh, scene.groom.density, scene.resolve)
+        )
+        save(guides.curves, self.path)
+        return guides
+
+
+def plan_guides(scene_path: str | None, out: str | os.PathLike[str]) -> GuidesJob:
+    """A checked :class:`GuidesJob`, as ``follicle guides SCENE -o OUT`` runs it: ``out``
+    is any curves format and replaces none of the scene's inputs (FormatError or
+    InputError before anything is read)."""
+    from .scene import check_outputs, load_scene
+
+    path = os.fspath(out)
+    check_suffix(path, curve_suffixes())
+    scene = load_scene(scene_path)
+    check_outputs([path], scene_path, scene)
+    return GuidesJob(scene, path)
 
 
 def curve_suffixes() -> tuple[str, ...]:

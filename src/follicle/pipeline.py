@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import time
 from collections.abc import Iterator
@@ -16,8 +17,10 @@ from .errors import ConfigError, FormatError, InputError, ResourceError
 from .groom.generator import Groom, load_texture, resolve_density
 from .groom.groups import InterpolationGroups, mesh_groups
 from .groom.guides import Guides, load_guides
+from .groom.starter import default_length, generate_guides, shown_length
 from .inputs import base_folder
 from .io.mesh_load import load_mesh
+from .mesh.property import PropertyMap
 from .mesh.skin import SkinMesh
 from .mesh.texture import Texture
 from .progress import Progress
@@ -29,9 +32,12 @@ if TYPE_CHECKING:
     from .io.sim_cache import SimCache
     from .sim.settle import Settled
 
+log = logging.getLogger("follicle")
+
 __all__ = [
     "GroomInputs",
     "groom_inputs",
+    "scene_guides",
     "groom_scene",
     "settle_guides",
     "grow",
@@ -110,25 +116,53 @@ def groom_inputs(
         return reuse
     key = _inputs_key(scene)
     mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
-    spec, vertices = scene.groom.groups, scene.groom.group_vertices
-    if spec is None and scene.guides.path.startswith("builtin:"):
-        groups = mesh_groups(mesh, vertices)  # as load_guides gives built-in guides
-    else:
-        texture = None if spec in (None, "none") else load_texture(spec, scene.resolve, mesh)
-        groups = InterpolationGroups(texture, vertices)
-    guides = load_guides(
-        scene.resolve(scene.guides.path), mesh, groups=groups, units=scene.guides.units
-    )
+    density = resolve_density(mesh, scene.groom.density, scene.resolve)
+    guides = scene_guides(scene, mesh, density)
     settled = None
     if scene.groom.settle > 0:
         from .sim.settle import settle
 
         settled = settle(guides, scene.sim, scene.groom.settle, progress)
         guides = settled.guides
-    density = resolve_density(mesh, scene.groom.density, scene.resolve)
     displacement = scene.mesh.displacement
     texture = load_texture(displacement, scene.resolve) if displacement else None
     return GroomInputs(key, mesh, guides, density, texture, settled)
+
+
+def scene_guides(scene: Scene, mesh: SkinMesh, density: Texture | float | None = None) -> Guides:
+    """The guides of ``scene`` on its ``mesh``, before any settling: read from
+    [guides].path, or generated on the mesh ([guides].generate, over the root
+    ``density``), in the interpolation groups [groom].groups gives. Guides a scene gets
+    for having no [guides] table (:meth:`GuidesParams.implied`) are announced in one
+    line: how many, how long, and that [guides] chooses."""
+    spec, vertices = scene.groom.groups, scene.groom.group_vertices
+    g = scene.guides
+    if spec is None and g.generate is None and g.path.startswith("builtin:"):
+        groups = mesh_groups(mesh, vertices)  # as load_guides gives built-in guides
+    else:
+        texture = None if spec in (None, "none") else load_texture(spec, scene.resolve, mesh)
+        groups = InterpolationGroups(texture, vertices)
+    if g.generate is None:
+        return load_guides(scene.resolve(g.path), mesh, groups=groups, units=g.units)
+    length = None
+    if g.length is not None:
+        length = PropertyMap.from_spec(g.length, "scalar", "[guides].length", scene.resolve)
+    guides = generate_guides(
+        mesh,
+        g.generate,
+        **g.model_dump(include={"count", "vertices", "comb", "lift", "gravity", "seed"}),
+        length=length,
+        density=density,
+        groups=groups,
+    )
+    if g.is_implied:
+        log.warning(
+            "[mesh] has no [guides]: %d guides generated along the normals, %s long; set"
+            " [guides] to choose",
+            guides.count,
+            shown_length(default_length(mesh)),
+        )
+    return guides
 
 
 def settle_guides(

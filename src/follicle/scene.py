@@ -27,19 +27,21 @@ from pydantic import (
     BaseModel,
     Field,
     PlainValidator,
+    PrivateAttr,
     ValidationError,
     ValidationInfo,
     field_validator,
+    model_validator,
 )
 from pydantic.fields import FieldInfo
 
 from .cards.settings import CardParams
 from .errors import ConfigError, FileAccessError
-from .groom.settings import GroomParams, PropertyTag
+from .groom.settings import GroomParams, GuideLength, PropertyTag
 from .inputs import check_apart, input_file, is_remote, is_url, remote_reach
 from .io.targets import TARGET_NAMES
 from .render.settings import LightParams, RenderParams
-from .settings import StrictSection, format_errors, shown, unit_of
+from .settings import StrictSection, Unit, Vec3, format_errors, measured_in, shown, unit_of
 from .sim.settings import ColliderParams, SimParams
 from .units import UNITS, metres_per_unit, units_for
 from .validate import file_path
@@ -84,8 +86,9 @@ def _units(value: object) -> str | float:
 
 def _units_apply(value: str | float, info: ValidationInfo) -> str | float:
     """``units`` other than metres only for a file without a unit of its own (not for a
-    builtin, nor USD or glTF): checked against the section's ``path``."""
-    if "path" in info.data:
+    builtin, nor USD or glTF): checked against the section's ``path``, unless [guides]
+    generates its guides (GuidesParams refuses ``units`` with ``generate``)."""
+    if "path" in info.data and info.data.get("generate") is None:
         units_for(info.data["path"], value, key=None)
     return value
 
@@ -122,14 +125,95 @@ class MeshParams(StrictSection):
     )
 
 
+# the [guides] keys that make guides (generate) and those that read them (path)
+_GENERATE_KEYS = ("count", "length", "vertices", "comb", "lift", "gravity", "seed")
+_PATH_KEYS = ("path", "units")
+
+
 class GuidesParams(StrictSection):
-    """The artist-made guide curves every hair is interpolated from."""
+    """The guide curves every hair is interpolated from: read from ``path``, or made on
+    the mesh (``generate``: :func:`follicle.groom.starter.generate_guides`).
+
+    A scene whose mesh is its own (not a ``builtin:``) and that has no [guides] table
+    gets ``generate = "normal"`` (:meth:`implied`), never the built-in head's guides."""
 
     _section: ClassVar[str] = "guides"
+    # made for a scene without [guides] (Scene): the groom says so when it makes them
+    _implied: bool = PrivateAttr(False)
 
-    path: str = Field("builtin:long", description="builtin:long|short|curly or a curves file")
-    units: UnitsSetting = Field("m", description=_UNITS_HELP)
+    generate: Literal["normal", "comb"] | None = Field(
+        None,
+        description="make starter guides on the mesh instead of reading path: normal"
+        " (straight out of the skin) or comb (along comb, lifted by lift); unset: read"
+        " path, or normal for a scene with its own mesh and no [guides] table",
+    )
+    path: str = Field(
+        "builtin:long",
+        description="builtin:long|short|curly or a curves file; not with generate",
+    )
+    units: UnitsSetting = Field(
+        "m", description=_UNITS_HELP + "; not with generate (its length is in metres)"
+    )
     _units_fit_path = field_validator("units")(_units_apply)
+    count: int = Field(
+        300, ge=1, le=100_000, description="generate: guides, spread evenly by area × density"
+    )
+    length: GuideLength | None = Field(
+        None,
+        description="(map) generate: guide length (a texel of 0 grows no guide); unset: 8 %"
+        " of the mesh's bounding-box diagonal",
+        json_schema_extra=measured_in("m"),
+    )
+    vertices: int = Field(12, ge=2, le=256, description="generate: vertices per guide")
+    comb: Vec3 = Field(
+        (0.0, 0.0, 1.0),
+        description="generate = comb: the direction (world) guides lie along, projected"
+        " onto the skin at each root",
+    )
+    lift: float = Field(
+        30.0,
+        ge=0.0,
+        le=90.0,
+        description="generate = comb: angle of a guide's start above the skin (90: the normal)",
+        json_schema_extra=measured_in("degrees"),
+    )
+    gravity: Unit = Field(
+        0.0,
+        description="generate: bend towards -Y along the guide (0: straight; 1: the tip"
+        " hangs straight down); guides stay out of the skin",
+    )
+    seed: int = Field(0, ge=0, lt=2**31, description="generate: another evenly spread set of roots")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> GuidesParams:
+        """``generate`` and ``path`` (or ``units``, a file's) name two sources: refused."""
+        given = [key for key in _PATH_KEYS if key in self.model_fields_set]
+        if self.generate is not None and given:
+            raise ValueError(
+                f"generate and {' and '.join(given)} are exclusive: generate makes guides on"
+                f" the mesh, path reads them from a file; remove {' and '.join(given)} or"
+                " generate"
+            )
+        return self
+
+    @classmethod
+    def implied(cls) -> GuidesParams:
+        """The guides of a scene with its own mesh and no [guides] table: generated along
+        the normals, marked so that the groom says so (:attr:`is_implied`)."""
+        made = cls(generate="normal")
+        assert made.__pydantic_private__ is not None  # the private attribute's storage
+        made.__pydantic_private__["_implied"] = True
+        return made
+
+    @property
+    def is_implied(self) -> bool:
+        """Whether these are :meth:`implied` guides (a scene without [guides]); a copy
+        made with ``replace`` is the user's choice, and is not."""
+        return self._implied
+
+    def unused_keys(self) -> tuple[str, ...]:
+        """The keys the other source would read: path's with generate, else generate's."""
+        return _PATH_KEYS if self.generate is not None else _GENERATE_KEYS
 
 
 class OutputParams(StrictSection):
@@ -164,6 +248,20 @@ class Scene(StrictSection):
     base_dir: Path | str = Field(
         Path("."), exclude=True, description="folder relative paths start in (or a URL)"
     )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _own_mesh_own_guides(cls, data: object) -> object:
+        """A scene with its own mesh and no [guides] table grows guides generated on that
+        mesh (:meth:`GuidesParams.implied`), not the built-in head's, which belong on the
+        built-in meshes alone."""
+        if not isinstance(data, dict) or "guides" in data:
+            return data
+        mesh = data.get("mesh", {})
+        path = mesh.get("path") if isinstance(mesh, dict) else getattr(mesh, "path", None)
+        if isinstance(path, str) and not path.startswith("builtin:"):
+            return {**data, "guides": GuidesParams.implied()}
+        return data
 
     @field_validator("base_dir", mode="before")
     @classmethod
@@ -222,11 +320,16 @@ assert all(
 
 def holds_paths(field: FieldInfo) -> bool:
     """Whether a scene key's text values are file paths: typed ``str`` (alone or in a
-    union) or a groom property (a number, an image path, or a table with ``texture``);
-    a choice (Literal) holds names, not paths."""
+    union) or a property (a groom's, or the optional [guides].length: a number, an image
+    path, or a table with ``texture``); a choice (Literal) holds names, not paths."""
     a = field.annotation
     union = typing.get_origin(a) in (typing.Union, types.UnionType)
-    return a is typing.Any or a is str or (union and str in typing.get_args(a))
+    # a union's members, each without its Annotated metadata (an optional property)
+    members = {
+        typing.get_args(t)[0] if typing.get_origin(t) is Annotated else t
+        for t in (typing.get_args(a) if union else ())
+    }
+    return a is typing.Any or a is str or bool({str, Any} & members)
 
 
 def scene_paths(scene: Scene, outputs: bool = False) -> Iterator[tuple[str, str]]:
@@ -405,13 +508,18 @@ def scene_to_toml(scene: Scene, comments: bool = True) -> str:
         if field.exclude:
             continue
         model: BaseModel = getattr(scene, section)
+        unused = model.unused_keys() if isinstance(model, GuidesParams) else ()
         out.append(f"[{section}]")
         for key, sub in type(model).model_fields.items():
             value = getattr(model, key)
             unit = unit_of(sub)
             text = f"[{unit}] {sub.description}" if unit else sub.description
             note = f"  # {text}" if comments and text else ""
-            if value is None:
+            if key in unused:  # read only by the other choice ([guides]: path or generate)
+                out.append(
+                    f"# {key} = {_toml_value(value) if value is not None else '(unset)'}{note}"
+                )
+            elif value is None:
                 out.append(f"# {key} = (unset){note}")
             else:
                 out.append(f"{key} = {_toml_value(value)}{note}")

@@ -117,6 +117,9 @@ def _prop(color: bool = False, **bounds: float) -> _Property:
 Length: TypeAlias = Annotated[Any, _prop(ge=0.0, le=10.0)]
 Fraction: TypeAlias = Annotated[Any, _prop(ge=0.0, le=1.0)]
 Color: TypeAlias = Annotated[Any, _prop(color=True)]
+# a generated guide's length ([guides].length): value × texture, more than 0 (a texel of
+# 0 grows no guide there)
+GuideLength: TypeAlias = Annotated[Any, _prop(gt=0.0, le=1000.0)]
 
 
 class GroomParams(StrictSection):
