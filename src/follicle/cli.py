@@ -1146,7 +1146,7 @@ def warm(jobs: int | None, force: bool) -> None:
     help="The tool that will open FILE.",
 )
 def check(source: str, target_name: str) -> None:
-    """List, one line each, what TARGET would drop or refuse in a hair file.
+    """List, one line each, what TARGET would drop or refuse in a hair file, and its fix.
 
     Exit 0 when it opens as it is, 1 when problems were found, 2 when FILE cannot be
     read. `follicle export FILE -o OUT --target TARGET` writes what it reads.
