@@ -38,7 +38,7 @@ from .groom.settings import GroomParams, PropertyTag
 from .inputs import check_apart, input_file, is_remote, is_url, remote_reach
 from .io.targets import TARGET_NAMES
 from .render.settings import LightParams, RenderParams
-from .settings import StrictSection, format_errors, shown, unit_of
+from .settings import StrictSection, format_errors, shown, unit_of, unknown_name
 from .sim.settings import ColliderParams, SimParams
 from .units import UNITS, metres_per_unit, units_for
 from .validate import file_path
@@ -176,8 +176,7 @@ class Scene(StrictSection):
             field = Scene.model_fields.get(key)
             if field is None:
                 raise ConfigError(
-                    f"{source}: {key}: unknown scene section; allowed:"
-                    f" {', '.join(Scene.model_fields)}"
+                    f"{source}: [{key}]: {unknown_name(key, list(Scene.model_fields), 'section')}"
                 )
             want = (Path, str) if key == "base_dir" else field.annotation
             assert isinstance(want, (type, tuple))  # a section's class, or the base_dir types
