@@ -73,11 +73,15 @@ _ESCAPES = {c: repr(chr(c))[1:-1] for c in [*range(32), 127]}
 
 
 class _Count(ProgressColumn):
-    """``done/total``, or ``done`` alone while the total is not known yet."""
+    """``done/total``, ``done`` alone while the total is not known yet, and nothing
+    before the first count: a phase that counts nothing (growing, before the first
+    chunk) shows its spinner and time, not a literal 0."""
 
     def render(self, task: Task) -> Text:
         done = f"{task.completed:,.0f}"
-        return Text(done if task.total is None else f"{done}/{task.total:,.0f}")
+        if task.total is None:
+            return Text(done if task.completed else "")
+        return Text(f"{done}/{task.total:,.0f}")
 
 
 @contextlib.contextmanager
