@@ -283,7 +283,7 @@ def main(verbose: int) -> None:
     logging.getLogger("follicle").setLevel(level)
 
 
-_DEMO_SETTLE = 2.0  # s: the long hair comes to rest on the shoulders (README: Dynamics)
+_DEMO_SETTLE = 2.0  # s: the long hair comes to rest on the shoulders (docs: How-to › Dynamics)
 
 
 @main.command(

@@ -15,7 +15,7 @@ What each importer keeps is a table too (:attr:`Target.alembic_reads`, read from
 importers' own sources, cited where each Target is made), so ``follicle check`` lists
 what it would drop rather than assume it reads everything.
 
-The table in the README (Formats → Targets) is :data:`TARGETS`, written out.
+The table in the docs (How-to › Formats › Targets) is :data:`TARGETS`, written out.
 """
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ class Target:
 
     name: str
     tool: str  # the tool's name, as messages say it
-    reads: str  # what of it reads the file (the README's table)
+    reads: str  # what of it reads the file (the docs' table)
     point_names: dict[str, str] = field(default_factory=dict)
     curve_names: dict[str, str] = field(default_factory=dict)
     int32: bool = True  # 64-bit integer attributes written as int32 (dropped if too big)
