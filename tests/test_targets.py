@@ -258,7 +258,7 @@ def test_check_names_each_problem_of_a_file_broken_for_unreal(tmp_path, hair):
         "1 curve(s) have more than 255 points (up to 300): Unreal refuses them;"
         f" {fix} resamples them",
         "Unreal reads only groom_* attributes: Cd, id, uv would be dropped;"
-        f" {fix} writes them under its names",
+        f" {fix} writes what it reads, under its names",
         "no widths: Unreal draws every hair at its default width; fix: give the curves"
         " widths where they were made, or regrow them with widths"
         " (`follicle grow SCENE -o OUT --target unreal`)",

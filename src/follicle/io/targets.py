@@ -427,7 +427,7 @@ def problems(curves: HairCurves, target: Target | str, alembic: bool = False) ->
         if ignored:
             out.append(
                 f"{t.tool} reads only {t.prefix}* attributes: {', '.join(ignored)} would be"
-                f" dropped; {fix} writes them under its names"
+                f" dropped; {fix} writes what it reads, under its names"
             )
     if "width" not in curves.point_data:
         out.append(
