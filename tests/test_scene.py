@@ -96,6 +96,12 @@ def test_eye_and_target_go_together():
             {"render": {"lights": [{"colour": [1, 1, 1]}]}},
             "[render].lights.0.colour: unknown key; did you mean color?",
         ),
+        # a texture table's key
+        (
+            {"groom": {"scale": {"texture": "s.png", "warp": 1}}},
+            "[groom].scale: unknown key(s) ['warp']; did you mean wrap? a table takes value,"
+            " texture, wrap",
+        ),
         # nothing close: the table's keys, as before
         (
             {"render": {"glossiness": 3}},

@@ -27,6 +27,7 @@ __all__ = [
     "Section",
     "StrictSection",
     "unknown_name",
+    "suggestions",
     "Unit",
     "Component",
     "RGB",
@@ -182,15 +183,20 @@ def format_errors(
     )
 
 
-def unknown_name(name: str, allowed: Sequence[str], what: str = "key") -> str:
-    """ "unknown key; did you mean curl_radius?" for ``name`` among ``allowed``: the
-    suggestions first: the close spellings (difflib), then the names that begin with it
-    (``curl`` → ``curl_radius``) or whose words it begins with (``count_max`` →
-    ``count``), at most four; the whole list only when nothing is close, so that the
-    line stays short."""
+def suggestions(name: str, allowed: Sequence[str]) -> list[str]:
+    """What ``name`` may have meant among ``allowed``, best first: the close spellings
+    (difflib), then the names that begin with it (``curl`` → ``curl_radius``) or whose
+    words it begins with (``count_max`` → ``count``); at most four."""
     close = difflib.get_close_matches(name, allowed, n=3, cutoff=0.6)
     parts = [a for a in allowed if name and (a.startswith(name) or name.startswith(a + "_"))]
-    shown_names = list(dict.fromkeys(close + parts))[:4]
+    return list(dict.fromkeys(close + parts))[:4]
+
+
+def unknown_name(name: str, allowed: Sequence[str], what: str = "key") -> str:
+    """The text for an unknown ``name`` among ``allowed``, its :func:`suggestions` first
+    (``unknown key; did you mean curl_radius?``); the whole list only when nothing is
+    close, so that the line stays short."""
+    shown_names = suggestions(name, allowed)
     if what == "section":
         shown_names = [f"[{a}]" for a in shown_names]
     if shown_names:
