@@ -1,4 +1,9 @@
-"""setuptools commands for the prebuilt kernels; the project's metadata is in pyproject.toml.
+"""setuptools commands for the prebuilt kernels, and the package's description; the
+project's metadata is in pyproject.toml.
+
+The description is README.md with its relative links made absolute
+(``build_support/readme_links.py``): a package index shows it without the repository
+around it (pyproject's ``dynamic = ["readme"]``).
 
 ``build_py`` compiles follicle's numba kernels into the wheel (``follicle/_kernels``, by
 ``python -m follicle.prebuild build`` run on the copied sources), or copies the source
@@ -19,6 +24,8 @@ from setuptools import Distribution, setup
 from setuptools.command.build_py import build_py
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE / "build_support"))
+from readme_links import long_description  # noqa: E402  (build_support/ is not a package)
 
 
 def _kernels_wanted() -> bool:
@@ -58,4 +65,9 @@ class WithKernels(Distribution):
         return _kernels_wanted()
 
 
-setup(cmdclass={"build_py": BuildWithKernels}, distclass=WithKernels)
+setup(
+    cmdclass={"build_py": BuildWithKernels},
+    distclass=WithKernels,
+    long_description=long_description(HERE),
+    long_description_content_type="text/markdown",
+)

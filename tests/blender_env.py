@@ -18,6 +18,10 @@ client must fail, never pass silently. ``FOLLICLE_BLENDER_PYTHON`` names a Pytho
 already has bpy (a developer's own environment) and skips the install; pip's own
 variables apply to the install (``PIP_FIND_LINKS=/folder/with/the/wheel`` saves the
 download).
+
+Opting out: ``FOLLICLE_SKIP_BLENDER=1`` skips the Blender tests, saying how to run them,
+and makes nothing (the env is about 1 GB on disk). It is for a developer's machine;
+``.ci/run`` never sets it, and under CI it fails like any missing client.
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ LOCK = ROOT / ".venv-blender.lock"
 READY = VENV / "follicle-ready.txt"  # written last: its text is the bpy version installed
 SCRIPTS = Path(__file__).resolve().parent / "blender_scripts"
 INSTALL_TIMEOUT = 1200  # seconds: a 370 MB download on a slow runner
+SKIP = "FOLLICLE_SKIP_BLENDER"  # =1: skip the Blender tests, make no .venv-blender
 
 
 def _base_python() -> str | None:
@@ -51,6 +56,11 @@ def _base_python() -> str | None:
     if sys.version_info[:2] == BPY_PYTHON:
         return sys.executable
     return shutil.which("python{}.{}".format(*BPY_PYTHON))
+
+
+def skipped() -> bool:
+    """Whether the developer opted out of the Blender tests (``FOLLICLE_SKIP_BLENDER=1``)."""
+    return os.environ.get(SKIP) == "1"
 
 
 def _venv_python() -> Path:
@@ -81,6 +91,12 @@ def _run(cmd: list[str], what: str) -> None:
 
 def blender_python() -> Path:
     """The Python of ``.venv-blender`` with bpy installed, made on first use (see module)."""
+    if skipped():
+        _unavailable(
+            f"{SKIP}=1: the Blender tests are skipped and .venv-blender (bpy {BPY_VERSION},"
+            f" about 1 GB) is not made; to run them: unset {SKIP} and run"
+            " .venv/bin/python -m pytest tests/test_blender.py tests/test_blender_cards.py"
+        )
     given = os.environ.get("FOLLICLE_BLENDER_PYTHON")
     if given:
         return Path(given)

@@ -94,7 +94,8 @@ def pytest_configure(config: pytest.Config) -> None:
     if "test_blender.py" in files:  # first: it downloads while the kernels compile
         import blender_env
 
-        if not blender_env.READY.exists() and not os.environ.get("FOLLICLE_BLENDER_PYTHON"):
+        made = blender_env.READY.exists() or blender_env.skipped()
+        if not made and not os.environ.get("FOLLICLE_BLENDER_PYTHON"):
             _start("import blender_env; blender_env.blender_python()", "blender")
     if len(files) > 1 and _kernels_stale():
         _build_kernels()

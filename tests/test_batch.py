@@ -42,8 +42,8 @@ def test_a_sweep_gives_every_combination_in_order() -> None:
     "text, match",
     [
         ("groom.curl_radius", "KEY=START"),
-        ("groom.nope=1", "no key nope"),
-        ("nosuch.key=1", "section.key"),
+        ("groom.nope=1", r"\[groom\]\.nope: unknown key"),
+        ("nosuch.key=1", r"\[nosuch\]: unknown section"),
         ("groom.curl_radius=a:b:3", "two numbers"),
     ],
 )
@@ -100,7 +100,7 @@ def test_the_cli_writes_the_manifest_and_refuses_a_bad_sweep_in_one_line(
     relative = runner.invoke(main, ["batch", "-o", "r", *args[3:], "--seeds", "0:1"])
     assert relative.output.strip().endswith("1 variants → r/manifest.csv"), relative.output
     bad = runner.invoke(main, [*args, "--vary", "groom.nope=1"])
-    assert bad.exit_code == 2 and "no key nope" in bad.output
+    assert bad.exit_code == 2 and "[groom].nope: unknown key" in bad.output
 
 
 @pytest.mark.slow
@@ -162,6 +162,30 @@ def test_seed_ranges_too_large_for_a_batch_are_refused(text, words):
 def test_sweep_bounds_with_hundreds_of_digits_are_refused(spec):
     with pytest.raises(ConfigError, match=r"^--vary groom\.curl_radius=.{0,80}: START and STOP"):
         parse_vary(f"groom.curl_radius={spec}")
+
+
+@pytest.mark.parametrize(
+    ("arg", "message"),
+    [
+        (
+            "groom.curl=0.001,0.002",
+            "--vary groom.curl: [groom].curl: unknown key; did you mean"
+            " curl_radius or curl_frequency or curl_frequency_tip?",
+        ),
+        ("gromm.count=5,6", "--vary gromm.count: [gromm]: unknown section; did you mean [groom]?"),
+        (
+            "kink_tip=0.001,0.002",
+            "--vary kink_tip: expected section.key; did you mean groom.kink_tip?",
+        ),
+        ("groom.zzz=1,2", "--vary groom.zzz: [groom].zzz: unknown key; allowed keys: count, seed,"),
+    ],
+)
+def test_an_unknown_swept_key_says_what_was_meant(arg, message):
+    """The command line's override (`follicle batch --vary section.key=…`) says what was
+    meant, as a scene file's unknown key does (issue 46)."""
+    with pytest.raises(ConfigError) as err:
+        parse_vary(arg)
+    assert str(err.value).startswith(message), str(err.value)
 
 
 def test_a_batch_past_the_cap_is_refused_before_any_variant_is_made(tmp_path):

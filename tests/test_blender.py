@@ -164,6 +164,7 @@ def test_no_wheel_skips_here_and_fails_under_ci(monkeypatch):
     """Without a Python bpy has wheels for, the tests skip with the reason, except under
     CI, where they fail: a missing client must never pass silently."""
     monkeypatch.delenv("FOLLICLE_BLENDER_PYTHON", raising=False)
+    monkeypatch.delenv(blender_env.SKIP, raising=False)
     monkeypatch.setattr(blender_env, "BPY_PYTHON", (2, 7))
     monkeypatch.setattr(blender_env.shutil, "which", lambda name: None)
     monkeypatch.delenv("CI", raising=False)
@@ -172,6 +173,29 @@ def test_no_wheel_skips_here_and_fails_under_ci(monkeypatch):
     monkeypatch.setenv("CI", "true")
     with pytest.raises(pytest.fail.Exception, match="cannot run under CI"):
         blender_env.blender_python()
+
+
+def test_the_opt_out_skips_saying_how_to_run_them_and_ci_never_uses_it(tmp_path, monkeypatch):
+    """FOLLICLE_SKIP_BLENDER=1 skips with how to run the tests and makes nothing (not
+    even with a Python for bpy at hand); under CI it fails, and .ci/run, CI's script, does
+    not set it (nor does the README's test command it runs)."""
+    for name, value in (("VENV", tmp_path / "v"), ("LOCK", tmp_path / "lock")):
+        monkeypatch.setattr(blender_env, name, value)
+    monkeypatch.setattr(blender_env, "BPY_PYTHON", sys.version_info[:2])  # one is at hand
+    monkeypatch.setattr(blender_env, "_run", lambda cmd, what: pytest.fail(f"made: {what}"))
+    monkeypatch.delenv("CI", raising=False)
+    monkeypatch.setenv("FOLLICLE_BLENDER_PYTHON", "/a/python/with/bpy")  # the opt-out wins
+    monkeypatch.setenv(blender_env.SKIP, "1")
+    with pytest.raises(pytest.skip.Exception) as skip:
+        blender_env.blender_python()
+    assert "unset FOLLICLE_SKIP_BLENDER and run .venv/bin/python -m pytest" in str(skip.value)
+    assert not (tmp_path / "v").exists() and not (tmp_path / "lock").exists()
+    monkeypatch.setenv("CI", "true")
+    with pytest.raises(pytest.fail.Exception, match="cannot run under CI: FOLLICLE_SKIP"):
+        blender_env.blender_python()
+    ci = (Path(blender_env.ROOT) / ".ci" / "run").read_text(encoding="utf-8")
+    assert "python -m pytest -q" in ci and "FOLLICLE_SKIP_BLENDER" not in ci
+    assert "FOLLICLE_SKIP_BLENDER" in (Path(blender_env.ROOT) / "README.md").read_text()
 
 
 def test_a_half_made_env_is_made_again_then_reused(tmp_path, monkeypatch):
@@ -189,6 +213,7 @@ def test_a_half_made_env_is_made_again_then_reused(tmp_path, monkeypatch):
     ):
         monkeypatch.setattr(blender_env, name, value)
     monkeypatch.delenv("FOLLICLE_BLENDER_PYTHON", raising=False)
+    monkeypatch.delenv(blender_env.SKIP, raising=False)
     made = []
 
     def run(cmd, what):  # instead of venv and pip: record, and make the interpreter

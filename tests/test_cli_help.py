@@ -17,6 +17,11 @@ from follicle import docs_location
 from follicle.apps import procedural
 from follicle.cli import main
 
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
 ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = main.list_commands(click.Context(main))
 
@@ -109,9 +114,10 @@ def test_docs_says_where_the_docs_are_one_fact_a_line():
     lines = done.output.splitlines()
     facts = [line.split(":")[0] for line in lines]
     assert facts[:3] == ["site", "source", "serve"] and facts[-2:] == ["reference", "here"]
-    # pyproject.toml names no Documentation URL (the oracle: the file itself)
-    assert "Documentation" not in (ROOT / "pyproject.toml").read_text()
-    assert lines[0] == "site: none published (the package names no URL)"
+    # the Documentation URL pyproject.toml names (the oracle: the file itself), as the
+    # install's metadata has it
+    urls = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["urls"]
+    assert lines[0] == f"site: {urls['Documentation']}"
     # this checkout: its docs/ folder, served from its root by mkdocs
     assert lines[1] == f"source: {ROOT / 'docs'} (Markdown; start at index.md)"
     assert (ROOT / "docs" / "index.md").is_file() and (ROOT / "mkdocs.yml").is_file()

@@ -95,3 +95,30 @@ def test_a_first_run_says_it_is_compiling(folder, tmp_path):
     assert "follicle warm" in text
     warm_run = tty(folder, "grow", "s.toml", "-o", "again.npz")
     assert "growing hair" in warm_run and "compiling" not in warm_run
+
+
+def _frames(shown: str) -> list[str]:
+    """The bar's frames as a terminal shows them: split where rich redraws, control
+    sequences removed."""
+    import re
+
+    frames = re.split(r"\r|\x1b\[2K|\x1b\[1A", shown)
+    return [re.sub(r"\x1b\[[0-9;?]*[a-zA-Z]", "", f).strip() for f in frames]
+
+
+def test_a_phase_without_a_count_shows_no_count(folder):
+    """Before its first count a bar shows its spinner, label and time, not a literal 0
+    (issue 46: "growing hair ━━━ 0 0:00:01" while the hairs grew): drawn under a
+    pseudo-terminal, every frame of the bar either has done/total or no number between
+    the bar and the time."""
+    import re
+
+    (folder / "big.toml").write_text(SCENE.replace("count = 300", "count = 20000"))
+    frames = [f for f in _frames(tty(folder, "grow", "big.toml", "-o", "big.npz")) if "━" in f]
+    # what each frame shows between the bar and the time (a frame may run on into a
+    # line printed after it, such as a kernel's compiling note)
+    shown = [m[1] for m in (re.search(r"━\s+(.*?)\s*\d+:\d\d:\d\d", f) for f in frames) if m]
+    assert len(shown) == len(frames), frames
+    assert "20,000/20,000" in shown, frames
+    assert "" in shown, frames  # growing 20,000 hairs takes several of rich's 0.1 s frames
+    assert [x for x in shown if x and not re.fullmatch(r"[\d,]+/[\d,]+", x)] == [], frames

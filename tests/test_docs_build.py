@@ -84,12 +84,20 @@ def _build(
     )
 
 
+def _with_project(root: Path) -> None:
+    """What the docs' hook reads beside mkdocs.yml: pyproject's [project.urls] (the
+    site's address and repository) through build_support/readme_links.py."""
+    shutil.copy(ROOT / "pyproject.toml", root)
+    shutil.copytree(ROOT / "build_support", root / "build_support")
+
+
 @pytest.mark.slow
 def test_a_broken_link_fails_the_build(tmp_path: Path):
     """The strictness is real: the same site with one link to a page that is not there
     does not build."""
     shutil.copytree(ROOT / "docs", tmp_path / "docs")
     shutil.copytree(ROOT / "tools", tmp_path / "tools")
+    _with_project(tmp_path)
     shutil.copy(ROOT / "mkdocs.yml", tmp_path)
     (tmp_path / "src").symlink_to(ROOT / "src")
     page = tmp_path / "docs" / "how-to" / "grooming.md"
@@ -105,6 +113,7 @@ def test_a_failing_tutorial_fails_the_build(tmp_path: Path):
     the tutorial and the command."""
     shutil.copytree(ROOT / "docs", tmp_path / "docs")
     shutil.copytree(ROOT / "tools", tmp_path / "tools")
+    _with_project(tmp_path)
     shutil.copy(ROOT / "mkdocs.yml", tmp_path)
     (tmp_path / "src").symlink_to(ROOT / "src")
     for script in (tmp_path / "docs" / "tutorials").glob("*.py"):
@@ -137,6 +146,7 @@ def test_a_failing_example_fails_the_build(tmp_path: Path, scene, file, old, new
     build, naming the scene and the command (the other scenes are left out here)."""
     shutil.copytree(ROOT / "docs", tmp_path / "docs")
     shutil.copytree(ROOT / "tools", tmp_path / "tools")
+    _with_project(tmp_path)
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
     shutil.copy(ROOT / "mkdocs.yml", tmp_path)
     (tmp_path / "src").symlink_to(ROOT / "src")

@@ -356,7 +356,7 @@ def test_check_says_unity_reads_no_usd(tmp_path, hair):
     assert code == 1 and lines == [
         "Unity builds hair from .abc files only (Unity's hair package"
         " (com.unity.demoteam.hair), through its Alembic importer): it does not read this"
-        " one; `follicle export --target unity` to .abc"
+        " one; fix: `follicle export FILE -o OUT.abc --target unity`"
     ]
 
 

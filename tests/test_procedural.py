@@ -273,6 +273,21 @@ def test_the_program_speaks_runprogram(exported, procedural, command):
     assert b"malformed request" in proc.stderr and b"Traceback" not in proc.stderr
 
 
+@pytest.mark.parametrize(
+    "command", [[str(PROCEDURAL)], [sys.executable, "-m", "follicle.apps.procedural"]]
+)
+def test_the_installed_program_prints_its_help_and_exits_0(command):
+    """`follicle-procedural --help`, as a user types it (issue 46): its usage on stdout,
+    exit 0, nothing read from stdin (closed here: a read would see EOF, not hang)."""
+    if not Path(command[0]).exists():  # the console script: CI installs it (pip install -e)
+        pytest.skip("follicle-procedural is not installed: pip install -e .")
+    proc = subprocess.run(
+        [*command, "--help"], stdin=subprocess.DEVNULL, capture_output=True, timeout=120
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith(b"usage: follicle-procedural\n") and proc.stderr == b""
+
+
 @pytest.mark.slow
 def test_export_arguments_are_checked_and_writes_are_all_or_nothing(tmp_path):
     scene = parse_scene({"groom": {"count": 50}})

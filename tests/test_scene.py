@@ -29,8 +29,8 @@ def test_relative_paths_resolve_against_the_scene_folder(tmp_path):
     ("data", "message"),
     [
         ({"groom": {"count": -1}}, r"\[groom\]\.count: Input should be greater than or equal to 0"),
-        ({"groom": {"cuont": 5}}, r"\[groom\]\.cuont: unknown key; allowed keys: count, seed"),
-        ({"gromm": {}}, r"\[gromm\]: unknown key; allowed keys: mesh, guides, groom, sim"),
+        ({"groom": {"cuont": 5}}, r"\[groom\]\.cuont: unknown key; did you mean count or"),
+        ({"gromm": {}}, r"\[gromm\]: unknown section; did you mean \[groom\]\?$"),
         ({"render": {"size": [0, 5]}}, r"\[render\]\.size\.0: Input should be greater than or"),
         ({"render": {"shading": "phong"}}, r"\[render\]\.shading: Input should be 'kajiya-kay'"),
         ({"sim": {"solver": "magic"}}, r"\[sim\]\.solver: Input should be 'pbd' or 'dftl'"),
@@ -77,6 +77,75 @@ def test_eye_and_target_go_together():
         parse_scene({"render": {"eye": [0, 0, 1]}}, "s.toml")
     scene = parse_scene({"render": {"eye": [0, 0, 1], "target": [0, 0, 0]}})
     assert scene.render.target == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        # a prefix: the keys that begin with it, in the schema's order
+        (
+            {"groom": {"curl": 1}},
+            "[groom].curl: unknown key; did you mean curl_radius or"
+            " curl_frequency or curl_frequency_tip?",
+        ),
+        # a misspelling: the closest first, then the names it begins
+        ({"sim": {"gravty": [0, -9.8, 0]}}, "[sim].gravty: unknown key; did you mean gravity?"),
+        ({"groom": {"count_max": 5}}, "[groom].count_max: unknown key; did you mean count?"),
+        ({"rnder": {}}, "[rnder]: unknown section; did you mean [render]?"),
+        (
+            {"render": {"lights": [{"colour": [1, 1, 1]}]}},
+            "[render].lights.0.colour: unknown key; did you mean color?",
+        ),
+        # a texture table's key
+        (
+            {"groom": {"scale": {"texture": "s.png", "warp": 1}}},
+            "[groom].scale: unknown key(s) ['warp']; did you mean wrap? a table takes value,"
+            " texture, wrap",
+        ),
+        # nothing close: the table's keys, as before
+        (
+            {"render": {"glossiness": 3}},
+            "[render].glossiness: unknown key; allowed keys: size, engine, shading,",
+        ),
+        (
+            {"whatever": {}},
+            "[whatever]: unknown section; allowed sections: mesh, guides, groom,"
+            " sim, render, output",
+        ),
+    ],
+)
+def test_an_unknown_key_or_section_says_what_was_meant(tmp_path, data, message):
+    """One line naming the file, the section and the key, the suggestion first (issue
+    46); the allowed keys only when nothing is close."""
+    path = tmp_path / "look.toml"
+    with pytest.raises(ConfigError) as err:
+        parse_scene(data, str(path))
+    text = str(err.value)
+    assert text.startswith(f"{path}: {message}"), text
+    assert "\n" not in text and ("allowed" in text) == ("did you mean" not in text)
+
+
+def test_a_replaced_section_and_the_viewer_say_what_was_meant():
+    from follicle.view.controls import check_key
+
+    with pytest.raises(
+        ConfigError,
+        match=r"^settings: \[grooom\]: unknown section; did you"
+        r" mean \[groom\]\?$",
+    ):
+        Scene().replace(grooom=None)
+    with pytest.raises(
+        ConfigError,
+        match=r"^viewer: \[rendr\]: unknown section; did you mean"
+        r" \[render\]\?$",
+    ):
+        check_key("rendr", "size")
+    with pytest.raises(
+        ConfigError,
+        match=r"^viewer: \[groom\]\.frizz: unknown key; did you mean"
+        r" frizz_\w+( or frizz_\w+){3}\?$",  # four at most
+    ):
+        check_key("groom", "frizz")
 
 
 @pytest.mark.parametrize(

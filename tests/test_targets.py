@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -252,13 +253,17 @@ def test_check_names_each_problem_of_a_file_broken_for_unreal(tmp_path, hair):
     run = CliRunner().invoke(main, ["check", str(tmp_path / "bad.usda"), "--target", "unreal"])
     assert run.exit_code == 1
     lines = [x.split(": ", 1)[1] for x in run.output.splitlines()]
+    fix = "fix: `follicle export FILE -o OUT --target unreal`"
     assert lines == [
         "1 curve(s) have more than 255 points (up to 300): Unreal refuses them;"
-        " `follicle export --target unreal` resamples them",
-        "Unreal reads only groom_* attributes: Cd, id, uv would be dropped",
-        "no widths: Unreal draws every hair at its default width",
+        f" {fix} resamples them",
+        "Unreal reads only groom_* attributes: Cd, id, uv would be dropped;"
+        f" {fix} writes what it reads, under its names",
+        "no widths: Unreal draws every hair at its default width; fix: give the curves"
+        " widths where they were made, or regrow them with widths"
+        " (`follicle grow SCENE -o OUT --target unreal`)",
         "1 of 1 curves objects (/Groom/Hair/chunk_0000): no GroomAPI on them or a prim"
-        " above: Unreal's USD importer does not read them as a groom",
+        f" above: Unreal's USD importer does not read them as a groom; {fix} applies it",
     ]
 
 
@@ -272,12 +277,104 @@ def test_check_names_each_problem_of_an_alembic_file_broken_for_unreal(tmp_path,
     assert run.exit_code == 1
     lines = [x.split(": ", 1)[1] for x in run.output.splitlines()]
     assert lines[0].startswith("1 curve(s) have more than 255 points (up to 300)")
-    assert "Unreal reads only groom_* attributes: Cd, id, uv would be dropped" in lines
+    assert any(
+        x.startswith("Unreal reads only groom_* attributes: Cd, id, uv would be") for x in lines
+    )
     assert lines[-1] == (
         "1 of 1 curves objects (/Groom/Hair_0000/Hair_0000Shape): no groom_version_major /"
         " groom_version_minor where Unreal reads them (user properties of the curves or an"
-        " Xform above): it imports their curves without any groom_* attribute"
+        " Xform above): it imports their curves without any groom_* attribute;"
+        " fix: `follicle export FILE -o OUT --target unreal` writes them"
     )
+
+
+def _problem_files(tmp_path, groom, hair):
+    """(file, target) pairs that between them raise every kind of `follicle check` line:
+    each line of problems(), of the layout and the schema, and a reader's warnings."""
+    from pxr import Usd, UsdGeom
+
+    from follicle.io.alembic import save_abc
+    from follicle.io.usd import save_usd
+
+    save_usd(_broken_for_unreal(hair), tmp_path / "bad.usda", target="houdini")
+    save_abc(
+        _broken_for_unreal(hair),
+        tmp_path / "bad.abc",
+        target="houdini",
+        guides=hair[:2],
+        mesh=groom.mesh,
+    )
+    save(hair, tmp_path / "ours.usda")
+    save(hair, tmp_path / "ours.abc", guides=groom.guides.curves, mesh=groom.mesh)
+    save(hair, tmp_path / "ours.npz")  # int64 ids, as follicle keeps them
+    pts = np.cumsum(np.full((4, 5, 3), 0.01), axis=1)
+    wide = HairCurves.from_array(pts, {"width": np.full(20, 0.02, np.float32)})  # 1 cm radius
+    save(wide, tmp_path / "wide.usda")
+    stage = Usd.Stage.CreateNew(str(tmp_path / "one.usda"))
+    curves = UsdGeom.BasisCurves.Define(stage, "/Hair")
+    curves.CreatePointsAttr([(0, 0, 0), (0, 0.01, 0), (0, 0.02, 0), (1, 0, 0)])
+    curves.CreateCurveVertexCountsAttr([3, 1])
+    curves.CreateTypeAttr("linear")
+    curves.CreateWidthsAttr([5e-5] * 4)
+    stage.Save()
+    return [
+        ("bad.usda", "unreal"),
+        ("bad.abc", "unreal"),
+        ("ours.usda", "unreal"),
+        ("ours.usda", "unity"),
+        ("ours.abc", "unity"),
+        ("ours.abc", "blender"),
+        ("ours.npz", "blender"),
+        ("wide.usda", "houdini"),
+        ("one.usda", "unity"),
+    ]
+
+
+@pytest.mark.slow
+def test_every_check_line_ends_with_its_fix_and_the_export_it_names_fixes_it(tmp_path, groom, hair):
+    """Each kind of problem `follicle check` reports ends with '; fix: …' (issue 46), and
+    doing what it says — the `follicle export` it names — gives a file whose check no
+    longer reports it: what is left is only what an export cannot fix (no widths, a
+    tool's default radius)."""
+    import re
+
+    seen = []
+    for name, target in _problem_files(tmp_path, groom, hair):
+        run = CliRunner().invoke(main, ["check", str(tmp_path / name), "--target", target])
+        assert run.exit_code == 1, run.output
+        lines = [x.split(": ", 1)[1] for x in run.output.splitlines()]
+        for line in lines:
+            assert "; fix: " in line, line
+            problem, fix = line.rsplit("; fix: ", 1)
+            assert fix.strip() and problem.strip(), line
+        seen += lines
+        exports = {m for x in lines for m in re.findall(r"`follicle export FILE -o OUT(\S*)", x)}
+        if exports:  # do what it says (in the format it names, if any); those lines are gone
+            out = tmp_path / f"fixed_{target}_{Path(name).stem}{max(exports) or '.usda'}"
+            done = CliRunner().invoke(
+                main, ["export", str(tmp_path / name), "-o", str(out), "--target", target]
+            )
+            assert done.exit_code == 0, done.output
+            again = CliRunner().invoke(main, ["check", str(out), "--target", target])
+            left = [x for x in again.output.splitlines() if "`follicle export" in x]
+            assert left == [], (name, target, again.output)
+    kinds = [
+        "points (up to",  # too many points
+        "reads only groom_*",  # a prefix
+        "no widths",
+        "no GroomAPI",
+        "no groom_version_major",
+        "a mesh (",
+        "guides (",
+        "root UVs one per curve",
+        "keeps only points and",  # an Alembic importer that keeps little
+        "builds hair from .abc files only",
+        "is int64",
+        "is there but",  # another name
+        "widths look like a tool's default radius",
+        "fewer than 2 points",  # a reader's warning
+    ]
+    assert [k for k in kinds if not any(k in x for x in seen)] == [], seen
 
 
 @pytest.mark.parametrize("ext", [".usda", ".abc"])

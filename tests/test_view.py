@@ -356,7 +356,7 @@ def test_fast_quality_and_lights(ctl):
 
 @pytest.mark.slow
 def test_bad_parameters_name_the_field(ctl):
-    with pytest.raises(ConfigError, match=r"\[sim\]\.gravty: unknown parameter"):
+    with pytest.raises(ConfigError, match=r"\[sim\]\.gravty: unknown key; did you mean gravity\?$"):
         ctl.set_param("sim", "gravty", (0, 0, 0))
     with pytest.raises(ConfigError, match=r"\[sim\]\.damping"):
         ctl.set_param("sim", "damping", -1.0)

@@ -8,7 +8,8 @@ run side by side in one pool (:mod:`docs_runs`: ``FOLLICLE_DOCS_JOBS``,
 ``FOLLICLE_DOCS_TUTORIALS=0`` / ``FOLLICLE_DOCS_GALLERY=0`` to build without running
 them), and one that fails fails the build. And show the docstrings' Sphinx roles
 (``:meth:`replace```) as the code they name, since mkdocstrings renders a docstring's
-Markdown and leaves the role's prefix as text."""
+Markdown and leaves the role's prefix as text. The site's ``site_url`` and ``repo_url``
+come from pyproject's ``[project.urls]`` (:func:`on_config`)."""
 
 from __future__ import annotations
 
@@ -27,11 +28,28 @@ import docs_reference  # noqa: E402
 import docs_tutorials  # noqa: E402
 from docs_runs import RunError, in_fresh_folder, in_pool, once, skipped  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "build_support"))
+import readme_links  # noqa: E402  (build_support/ is not a package)
+
 GENERATED = {
     "reference/scene.md": docs_reference.scene_reference,
     "reference/cli.md": docs_reference.cli_reference,
 }
 GALLERY = "gallery.md"
+
+
+def on_config(config: MkDocsConfig) -> MkDocsConfig:
+    """The site's address and its repository from pyproject's ``[project.urls]``, the one
+    place that names them (``Documentation``, ``Source``; see
+    ``build_support/readme_links.py``), set as mkdocs.yml's ``site_url`` / ``repo_url``
+    would set them: the repository's name and edit link (GitHub's) with them."""
+    urls = readme_links.project_urls(ROOT)
+    config["site_url"] = urls["Documentation"].rstrip("/") + "/"
+    config["repo_url"] = urls["Source"]
+    config["repo_name"] = "GitHub"
+    config["edit_uri"] = f"edit/{readme_links.BRANCH}/docs/"
+    return config
 
 
 def on_files(files: Files, config: MkDocsConfig) -> Files:

@@ -78,13 +78,14 @@ sh("follicle check groom_unity.abc --target unity")
 # ## What a check catches
 #
 # A file written for another tool — here, Houdini's names and 64-bit ids — checked for
-# Unreal: one line per problem, and exit status 1, so a pipeline step can stop on it.
+# Unreal: one line per problem, each ending with its fix, and exit status 1, so a
+# pipeline step can stop on it.
 sh("follicle grow groom.toml -o groom_houdini.usdc --target houdini")
 sh("follicle check groom_houdini.usdc --target unreal", expect=1)
 
 # %%
-# The fix is the export, not a hand edit: `follicle export` rewrites any hair file for
-# another target.
+# The fix the lines name is the export, not a hand edit: `follicle export` rewrites any
+# hair file for another target.
 sh("follicle export groom_houdini.usdc -o fixed_unreal.usdc --target unreal")
 sh("follicle check fixed_unreal.usdc --target unreal")
 

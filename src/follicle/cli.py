@@ -73,11 +73,15 @@ _ESCAPES = {c: repr(chr(c))[1:-1] for c in [*range(32), 127]}
 
 
 class _Count(ProgressColumn):
-    """``done/total``, or ``done`` alone while the total is not known yet."""
+    """``done/total``, ``done`` alone while the total is not known yet, and nothing
+    before the first count: a phase that counts nothing (growing, before the first
+    chunk) shows its spinner and time, not a literal 0."""
 
     def render(self, task: Task) -> Text:
         done = f"{task.completed:,.0f}"
-        return Text(done if task.total is None else f"{done}/{task.total:,.0f}")
+        if task.total is None:
+            return Text(done if task.completed else "")
+        return Text(f"{done}/{task.total:,.0f}")
 
 
 @contextlib.contextmanager
@@ -279,7 +283,7 @@ def main(verbose: int) -> None:
     logging.getLogger("follicle").setLevel(level)
 
 
-_DEMO_SETTLE = 2.0  # s: the long hair comes to rest on the shoulders (README: Dynamics)
+_DEMO_SETTLE = 2.0  # s: the long hair comes to rest on the shoulders (docs: How-to › Dynamics)
 
 
 @main.command(
@@ -1175,7 +1179,7 @@ def warm(jobs: int | None, force: bool) -> None:
     help="The tool that will open FILE.",
 )
 def check(source: str, target_name: str) -> None:
-    """List, one line each, what TARGET would drop or refuse in a hair file.
+    """List, one line each, what TARGET would drop or refuse in a hair file, and its fix.
 
     Exit 0 when it opens as it is, 1 when problems were found, 2 when FILE cannot be
     read. `follicle export FILE -o OUT --target TARGET` writes what it reads.

@@ -1,7 +1,8 @@
 """Where follicle's documentation is, for ``follicle docs``: the site that the package's
-metadata names (a ``Documentation`` URL of pyproject's ``[project.urls]``; there is none
-yet) and, in a source checkout, the Markdown in ``docs/`` that ``mkdocs serve`` shows as
-that site. A wheel ships no docs: it says so, and where they are instead."""
+metadata names (the ``Documentation`` URL of pyproject's ``[project.urls]``; an install
+made before it was there names none) and, in a source checkout, the Markdown in
+``docs/`` that ``mkdocs serve`` shows as that site. A wheel ships no docs: it says so,
+and where they are instead."""
 
 from __future__ import annotations
 

@@ -26,7 +26,7 @@ draw the same hair.
 
 Blender's own Cycles code multiplies the concentrations by other RGB coefficients,
 (0.506, 0.841, 1.653) and (0.343, 0.733, 1.924), so the same melanin renders a little
-lighter and redder there than here, in pbrt and in Mitsuba (README, Grooming).
+lighter and redder there than here, in pbrt and in Mitsuba (docs: How-to › Grooming).
 """
 
 from __future__ import annotations

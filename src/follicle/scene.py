@@ -8,8 +8,9 @@ default filled in (``follicle info``).
 This is the composition root of the settings: each section lives beside its subsystem
 (``GroomParams`` in :mod:`follicle.groom.settings`, ``SimParams`` and ``ColliderParams``
 in :mod:`follicle.sim.settings`, ``RenderParams`` and ``LightParams`` in
-:mod:`follicle.render.settings`, ``CardParams`` in :mod:`follicle.cards.settings`, the base classes in :mod:`follicle.settings`); the
-scene puts them together, and every name is importable from here as well.
+:mod:`follicle.render.settings`, ``CardParams`` in :mod:`follicle.cards.settings`, the
+base classes in :mod:`follicle.settings`); the scene puts them together, and every name
+is importable from here as well.
 """
 
 from __future__ import annotations
@@ -41,7 +42,16 @@ from .groom.settings import GroomParams, GuideLength, PropertyTag
 from .inputs import check_apart, input_file, is_remote, is_url, remote_reach
 from .io.targets import TARGET_NAMES
 from .render.settings import LightParams, RenderParams
-from .settings import StrictSection, Unit, Vec3, format_errors, measured_in, shown, unit_of
+from .settings import (
+    StrictSection,
+    Unit,
+    Vec3,
+    format_errors,
+    measured_in,
+    shown,
+    unit_of,
+    unknown_name,
+)
 from .sim.settings import ColliderParams, SimParams
 from .units import UNITS, metres_per_unit, units_for
 from .validate import file_path
@@ -276,8 +286,7 @@ class Scene(StrictSection):
             field = Scene.model_fields.get(key)
             if field is None:
                 raise ConfigError(
-                    f"{source}: {key}: unknown scene section; allowed:"
-                    f" {', '.join(Scene.model_fields)}"
+                    f"{source}: [{key}]: {unknown_name(key, list(Scene.model_fields), 'section')}"
                 )
             want = (Path, str) if key == "base_dir" else field.annotation
             assert isinstance(want, (type, tuple))  # a section's class, or the base_dir types

@@ -10,6 +10,8 @@ so any layer may use it.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Annotated, ClassVar, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -24,6 +26,8 @@ if TYPE_CHECKING:
 __all__ = [
     "Section",
     "StrictSection",
+    "unknown_name",
+    "suggestions",
     "Unit",
     "Component",
     "RGB",
@@ -160,7 +164,10 @@ def format_errors(
         where = f"{section}{'.' + key if key else ''}"
         if e["type"] == "extra_forbidden" or loc == ["base_dir"]:  # the loader sets base_dir
             allowed = _allowed_keys(model, loc[len(prefix) :])
-            by_place[where] = f"{source}: {where}: unknown key; allowed keys: {allowed}"
+            table = len(loc) == 1 and isinstance(e.get("input"), dict)  # [gromm]
+            by_place[where] = f"{source}: {where}: " + unknown_name(
+                loc[-1], allowed, "section" if table else "key"
+            )
         elif where not in by_place or not e["type"].endswith("_type"):
             # a union reports each branch; a range message beats a type mismatch
             got = e.get("input")
@@ -176,7 +183,28 @@ def format_errors(
     )
 
 
-def _allowed_keys(model: type[BaseModel], loc: list[str]) -> str:
+def suggestions(name: str, allowed: Sequence[str]) -> list[str]:
+    """What ``name`` may have meant among ``allowed``, best first: the close spellings
+    (difflib), then the names that begin with it (``curl`` → ``curl_radius``) or whose
+    words it begins with (``count_max`` → ``count``); at most four."""
+    close = difflib.get_close_matches(name, allowed, n=3, cutoff=0.6)
+    parts = [a for a in allowed if name and (a.startswith(name) or name.startswith(a + "_"))]
+    return list(dict.fromkeys(close + parts))[:4]
+
+
+def unknown_name(name: str, allowed: Sequence[str], what: str = "key") -> str:
+    """The text for an unknown ``name`` among ``allowed``, its :func:`suggestions` first
+    (``unknown key; did you mean curl_radius?``); the whole list only when nothing is
+    close, so that the line stays short."""
+    shown_names = suggestions(name, allowed)
+    if what == "section":
+        shown_names = [f"[{a}]" for a in shown_names]
+    if shown_names:
+        return f"unknown {what}; did you mean {' or '.join(shown_names)}?"
+    return f"unknown {what}; allowed {what}s: {', '.join(allowed)}"
+
+
+def _allowed_keys(model: type[BaseModel], loc: list[str]) -> list[str]:
     """The keys of the table at ``loc`` below ``model`` (its last step the unknown key),
     following sections, nested tables and list entries such as ``[[render.lights]]``."""
     for step in loc[:-1]:
@@ -188,4 +216,4 @@ def _allowed_keys(model: type[BaseModel], loc: list[str]) -> str:
         if not tables:
             break
         model = tables[0]
-    return ", ".join(k for k, f in model.model_fields.items() if not f.exclude)
+    return [k for k, f in model.model_fields.items() if not f.exclude]

@@ -58,6 +58,7 @@ from ..errors import ConfigError, FollicleError
 from ..inputs import base_folder, check_apart
 from ..progress import Progress, Stage, quietly
 from ..scene import Scene, holds_paths, scene_files, scene_from_toml, scene_to_toml
+from ..settings import unknown_name
 
 if TYPE_CHECKING:
     from ..pipeline import GroomInputs
@@ -573,14 +574,20 @@ def _field(key: str) -> tuple[str, str]:
     """``section.key`` of a scene file, checked: (section, key)."""
     section, _, name = key.partition(".")
     field = Scene.model_fields.get(section)
-    if field is None or field.exclude or not name:
-        sections = ", ".join(k for k, f in Scene.model_fields.items() if not f.exclude)
-        raise ConfigError(f"--vary {key}: expected section.key, a section one of {sections}")
-    model = _section_model(section)
-    if name not in model.model_fields:
-        raise ConfigError(
-            f"--vary {key}: [{section}] has no key {name}; it has {', '.join(model.model_fields)}"
+    sections = [k for k, f in Scene.model_fields.items() if not f.exclude]
+    if not name:  # a bare key: the sections that have it
+        owners = [f"{s}.{key}" for s in sections if key in _section_model(s).model_fields]
+        hint = (
+            f"did you mean {' or '.join(owners)}?" if owners else f"sections: {', '.join(sections)}"
         )
+        raise ConfigError(f"--vary {key}: expected section.key; {hint}")
+    if field is None or field.exclude:
+        raise ConfigError(
+            f"--vary {key}: [{section}]: {unknown_name(section, sections, 'section')}"
+        )
+    fields = list(_section_model(section).model_fields)
+    if name not in fields:
+        raise ConfigError(f"--vary {key}: [{section}].{name}: {unknown_name(name, fields)}")
     return section, name
 
 

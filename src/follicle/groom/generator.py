@@ -294,8 +294,8 @@ class Groom:
 
     def with_guides(self, guides: Guides) -> Groom:
         """This groom grown from other guides on the same mesh (its parameters, density
-        and displacement kept): what a brush stroke's guides grow (README: Grooming by
-        hand). Roots, weights and clumps are worked out again for them."""
+        and displacement kept): what a brush stroke's guides grow (docs: How-to ›
+        Grooming by hand). Roots, weights and clumps are worked out again for them."""
         if not isinstance(guides, Guides) or not guides.mesh.same_skin(self.mesh):
             raise InputError(f"guides: expected follicle.Guides on mesh '{self.mesh.name}'")
         return Groom(

@@ -10,7 +10,7 @@ from typing import Annotated, Any, ClassVar, Literal, TypeAlias
 from pydantic import Field, GetCoreSchemaHandler, PlainValidator, field_validator, model_validator
 from pydantic_core import core_schema
 
-from ..settings import RGB, StrictSection, Unit, Vec3, measured_in, shown
+from ..settings import RGB, StrictSection, Unit, Vec3, measured_in, shown, suggestions
 
 __all__ = ["GroomParams", "PropertyTag", "MELANIN_KEYS", "COLOR_KEYS"]
 
@@ -86,8 +86,10 @@ class _Property(PropertyTag):
         if isinstance(v, dict):
             unknown = sorted(set(v) - {"value", "texture", "wrap"})
             if unknown:
+                meant = suggestions(str(unknown[0]), ["value", "texture", "wrap"])
+                hint = f"did you mean {' or '.join(meant)}? " if meant else ""
                 raise ValueError(
-                    f"unknown key(s) {shown(unknown)}; a table takes value, texture, wrap"
+                    f"unknown key(s) {shown(unknown)}; {hint}a table takes value, texture, wrap"
                 )
             if not isinstance(v.get("texture"), str) or not v["texture"]:
                 raise ValueError('a table needs texture = "image path or builtin:name"')

@@ -126,7 +126,7 @@ def plausible_widths(curves: HairCurves, source: object) -> None:
     if median > MAX_HAIR_WIDTH:
         log.warning(
             "%s: widths look like a tool's default radius, not hair: the median width"
-            " (diameter) is %.3g m, hair is 2e-5 to 2e-4 m; set the curves' radius"
+            " (diameter) is %.3g m, hair is 2e-5 to 2e-4 m; fix: set the curves' radius"
             " where they were made (Blender: the Radius attribute) or scale"
             " point_data['width'] before rendering",
             source,

@@ -10,6 +10,8 @@ target with a container schema (Unreal), the curves that lack it; then what the
 target's importer does with the file's layout (:func:`_layout`): a format its hair
 importer does not read (Unity's hair package: Alembic only), guides it would take for
 hair (Unity), a mesh that makes it refuse the file (Unreal's groom translator).
+Every line ends with its fix (``; fix: …``), mostly the ``follicle export`` that writes
+the file for the target.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from ..units import scale_curves
 from ..validate import file_path
 from .attributes import plausible_widths
 from .guard import curves_from_parts
-from .targets import Target, get_target, problems
+from .targets import Target, export_fix, get_target, problems
 
 __all__ = ["check_file", "nothing_dropped", "warnings_heard"]
 
@@ -64,11 +66,11 @@ def _without_schema(parts: list[dict], source: Path, target: Target, alembic: bo
         return [
             f"{where}: no groom_version_major / groom_version_minor where {target.tool}"
             " reads them (user properties of the curves or an Xform above): it imports"
-            " their curves without any groom_* attribute"
+            f" their curves without any groom_* attribute; {export_fix(target)} writes them"
         ]
     return [
         f"{where}: no GroomAPI on them or a prim above: {target.tool}'s USD importer does"
-        " not read them as a groom"
+        f" not read them as a groom; {export_fix(target)} applies it"
     ]
 
 
@@ -81,8 +83,7 @@ def _layout(path: Path, suffix: str, parts: list[dict], target: Target) -> list[
     if t.formats is not None and suffix not in t.formats:
         return [
             f"{t.tool} builds hair from {', '.join(t.formats)} files only ({t.reads}):"
-            f" it does not read this one; `follicle export --target {t.name}` to"
-            f" {t.formats[0]}"
+            f" it does not read this one; {export_fix(t, t.formats[0])}"
         ]
     if suffix != ".abc":
         return []
@@ -96,22 +97,33 @@ def _layout(path: Path, suffix: str, parts: list[dict], target: Target) -> list[
                 out.append(
                     f"guides ({guides[0]['where'].rsplit(': ', 1)[-1]}): {t.tool} takes every"
                     " curves object for hair, so they would become a strand group of their"
-                    f" own; `follicle export --target {t.name}` leaves them out"
+                    f" own; {export_fix(t)} leaves them out"
                 )
     if not t.alembic_mesh:
         with contextlib.suppress(FollicleError):
             mesh = load_abc_mesh(path)
             out.append(
                 f"a mesh ({mesh.name}): {t.tool}'s groom importer refuses an Alembic file"
-                f" with any PolyMesh in it; `follicle export --target {t.name}` leaves the"
-                " skin out"
+                f" with any PolyMesh in it; {export_fix(t)} leaves the skin out"
             )
     return out
 
 
+def _with_fix(warning: str, target: Target) -> str:
+    """A reader's warning as a `follicle check` line: ending with its fix, the export
+    that writes what follicle read (what the warning says it left out or filled) unless
+    the warning names one."""
+    return (
+        warning
+        if "; fix: " in warning
+        else f"{warning}; {export_fix(target)} writes what follicle reads"
+    )
+
+
 def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[HairCurves, list[str]]:
     """(the curves of ``path`` as ``target`` reads them, what it would drop or refuse, one
-    line each, without the file's name); FollicleError when the file cannot be read."""
+    line each, without the file's name, each ending with its fix; FollicleError when the
+    file cannot be read."""
     from .alembic import abc_parts
     from .dispatch import load_curves
     from .suffixes import USD_SUFFIXES
@@ -135,7 +147,7 @@ def check_file(path: str | os.PathLike[str], target: Target | str) -> tuple[Hair
             curves = load_curves(path, units=t.meters_per_unit)
         plausible_widths(curves, path)
         layout = _layout(Path(path), suffix, parts, t)
-    found = [line.removeprefix(f"{path}: ") for line in heard]
+    found = [_with_fix(line.removeprefix(f"{path}: "), t) for line in heard]
     return curves, found + problems(curves, t, alembic=alembic) + schema + layout
 
 

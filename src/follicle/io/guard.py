@@ -65,9 +65,9 @@ BYTES_PER_SECOND = 16 << 20  # and one more second per this many bytes it loads
 # The arrays a file may give, as this process will hold them (and then joins, copies
 # and grows from them, several times their size, beside the 1.3 GB follicle maps): a
 # file's objects may share one array on disk (Alembic and USD store it once), so
-# without a bound 2.5 MB asked for gigabytes and ran the README's 2 GiB out. Files
-# store their arrays whole (or nearly: USD's crate packs integers), and reading widens
-# little (a constant width and colour per point: under 3 ×), so 8 × the bytes read is
+# without a bound 2.5 MB asked for gigabytes and ran the 2 GiB of the docs' Bad input
+# page out. Files store their arrays whole (or nearly: USD's crate packs integers), and
+# reading widens little (a constant width and colour per point: under 3 ×), so 8 × the bytes read is
 # room to spare.
 ARRAYS_BASE = 32 << 20
 ARRAYS_PER_BYTE = 8

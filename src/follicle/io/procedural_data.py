@@ -10,7 +10,8 @@ The frame file is ``follicle-frame 1\\n`` and a zlib stream of one JSON line (th
 as TOML text with the command line's overrides applied, the folder its relative paths
 start in, the time, the grid and every voxel's root count) followed by the current
 pose's vertices (little-endian float64, V × 3) when the mesh is posed. Hair ids are not
-stored: the procedural resamples the roots, which is exact and cheap (README).
+stored: the procedural resamples the roots, which is exact and cheap (docs: How-to › Formats ›
+Render-time procedural).
 """
 
 from __future__ import annotations

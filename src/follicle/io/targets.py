@@ -15,7 +15,7 @@ What each importer keeps is a table too (:attr:`Target.alembic_reads`, read from
 importers' own sources, cited where each Target is made), so ``follicle check`` lists
 what it would drop rather than assume it reads everything.
 
-The table in the README (Formats → Targets) is :data:`TARGETS`, written out.
+The table in the docs (How-to › Formats › Targets) is :data:`TARGETS`, written out.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ __all__ = [
     "get_target",
     "for_target",
     "problems",
+    "export_fix",
     "MAX_UNREAL_POINTS",
     "GUIDE_ID_BASE",
     "check_named",
@@ -88,7 +89,7 @@ class Target:
 
     name: str
     tool: str  # the tool's name, as messages say it
-    reads: str  # what of it reads the file (the README's table)
+    reads: str  # what of it reads the file (the docs' table)
     point_names: dict[str, str] = field(default_factory=dict)
     curve_names: dict[str, str] = field(default_factory=dict)
     int32: bool = True  # 64-bit integer attributes written as int32 (dropped if too big)
@@ -364,36 +365,50 @@ def _apart_from_guides(curve_data: dict[str, np.ndarray]) -> None:
         curve_data["closest_guides"] = GUIDE_ID_BASE + np.asarray(closest, np.int32)
 
 
+def export_fix(target: Target | str, suffix: str = "") -> str:
+    """The fix that ends a `follicle check` line: the export that writes a file
+    ``target``'s tool reads as it is (``suffix``: the output's, where it matters; a tool
+    whose importer reads one format only gets that one)."""
+    t = get_target(target)
+    if not suffix and t.formats is not None:
+        suffix = t.formats[0]
+    return f"fix: `follicle export FILE -o OUT{suffix} --target {t.name}`"
+
+
 def problems(curves: HairCurves, target: Target | str, alembic: bool = False) -> list[str]:
     """What ``target``'s tool would drop or reject in ``curves`` as a reader returned
-    them (``alembic``: from an Alembic file), one line each (empty: it opens them as
-    they are). Widths that are not hair are the reader's warning
-    (:func:`follicle.io.attributes.plausible_widths`)."""
+    them (``alembic``: from an Alembic file), one line each, each ending with its fix
+    (empty: it opens them as they are). Widths that are not hair are the reader's
+    warning (:func:`follicle.io.attributes.plausible_widths`)."""
     t = get_target(target)
+    fix = export_fix(t)
     out = []
     if alembic and t.vertex_uv and "root_uv" in curves.curve_data:
         out.append(
             f"root UVs one per curve ('root_uv'): {t.alembic_importer} sizes UVs per vertex"
             f" and {t.tool}'s hair package takes vertex i·n's as hair i's root UV, so every"
-            f" hair but the first gets another's; `follicle export --target {t.name}`"
-            " writes them per vertex"
+            f" hair but the first gets another's; {fix} writes them per vertex"
         )
     if alembic and t.alembic_reads is not None:
         keep = t.alembic_reads | ({"root_uv"} if t.vertex_uv else set())
         lost = sorted((set(curves.point_data) | set(curves.curve_data)) - keep)
         if lost:
-            hint = "; write USD for it" if t.formats is None else ""
+            how = (
+                f"{export_fix(t, '.usdc')}: write USD for it"
+                if t.formats is None
+                else f"{fix} writes what it reads, under its names"
+            )
             out.append(
                 f"{t.alembic_importer} keeps only points and"
                 f" {', '.join(sorted(t.alembic_reads))}: {', '.join(lost)} would be"
-                f" dropped{hint}"
+                f" dropped; {how}"
             )
     counts = curves.counts
     if t.max_points is not None and (counts > t.max_points).any():
         out.append(
             f"{int((counts > t.max_points).sum()):,} curve(s) have more than"
             f" {t.max_points} points (up to {int(counts.max()):,}): {t.tool} refuses"
-            f" them; `follicle export --target {t.name}` resamples them"
+            f" them; {fix} resamples them"
         )
     data = {**curves.point_data, **curves.curve_data}
     if t.int32:
@@ -401,17 +416,23 @@ def problems(curves: HairCurves, target: Target | str, alembic: bool = False) ->
             read = t.prefix is None or k.startswith(t.prefix)
             if read and v.dtype.kind in "iu" and v.dtype.itemsize > 4:
                 out.append(
-                    f"'{k}' is {v.dtype}: {t.tool} drops 64-bit integer attributes (write int32)"
+                    f"'{k}' is {v.dtype}: {t.tool} drops 64-bit integer attributes;"
+                    f" {fix} writes int32"
                 )
     for ours, theirs in {**t.point_names, **t.curve_names}.items():
         if theirs not in data and ours in data and ours != "guide_id":
-            out.append(f"'{ours}' is there but {t.tool} reads '{theirs}'")
+            out.append(f"'{ours}' is there but {t.tool} reads '{theirs}'; {fix} renames it")
     if t.prefix is not None:
         ignored = sorted(k for k in data if not k.startswith(t.prefix) and k != "width")
         if ignored:
             out.append(
-                f"{t.tool} reads only {t.prefix}* attributes: {', '.join(ignored)} would be dropped"
+                f"{t.tool} reads only {t.prefix}* attributes: {', '.join(ignored)} would be"
+                f" dropped; {fix} writes what it reads, under its names"
             )
     if "width" not in curves.point_data:
-        out.append(f"no widths: {t.tool} draws every hair at its default width")
+        out.append(
+            f"no widths: {t.tool} draws every hair at its default width; fix: give the"
+            f" curves widths where they were made, or regrow them with widths"
+            f" (`follicle grow SCENE -o OUT --target {t.name}`)"
+        )
     return out

@@ -359,7 +359,8 @@ class DensitySampler:
     HDR is fine). ``grid_factor`` sets the grid cells per sub-triangle (§4.1.1: 4).
     ``refine`` adds subdivision levels below the texel size: each quarters the
     sub-triangles' area (and multiplies memory by up to 4) and sharpens the density
-    where sub-triangles do not line up with texels (see the README for measurements).
+    where sub-triangles do not line up with texels (measurements: the docs' How-to › Root
+    placement).
     Roots bound to rest-pose samples stay put on an animated mesh (§2.2.3).
     """
 

@@ -12,7 +12,7 @@ from ..settings import StrictSection, Unit, Vec3, measured_in
 __all__ = ["SimParams", "ColliderParams", "MAX_ACCELERATION", "MIN_NORMAL", "SHAPES"]
 
 # an acceleration on the hair (gravity, wind): beyond ±100 m/s² (10 g) the skin's
-# collisions and the strands' lengths fight and segments stretch (README: Dynamics)
+# collisions and the strands' lengths fight and segments stretch (docs: How-to › Dynamics)
 MAX_ACCELERATION = 100.0
 # a plane's normal is a direction, made unit length: one shorter than this is a typo
 # (or would underflow when squared), not a direction

@@ -194,7 +194,9 @@ def _collide_pass(
                 contact[i, 0, b], contact[i, 1, b], contact[i, 2, b] = nx, ny, nz
 
 
-SETTLE_FROM = 1e-4  # relative stretch from which the settle pass moves a vertex (README: Dynamics)
+SETTLE_FROM = (
+    1e-4  # relative stretch from which the settle pass moves a vertex (docs: How-to › Dynamics)
+)
 
 
 @kernel(inline="always")

@@ -9,6 +9,7 @@ from pydantic import BaseModel
 
 from ..errors import ConfigError
 from ..scene import GroomParams, RenderParams, SimParams
+from ..settings import unknown_name
 
 __all__ = ["Control", "CONTROLS", "SECTIONS", "check_key"]
 
@@ -86,6 +87,9 @@ CONTROLS: dict[str, tuple[Control, ...]] = {
 def check_key(section: str, key: str) -> None:
     """ConfigError unless ``[section].key`` is a scene key the viewer can change."""
     if section not in SECTIONS:
-        raise ConfigError(f"viewer: unknown section {section!r}; use one of {', '.join(SECTIONS)}")
+        raise ConfigError(
+            f"viewer: [{section}]: {unknown_name(section, list(SECTIONS), 'section')}"
+        )
     if key not in SECTIONS[section].model_fields:
-        raise ConfigError(f"viewer: [{section}].{key}: unknown parameter")
+        keys = list(SECTIONS[section].model_fields)
+        raise ConfigError(f"viewer: [{section}].{key}: {unknown_name(key, keys)}")
