@@ -428,3 +428,64 @@ def test_clusters_keep_clumps_whole_and_follow_the_seed(groom) -> None:
     centres = np.stack([roots[plain == k].mean(axis=0) for k in range(100)])
     nearest = np.argmin(np.linalg.norm(roots[:, None] - centres[None], axis=2), axis=1)
     assert np.mean(nearest == plain) > 0.6
+
+
+def test_unreal_layout_is_what_its_card_shaders_read(groom, made, tmp_path: Path) -> None:
+    """``target = "unreal"``: beside the .glb, a PNG per groom cards texture slot in the
+    channels Unreal's card shaders sample (HairCardsAttributeCommon.ush): Coverage R,
+    the colour's alpha; Attribute RG the roots' UV on the skin (checked against the
+    card's hairs' own root UVs), B the coordinate along the hair (against the texel's
+    row in its card), A a seed; Tangent RGB along the card's V; Depth R centimetres
+    behind the card."""
+    from PIL import Image
+
+    _, curves = groom
+    unreal = made._replace(params=made.params.replace("cards", target="unreal"))
+    path = write_cards(unreal, tmp_path / "hair_cards.glb")
+    doc, _ = _glb(path)
+    slots = {n: np.asarray(Image.open(tmp_path / f"hair_cards_{n}.png")) for n in
+             ("color", "coverage", "attribute", "tangent", "depth")}  # fmt: skip
+    assert sorted(i["name"] for i in doc["images"]) == sorted(slots)
+    cov = slots["coverage"]
+    assert cov.shape == (ATLAS, ATLAS) and np.array_equal(cov, slots["color"][..., 3])
+    attr = slots["attribute"].astype(np.float64) / 255.0
+    assert attr.shape == (ATLAS, ATLAS, 4)
+    hair = cov >= 128
+    tan = slots["tangent"].astype(np.float64) / 127.5 - 1.0
+    assert np.mean(tan[hair, 1]) > 0.8  # hairs run down the card, root to tip
+    depth = slots["depth"]
+    assert np.mean(depth[cov == 0] == 0) > 0.99 and np.any(depth[hair] > 0)
+    root_uv = curves.curve_data["root_uv"]
+    rows = np.arange(ATLAS)[:, None] * np.ones((1, ATLAS))
+    far = []
+    for k, (x, y, w, h) in enumerate(made.rects[0]):
+        inside = hair[y : y + h, x : x + w]
+        if inside.sum() < 4:
+            continue
+        along = (rows[y : y + h, x : x + w] + 0.5 - y) / h
+        assert np.abs(attr[y : y + h, x : x + w, 2][inside] - along[inside]).max() < 0.1
+        mine = root_uv[made.labels[0] == k]
+        got = attr[y : y + h, x : x + w, :2][inside].mean(axis=0)
+        far.append(np.abs(got - mine.mean(axis=0)).max())
+    assert np.median(far) < 0.01 and np.quantile(far, 0.95) < 0.05
+
+
+def test_the_scene_cards_section_and_the_options_over_it(tmp_path: Path) -> None:
+    """[cards] in the scene sets what `follicle cards` makes; an option overrides its
+    key; an unknown key names the section and what was meant."""
+    from follicle.cli import main
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text(
+        '[groom]\ncount = 400\n[cards]\ncounts = [40, 12]\nlods = 2\natlas = 256\ntarget = "unreal"\n'
+    )
+    out = tmp_path / "hair_cards.glb"
+    result = CliRunner().invoke(main, ["cards", str(scene), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "400 hairs → 40 / 12 cards, 256² atlas" in result.output
+    assert (tmp_path / "hair_cards_attribute.png").is_file()
+    result = CliRunner().invoke(main, ["cards", str(scene), "-o", str(out), "--atlas", "512"])
+    assert "512² atlas" in result.output, result.output
+    scene.write_text("[cards]\natlass = 256\n")
+    bad = CliRunner().invoke(main, ["cards", str(scene), "-o", str(out)])
+    assert bad.exit_code == 2 and "[cards]" in bad.output and "atlas" in bad.output, bad.output

@@ -193,6 +193,7 @@ UNITS = {
         "fov": "degrees",
     },
     "[[render.lights]]": {"color": "linear RGB"},
+    "[cards]": dict.fromkeys(["atlas", "padding", "strand_texels"], "texels"),
 }
 # the numbers without a unit: counts, shares, stiffnesses, factors, directions (their
 # length does not matter) and the [mesh] / [guides] units themselves
@@ -210,6 +211,7 @@ NO_UNIT = {
     | {"volume_friction", "volume_repulsion"},
     "[[sim.colliders]]": {"normal"},
     "[render]": {"shading_params", "hair_opacity", "scalp_tint"},
+    "[cards]": {"reserve", "alpha_cutoff"},
     "[[render.lights]]": {"direction", "intensity"},
 }
 

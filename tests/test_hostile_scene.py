@@ -95,6 +95,7 @@ SAMPLES: tuple[Any, ...] = (
     [0.5, 0.5, 0.5],
     [0.25, 0.75],
     [64, 64],
+    [2000, 600, 150],  # [cards].counts: one count per level, lods 3
     {"#ff0000": 12},
     {"specular": 0.3},
     {"value": 0.5, "texture": "t.png"},

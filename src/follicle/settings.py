@@ -51,7 +51,7 @@ Vec3 = Annotated[tuple[Component, Component, Component], Field(strict=False)]
 
 # the units a scene key is measured in (follicle works in metres, seconds and degrees);
 # a colour's "unit" is its colour space
-UNITS = ("m", "m/s", "m/s²", "1/m", "1/s", "s", "degrees", "pixels", "linear RGB")
+UNITS = ("m", "m/s", "m/s²", "1/m", "1/s", "s", "degrees", "pixels", "texels", "linear RGB")
 
 
 def measured_in(unit: str) -> JsonDict:

@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from ..errors import ConfigError
-from ..settings import StrictSection
+from ..settings import StrictSection, measured_in
 
 __all__ = ["DEFAULT_COUNTS", "CardParams", "default_counts"]
 
@@ -52,8 +52,20 @@ class CardParams(StrictSection):
         description="cards per level (default 2000, 600, 150, ..., at most a quarter of the"
         " hairs at LOD 0, an eighth at LOD 1 ...)",
     )
-    atlas: int = Field(2048, ge=64, le=16384, description="the atlas's side, texels")
-    padding: int = Field(2, ge=0, le=64, description="empty texels around each card")
+    atlas: int = Field(
+        2048,
+        ge=64,
+        le=16384,
+        description="the atlas's side",
+        json_schema_extra=measured_in("texels"),
+    )
+    padding: int = Field(
+        2,
+        ge=0,
+        le=64,
+        description="empty texels around each card",
+        json_schema_extra=measured_in("texels"),
+    )
     segments: int = Field(6, ge=1, le=64, description="quads along a card")
     reserve: float = Field(
         0.35, ge=0.0, le=0.75, description="share of the atlas left to the coarser levels"
@@ -62,8 +74,9 @@ class CardParams(StrictSection):
         0.4,
         ge=0.0,
         le=16.0,
-        description="least width of a hair's root drawn into the atlas, texels, the rest"
+        description="least width of a hair's root drawn into the atlas, the rest"
         " tapering as the hair does (0: its own width)",
+        json_schema_extra=measured_in("texels"),
     )
     alpha_cutoff: float = Field(
         0.5, ge=0.0, le=1.0, description="coverage below which a card texel is not drawn"
