@@ -477,7 +477,8 @@ def test_the_scene_cards_section_and_the_options_over_it(tmp_path: Path) -> None
 
     scene = tmp_path / "scene.toml"
     scene.write_text(
-        '[groom]\ncount = 400\n[cards]\ncounts = [40, 12]\nlods = 2\natlas = 256\ntarget = "unreal"\n'
+        "[groom]\ncount = 400\n[cards]\ncounts = [40, 12]\nlods = 2\natlas = 256\n"
+        'target = "unreal"\n'
     )
     out = tmp_path / "hair_cards.glb"
     result = CliRunner().invoke(main, ["cards", str(scene), "-o", str(out)])
