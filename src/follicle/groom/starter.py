@@ -45,7 +45,7 @@ from .brushes import follow, segment_lengths
 from .groups import InterpolationGroups
 from .guides import Guides
 
-__all__ = ["generate_guides", "starter_curves", "default_length", "shown_length", "GENERATE_MODES"]
+__all__ = ["generate_guides", "default_length", "shown_length", "GENERATE_MODES"]
 
 GENERATE_MODES = ("normal", "comb")
 DEFAULT_SHARE = 0.08  # a generated guide's default length: this share of the mesh's diagonal
@@ -115,7 +115,7 @@ def _start(mode: str, normal: np.ndarray, tangent: np.ndarray, comb: np.ndarray,
     return normalize(math.cos(a) * normalize(along) + math.sin(a) * normal)
 
 
-def starter_curves(
+def generate_guides(
     mesh: SkinMesh,
     mode: Literal["normal", "comb"] = "normal",
     *,
@@ -127,9 +127,20 @@ def starter_curves(
     gravity: float = 0.0,
     seed: int = 0,
     density: Texture | float | None = None,
-) -> HairCurves:
-    """Starter guide curves on ``mesh``, bound to its rest pose (module docstring):
-    curve_data ``root_triangle``, ``root_bary``, ``root_uv`` and ``guide_id``."""
+    groups: InterpolationGroups | None = None,
+) -> Guides:
+    """Starter guides on ``mesh``, ready to grow hair from (``Groom(mesh, guides)``).
+
+    ``mode`` "normal" grows them straight out of the skin, "comb" along the world
+    direction ``comb`` projected onto the skin and lifted ``lift`` degrees (0: lying on
+    it, 90: along the normal). ``count`` guides of ``vertices`` vertices are spread
+    evenly by area × ``density`` (None: area alone); ``length`` in metres (or a
+    PropertyMap: value × texture; None: 8 % of the mesh's bounding-box diagonal);
+    ``gravity`` in [0, 1] bends them down towards the tip (1: the tip hangs straight
+    down); ``seed`` picks another evenly spread set of roots. No vertex enters the
+    skin, and the same arguments give the same bytes. ``groups`` are the interpolation
+    groups (None: one).
+    """
     if not isinstance(mesh, SkinMesh):
         raise InputError(f"mesh: expected a SkinMesh, got {type(mesh).__name__}")
     if mode not in GENERATE_MODES:
@@ -172,45 +183,5 @@ def starter_curves(
         "root_uv": surf.uv[keep].astype(np.float32),
         "guide_id": np.arange(len(keep), dtype=np.int64),
     }
-    return HairCurves.from_array(points.astype(np.float32), curve_data=curve_data)
-
-
-def generate_guides(
-    mesh: SkinMesh,
-    mode: Literal["normal", "comb"] = "normal",
-    *,
-    count: int = 300,
-    length: float | PropertyMap | None = None,
-    vertices: int = 12,
-    comb: Sequence[float] = (0.0, 0.0, 1.0),
-    lift: float = 30.0,
-    gravity: float = 0.0,
-    seed: int = 0,
-    density: Texture | float | None = None,
-    groups: InterpolationGroups | None = None,
-) -> Guides:
-    """Starter guides on ``mesh``, ready to grow hair from (``Groom(mesh, guides)``).
-
-    ``mode`` "normal" grows them straight out of the skin, "comb" along the world
-    direction ``comb`` projected onto the skin and lifted ``lift`` degrees (0: lying on
-    it, 90: along the normal). ``count`` guides of ``vertices`` vertices are spread
-    evenly by area × ``density`` (None: area alone); ``length`` in metres (or a
-    PropertyMap: value × texture; None: 8 % of the mesh's bounding-box diagonal);
-    ``gravity`` in [0, 1] bends them down towards the tip (1: the tip hangs straight
-    down); ``seed`` picks another evenly spread set of roots. No vertex enters the
-    skin, and the same arguments give the same bytes. ``groups`` are the interpolation
-    groups (None: one).
-    """
-    curves = starter_curves(
-        mesh,
-        mode,
-        count=count,
-        length=length,
-        vertices=vertices,
-        comb=comb,
-        lift=lift,
-        gravity=gravity,
-        seed=seed,
-        density=density,
-    )
+    curves = HairCurves.from_array(points.astype(np.float32), curve_data=curve_data)
     return Guides(curves, mesh, groups=groups)
