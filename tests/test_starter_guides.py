@@ -143,6 +143,23 @@ def test_fur_on_a_creature_with_no_guides_given(tmp_path):
     _check_fur(body, load_scene(tmp_path / "s.toml"), 1500, 0.08 * diagonal, leak=5e-4)
 
 
+@pytest.mark.slow  # Blender (bpy) in its own venv, in a subprocess
+def test_fur_on_a_creature_modelled_in_blender(tmp_path):
+    """A creature made in Blender itself (metaballs converted to a mesh, exported as OBJ
+    with the default settings: blender_scripts/make_creature.py) grows fur with no
+    guides given, as the one made here does."""
+    from blender_env import blender_python, run_blender
+
+    found = run_blender(blender_python(), "make_creature.py", tmp_path, tmp_path / "found.json")
+    made = trimesh.load(tmp_path / found["file"], force="mesh")
+    assert made.is_watertight and made.body_count == 1  # one closed body: inside is defined
+    (tmp_path / "s.toml").write_text(f'[mesh]\npath = "{found["file"]}"\n[groom]\ncount = 2000\n')
+    scene = load_scene(tmp_path / "s.toml")
+    assert scene.guides.generate == "normal" and scene.guides.is_implied
+    diagonal = np.linalg.norm(made.bounds[1] - made.bounds[0])
+    _check_fur(made, scene, 2000, 0.08 * diagonal, leak=5e-4)
+
+
 def test_fur_on_a_mesh_in_centimetres(tmp_path):
     """A body modelled in cm: the scene's units make it metres, and so are the fur's
     length and the checks."""
