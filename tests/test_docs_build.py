@@ -260,18 +260,37 @@ def test_the_scenes_the_docs_show_are_valid_and_name_real_keys():
 
 
 class _Quiet(http.server.SimpleHTTPRequestHandler):
+    """The site's files under the path it is published at (``prefix``), nothing else."""
+
+    prefix = "/"
+
+    def translate_path(self, path: str) -> str:
+        if not path.startswith(self.prefix):
+            return os.path.join(str(self.directory), "__outside_the_site__")  # a 404
+        return super().translate_path("/" + path[len(self.prefix) :])
+
     def log_message(self, format: str, *args: object) -> None:  # noqa: A002 - the base's name
         pass
 
 
+def _published_path(site: Path) -> str:
+    """The path the site is published under (its ``site_url``'s, as the build wrote it
+    into the sitemap: pages such as 404.html link their assets from there), or "/"."""
+    sitemap = site / "sitemap.xml"
+    found = re.search(r"<loc>([^<]+)</loc>", sitemap.read_text()) if sitemap.is_file() else None
+    return urlsplit(found.group(1)).path if found else "/"
+
+
 @pytest.fixture(scope="module")
 def served(site: Path) -> Iterator[str]:
-    """The built site served over HTTP on a free local port, as a browser would get it."""
-    handler = functools.partial(_Quiet, directory=str(site))
+    """The built site served over HTTP on a free local port, under the path it is
+    published at, as a browser would get it."""
+    prefix = _published_path(site)
+    handler = functools.partial(type("_Site", (_Quiet,), {"prefix": prefix}), directory=str(site))
     with http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler) as server:
         thread = threading.Thread(target=server.serve_forever, daemon=True)
         thread.start()
-        yield f"http://127.0.0.1:{server.server_address[1]}/"
+        yield f"http://127.0.0.1:{server.server_address[1]}{prefix}"
         server.shutdown()
 
 
@@ -302,7 +321,7 @@ def test_every_page_loads_its_pictures_scripts_and_stylesheets_over_http(site: P
         for groups in _LOADED.findall(page.read_text(encoding="utf-8")):
             ref = next(g for g in groups if g)
             target = urljoin(url, ref)
-            if not target.startswith(served):
+            if urlsplit(target).netloc != urlsplit(served).netloc:
                 continue  # another site (none today): not ours to check offline
             if target not in fetched:
                 fetched[target] = _status(target)
