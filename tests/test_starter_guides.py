@@ -345,3 +345,20 @@ def test_follicle_guides_under_a_terminal_and_its_refusals(tmp_path):
         line = bad.stderr.strip()
         assert "\n" not in line and all(name in line for name in names), line
     assert not (tmp_path / "x.npz").exists() and not (tmp_path / "x.png").exists()
+
+
+def test_a_scene_given_its_own_mesh_in_python_gets_generated_guides_too():
+    """Scene.replace(mesh=…) as a Python user builds a scene: guides the scene did not
+    choose follow the mesh as a scene file's do; guides the user chose stay."""
+    from follicle.scene import MeshParams, parse_scene
+
+    bust = parse_scene({}, "test")
+    own = bust.replace(mesh=MeshParams(path="torus.obj"))
+    assert own.guides.generate == "normal" and own.guides.is_implied
+    back = own.replace(mesh=MeshParams())
+    assert back.guides.generate is None and back.guides.path == "builtin:long"
+    chosen = parse_scene({"guides": {"path": "builtin:short"}}, "test")
+    kept = chosen.replace(mesh=MeshParams(path="torus.obj"))
+    assert kept.guides.path == "builtin:short" and kept.guides.generate is None
+    comb = parse_scene({"guides": {"generate": "comb"}}, "test")
+    assert not comb.replace(mesh=MeshParams(path="torus.obj")).guides.is_implied

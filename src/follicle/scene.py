@@ -281,7 +281,11 @@ class Scene(StrictSection):
 
     def replace(self, source: str = "settings", **changes: object) -> Scene:
         """A copy with whole sections (a SimParams for ``sim``, …) or ``base_dir``
-        replaced; ConfigError for an unknown section or a value of the wrong type."""
+        replaced; ConfigError for an unknown section or a value of the wrong type.
+
+        A new ``mesh`` without new ``guides`` keeps guides the user chose; guides the
+        scene did not choose follow the mesh as a scene file's do: generated on one's own
+        mesh (:meth:`GuidesParams.implied`), the built-in head's on a built-in one."""
         for key, value in changes.items():
             field = Scene.model_fields.get(key)
             if field is None:
@@ -298,6 +302,12 @@ class Scene(StrictSection):
             ):
                 wanted = "a Path or a URL" if isinstance(want, tuple) else want.__name__
                 raise ConfigError(f"{source}: {key}: expected {wanted}, got {type(value).__name__}")
+        mesh = changes.get("mesh")
+        chosen = "guides" in self.model_fields_set and not self.guides.is_implied
+        if isinstance(mesh, MeshParams) and "guides" not in changes and not chosen:
+            own = not mesh.path.startswith("builtin:")
+            if own != self.guides.is_implied:
+                changes["guides"] = GuidesParams.implied() if own else GuidesParams()
         return self.model_copy(update=changes)
 
     def resolve(self, path: str) -> str:
