@@ -439,9 +439,9 @@ def test_unreal_layout_is_what_its_card_shaders_read(groom, made, tmp_path: Path
     behind the card."""
     from PIL import Image
 
-    _, curves = groom
-    unreal = made._replace(params=made.params.replace("cards", target="unreal"))
-    path = write_cards(unreal, tmp_path / "hair_cards.glb")
+    mesh, curves = groom
+    made = make_cards(curves, mesh, made.params.replace("cards", target="unreal"))
+    path = write_cards(made, tmp_path / "hair_cards.glb")
     doc, _ = _glb(path)
     slots = {n: np.asarray(Image.open(tmp_path / f"hair_cards_{n}.png")) for n in
              ("color", "coverage", "attribute", "tangent", "depth")}  # fmt: skip

@@ -1,5 +1,5 @@
-"""The ``follicle`` command: demo, grow, groom, settle, guides, export, check, export-rib, simulate,
-render, view, info, warm, docs.
+"""The ``follicle`` command: demo, grow, groom, settle, guides, export, check, export-rib,
+batch, simulate, render, view, info, warm, docs, cards.
 
 Every command's help ends with example lines (:func:`_examples`), real commands that
 tests/test_cli_help.py parses with the command's own parser.

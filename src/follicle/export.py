@@ -245,18 +245,12 @@ class GuidesJob:
     path: str
 
     def run(self) -> Guides:
-        """The scene's guides on its mesh (:func:`follicle.pipeline.scene_guides`), written
+        """The scene's guides on its mesh (:func:`follicle.pipeline.skin_and_guides`), written
         (atomically, as every writer does); returns them."""
-        from .groom.generator import resolve_density
         from .io.dispatch import save
-        from .io.mesh_load import load_mesh
-        from .pipeline import scene_guides
+        from .pipeline import skin_and_guides
 
-        scene = self.scene
-        mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
-        guides = scene_guides(
-            scene, mesh, resolve_density(mesh, scene.groom.density, scene.resolve)
-        )
+        guides = skin_and_guides(self.scene)[2]
         save(guides.curves, self.path)
         return guides
 

@@ -38,6 +38,7 @@ __all__ = [
     "GroomInputs",
     "groom_inputs",
     "scene_guides",
+    "skin_and_guides",
     "groom_scene",
     "settle_guides",
     "grow",
@@ -115,9 +116,7 @@ def groom_inputs(
     if reuse is not None and reuse.made_for(scene):
         return reuse
     key = _inputs_key(scene)
-    mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
-    density = resolve_density(mesh, scene.groom.density, scene.resolve)
-    guides = scene_guides(scene, mesh, density)
+    mesh, density, guides = skin_and_guides(scene)
     settled = None
     if scene.groom.settle > 0:
         from .sim.settle import settle
@@ -127,6 +126,14 @@ def groom_inputs(
     displacement = scene.mesh.displacement
     texture = load_texture(displacement, scene.resolve) if displacement else None
     return GroomInputs(key, mesh, guides, density, texture, settled)
+
+
+def skin_and_guides(scene: Scene) -> tuple[SkinMesh, Texture | float | None, Guides]:
+    """The scene's mesh, its root density ([groom].density) and its guides on it
+    (:func:`scene_guides`), before any settling."""
+    mesh = load_mesh(scene.resolve(scene.mesh.path), units=scene.mesh.units)
+    density = resolve_density(mesh, scene.groom.density, scene.resolve)
+    return mesh, density, scene_guides(scene, mesh, density)
 
 
 def scene_guides(scene: Scene, mesh: SkinMesh, density: Texture | float | None = None) -> Guides:

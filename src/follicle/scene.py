@@ -245,6 +245,13 @@ class OutputParams(StrictSection):
     )
 
 
+def _unchosen_guides(mesh_path: object) -> GuidesParams:
+    """The guides of a scene that chose none, on the mesh at ``mesh_path``: generated on
+    one's own mesh (:meth:`GuidesParams.implied`), the built-in head's on a built-in."""
+    own = isinstance(mesh_path, str) and not mesh_path.startswith("builtin:")
+    return GuidesParams.implied() if own else GuidesParams()
+
+
 class Scene(StrictSection):
     """A whole scene; every section optional."""
 
@@ -269,9 +276,8 @@ class Scene(StrictSection):
             return data
         mesh = data.get("mesh", {})
         path = mesh.get("path") if isinstance(mesh, dict) else getattr(mesh, "path", None)
-        if isinstance(path, str) and not path.startswith("builtin:"):
-            return {**data, "guides": GuidesParams.implied()}
-        return data
+        guides = _unchosen_guides(path)
+        return {**data, "guides": guides} if guides.is_implied else data
 
     @field_validator("base_dir", mode="before")
     @classmethod
@@ -305,9 +311,9 @@ class Scene(StrictSection):
         mesh = changes.get("mesh")
         chosen = "guides" in self.model_fields_set and not self.guides.is_implied
         if isinstance(mesh, MeshParams) and "guides" not in changes and not chosen:
-            own = not mesh.path.startswith("builtin:")
-            if own != self.guides.is_implied:
-                changes["guides"] = GuidesParams.implied() if own else GuidesParams()
+            guides = _unchosen_guides(mesh.path)
+            if guides.is_implied != self.guides.is_implied:
+                changes["guides"] = guides
         return self.model_copy(update=changes)
 
     def resolve(self, path: str) -> str:

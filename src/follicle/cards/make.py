@@ -11,7 +11,7 @@ import numpy as np
 from ..curves import HairCurves
 from ..errors import InputError
 from ..frames import normalize
-from ..groom.guides import resample_arclength, resample_attribute
+from ..groom.guides import resample_attribute
 from ..render.image import encode_srgb8
 from ..rng import uniforms
 from .atlas import lod_bands, pack
@@ -34,9 +34,9 @@ class HairCards(NamedTuple):
     ``meshes``, ``labels`` (each hair's card), ``strips`` and ``rects`` (K, 4: x, y,
     w, h texels) per level; ``maps``: the atlas's float32 maps, (S, S) ``coverage``
     and (S, S, 3) ``color`` (linear RGB), ``tangent`` (card space, unit),
-    ``attribute`` (depth −1..1 of ``depth_range`` metres, root-to-tip, seed) and
-    ``root_uv`` (S, S, 2: the hairs' roots' UV on the skin, 0 where the curves carry
-    none)."""
+    ``attribute`` (depth −1..1 of ``depth_range`` metres, root-to-tip, seed) and, for
+    the unreal target, ``root_uv`` (S, S, 2: the hairs' roots' UV on the skin, 0 where
+    the curves carry none)."""
 
     meshes: list[LodMesh]
     labels: list[np.ndarray]
@@ -82,11 +82,13 @@ def make_cards(
             pd.get("color", np.broadcast_to(DEFAULT_COLOR, (n_points, 3))),
         ]
     )
-    samples = resample_arclength(curves, m, what="hair")
-    more = resample_attribute(
-        HairCurves(curves.points, curves.offsets, {"extra": extra}), "extra", m, what="hair"
+    # the points and their attributes at the same arc-length stations, in one pass
+    both = np.column_stack([curves.points, extra])
+    resampled = resample_attribute(
+        HairCurves(curves.points, curves.offsets, {"both": both}), "both", m, what="hair"
     )
-    width, opacity, color = more[..., 0], more[..., 1], more[..., 2:5]
+    samples = resampled[..., :3]
+    width, opacity, color = resampled[..., 3], resampled[..., 4], resampled[..., 5:8]
     normals = _skin_normals(curves, mesh)
     ids = curves.curve_data.get("hair_id", np.arange(len(curves)))
     seed = uniforms(params.seed, np.asarray(ids, np.int64), "card seed", 1)[:, 0]
@@ -134,19 +136,21 @@ def make_cards(
         ],
         axis=2,
     )
-    root_uv = np.zeros((len(curves), 3))
-    root_uv[:, :2] = curves.curve_data.get("root_uv", root_uv[:, :2])
-    coverage, (col, attr, tan, uv) = bake(
+    passes = [
+        np.tile(color, (levels, 1, 1)).reshape(-1, 3),
+        attribute.reshape(-1, 3),
+        flat(tangents),
+    ]
+    if params.target == "unreal":  # its Attribute texture carries the roots' UV: a 4th pass
+        root_uv = np.zeros((len(curves), 3))
+        root_uv[:, :2] = curves.curve_data.get("root_uv", root_uv[:, :2])
+        passes.append(np.repeat(np.tile(root_uv, (levels, 1)), m, axis=0))
+    coverage, baked = bake(
         points,
         offsets,
         flat(ws)[:, 0],
         np.tile(opacity, (levels, 1)).reshape(-1),
-        [
-            np.tile(color, (levels, 1, 1)).reshape(-1, 3),
-            attribute.reshape(-1, 3),
-            flat(tangents),
-            np.repeat(np.tile(root_uv, (levels, 1)), m, axis=0),
-        ],
+        passes,
         params.atlas,
     )
     # a hair drawn at the least width reaches up to half of it past its card's edge:
@@ -155,9 +159,13 @@ def make_cards(
     for x0, y0, w, h in np.concatenate([f[2] for f in fitted]):
         inside[y0 : y0 + h, x0 : x0 + w] = True
     coverage[~inside] = 0.0
-    for values in (col, attr, tan, uv):
+    for values in baked:
         values[~inside] = 0.0
-    col = _edge_padded(col, coverage > 0.0, params.padding + 2)
+    col, attr, tan = baked[:3]
+    maps = {"coverage": coverage, "attribute": attr, "tangent": tan}
+    maps["color"] = _edge_padded(col, coverage > 0.0, params.padding + 2)
+    if len(baked) > 3:
+        maps["root_uv"] = baked[3][..., :2]
     meshes = [
         LodMesh(*strip_mesh(strips, rects, params.atlas, params.segments))
         for _, strips, rects in fitted
@@ -167,13 +175,7 @@ def make_cards(
         [f[0] for f in fitted],
         [f[1] for f in fitted],
         [f[2] for f in fitted],
-        {
-            "coverage": coverage,
-            "color": col,
-            "attribute": attr,
-            "tangent": tan,
-            "root_uv": uv[..., :2],
-        },
+        maps,
         depth_range,
         params,
     )

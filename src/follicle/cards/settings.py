@@ -34,14 +34,17 @@ class CardParams(StrictSection):
     tapering as it does towards the tip), as Unreal's card generator draws strands at a
     width of its own unless told to take the groom's: a card's texel stands for a couple
     of millimetres, so hairs drawn at their own tenth of a millimetre would leave the
-    coverage too thin for the alpha test to keep. The defaults — half a texel, the alpha
-    test at ½ (glTF's own default cutoff), 2 texels of padding — are those at which the
-    finest level's silhouette, rendered by Blender's Cycles, best matches the strands' of
-    the default 20,000-hair groom (intersection over union 0.90, 0.915 and 0.92 from the
-    front, the side and the top; 0.85–0.89 at 1 texel and a cutoff of 0.2, where cards
-    drew their tips and partings too full; tests/test_blender_cards.py). Less padding
-    leaves the finest level more texels: it guards mip levels 0 and 1, the ones a level
-    of detail is seen at before the next, coarser one takes over."""
+    coverage too thin for the alpha test to keep. The defaults — 0.4 texel, the alpha
+    test at ½ (glTF's own default cutoff), 2 texels of padding, 35 % of the atlas left to
+    the coarser levels — are those at which the finest level's silhouette, rendered by
+    Blender's Cycles, best matches the strands' of the default 20,000-hair groom
+    (intersection over union 0.937, 0.945 and 0.931 from the front, the side and the top,
+    tests/test_blender_cards.py; 0.85–0.89 at 1 texel, a cutoff of 0.2, 4 texels and ½,
+    where cards drew their tips and partings too full and LOD 0 had fewer texels). Less
+    padding leaves the finest level more texels: it guards mip levels 0 and 1, the ones a
+    level of detail is seen at before the next, coarser one takes over. A sparse groom
+    (a handful of hairs a card) seen through mip-mapped textures takes a lower
+    ``alpha_cutoff`` (docs: Hair cards)."""
 
     _section = "cards"
 
