@@ -41,28 +41,28 @@ def built(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     the project's own backend as a frontend calls it; the wheel from the sdist, as pip
     builds one from an index."""
     out = tmp_path_factory.mktemp("dist")
-    env = {**os.environ, "FOLLICLE_KERNELS": "0"}
-    backend = "import sys, follicle_build as b; print(b.build_{}(sys.argv[1]))"
-    run = [sys.executable, "-c"]
-    sdist = subprocess.run(
-        [*run, backend.format("sdist"), str(out)],
-        cwd=ROOT,
-        env={**env, "PYTHONPATH": str(ROOT / "build_support")},
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout.split()[-1]
+
+    def build(kind: str, project: Path) -> str:
+        """The file name of the ``kind`` (sdist, wheel) the backend of ``project`` builds."""
+        backend = f"import sys, follicle_build as b; print(b.build_{kind}(sys.argv[1]))"
+        return subprocess.run(
+            [sys.executable, "-c", backend, str(out)],
+            cwd=project,
+            env={
+                **os.environ,
+                "FOLLICLE_KERNELS": "0",
+                "PYTHONPATH": str(project / "build_support"),
+            },
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.split()[-1]
+
+    sdist = build("sdist", ROOT)
     with tarfile.open(out / sdist) as archive:
         archive.extractall(out / "src", filter="data")
     (unpacked,) = (out / "src").iterdir()
-    wheel = subprocess.run(
-        [*run, backend.format("wheel"), str(out)],
-        cwd=unpacked,
-        env={**env, "PYTHONPATH": str(unpacked / "build_support")},
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout.split()[-1]
+    wheel = build("wheel", unpacked)
     return {"sdist": out / sdist, "wheel": out / wheel}
 
 
